@@ -1,0 +1,20 @@
+#pragma once
+
+#include <Eigen/Core>
+
+namespace collision_response::core {
+
+/// Impulse exchanged at one contact: +total() acts on body b, -total() on body a.
+struct ContactImpulse {
+  double normal_impulse = 0.0;                                 ///< j_r >= 0 [N s], along the normal
+  Eigen::Vector3d friction_impulse = Eigen::Vector3d::Zero();  ///< tangential [N s]
+  bool sticking = false;                ///< no tangential slip at the end of the impact
+  double normal_velocity_before = 0.0;  ///< u_n before [m/s], negative when approaching
+  double normal_velocity_after = 0.0;   ///< u_n after [m/s]
+
+  Eigen::Vector3d total(const Eigen::Vector3d& normal) const {
+    return normal_impulse * normal + friction_impulse;
+  }
+};
+
+}  // namespace collision_response::core

@@ -1,0 +1,28 @@
+#pragma once
+
+#include <vector>
+
+#include "collision_response/contact_impulse.h"
+#include "collision_response/contact_row.h"
+#include "collision_response/rigid_body.h"
+#include "collision_response/solver_options.h"
+
+namespace collision_response::core {
+
+struct IterativeStats {
+  std::size_t iterations = 0;
+  double residual = 0.0;  ///< largest impulse change of the last iteration / largest impulse
+  bool converged = false;
+};
+
+/// Newton law for simultaneous contacts by projected Gauss-Seidel on accumulated impulses
+/// (sequential impulses), over the rows listed in `island`. At convergence each contact's
+/// accumulated impulse P satisfies: P_n >= 0, u'_n >= -e u_n, P_n (u'_n + e u_n) = 0, and Coulomb
+/// friction: sticking (u'_t = 0) where that needs |P_t| <= mu_s P_n, otherwise sliding with
+/// |P_t| = mu_d P_n (the tangential impulse projected radially onto the cone).
+/// Applies the impulses to `bodies` and writes the impulse of each listed row into `impulses`.
+IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+                              const std::vector<int>& island, const SolverOptions& options,
+                              std::vector<ContactImpulse>& impulses);
+
+}  // namespace collision_response::core

@@ -1,0 +1,46 @@
+#pragma once
+
+#include <collision_response/ComputeResponse.h>
+#include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "collision_response/scene.h"
+#include "collision_response/solver_options.h"
+
+namespace collision_response {
+
+/// The ROS face of the core library: serves ~compute, publishes every successful answer on
+/// ~responses, and transforms bodies given in other frames into the request frame with tf2.
+///
+/// Parameters (private namespace, read once here):
+///   ~law             "newton" | "seed_one_pass"   default law for requests that leave it 0
+///   ~solver          "auto" | "iterative"         default method for groups of contacts
+///   ~tolerance       relative tolerance of the iterative solver
+///   ~max_iterations  iteration cap of the iterative solver
+///   ~max_bodies      larger requests are rejected
+///   ~max_contacts    larger requests are rejected
+///   ~tf_timeout      [s] how long to wait for a transform
+class CollisionResponseServer {
+ public:
+  /// Throws std::invalid_argument for a bad parameter value.
+  CollisionResponseServer(ros::NodeHandle node, ros::NodeHandle private_node);
+
+  /// The service callback: always answers (returns true); failures are success = false with a
+  /// message naming the field.
+  bool compute(ComputeResponse::Request& request, ComputeResponse::Response& response);
+
+ private:
+  /// Request to core scene in the request frame (tf2 look-ups for bodies in other frames).
+  core::Scene toScene(const ComputeResponse::Request& request) const;
+
+  core::SolverOptions default_options_;
+  core::RequestLimits limits_;
+  ros::Duration tf_timeout_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::Publisher responses_;
+  ros::ServiceServer service_;
+};
+
+}  // namespace collision_response

@@ -1,0 +1,51 @@
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+namespace collision_response::core {
+
+/// Impact law relating post- to pre-impact velocities at a contact.
+enum class ImpactLaw {
+  /// Newton restitution u'_n = -e u_n with Coulomb friction, normal and tangential impulses solved
+  /// together: the contact sticks if the sticking impulse lies in the static cone |P_t| <= mu_s
+  /// P_n,
+  /// otherwise it slides with |P_t| = mu_d P_n, and u'_n = -e u_n holds in both cases.
+  kNewton,
+  /// The seed text's procedure, kept so its error can be measured: the frictionless normal impulse
+  /// of
+  /// equation (5), then a friction impulse from the pre-impact tangential velocity (equations 7-10,
+  /// with the effective mass 1/(t^T K t) along the tangent) applied in a second pass. For
+  /// off-centre contacts the second pass changes the normal velocity and breaks u'_n = -e u_n.
+  kSeedOnePass,
+};
+
+/// How a group of coupled contacts (an island) is solved.
+enum class SolverMethod {
+  kAuto,       ///< closed form for an island with one contact, otherwise iterative
+  kIterative,  ///< projected Gauss-Seidel on accumulated impulses, for any number of contacts
+};
+
+struct SolverOptions {
+  ImpactLaw law = ImpactLaw::kNewton;
+  SolverMethod method = SolverMethod::kAuto;
+  /// Iterative solver: stop when the largest impulse change of an iteration is at most tolerance
+  /// times the largest accumulated impulse (relative, dimensionless).
+  double tolerance = 1e-12;
+  /// Iterative solver: iteration cap; an island that reaches it is reported as not converged.
+  std::size_t max_iterations = 10000;
+};
+
+/// Largest request accepted; larger ones are rejected before any work is done.
+struct RequestLimits {
+  std::size_t max_bodies = 1000;
+  std::size_t max_contacts = 10000;
+};
+
+const char* toString(ImpactLaw law);
+const char* toString(SolverMethod method);
+/// Parse the names toString() gives; false if `name` is none of them.
+bool fromString(const std::string& name, ImpactLaw& law);
+bool fromString(const std::string& name, SolverMethod& method);
+
+}  // namespace collision_response::core

@@ -1,0 +1,101 @@
+#include "collision_response/iterative_solver.h"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+
+namespace collision_response::core {
+namespace {
+
+// Per-row data fixed for the whole solve.
+struct RowState {
+  Eigen::Vector3d t1 = Eigen::Vector3d::Zero();  // tangent basis (frictional rows only)
+  Eigen::Vector3d t2 = Eigen::Vector3d::Zero();
+  double inverse_k_nn = 0.0;                               // 1 / (n^T K n)
+  Eigen::Matrix2d inverse_k_tt = Eigen::Matrix2d::Zero();  // (T^T K T)^-1, T = [t1 t2]
+  double target_u_n = 0.0;                        // -e u_n for approaching contacts, else 0
+  double P_n = 0.0;                               // accumulated normal impulse
+  Eigen::Vector2d P_t = Eigen::Vector2d::Zero();  // accumulated tangential impulse, (t1, t2)
+  bool sliding = false;
+};
+
+}  // namespace
+
+IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+                              const std::vector<int>& island, const SolverOptions& options,
+                              std::vector<ContactImpulse>& impulses) {
+  std::vector<RowState> state(island.size());
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    const ContactRow& row = rows[island[i]];
+    RowState& s = state[i];
+    const Eigen::Matrix3d& K = row.space.K;
+    s.inverse_k_nn = 1.0 / row.normal.dot(K * row.normal);
+    const double u_n =
+        row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
+    s.target_u_n = u_n < 0.0 ? -row.restitution * u_n : 0.0;
+    impulses[island[i]].normal_velocity_before = u_n;
+    if (!row.frictionless()) {
+      tangentBasis(row.normal, s.t1, s.t2);
+      Eigen::Matrix2d k_tt;
+      k_tt << s.t1.dot(K * s.t1), s.t1.dot(K * s.t2), s.t2.dot(K * s.t1), s.t2.dot(K * s.t2);
+      s.inverse_k_tt = k_tt.inverse();
+    }
+  }
+
+  IterativeStats stats;
+  for (stats.iterations = 1; stats.iterations <= options.max_iterations; ++stats.iterations) {
+    double largest_change = 0.0;
+    double largest_impulse = 0.0;
+    for (std::size_t i = 0; i < island.size(); ++i) {
+      const ContactRow& row = rows[island[i]];
+      RowState& s = state[i];
+      RigidBody& a = bodies[row.body_a];
+      RigidBody& b = bodies[row.body_b];
+
+      // Normal row: drive u_n to its target, keep the accumulated impulse compressive.
+      const double u_n = row.normal.dot(row.space.relativeVelocity(a, b));
+      const double P_n = std::max(s.P_n - (u_n - s.target_u_n) * s.inverse_k_nn, 0.0);
+      const double dP_n = P_n - s.P_n;
+      s.P_n = P_n;
+      row.space.applyImpulse(a, b, dP_n * row.normal);
+      double change = std::abs(dP_n);
+
+      // Tangential block: stop the slip, then project onto the Coulomb cone.
+      if (!row.frictionless()) {
+        const Eigen::Vector3d u = row.space.relativeVelocity(a, b);
+        Eigen::Vector2d P_t = s.P_t - s.inverse_k_tt * Eigen::Vector2d(u.dot(s.t1), u.dot(s.t2));
+        const double magnitude = P_t.norm();
+        s.sliding = magnitude > row.static_friction * P_n;
+        if (s.sliding) {
+          const double limit = row.dynamic_friction * P_n;
+          P_t = magnitude > 0.0 ? Eigen::Vector2d(P_t * (limit / magnitude))
+                                : Eigen::Vector2d::Zero();
+        }
+        const Eigen::Vector2d dP_t = P_t - s.P_t;
+        s.P_t = P_t;
+        row.space.applyImpulse(a, b, dP_t.x() * s.t1 + dP_t.y() * s.t2);
+        change = std::max(change, dP_t.norm());
+      }
+      largest_change = std::max(largest_change, change);
+      largest_impulse = std::max(largest_impulse, std::hypot(s.P_n, s.P_t.norm()));
+    }
+    stats.residual = largest_impulse > 0.0 ? largest_change / largest_impulse : largest_change;
+    if (stats.residual <= options.tolerance) {
+      stats.converged = true;
+      break;
+    }
+  }
+  stats.iterations = std::min(stats.iterations, options.max_iterations);
+
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    const ContactRow& row = rows[island[i]];
+    const RowState& s = state[i];
+    ContactImpulse& impulse = impulses[island[i]];
+    impulse.normal_impulse = s.P_n;
+    impulse.friction_impulse = s.P_t.x() * s.t1 + s.P_t.y() * s.t2;
+    impulse.sticking = !row.frictionless() && s.P_n > 0.0 && !s.sliding;
+  }
+  return stats;
+}
+
+}  // namespace collision_response::core

@@ -1,0 +1,167 @@
+#include "collision_response/validation.h"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+#include "collision_response/errors.h"
+
+namespace collision_response::core {
+namespace {
+
+std::string indexed(const char* array, std::size_t i) {
+  return std::string(array) + "[" + std::to_string(i) + "]";
+}
+
+std::string describe(double value) {
+  std::ostringstream out;
+  out.precision(17);
+  out << value;
+  return out.str();
+}
+
+void requireFinite(double value, const std::string& field) {
+  if (!std::isfinite(value))
+    throw InvalidInput(field, "is not a finite number (" + describe(value) + ")");
+}
+
+void requireFinite(const Eigen::Vector3d& v, const std::string& field) {
+  static const char* const kAxes[] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i) requireFinite(v[i], field + kAxes[i]);
+}
+
+void validateInertia(const Eigen::Matrix3d& inertia, const std::string& field) {
+  if (!inertia.isApprox(inertia.transpose(), 1e-12)) throw InvalidInput(field, "is not symmetric");
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d moments = solver.eigenvalues();  // ascending
+  const double scale = moments.cwiseAbs().maxCoeff();
+  if (!(moments[0] > 1e-12 * scale) || scale == 0.0) {
+    throw InvalidInput(field, "is not positive definite (principal moments " +
+                                  describe(moments[0]) + ", " + describe(moments[1]) + ", " +
+                                  describe(moments[2]) + ")");
+  }
+  if (moments[0] + moments[1] < moments[2] * (1.0 - 1e-9)) {
+    throw InvalidInput(field, "violates the triangle inequality of principal moments (" +
+                                  describe(moments[0]) + " + " + describe(moments[1]) + " < " +
+                                  describe(moments[2]) + ")");
+  }
+}
+
+void validateBody(const BodyState& body, const std::string& field) {
+  if (body.id.empty()) throw InvalidInput(field + ".id", "is empty");
+  requireFinite(body.mass, field + ".inertia.m");
+  requireFinite(body.com, field + ".inertia.com");
+  static const char* const kInertia[3][3] = {
+      {"ixx", "ixy", "ixz"}, {"ixy", "iyy", "iyz"}, {"ixz", "iyz", "izz"}};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = r; c < 3; ++c)
+      requireFinite(body.inertia(r, c), field + ".inertia." + kInertia[r][c]);
+  }
+  requireFinite(body.position, field + ".pose.position");
+  const Eigen::Vector4d q = body.orientation.coeffs();
+  static const char* const kQuaternion[] = {".x", ".y", ".z", ".w"};
+  for (int i = 0; i < 4; ++i) requireFinite(q[i], field + ".pose.orientation" + kQuaternion[i]);
+  requireFinite(body.linear_velocity, field + ".twist.linear");
+  requireFinite(body.angular_velocity, field + ".twist.angular");
+
+  if (body.mass < 0.0)
+    throw InvalidInput(field + ".inertia.m", "is negative (" + describe(body.mass) + " kg)");
+  const double q_norm = q.norm();
+  if (q_norm == 0.0) throw InvalidInput(field + ".pose.orientation", "is a zero quaternion");
+  if (std::abs(q_norm - 1.0) > kUnitTolerance) {
+    throw InvalidInput(field + ".pose.orientation",
+                       "is not a unit quaternion (norm " + describe(q_norm) + ")");
+  }
+  if (!body.immovable()) validateInertia(body.inertia, field + ".inertia");
+}
+
+}  // namespace
+
+void checkSize(std::size_t body_count, std::size_t contact_count, const RequestLimits& limits) {
+  if (body_count > limits.max_bodies) {
+    throw InvalidInput("bodies", std::to_string(body_count) + " bodies exceed the limit of " +
+                                     std::to_string(limits.max_bodies));
+  }
+  if (contact_count > limits.max_contacts) {
+    throw InvalidInput("contacts", std::to_string(contact_count) +
+                                       " contacts exceed the limit of " +
+                                       std::to_string(limits.max_contacts));
+  }
+}
+
+std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,
+                                          const RequestLimits& limits) {
+  checkSize(scene.bodies.size(), scene.contacts.size(), limits);
+  if (!(options.tolerance >= 0.0) || !std::isfinite(options.tolerance)) {
+    throw InvalidInput("options.tolerance",
+                       "must be a finite number >= 0 (" + describe(options.tolerance) + ")");
+  }
+  if (options.max_iterations == 0)
+    throw InvalidInput("options.max_iterations", "must be at least 1");
+
+  std::unordered_map<std::string, int> index_of;
+  index_of.reserve(scene.bodies.size());
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const std::string field = indexed("bodies", i);
+    validateBody(scene.bodies[i], field);
+    const auto [it, inserted] = index_of.emplace(scene.bodies[i].id, static_cast<int>(i));
+    if (!inserted) {
+      throw InvalidInput(field + ".id", "'" + scene.bodies[i].id + "' duplicates bodies[" +
+                                            std::to_string(it->second) + "].id");
+    }
+  }
+
+  std::vector<std::pair<int, int>> contact_bodies;
+  contact_bodies.reserve(scene.contacts.size());
+  for (std::size_t i = 0; i < scene.contacts.size(); ++i) {
+    const Contact& contact = scene.contacts[i];
+    const std::string field = indexed("contacts", i);
+    const auto find = [&](const std::string& id, const char* name) {
+      const auto it = index_of.find(id);
+      if (it == index_of.end())
+        throw InvalidInput(field + "." + name, "names unknown body id '" + id + "'");
+      return it->second;
+    };
+    const int a = find(contact.body_a, "body_a");
+    const int b = find(contact.body_b, "body_b");
+    if (a == b)
+      throw InvalidInput(field + ".body_b",
+                         "is the same body as body_a ('" + contact.body_a + "')");
+    if (scene.bodies[a].immovable() && scene.bodies[b].immovable()) {
+      throw InvalidInput(
+          field, "both bodies ('" + contact.body_a + "', '" + contact.body_b + "') are immovable");
+    }
+    requireFinite(contact.point, field + ".point");
+    requireFinite(contact.normal, field + ".normal");
+    requireFinite(contact.restitution, field + ".restitution");
+    requireFinite(contact.static_friction, field + ".static_friction");
+    requireFinite(contact.dynamic_friction, field + ".dynamic_friction");
+    const double n_norm = contact.normal.norm();
+    if (n_norm == 0.0) throw InvalidInput(field + ".normal", "is a zero vector");
+    if (std::abs(n_norm - 1.0) > kUnitTolerance) {
+      throw InvalidInput(field + ".normal", "is not a unit vector (norm " + describe(n_norm) + ")");
+    }
+    if (contact.restitution < 0.0 || contact.restitution > 1.0) {
+      throw InvalidInput(field + ".restitution",
+                         "must lie in [0, 1] (" + describe(contact.restitution) + ")");
+    }
+    if (contact.static_friction < 0.0) {
+      throw InvalidInput(field + ".static_friction",
+                         "is negative (" + describe(contact.static_friction) + ")");
+    }
+    if (contact.dynamic_friction < 0.0) {
+      throw InvalidInput(field + ".dynamic_friction",
+                         "is negative (" + describe(contact.dynamic_friction) + ")");
+    }
+    if (contact.dynamic_friction > contact.static_friction) {
+      throw InvalidInput(field + ".dynamic_friction",
+                         "exceeds static_friction (" + describe(contact.dynamic_friction) + " > " +
+                             describe(contact.static_friction) + ")");
+    }
+    contact_bodies.emplace_back(a, b);
+  }
+  return contact_bodies;
+}
+
+}  // namespace collision_response::core

@@ -1,0 +1,268 @@
+// Integration test: the launch file's node, called through its service like a user would.
+#include <collision_response/CollisionResponse.h>
+#include <collision_response/ComputeResponse.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <mutex>
+
+namespace cr = collision_response;
+
+namespace {
+
+constexpr double kTolerance = 1e-9;
+const char* const kService = "/collision_response/compute";
+
+cr::BodyState sphere(const std::string& id, double mass, double radius, double x, double y,
+                     double z) {
+  cr::BodyState body;
+  body.id = id;
+  body.inertia.m = mass;
+  const double moment = 0.4 * mass * radius * radius;  // solid sphere
+  body.inertia.ixx = body.inertia.iyy = body.inertia.izz = moment;
+  body.pose.position.x = x;
+  body.pose.position.y = y;
+  body.pose.position.z = z;
+  body.pose.orientation.w = 1.0;
+  return body;
+}
+
+cr::BodyState ground() {
+  cr::BodyState body;
+  body.id = "ground";
+  body.pose.orientation.w = 1.0;  // m = 0: immovable
+  return body;
+}
+
+cr::Contact contact(const std::string& a, const std::string& b, double px, double py, double pz,
+                    double nx, double ny, double nz, double e, double mu_s = 0.0,
+                    double mu_d = 0.0) {
+  cr::Contact c;
+  c.body_a = a;
+  c.body_b = b;
+  c.point.x = px;
+  c.point.y = py;
+  c.point.z = pz;
+  c.normal.x = nx;
+  c.normal.y = ny;
+  c.normal.z = nz;
+  c.restitution = e;
+  c.static_friction = mu_s;
+  c.dynamic_friction = mu_d;
+  return c;
+}
+
+// Head-on spheres on the x axis: m1 = 1 kg at 2 m/s, m2 = 2 kg at -1 m/s, e = 0.5. Momentum
+// m1 v1 + m2 v2 = 0 and v2' - v1' = e (v1 - v2) = 1.5 give v1' = -1, v2' = 0.5.
+cr::ComputeResponse headOnSpheres() {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  srv.request.header.stamp = ros::Time(1234, 5678);  // no tf look-up: every body is in "world"
+  srv.request.bodies = {sphere("left", 1.0, 0.1, -0.1, 0, 0), sphere("right", 2.0, 0.1, 0.1, 0, 0)};
+  srv.request.bodies[0].twist.linear.x = 2.0;
+  srv.request.bodies[1].twist.linear.x = -1.0;
+  srv.request.contacts = {contact("left", "right", 0, 0, 0, 1, 0, 0, 0.5)};
+  return srv;
+}
+
+class NodeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(ros::service::waitForService(kService, ros::Duration(20.0)))
+        << "node did not come up";
+    client_ = node_.serviceClient<cr::ComputeResponse>(kService);
+  }
+
+  cr::ComputeResponse::Response call(cr::ComputeResponse srv) {
+    EXPECT_TRUE(client_.call(srv)) << "the service call itself failed: the node must always answer";
+    return srv.response;
+  }
+
+  // A bad request is rejected with a message naming `field`, and the node still answers a good one.
+  void expectRejected(const cr::ComputeResponse& srv, const std::string& field) {
+    const cr::ComputeResponse::Response response = call(srv);
+    EXPECT_FALSE(response.success);
+    EXPECT_NE(response.message.find(field), std::string::npos)
+        << "message '" << response.message << "' does not name " << field;
+    EXPECT_TRUE(response.bodies.empty());
+    EXPECT_TRUE(call(headOnSpheres()).success) << "node stopped serving after a bad request";
+  }
+
+  ros::NodeHandle node_;
+  ros::ServiceClient client_;
+};
+
+TEST_F(NodeTest, HeadOnSpheresMatchClosedForm) {
+  const auto response = call(headOnSpheres());
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.bodies.size(), 2u);
+  EXPECT_EQ(response.bodies[0].id, "left");
+  EXPECT_NEAR(response.bodies[0].twist.linear.x, -1.0, kTolerance);
+  EXPECT_NEAR(response.bodies[1].twist.linear.x, 0.5, kTolerance);
+  EXPECT_NEAR(response.bodies[1].twist.linear.y, 0.0, kTolerance);
+  ASSERT_EQ(response.impulses.size(), 1u);
+  // Impulse on the right sphere: m2 (v2' - v2) = 2 * 1.5 = 3 N s.
+  EXPECT_NEAR(response.impulses[0].normal_impulse, 3.0, kTolerance);
+  EXPECT_NEAR(response.impulses[0].normal_velocity_before, -3.0, kTolerance);
+  EXPECT_NEAR(response.impulses[0].normal_velocity_after, 1.5, kTolerance);
+  // Energy: before 0.5*1*4 + 0.5*2*1 = 3 J; after 0.5*1*1 + 0.5*2*0.25 = 0.75 J.
+  EXPECT_NEAR(response.kinetic_energy_before, 3.0, kTolerance);
+  EXPECT_NEAR(response.kinetic_energy_after, 0.75, kTolerance);
+  ASSERT_EQ(response.islands.size(), 1u);
+  EXPECT_EQ(response.islands[0].method, "closed_form");
+}
+
+TEST_F(NodeTest, PublishesEverySuccessfulResponse) {
+  std::mutex mutex;  // the AsyncSpinner delivers on its own thread
+  cr::CollisionResponse::ConstPtr received;
+  const auto latest = [&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return received;
+  };
+  const ros::Subscriber subscriber = node_.subscribe<cr::CollisionResponse>(
+      "/collision_response/responses", 10, [&](const cr::CollisionResponse::ConstPtr& msg) {
+        std::lock_guard<std::mutex> lock(mutex);
+        received = msg;
+      });
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (subscriber.getNumPublishers() == 0 && ros::WallTime::now() < deadline)
+    ros::WallDuration(0.01).sleep();
+  ASSERT_GT(subscriber.getNumPublishers(), 0u);
+
+  const auto response = call(headOnSpheres());
+  ASSERT_TRUE(response.success);
+  while (!latest() && ros::WallTime::now() < deadline) ros::WallDuration(0.01).sleep();
+  received = latest();
+  ASSERT_TRUE(received) << "no message on /collision_response/responses";
+  EXPECT_EQ(received->header.frame_id, "world");
+  EXPECT_EQ(received->header.stamp, ros::Time(1234, 5678));  // (roscpp rewrites seq)
+  ASSERT_EQ(received->bodies.size(), 2u);
+  EXPECT_NEAR(received->bodies[1].twist.linear.x, 0.5, kTolerance);
+  ASSERT_EQ(received->impulses.size(), 1u);
+  EXPECT_NEAR(received->impulses[0].normal_impulse, 3.0, kTolerance);
+  EXPECT_EQ(received->contacts.size(), 1u);
+}
+
+// Solid sphere (m = 1, R = 0.1, I = 2/5 m R^2) hits the ground at v = (1, 0, -2) with e = 0.5 and
+// mu = 1. Normal: v_z' = e * 2 = 1. Sticking (rolling) end: the tangential impulse J_x gives
+// v_x' = 1 + J_x and w_y' = -R J_x / I; rolling v_x' - R w_y' = 0 needs J_x = -2/7, so
+// v_x' = 5/7 and w_y' = 50/7; |J_x| = 2/7 <= mu * 3 N s, so the contact sticks.
+TEST_F(NodeTest, SphereOnGroundSticksAndRolls) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  srv.request.bodies = {ground(), sphere("ball", 1.0, 0.1, 0, 0, 0.1)};
+  srv.request.bodies[1].twist.linear.x = 1.0;
+  srv.request.bodies[1].twist.linear.z = -2.0;
+  srv.request.contacts = {contact("ground", "ball", 0, 0, 0, 0, 0, 1, 0.5, 1.0, 1.0)};
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  const auto& twist = response.bodies[1].twist;
+  EXPECT_NEAR(twist.linear.x, 5.0 / 7.0, kTolerance);
+  EXPECT_NEAR(twist.linear.z, 1.0, kTolerance);
+  EXPECT_NEAR(twist.angular.y, 50.0 / 7.0, kTolerance);
+  EXPECT_TRUE(response.impulses[0].sticking);
+  EXPECT_NEAR(response.impulses[0].friction_impulse.x, -2.0 / 7.0, kTolerance);
+  EXPECT_NEAR(response.impulses[0].normal_impulse, 3.0, kTolerance);
+  // The ground does not move.
+  EXPECT_EQ(response.bodies[0].twist.linear.z, 0.0);
+}
+
+// A ball given in base_link, which tf places in odom at (1, 2, 0) rotated 90 degrees about z.
+// Its velocity (1, 0, 0) in base_link is (0, 1, 0) in odom; it hits an immovable wall (normal +y in
+// odom) elastically and leaves at (0, -1, 0) in odom.
+TEST_F(NodeTest, TransformsBodiesIntoTheRequestFrame) {
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();
+  transform.header.frame_id = "odom";
+  transform.child_frame_id = "base_link";
+  transform.transform.translation.x = 1.0;
+  transform.transform.translation.y = 2.0;
+  transform.transform.rotation.z = std::sqrt(0.5);
+  transform.transform.rotation.w = std::sqrt(0.5);
+  broadcaster.sendTransform(transform);
+
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "odom";
+  srv.request.bodies = {sphere("ball", 1.0, 0.1, 0, 0, 0), ground()};
+  srv.request.bodies[0].frame_id = "base_link";
+  srv.request.bodies[0].twist.linear.x = 1.0;
+  srv.request.bodies[1].id = "wall";
+  srv.request.contacts = {contact("ball", "wall", 1.0, 2.1, 0.0, 0, 1, 0, 1.0)};
+  cr::ComputeResponse::Response response;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  do {  // the node's listener needs a moment to receive /tf_static
+    response = call(srv);
+  } while (!response.success && ros::WallTime::now() < deadline &&
+           (ros::WallDuration(0.05).sleep(), true));
+  ASSERT_TRUE(response.success) << response.message;
+  const auto& ball = response.bodies[0];
+  EXPECT_EQ(ball.frame_id, "odom");
+  EXPECT_NEAR(ball.pose.position.x, 1.0, kTolerance);
+  EXPECT_NEAR(ball.pose.position.y, 2.0, kTolerance);
+  EXPECT_NEAR(ball.twist.linear.x, 0.0, kTolerance);
+  EXPECT_NEAR(ball.twist.linear.y, -1.0, kTolerance);
+}
+
+TEST_F(NodeTest, UnknownFrameIsAClearError) {
+  cr::ComputeResponse srv = headOnSpheres();
+  srv.request.bodies[1].frame_id = "no_such_frame";
+  expectRejected(srv, "bodies[1].frame_id");
+}
+
+TEST_F(NodeTest, EveryBadInputNamesItsField) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<std::pair<std::function<void(cr::ComputeResponse&)>, std::string>> cases = {
+      {[&](auto& s) { s.request.bodies[0].inertia.m = nan; }, "bodies[0].inertia.m"},
+      {[&](auto& s) {
+         s.request.bodies[1].twist.angular.z = std::numeric_limits<double>::infinity();
+       },
+       "bodies[1].twist.angular.z"},
+      {[&](auto& s) { s.request.contacts[0].point.y = nan; }, "contacts[0].point.y"},
+      {[](auto& s) { s.request.bodies[1].inertia.m = -1.0; }, "bodies[1].inertia.m"},
+      {[](auto& s) { s.request.bodies[0].inertia.iyy = -0.004; }, "bodies[0].inertia"},
+      {[](auto& s) {  // principal moments 1, 1, 3: positive but 1 + 1 < 3
+         auto& i = s.request.bodies[0].inertia;
+         i.ixx = 1.0, i.iyy = 1.0, i.izz = 3.0;
+       },
+       "triangle inequality"},
+      {[](auto& s) { s.request.bodies[0].pose.orientation.w = 0.0; }, "bodies[0].pose.orientation"},
+      {[](auto& s) { s.request.contacts[0].normal.x = 0.0; },
+       "contacts[0].normal: is a zero vector"},
+      {[](auto& s) { s.request.contacts[0].normal.x = 2.0; },
+       "contacts[0].normal: is not a unit vector"},
+      {[](auto& s) { s.request.contacts[0].restitution = 1.5; }, "contacts[0].restitution"},
+      {[](auto& s) { s.request.contacts[0].static_friction = -0.1; },
+       "contacts[0].static_friction"},
+      {[](auto& s) {
+         s.request.contacts[0].static_friction = 0.2;
+         s.request.contacts[0].dynamic_friction = 0.3;
+       },
+       "contacts[0].dynamic_friction"},
+      {[](auto& s) { s.request.contacts[0].body_b = "nobody"; }, "contacts[0].body_b"},
+      {[](auto& s) { s.request.bodies[1].id = "left"; }, "bodies[1].id"},
+      {[](auto& s) { s.request.contacts[0].body_b = "left"; }, "contacts[0].body_b"},
+      {[](auto& s) { s.request.options.law = 99; }, "options.law"},
+      {[](auto& s) { s.request.bodies.resize(51, s.request.bodies[0]); }, "bodies"},
+  };
+  for (const auto& [mutate, field] : cases) {
+    SCOPED_TRACE(field);
+    cr::ComputeResponse srv = headOnSpheres();
+    mutate(srv);
+    expectRejected(srv, field);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_collision_response_node");
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
