@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages the package needs (only those missing) and builds it into build/.
+# Environment: BUILD_DIR (default build), BUILD_TYPE (default Release), CMAKE_ARGS (extra).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  build-essential cmake python3 python3-catkin-pkg catkin
+  ros-core-dev ros-base-dev libroscpp-dev ros-message-generation rosbash
+  libstd-msgs-dev libgeometry-msgs-dev libtf2-ros-dev libtf2-eigen-dev libeigen3-dev
+  librostest-dev python3-rostest python3-rosservice python3-rostopic libgtest-dev
+  python3-std-msgs python3-geometry-msgs
+)
+missing=()
+for package in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "setup: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+    sudo="sudo"
+  fi
+  $sudo apt-get update -qq
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+build_dir=${BUILD_DIR:-build}
+# /usr/bin/python3: catkin needs Debian's python (with catkin_pkg), not one first on PATH.
+cmake -S . -B "$build_dir" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
+  -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" ${CMAKE_ARGS:-} >/dev/null
+log="$build_dir/build.log"
+echo "setup: building in $build_dir (log: $log)"
+make -C "$build_dir" -j"$(nproc)" --no-print-directory all "$@" >"$log" 2>&1 || {
+  grep -E "error|Error" "$log" | head -n 40
+  echo "setup: build failed, see $log" >&2
+  exit 1
+}
