@@ -26,6 +26,13 @@ if [ ${#missing[@]} -gt 0 ]; then
   $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
+# roslaunch always starts its nodes on the machine named "localhost"; minimal roots (debootstrap,
+# some containers) have no /etc/hosts entry for it.
+if ! getent hosts localhost >/dev/null; then
+  echo "setup: adding '127.0.0.1 localhost' to /etc/hosts (roslaunch needs it)"
+  if [ "$(id -u)" -eq 0 ]; then echo "127.0.0.1 localhost" >>/etc/hosts; else echo "127.0.0.1 localhost" | sudo tee -a /etc/hosts >/dev/null; fi
+fi
+
 build_dir=${BUILD_DIR:-build}
 # /usr/bin/python3: catkin needs Debian's python (with catkin_pkg), not one first on PATH.
 cmake -S . -B "$build_dir" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
