@@ -9,7 +9,7 @@ packages=(
   ros-core-dev ros-base-dev libroscpp-dev ros-message-generation rosbash
   libstd-msgs-dev libgeometry-msgs-dev libtf2-ros-dev libtf2-eigen-dev libeigen3-dev
   librostest-dev python3-rostest python3-rosservice python3-rostopic libgtest-dev
-  python3-std-msgs python3-geometry-msgs
+  python3-std-msgs python3-geometry-msgs libbenchmark-dev
 )
 missing=()
 for package in "${packages[@]}"; do

@@ -17,6 +17,8 @@ BodyState transformed(const BodyState& body, const Eigen::Isometry3d& new_T_old)
   out.orientation = Eigen::Quaterniond(R) * body.orientation;
   out.linear_velocity = R * body.linear_velocity;
   out.angular_velocity = R * body.angular_velocity;
+  out.force = R * body.force;
+  out.torque = R * body.torque;
   return out;
 }
 

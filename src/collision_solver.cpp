@@ -1,10 +1,10 @@
 #include "collision_response/collision_solver.h"
 
 #include "collision_response/contact_row.h"
+#include "collision_response/island_solver.h"
 #include "collision_response/islands.h"
-#include "collision_response/iterative_solver.h"
+#include "collision_response/resting_contact.h"
 #include "collision_response/rigid_body.h"
-#include "collision_response/single_contact.h"
 #include "collision_response/validation.h"
 
 namespace collision_response::core {
@@ -19,18 +19,6 @@ bool anyApproaching(const std::vector<ContactImpulse>& impulses, const Island& i
     if (impulses[c].normal_velocity_before < 0.0) return true;
   }
   return false;
-}
-
-// Closed form per contact, in order; exact for an island of one contact.
-void solveOneByOne(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
-                   const Island& island, ImpactLaw law, std::vector<ContactImpulse>& impulses) {
-  for (const int c : island.contacts) {
-    const ContactRow& row = rows[c];
-    RigidBody& a = bodies[row.body_a];
-    RigidBody& b = bodies[row.body_b];
-    impulses[c] = solveSingleContact(a, b, row, law);
-    row.space.applyImpulse(a, b, impulses[c].total(row.normal));
-  }
 }
 
 }  // namespace
@@ -60,20 +48,17 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& options
   for (const Island& island : findIslands(bodies, contact_bodies)) {
     IslandReport report;
     report.contacts = island.contacts;
-    if (!anyApproaching(result.impulses, island)) {
-      report.method = "none";
-    } else if (options.law == ImpactLaw::kSeedOnePass) {
-      report.method = island.contacts.size() == 1 ? "closed_form" : "sequential";
-      report.iterations = 1;
-      solveOneByOne(bodies, rows, island, options.law, result.impulses);
-    } else if (island.contacts.size() == 1 && options.method == SolverMethod::kAuto) {
-      report.method = "closed_form";
-      report.iterations = 1;
-      solveOneByOne(bodies, rows, island, options.law, result.impulses);
+    if (anyApproaching(result.impulses, island)) {
+      const IslandStats stats =
+          solveIsland(bodies, rows, island.contacts, options, result.impulses);
+      report.method = stats.method;
+      report.iterations = stats.iterations;
+      report.residual = stats.residual;
+      report.converged = stats.converged;
     } else {
-      report.method = "iterative";
-      const IterativeStats stats =
-          solveIterative(bodies, rows, island.contacts, options, result.impulses);
+      const IslandStats stats =
+          solveRestingIsland(scene.bodies, bodies, rows, island.contacts, options, result.impulses);
+      report.method = stats.method;
       report.iterations = stats.iterations;
       report.residual = stats.residual;
       report.converged = stats.converged;

@@ -33,7 +33,6 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
     const double u_n =
         row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
     s.target_u_n = u_n < 0.0 ? -row.restitution * u_n : 0.0;
-    impulses[island[i]].normal_velocity_before = u_n;
     if (!row.frictionless()) {
       tangentBasis(row.normal, s.t1, s.t2);
       Eigen::Matrix2d k_tt;
@@ -65,8 +64,11 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
         const Eigen::Vector3d u = row.space.relativeVelocity(a, b);
         Eigen::Vector2d P_t = s.P_t - s.inverse_k_tt * Eigen::Vector2d(u.dot(s.t1), u.dot(s.t2));
         const double magnitude = P_t.norm();
-        s.sliding = magnitude > row.static_friction * P_n;
-        if (s.sliding) {
+        s.sliding = magnitude > row.static_friction * P_n || !row.slip_direction.isZero(0.0);
+        if (!row.slip_direction.isZero(0.0)) {  // friction fixed against an existing slip
+          P_t = -row.dynamic_friction * P_n *
+                Eigen::Vector2d(row.slip_direction.dot(s.t1), row.slip_direction.dot(s.t2));
+        } else if (s.sliding) {
           const double limit = row.dynamic_friction * P_n;
           P_t = magnitude > 0.0 ? Eigen::Vector2d(P_t * (limit / magnitude))
                                 : Eigen::Vector2d::Zero();

@@ -8,6 +8,10 @@ const char* toString(ImpactLaw law) {
       return "newton";
     case ImpactLaw::kSeedOnePass:
       return "seed_one_pass";
+    case ImpactLaw::kPoisson:
+      return "poisson";
+    case ImpactLaw::kStronge:
+      return "stronge";
   }
   return "unknown";
 }
@@ -18,12 +22,15 @@ const char* toString(SolverMethod method) {
       return "auto";
     case SolverMethod::kIterative:
       return "iterative";
+    case SolverMethod::kExact:
+      return "exact";
   }
   return "unknown";
 }
 
 bool fromString(const std::string& name, ImpactLaw& law) {
-  for (const ImpactLaw candidate : {ImpactLaw::kNewton, ImpactLaw::kSeedOnePass}) {
+  for (const ImpactLaw candidate :
+       {ImpactLaw::kNewton, ImpactLaw::kSeedOnePass, ImpactLaw::kPoisson, ImpactLaw::kStronge}) {
     if (name == toString(candidate)) {
       law = candidate;
       return true;
@@ -33,7 +40,8 @@ bool fromString(const std::string& name, ImpactLaw& law) {
 }
 
 bool fromString(const std::string& name, SolverMethod& method) {
-  for (const SolverMethod candidate : {SolverMethod::kAuto, SolverMethod::kIterative}) {
+  for (const SolverMethod candidate :
+       {SolverMethod::kAuto, SolverMethod::kIterative, SolverMethod::kExact}) {
     if (name == toString(candidate)) {
       method = candidate;
       return true;

@@ -64,6 +64,8 @@ void validateBody(const BodyState& body, const std::string& field) {
   for (int i = 0; i < 4; ++i) requireFinite(q[i], field + ".pose.orientation" + kQuaternion[i]);
   requireFinite(body.linear_velocity, field + ".twist.linear");
   requireFinite(body.angular_velocity, field + ".twist.angular");
+  requireFinite(body.force, field + ".wrench.force");
+  requireFinite(body.torque, field + ".wrench.torque");
 
   if (body.mass < 0.0)
     throw InvalidInput(field + ".inertia.m", "is negative (" + describe(body.mass) + " kg)");
@@ -96,6 +98,14 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
   if (!(options.tolerance >= 0.0) || !std::isfinite(options.tolerance)) {
     throw InvalidInput("options.tolerance",
                        "must be a finite number >= 0 (" + describe(options.tolerance) + ")");
+  }
+  if (!(options.integration_tolerance > 0.0) || !std::isfinite(options.integration_tolerance)) {
+    throw InvalidInput("options.integration_tolerance",
+                       "must be a finite number > 0 (" + describe(options.integration_tolerance) + ")");
+  }
+  if (!(options.resting_velocity >= 0.0) || !std::isfinite(options.resting_velocity)) {
+    throw InvalidInput("options.resting_velocity",
+                       "must be a finite number >= 0 (" + describe(options.resting_velocity) + ")");
   }
   if (options.max_iterations == 0)
     throw InvalidInput("options.max_iterations", "must be at least 1");

@@ -113,7 +113,7 @@ TEST_F(NodeTest, HeadOnSpheresMatchClosedForm) {
   EXPECT_NEAR(response.kinetic_energy_before, 3.0, kTolerance);
   EXPECT_NEAR(response.kinetic_energy_after, 0.75, kTolerance);
   ASSERT_EQ(response.islands.size(), 1u);
-  EXPECT_EQ(response.islands[0].method, "closed_form");
+  EXPECT_EQ(response.islands[0].method, "impulse_space");  // the default law is Stronge's
 }
 
 TEST_F(NodeTest, PublishesEverySuccessfulResponse) {
@@ -208,6 +208,113 @@ TEST_F(NodeTest, TransformsBodiesIntoTheRequestFrame) {
   EXPECT_NEAR(ball.twist.linear.y, -1.0, kTolerance);
 }
 
+// Unit cube (1 kg, I = 1/6 I3) falling flat at 1 m/s onto the ground, 4 corner contacts, e = 0.5,
+// frictionless: by symmetry v' = (0, 0, 0.5) and no spin, whatever the law or solver.
+TEST_F(NodeTest, CubeLandingFlatBouncesWithoutSpin) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  cr::BodyState cube = sphere("cube", 1.0, 0.0, 0, 0, 0.5);
+  cube.inertia.ixx = cube.inertia.iyy = cube.inertia.izz = 1.0 / 6.0;
+  cube.twist.linear.z = -1.0;
+  srv.request.bodies = {ground(), cube};
+  for (const double x : {-0.5, 0.5}) {
+    for (const double y : {-0.5, 0.5})
+      srv.request.contacts.push_back(contact("ground", "cube", x, y, 0, 0, 0, 1, 0.5));
+  }
+  for (const uint8_t law : {cr::SolverOptions::LAW_DEFAULT, cr::SolverOptions::LAW_NEWTON,
+                            cr::SolverOptions::LAW_POISSON}) {
+    for (const uint8_t solver : {cr::SolverOptions::SOLVER_DEFAULT, cr::SolverOptions::SOLVER_EXACT,
+                                 cr::SolverOptions::SOLVER_ITERATIVE}) {
+      SCOPED_TRACE("law " + std::to_string(law) + " solver " + std::to_string(solver));
+      srv.request.options.law = law;
+      srv.request.options.solver = solver;
+      const auto response = call(srv);
+      ASSERT_TRUE(response.success) << response.message;
+      const auto& twist = response.bodies[1].twist;
+      EXPECT_NEAR(twist.linear.x, 0.0, kTolerance);
+      EXPECT_NEAR(twist.linear.y, 0.0, kTolerance);
+      EXPECT_NEAR(twist.linear.z, 0.5, kTolerance);
+      EXPECT_NEAR(std::hypot(twist.angular.x, twist.angular.y, twist.angular.z), 0.0, kTolerance);
+      ASSERT_EQ(response.islands.size(), 1u);
+      EXPECT_TRUE(response.islands[0].converged);
+    }
+  }
+}
+
+// The rod of PHYSICS.md (1 kg, 1 m, 50 degrees to a floor with mu 0.8, tip striking, centre of mass
+// at 1 m/s 20 degrees off vertical away from the tip): the coupled Newton law creates energy; the
+// default (Stronge) law does not, and the tip separates.
+TEST_F(NodeTest, RodOnRoughFloorGainsNoEnergyUnderTheDefaultLaw) {
+  const double tilt = 50.0 * M_PI / 180.0, off_vertical = 20.0 * M_PI / 180.0;
+  cr::BodyState rod = sphere("rod", 1.0, 0.0, 0.5 * std::cos(tilt), 0.0, 0.5 * std::sin(tilt));
+  rod.inertia.ixx = 0.5 * 0.01 * 0.01;  // thin cylinder (radius 1 cm) along body x
+  rod.inertia.iyy = rod.inertia.izz = (3.0 * 0.01 * 0.01 + 1.0) / 12.0;
+  rod.pose.orientation.y =
+      -std::sin(tilt / 2.0);  // body x axis tilted 50 degrees up from the floor
+  rod.pose.orientation.w = std::cos(tilt / 2.0);
+  rod.twist.linear.x = std::sin(off_vertical);
+  rod.twist.linear.z = -std::cos(off_vertical);
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  srv.request.bodies = {ground(), rod};
+  for (const double e : {0.9, 1.0}) {
+    SCOPED_TRACE(e);
+    srv.request.contacts = {contact("ground", "rod", 0, 0, 0, 0, 0, 1, e, 0.8, 0.8)};
+    srv.request.options.law = cr::SolverOptions::LAW_DEFAULT;
+    const auto stronge = call(srv);
+    ASSERT_TRUE(stronge.success) << stronge.message;
+    EXPECT_LE(stronge.kinetic_energy_after, stronge.kinetic_energy_before * (1.0 + 1e-12));
+    EXPECT_GT(stronge.impulses[0].normal_velocity_after, 0.0);
+    srv.request.options.law = cr::SolverOptions::LAW_NEWTON;
+    const auto newton = call(srv);
+    ASSERT_TRUE(newton.success) << newton.message;
+    EXPECT_GT(newton.kinetic_energy_after, newton.kinetic_energy_before * 1.05);
+  }
+}
+
+// Newton's cradle, three equal balls, e = 1: the simultaneous answer (-1/3, 2/3, 2/3) v for every
+// law (see test_impact_laws.cpp for the derivation), with momentum and energy conserved.
+TEST_F(NodeTest, NewtonsCradleGivesTheSimultaneousAnswer) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  for (int i = 0; i < 3; ++i)
+    srv.request.bodies.push_back(sphere("ball" + std::to_string(i), 1.0, 0.1, 0.2 * i, 0, 0));
+  srv.request.bodies[0].twist.linear.x = 1.0;
+  srv.request.contacts = {contact("ball0", "ball1", 0.1, 0, 0, 1, 0, 0, 1.0),
+                          contact("ball1", "ball2", 0.3, 0, 0, 1, 0, 0, 1.0)};
+  for (const uint8_t law : {cr::SolverOptions::LAW_NEWTON, cr::SolverOptions::LAW_POISSON,
+                            cr::SolverOptions::LAW_STRONGE}) {
+    SCOPED_TRACE(static_cast<int>(law));
+    srv.request.options.law = law;
+    const auto response = call(srv);
+    ASSERT_TRUE(response.success) << response.message;
+    EXPECT_NEAR(response.bodies[0].twist.linear.x, -1.0 / 3.0, kTolerance);
+    EXPECT_NEAR(response.bodies[1].twist.linear.x, 2.0 / 3.0, kTolerance);
+    EXPECT_NEAR(response.bodies[2].twist.linear.x, 2.0 / 3.0, kTolerance);
+    EXPECT_NEAR(response.kinetic_energy_after, response.kinetic_energy_before, kTolerance);
+  }
+}
+
+// Resting contact through the service: a solid ball on the ground under gravity and a 1 N push
+// rolls; the floor holds N = m g and friction -2/7 N (see test_resting_contact.cpp).
+TEST_F(NodeTest, RestingBallGetsContactForces) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  srv.request.bodies = {ground(), sphere("ball", 1.0, 0.1, 0, 0, 0.1)};
+  srv.request.bodies[1].wrench.force.x = 1.0;
+  srv.request.bodies[1].wrench.force.z = -9.81;
+  srv.request.contacts = {contact("ground", "ball", 0, 0, 0, 0, 0, 1, 0.5, 0.5, 0.4)};
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  const auto& contact = response.impulses[0];
+  EXPECT_TRUE(contact.resting);
+  EXPECT_TRUE(contact.sticking);
+  EXPECT_NEAR(contact.normal_force, 9.81, kTolerance);
+  EXPECT_NEAR(contact.friction_force.x, -2.0 / 7.0, kTolerance);
+  EXPECT_EQ(response.islands[0].method, "resting_closed_form");
+  EXPECT_NEAR(response.bodies[1].wrench.force.z, -9.81, kTolerance);
+}
+
 TEST_F(NodeTest, UnknownFrameIsAClearError) {
   cr::ComputeResponse srv = headOnSpheres();
   srv.request.bodies[1].frame_id = "no_such_frame";
@@ -247,6 +354,8 @@ TEST_F(NodeTest, EveryBadInputNamesItsField) {
       {[](auto& s) { s.request.bodies[1].id = "left"; }, "bodies[1].id"},
       {[](auto& s) { s.request.contacts[0].body_b = "left"; }, "contacts[0].body_b"},
       {[](auto& s) { s.request.options.law = 99; }, "options.law"},
+      {[](auto& s) { s.request.options.solver = 42; }, "options.solver"},
+      {[](auto& s) { s.request.options.tolerance = -1.0; }, "options.tolerance"},
       {[](auto& s) { s.request.bodies.resize(51, s.request.bodies[0]); }, "bodies"},
   };
   for (const auto& [mutate, field] : cases) {

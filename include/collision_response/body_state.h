@@ -18,6 +18,10 @@ struct BodyState {
   Eigen::Vector3d linear_velocity =
       Eigen::Vector3d::Zero();  ///< of the centre of mass, world [m/s]
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< world [rad/s]
+  /// External wrench for the resting-contact analysis (gravity, a push): force through the centre
+  /// of mass [N] and torque [N m], world. Impacts ignore it (impulsive forces dominate).
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();
 
   bool immovable() const { return mass == 0.0; }
   /// Centre of mass in world coordinates [m].

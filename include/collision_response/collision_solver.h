@@ -12,7 +12,9 @@ namespace collision_response::core {
 /// How one island was solved.
 struct IslandReport {
   std::vector<int> contacts;  ///< indices into Scene::contacts
-  std::string method;         ///< "none" (nothing approaching), "closed_form" or "iterative"
+  /// "none" (nothing approaching or resting), an impact method of IslandStats, or for islands where
+  /// nothing approaches "resting_closed_form" / "resting_iterative" (resting-contact forces).
+  std::string method;
   std::size_t iterations = 0;
   double residual = 0.0;
   bool converged = true;
@@ -26,10 +28,10 @@ struct CollisionResult {
   std::vector<IslandReport> islands;
 };
 
-/// Validates the scene (throws InvalidInput naming the field) and computes the post-impact states:
-/// islands of coupled contacts are solved separately; an island with no approaching contact costs
-/// nothing, one with a single contact is solved in closed form (SolverMethod::kAuto), others
-/// iteratively.
+/// Validates the scene (throws InvalidInput naming the field) and computes the post-impact states.
+/// Islands of coupled contacts are solved separately (solveIsland() says how); an island with no
+/// approaching contact gets no impulse, and its resting contacts get the forces of the
+/// force-based Coulomb model (solveRestingIsland()); one without either costs nothing.
 CollisionResult computeResponse(const Scene& scene, const SolverOptions& options = {},
                                 const RequestLimits& limits = {});
 

@@ -11,6 +11,11 @@ struct ContactImpulse {
   bool sticking = false;                ///< no tangential slip at the end of the impact
   double normal_velocity_before = 0.0;  ///< u_n before [m/s], negative when approaching
   double normal_velocity_after = 0.0;   ///< u_n after [m/s]
+  /// Resting contacts (force-based Coulomb model, no impulse): the contact forces that hold the
+  /// bodies' external wrenches; +force on b, -force on a. `sticking` then says whether it holds.
+  bool resting = false;
+  double normal_force = 0.0;                                 ///< [N], >= 0
+  Eigen::Vector3d friction_force = Eigen::Vector3d::Zero();  ///< tangential [N]
 
   Eigen::Vector3d total(const Eigen::Vector3d& normal) const {
     return normal_impulse * normal + friction_impulse;

@@ -14,6 +14,9 @@ struct ContactRow {
   double restitution = 0.0;                           ///< e
   double static_friction = 0.0;                       ///< mu_s
   double dynamic_friction = 0.0;                      ///< mu_d
+  /// Resting contacts that already slide: the unit tangential slip direction, friction then being
+  /// -mu_d P_n slip_direction (iterative solver only). Zero otherwise.
+  Eigen::Vector3d slip_direction = Eigen::Vector3d::Zero();
   ContactSpace space;
 
   ContactRow(int a_index, int b_index, const RigidBody& a, const RigidBody& b,

@@ -14,12 +14,16 @@ struct ContactSpace {
   Eigen::Vector3d r_a;
   Eigen::Vector3d r_b;
   Eigen::Matrix3d K;
+  /// Added to every relative velocity; zero for impacts. The resting-contact analysis, which runs
+  /// the same solvers on accelerations, puts the centripetal term w_b x (w_b x r_b) - w_a x (w_a x
+  /// r_a) here.
+  Eigen::Vector3d bias = Eigen::Vector3d::Zero();
 
   ContactSpace(const RigidBody& a, const RigidBody& b, const Eigen::Vector3d& point);
 
   /// u = v_b(p) - v_a(p) [m/s].
   Eigen::Vector3d relativeVelocity(const RigidBody& a, const RigidBody& b) const {
-    return b.pointVelocity(r_b) - a.pointVelocity(r_a);
+    return b.pointVelocity(r_b) - a.pointVelocity(r_a) + bias;
   }
 
   /// Applies +p to b and -p to a at the contact point.

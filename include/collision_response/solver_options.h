@@ -18,22 +18,38 @@ enum class ImpactLaw {
   /// with the effective mass 1/(t^T K t) along the tangent) applied in a second pass. For
   /// off-centre contacts the second pass changes the normal velocity and breaks u'_n = -e u_n.
   kSeedOnePass,
+  /// Poisson (kinetic) restitution: the normal impulse of restitution is e times that of
+  /// compression,
+  /// P_n = (1 + e) P_c, with Coulomb friction integrated along the impact in impulse space (Routh's
+  /// method: slip, stick and slip reversal tracked as they happen).
+  kPoisson,
+  /// Stronge (energetic) restitution: the work of the normal impulse during restitution is -e^2
+  /// times
+  /// its work during compression, with friction integrated as for kPoisson. Kinetic energy never
+  /// increases and the contact separates.
+  kStronge,
 };
 
 /// How a group of coupled contacts (an island) is solved.
 enum class SolverMethod {
   kAuto,       ///< closed form for an island with one contact, otherwise iterative
   kIterative,  ///< projected Gauss-Seidel on accumulated impulses, for any number of contacts
+  kExact,      ///< pivoting (Lemke) solve of the linear complementarity problem, for few contacts
 };
 
 struct SolverOptions {
-  ImpactLaw law = ImpactLaw::kNewton;
+  ImpactLaw law = ImpactLaw::kStronge;  ///< physically possible by default
   SolverMethod method = SolverMethod::kAuto;
   /// Iterative solver: stop when the largest impulse change of an iteration is at most tolerance
   /// times the largest accumulated impulse (relative, dimensionless).
   double tolerance = 1e-12;
   /// Iterative solver: iteration cap; an island that reaches it is reported as not converged.
   std::size_t max_iterations = 10000;
+  /// Impulse-space integration (kPoisson, kStronge): relative error tolerance on the impulse.
+  double integration_tolerance = 1e-10;
+  /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
+  /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.
+  double resting_velocity = 1e-6;
 };
 
 /// Largest request accepted; larger ones are rejected before any work is done.

@@ -36,17 +36,24 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
   const std::string law =
       requireParam<std::string>(private_node, "law", core::toString(built_in.law));
   if (!core::fromString(law, default_options_.law)) {
-    throw std::invalid_argument("~law must be 'newton' or 'seed_one_pass', got '" + law + "'");
+    throw std::invalid_argument(
+        "~law must be 'stronge', 'poisson', 'newton' or 'seed_one_pass', got '" + law + "'");
   }
   // Default method for islands of several contacts.
   const std::string solver =
       requireParam<std::string>(private_node, "solver", core::toString(built_in.method));
   if (!core::fromString(solver, default_options_.method)) {
-    throw std::invalid_argument("~solver must be 'auto' or 'iterative', got '" + solver + "'");
+    throw std::invalid_argument("~solver must be 'auto', 'exact' or 'iterative', got '" + solver +
+                                "'");
   }
   // Relative tolerance and iteration cap of the iterative solver.
   default_options_.tolerance = requireParam(private_node, "tolerance", built_in.tolerance);
   if (!(default_options_.tolerance >= 0.0)) throw std::invalid_argument("~tolerance must be >= 0");
+  default_options_.integration_tolerance =
+      requireParam(private_node, "integration_tolerance", built_in.integration_tolerance);
+  if (!(default_options_.integration_tolerance > 0.0)) {
+    throw std::invalid_argument("~integration_tolerance must be > 0");
+  }
   default_options_.max_iterations =
       positiveSize(private_node, "max_iterations", static_cast<int>(built_in.max_iterations));
   // Request size limits: larger requests are rejected before any work.

@@ -36,6 +36,8 @@ core::BodyState fromMsg(const BodyState& msg) {
   state.orientation = Eigen::Quaterniond(q.w, q.x, q.y, q.z);
   state.linear_velocity = toEigen(msg.twist.linear);
   state.angular_velocity = toEigen(msg.twist.angular);
+  state.force = toEigen(msg.wrench.force);
+  state.torque = toEigen(msg.wrench.torque);
   return state;
 }
 
@@ -60,6 +62,8 @@ BodyState toMsg(const core::BodyState& state, const std::string& frame_id) {
   msg.pose.orientation.z = state.orientation.z();
   msg.twist.linear = toVector3(state.linear_velocity);
   msg.twist.angular = toVector3(state.angular_velocity);
+  msg.wrench.force = toVector3(state.force);
+  msg.wrench.torque = toVector3(state.torque);
   return msg;
 }
 
@@ -82,6 +86,9 @@ ContactImpulse toMsg(const core::ContactImpulse& impulse) {
   msg.sticking = impulse.sticking;
   msg.normal_velocity_before = impulse.normal_velocity_before;
   msg.normal_velocity_after = impulse.normal_velocity_after;
+  msg.resting = impulse.resting;
+  msg.normal_force = impulse.normal_force;
+  msg.friction_force = toVector3(impulse.friction_force);
   return msg;
 }
 
@@ -106,6 +113,12 @@ core::SolverOptions fromMsg(const SolverOptions& msg, const core::SolverOptions&
     case SolverOptions::LAW_SEED_ONE_PASS:
       options.law = core::ImpactLaw::kSeedOnePass;
       break;
+    case SolverOptions::LAW_POISSON:
+      options.law = core::ImpactLaw::kPoisson;
+      break;
+    case SolverOptions::LAW_STRONGE:
+      options.law = core::ImpactLaw::kStronge;
+      break;
     default:
       throw core::InvalidInput("options.law", "unknown value " + std::to_string(msg.law));
   }
@@ -118,11 +131,16 @@ core::SolverOptions fromMsg(const SolverOptions& msg, const core::SolverOptions&
     case SolverOptions::SOLVER_ITERATIVE:
       options.method = core::SolverMethod::kIterative;
       break;
+    case SolverOptions::SOLVER_EXACT:
+      options.method = core::SolverMethod::kExact;
+      break;
     default:
       throw core::InvalidInput("options.solver", "unknown value " + std::to_string(msg.solver));
   }
   if (msg.tolerance != 0.0) options.tolerance = msg.tolerance;
   if (msg.max_iterations != 0) options.max_iterations = msg.max_iterations;
+  if (msg.integration_tolerance != 0.0) options.integration_tolerance = msg.integration_tolerance;
+  if (msg.resting_velocity != 0.0) options.resting_velocity = msg.resting_velocity;
   return options;
 }
 

@@ -14,10 +14,11 @@ namespace collision_response {
 /// ~responses, and transforms bodies given in other frames into the request frame with tf2.
 ///
 /// Parameters (private namespace, read once here):
-///   ~law             "newton" | "seed_one_pass"   default law for requests that leave it 0
-///   ~solver          "auto" | "iterative"         default method for groups of contacts
+///   ~law             "stronge" | "poisson" | "newton" | "seed_one_pass": default impact law
+///   ~solver          "auto" | "exact" | "iterative": default method for islands of contacts
 ///   ~tolerance       relative tolerance of the iterative solver
 ///   ~max_iterations  iteration cap of the iterative solver
+///   ~integration_tolerance  relative error of the impulse-space integration
 ///   ~max_bodies      larger requests are rejected
 ///   ~max_contacts    larger requests are rejected
 ///   ~tf_timeout      [s] how long to wait for a transform

@@ -1,0 +1,291 @@
+// Exact multi-contact Newton restitution: the contact LCP of exact_solver.h, solved by lcp.h.
+//
+// Symbols: contact i has normal n_i, pyramid directions d_ik, pre-impact relative velocity u_i and
+// target normal velocity -e_i u_n,i (approaching) or 0. For a movable body touched on side s (-1
+// for a, +1 for b) at offset r, the contact's columns of J^T are s [dir; r x dir] for dir in
+// (n_i, d_i1..d_iD), and W = diag(I3 / m, Iw^-1). The LCP unknowns of contact i are contiguous,
+//   z = [..., P_n,i, beta_i1..beta_iD, lambda_i, ...]   (frictionless contacts: P_n,i only),
+// and the LCP is
+//   M = [ A         0 ]    A = J W J^T over the (P_n, beta) unknowns (summed body by body),
+//       [           E ]    E_i = column of ones coupling beta_ik to lambda_i,
+//       [ mu  -E^T  0 ]
+//   q = [u_n,i + e_i u_n,i (or u_n,i);  d_ik . u_i;  0].
+#include "collision_response/exact_solver.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "collision_response/lcp.h"
+
+namespace collision_response::core {
+namespace {
+
+using Eigen::Index;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kD = kPyramidDirections;
+/// A contact slides if |u'_t| exceeds this fraction of the largest pre-impact |u| of the island.
+constexpr double kSlipTolerance = 1e-9;
+
+struct Contact {
+  const ContactRow* row = nullptr;
+  Eigen::Matrix<double, 3, kD + 1> directions =  // n, then d_1..d_D (frictional rows)
+      Eigen::Matrix<double, 3, kD + 1>::Zero();
+  Index columns = 1;                            // unknowns with a column of J^T: 1 or 1 + D
+  Index offset = 0;                             // first LCP unknown (P_n)
+  int local[2] = {-1, -1};                      // island-local index of body a, b (-1: immovable)
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();  // pre-impact relative velocity [m/s]
+  double target_u_n = 0.0;                      // [m/s]
+  bool frictional = false;
+  bool dynamic = false;  // mu_d in use (otherwise mu_s)
+  // Solution [N s]: +P on b, -P on a, P = P_n n + P_t, P_t = sum_k beta_k d_k.
+  double P_n = 0.0;
+  Eigen::Matrix<double, kD, 1> beta = Eigen::Matrix<double, kD, 1>::Zero();
+  Eigen::Vector3d P_t = Eigen::Vector3d::Zero();
+
+  double mu() const { return dynamic ? row->dynamic_friction : row->static_friction; }
+  Index lambda() const { return offset + columns; }
+  Eigen::Vector3d impulse() const { return P_n * row->normal + P_t; }
+  const Eigen::Vector3d& r(int side) const { return side == 0 ? row->space.r_a : row->space.r_b; }
+};
+
+// A movable body touched by a contact, and the contact's block of columns in J^T and W J^T.
+struct Incidence {
+  int body = 0;  // index into `bodies`
+  int contact = 0;
+  int side = 0;  // 0: body a, 1: body b
+  Index column = 0;
+};
+
+// The LCP of one island and what is needed to read its solution.
+class IslandLcp {
+ public:
+  IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+            const std::vector<int>& island);
+
+  /// Largest pre-impact |u| [m/s].
+  double speed() const { return u_reference_; }
+  std::vector<Contact>& contacts() { return contacts_; }
+
+  /// Solves the LCP with the current coefficients and reads the impulses; false if not solved.
+  bool solve(std::size_t& pivots);
+  /// Moves the contacts still on mu_s that slide after the current impulses to mu_d. True if any.
+  bool switchSlidingToDynamic();
+
+ private:
+  void assemble();
+  void velocityChanges();
+
+  const std::vector<RigidBody>& bodies_;
+  std::vector<Contact> contacts_;
+  std::vector<Incidence> incidences_;  // sorted by body
+  Eigen::Matrix<double, 6, Eigen::Dynamic> JT_, WJT_;
+  Eigen::MatrixXd M_;
+  Eigen::VectorXd q_;
+  std::vector<Eigen::Vector3d> dv_, dw_;  // velocity changes of the island-local bodies
+  std::vector<const RigidBody*> local_body_;
+  double u_reference_ = 0.0;
+};
+
+IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+                     const std::vector<int>& island)
+    : bodies_(bodies), contacts_(island.size()) {
+  // Contacts: directions, targets, LCP layout, incidences.
+  Index unknowns = 0;
+  Index jacobian_columns = 0;
+  incidences_.reserve(2 * island.size());
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    Contact& c = contacts_[i];
+    c.row = &rows[island[i]];
+    const ContactRow& row = *c.row;
+    c.u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
+    const double u_n = c.u.dot(row.normal);
+    c.target_u_n = u_n < 0.0 ? -row.restitution * u_n : 0.0;
+    u_reference_ = std::max(u_reference_, c.u.norm());
+    c.frictional = !row.frictionless();
+    c.directions.col(0) = row.normal;
+    if (c.frictional) {
+      Eigen::Vector3d t1, t2;
+      tangentBasis(row.normal, t1, t2);
+      for (int k = 0; k < kD; ++k) {
+        const double angle = 2.0 * kPi * k / kD;
+        c.directions.col(1 + k) = std::cos(angle) * t1 + std::sin(angle) * t2;
+      }
+      c.columns = 1 + kD;
+    }
+    c.offset = unknowns;
+    unknowns += c.frictional ? c.columns + 1 : 1;
+    const int body_index[2] = {row.body_a, row.body_b};
+    for (int side = 0; side < 2; ++side) {
+      if (!bodies[body_index[side]].movable()) continue;
+      incidences_.push_back({body_index[side], static_cast<int>(i), side, jacobian_columns});
+      jacobian_columns += c.columns;
+    }
+  }
+
+  // J^T and W J^T, one 6 x columns block per incidence.
+  JT_.resize(6, jacobian_columns);
+  WJT_.resize(6, jacobian_columns);
+  for (const Incidence& inc : incidences_) {
+    const Contact& c = contacts_[inc.contact];
+    const RigidBody& body = bodies[inc.body];
+    const double sign = inc.side == 0 ? -1.0 : 1.0;
+    for (Index j = 0; j < c.columns; ++j) {
+      const Eigen::Vector3d dir = sign * c.directions.col(j);
+      const Eigen::Vector3d moment = c.r(inc.side).cross(dir);
+      JT_.col(inc.column + j) << dir, moment;
+      WJT_.col(inc.column + j) << body.inverse_mass * dir, body.inverse_inertia * moment;
+    }
+  }
+
+  // Island-local body indices, in body order.
+  std::sort(incidences_.begin(), incidences_.end(), [](const Incidence& x, const Incidence& y) {
+    return x.body < y.body || (x.body == y.body && x.contact < y.contact);
+  });
+  for (std::size_t g = 0; g < incidences_.size(); ++g) {
+    if (g == 0 || incidences_[g].body != incidences_[g - 1].body) {
+      local_body_.push_back(&bodies[incidences_[g].body]);
+    }
+    contacts_[incidences_[g].contact].local[incidences_[g].side] =
+        static_cast<int>(local_body_.size()) - 1;
+  }
+  dv_.resize(local_body_.size());
+  dw_.resize(local_body_.size());
+
+  M_.setZero(unknowns, unknowns);
+  q_.setZero(unknowns);
+  assemble();
+}
+
+void IslandLcp::assemble() {
+  // A = J W J^T: contacts couple through each body they share (including a contact with itself).
+  for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
+    end = begin + 1;
+    while (end < incidences_.size() && incidences_[end].body == incidences_[begin].body) ++end;
+    for (std::size_t x = begin; x < end; ++x) {
+      const Contact& cx = contacts_[incidences_[x].contact];
+      for (std::size_t y = begin; y < end; ++y) {
+        const Contact& cy = contacts_[incidences_[y].contact];
+        M_.block(cx.offset, cy.offset, cx.columns, cy.columns).noalias() +=
+            JT_.middleCols(incidences_[x].column, cx.columns).transpose() *
+            WJT_.middleCols(incidences_[y].column, cy.columns);
+      }
+    }
+  }
+  for (const Contact& c : contacts_) {
+    q_.segment(c.offset, c.columns) = c.directions.leftCols(c.columns).transpose() * c.u;
+    q_(c.offset) -= c.target_u_n;
+    if (!c.frictional) continue;
+    M_.block(c.offset + 1, c.lambda(), kD, 1).setOnes();
+    M_.block(c.lambda(), c.offset + 1, 1, kD).setConstant(-1.0);
+    M_(c.lambda(), c.offset) = c.mu();
+  }
+}
+
+bool IslandLcp::solve(std::size_t& pivots) {
+  const LcpResult lcp = solveLcp(M_, q_);
+  pivots += lcp.pivots;
+  if (lcp.status != LcpStatus::kSolved) return false;
+  for (Contact& c : contacts_) {
+    c.P_n = lcp.z(c.offset);
+    if (!c.frictional) continue;
+    c.beta = lcp.z.segment<kD>(c.offset + 1);
+    // sum beta <= mu P_n holds up to round-off; make it exact so P_t is inside the cone.
+    const double limit = c.mu() * c.P_n;
+    if (c.beta.sum() > limit) c.beta *= limit / c.beta.sum();
+    c.P_t = c.directions.rightCols<kD>() * c.beta;
+  }
+  velocityChanges();
+  return true;
+}
+
+void IslandLcp::velocityChanges() {
+  std::fill(dv_.begin(), dv_.end(), Eigen::Vector3d::Zero());
+  std::fill(dw_.begin(), dw_.end(), Eigen::Vector3d::Zero());
+  for (const Contact& c : contacts_) {
+    for (int side = 0; side < 2; ++side) {
+      if (c.local[side] < 0) continue;
+      const RigidBody& body = *local_body_[c.local[side]];
+      const Eigen::Vector3d p = (side == 0 ? -1.0 : 1.0) * c.impulse();
+      dv_[c.local[side]] += body.inverse_mass * p;
+      dw_[c.local[side]] += body.inverse_inertia * c.r(side).cross(p);
+    }
+  }
+}
+
+bool IslandLcp::switchSlidingToDynamic() {
+  bool changed = false;
+  for (Contact& c : contacts_) {
+    if (!c.frictional || c.dynamic || c.row->dynamic_friction == c.row->static_friction) continue;
+    Eigen::Vector3d u = c.u;  // u' = u + change of v_b(p) - change of v_a(p)
+    for (int side = 0; side < 2; ++side) {
+      if (c.local[side] < 0) continue;
+      const Eigen::Vector3d du = dv_[c.local[side]] + dw_[c.local[side]].cross(c.r(side));
+      u += side == 0 ? Eigen::Vector3d(-du) : du;
+    }
+    const Eigen::Vector3d u_t = u - u.dot(c.row->normal) * c.row->normal;
+    if (u_t.norm() > kSlipTolerance * u_reference_) {
+      c.dynamic = true;
+      M_(c.lambda(), c.offset) = c.mu();
+      changed = true;
+    }
+  }
+  return changed;
+}
+
+}  // namespace
+
+double pyramidFactor() {
+  return std::cos(kPi / kD);
+}
+
+ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+                      const std::vector<int>& island, const SolverOptions& /*options*/,
+                      std::vector<ContactImpulse>& impulses) {
+  ExactStats stats;
+  IslandLcp lcp(bodies, rows, island);
+  bool solved = false;
+  while (lcp.solve(stats.pivots)) {
+    if (!lcp.switchSlidingToDynamic()) {
+      solved = true;
+      break;
+    }
+  }
+
+  // Apply (nothing if unsolved), report, and measure the residual from the final velocities.
+  std::vector<Contact>& contacts = lcp.contacts();
+  for (Contact& c : contacts) {
+    if (!solved) c.P_n = 0.0, c.beta.setZero(), c.P_t.setZero();
+    c.row->space.applyImpulse(bodies[c.row->body_a], bodies[c.row->body_b], c.impulse());
+  }
+  double worst = 0.0;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const Contact& c = contacts[i];
+    const ContactRow& row = *c.row;
+    const Eigen::Vector3d u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
+    const double u_n = u.dot(row.normal);
+    const Eigen::Vector3d u_t = u - u_n * row.normal;
+    // |min(velocity, k_nn impulse)| is 0 iff both are >= 0 and one of them is 0.
+    const double k_nn = row.normal.dot(row.space.K * row.normal);
+    auto violation = [k_nn](double velocity, double impulse) {
+      return std::abs(std::min(velocity, k_nn * impulse));
+    };
+    worst = std::max(worst, violation(u_n - c.target_u_n, c.P_n));
+    if (c.frictional) {
+      const Eigen::Matrix<double, kD, 1> slip = c.directions.rightCols<kD>().transpose() * u_t;
+      const double lambda = std::max(0.0, -slip.minCoeff());
+      for (int k = 0; k < kD; ++k) worst = std::max(worst, violation(lambda + slip(k), c.beta(k)));
+      worst = std::max(worst, violation(lambda, c.mu() * c.P_n - c.beta.sum()));
+    }
+
+    ContactImpulse& out = impulses[island[i]];
+    out.normal_impulse = c.P_n;
+    out.friction_impulse = c.P_t;
+    out.sticking = c.frictional && c.P_n > 0.0 && u_t.norm() <= kSlipTolerance * lcp.speed();
+  }
+  stats.residual = lcp.speed() > 0.0 ? worst / lcp.speed() : worst;
+  stats.converged = solved;
+  return stats;
+}
+
+}  // namespace collision_response::core

@@ -1,0 +1,170 @@
+#include "collision_response/island_solver.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "collision_response/exact_solver.h"
+#include "collision_response/impulse_space_integrator.h"
+#include "collision_response/iterative_solver.h"
+#include "collision_response/single_contact.h"
+
+namespace collision_response::core {
+namespace {
+
+double kineticEnergy(const RigidBody& body) {
+  if (!body.movable()) return 0.0;
+  const Eigen::Vector3d& w = body.angular_velocity;
+  return 0.5 * body.linear_velocity.squaredNorm() / body.inverse_mass +
+         0.5 * w.dot(body.inverse_inertia.ldlt().solve(w));
+}
+
+double kineticEnergy(const std::vector<RigidBody>& bodies, const std::vector<int>& indices) {
+  double energy = 0.0;
+  for (const int i : indices) energy += kineticEnergy(bodies[i]);
+  return energy;
+}
+
+// Newton law on the listed rows with the exact or the iterative solver.
+IslandStats solveNewton(SolverMethod method, std::vector<RigidBody>& bodies,
+                        const std::vector<ContactRow>& rows, const std::vector<int>& island,
+                        const SolverOptions& options, std::vector<ContactImpulse>& impulses) {
+  IslandStats stats;
+  if (method == SolverMethod::kExact) {
+    const ExactStats exact = solveExact(bodies, rows, island, options, impulses);
+    stats.method = "exact";
+    stats.iterations = exact.pivots;
+    stats.residual = exact.residual;
+    stats.converged = exact.converged;
+  } else {
+    const IterativeStats iterative = solveIterative(bodies, rows, island, options, impulses);
+    stats.method = "iterative";
+    stats.iterations = iterative.iterations;
+    stats.residual = iterative.residual;
+    stats.converged = iterative.converged;
+  }
+  return stats;
+}
+
+// The two-phase Poisson / energetic scheme of solveIsland()'s documentation.
+IslandStats solveTwoPhase(SolverMethod method, std::vector<RigidBody>& bodies,
+                          const std::vector<ContactRow>& rows, const std::vector<int>& island,
+                          const SolverOptions& options, std::vector<ContactImpulse>& impulses) {
+  // The island's rows with e = 0, indexed locally; its movable bodies.
+  std::vector<ContactRow> plastic;
+  plastic.reserve(island.size());
+  std::vector<int> local(island.size());
+  std::vector<int> island_bodies;
+  double e_max = 0.0;
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    plastic.push_back(rows[island[i]]);
+    plastic.back().restitution = 0.0;
+    local[i] = static_cast<int>(i);
+    e_max = std::max(e_max, rows[island[i]].restitution);
+    for (const int body : {plastic.back().body_a, plastic.back().body_b}) {
+      if (bodies[body].movable()) island_bodies.push_back(body);
+    }
+  }
+  std::sort(island_bodies.begin(), island_bodies.end());
+  island_bodies.erase(std::unique(island_bodies.begin(), island_bodies.end()), island_bodies.end());
+
+  // 1. Compression.
+  const double energy_before = kineticEnergy(bodies, island_bodies);
+  std::vector<ContactImpulse> compression(island.size());
+  const IslandStats first = solveNewton(method, bodies, plastic, local, options, compression);
+  const double dissipated = std::max(energy_before - kineticEnergy(bodies, island_bodies), 0.0);
+
+  // 2. Restitution: R_i = s e_i P_c,i. Its energy is s (R.u_c) + s^2 q, measured by applying R
+  // once.
+  double linear = 0.0;
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    const ContactRow& row = plastic[i];
+    const double u_n =
+        row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
+    linear += rows[island[i]].restitution * compression[i].normal_impulse * u_n;
+  }
+  const auto applyRestitution = [&](double scale) {
+    for (std::size_t i = 0; i < island.size(); ++i) {
+      const ContactRow& row = plastic[i];
+      const double R = scale * rows[island[i]].restitution * compression[i].normal_impulse;
+      row.space.applyImpulse(bodies[row.body_a], bodies[row.body_b], R * row.normal);
+    }
+  };
+  const double energy_compressed = kineticEnergy(bodies, island_bodies);
+  applyRestitution(1.0);
+  double scale = 1.0;
+  if (options.law == ImpactLaw::kStronge) {
+    const double released = kineticEnergy(bodies, island_bodies) - energy_compressed;
+    const double allowed = e_max * e_max * dissipated;
+    if (released > allowed) {
+      // Largest s in [0, 1] with s linear + s^2 q <= allowed.
+      const double q = released - linear;
+      scale =
+          q > 0.0 ? (-linear + std::sqrt(linear * linear + 4.0 * q * allowed)) / (2.0 * q) : 0.0;
+      scale = std::clamp(scale, 0.0, 1.0);
+      applyRestitution(scale - 1.0);
+    }
+  }
+
+  // 3. No contact may end approaching.
+  std::vector<ContactImpulse> cleanup(island.size());
+  const IslandStats third = solveNewton(method, bodies, plastic, local, options, cleanup);
+
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    ContactImpulse& impulse = impulses[island[i]];
+    impulse.normal_impulse =
+        (1.0 + scale * rows[island[i]].restitution) * compression[i].normal_impulse +
+        cleanup[i].normal_impulse;
+    impulse.friction_impulse = compression[i].friction_impulse + cleanup[i].friction_impulse;
+    // Sticking: no slip left at the end.
+    const ContactRow& row = plastic[i];
+    const Eigen::Vector3d u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
+    const double slip = (u - u.dot(row.normal) * row.normal).norm();
+    impulse.sticking = !row.frictionless() && impulse.normal_impulse > 0.0 &&
+                       slip <= 1e-9 * std::max(u.norm(), 1e-300);
+  }
+  IslandStats stats;
+  stats.method = method == SolverMethod::kExact ? "two_phase_exact" : "two_phase_iterative";
+  stats.iterations = first.iterations + third.iterations;
+  stats.residual = std::max(first.residual, third.residual);
+  stats.converged = first.converged && third.converged;
+  return stats;
+}
+
+}  // namespace
+
+IslandStats solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+                        const std::vector<int>& island, const SolverOptions& options,
+                        std::vector<ContactImpulse>& impulses) {
+  IslandStats stats;
+  const bool energetic = options.law == ImpactLaw::kPoisson || options.law == ImpactLaw::kStronge;
+  if (options.law == ImpactLaw::kSeedOnePass ||
+      (island.size() == 1 && options.method == SolverMethod::kAuto)) {
+    for (const int c : island) {
+      const ContactRow& row = rows[c];
+      RigidBody& a = bodies[row.body_a];
+      RigidBody& b = bodies[row.body_b];
+      if (energetic) {
+        IntegrationStats integration;
+        impulses[c] = integrateSingleContact(a, b, row, options.law, options.integration_tolerance,
+                                             &integration);
+        stats.method = "impulse_space";
+        stats.iterations = integration.steps + integration.segments;
+        stats.residual = integration.error_estimate;
+      } else {
+        impulses[c] = solveSingleContact(a, b, row, options.law);
+        stats.method = island.size() == 1 ? "closed_form" : "sequential";
+        stats.iterations = island.size();
+      }
+      row.space.applyImpulse(a, b, impulses[c].total(row.normal));
+    }
+    return stats;
+  }
+  const SolverMethod method = options.method != SolverMethod::kAuto      ? options.method
+                              : island.size() <= kExactSolverMaxContacts ? SolverMethod::kExact
+                                                                         : SolverMethod::kIterative;
+  return energetic ? solveTwoPhase(method, bodies, rows, island, options, impulses)
+                   : solveNewton(method, bodies, rows, island, options, impulses);
+}
+
+}  // namespace collision_response::core

@@ -1,0 +1,573 @@
+// Unit tests of the Lemke LCP solver and of the exact (LCP) multi-contact solver, against
+// hand-derived closed forms, the single-contact closed form, the iterative solver, and invariants
+// on random scenes.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "collision_response/contact_row.h"
+#include "collision_response/exact_solver.h"
+#include "collision_response/iterative_solver.h"
+#include "collision_response/lcp.h"
+#include "collision_response/rigid_body.h"
+#include "collision_response/single_contact.h"
+#include "collision_response/solver_options.h"
+
+namespace cr = collision_response::core;
+using Eigen::Matrix3d;
+using Eigen::MatrixXd;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+
+namespace {
+
+constexpr double kTol = 1e-9;
+constexpr double kPi = 3.14159265358979323846;
+
+void expectVecNear(const Vector3d& got, const Vector3d& want, double tol) {
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(got[i], want[i], tol) << "component " << i;
+}
+
+// z >= 0, w = M z + q >= 0, z.w = 0, to tol relative to the problem's scale.
+void expectLcpSolution(const MatrixXd& M, const VectorXd& q, const VectorXd& z, double tol) {
+  const VectorXd w = M * z + q;
+  const double scale = std::max({1.0, q.cwiseAbs().maxCoeff(), z.cwiseAbs().maxCoeff()});
+  EXPECT_GE(z.minCoeff(), -tol * scale);
+  EXPECT_GE(w.minCoeff(), -tol * scale);
+  EXPECT_LE(z.cwiseProduct(w).cwiseAbs().maxCoeff(), tol * scale * scale);
+}
+
+cr::RigidBody body(double mass, const Matrix3d& inertia, const Vector3d& com, const Vector3d& v,
+                   const Vector3d& w = Vector3d::Zero()) {
+  cr::RigidBody b;
+  b.inverse_mass = 1.0 / mass;
+  b.inverse_inertia = inertia.inverse();
+  b.com = com;
+  b.linear_velocity = v;
+  b.angular_velocity = w;
+  return b;
+}
+
+cr::RigidBody sphere(double mass, double radius, const Vector3d& com, const Vector3d& v,
+                     const Vector3d& w = Vector3d::Zero()) {
+  return body(mass, Matrix3d::Identity() * (0.4 * mass * radius * radius), com, v, w);
+}
+
+// Unit cube, 1 kg, inertia I/6, resting on the ground y = 0 (centre at y = 0.5).
+cr::RigidBody cube(const Vector3d& v, const Vector3d& w = Vector3d::Zero()) {
+  return body(1.0, Matrix3d::Identity() / 6.0, Vector3d(0, 0.5, 0), v, w);
+}
+
+const cr::RigidBody kGround;  // immovable
+
+double normalVelocity(const std::vector<cr::RigidBody>& bodies, const cr::ContactRow& row) {
+  return row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
+}
+
+std::vector<int> allRows(std::size_t n) {
+  std::vector<int> island(n);
+  for (std::size_t i = 0; i < n; ++i) island[i] = static_cast<int>(i);
+  return island;
+}
+
+// Contacts of the cube (body 1) with the ground (body 0) at the given points of its bottom face.
+std::vector<cr::ContactRow> groundContacts(const std::vector<cr::RigidBody>& bodies,
+                                           const std::vector<Vector3d>& points, double e,
+                                           double mu_s = 0.0, double mu_d = 0.0) {
+  std::vector<cr::ContactRow> rows;
+  for (const Vector3d& p : points) {
+    rows.emplace_back(0, 1, bodies[0], bodies[1], p, Vector3d::UnitY(), e, mu_s, mu_d);
+  }
+  return rows;
+}
+
+const std::vector<Vector3d> kCorners = {Vector3d(0.5, 0, 0.5), Vector3d(0.5, 0, -0.5),
+                                        Vector3d(-0.5, 0, 0.5), Vector3d(-0.5, 0, -0.5)};
+
+// ---------------------------------------------------------------------------------------------
+// Lemke
+
+TEST(Lcp, NonNegativeQGivesZeroWithoutPivoting) {
+  const MatrixXd M = MatrixXd::Identity(3, 3);
+  const cr::LcpResult r = cr::solveLcp(M, VectorXd::Constant(3, 0.5));
+  EXPECT_EQ(r.status, cr::LcpStatus::kSolved);
+  EXPECT_EQ(r.pivots, 0u);
+  EXPECT_EQ(r.z, VectorXd::Zero(3));
+}
+
+TEST(Lcp, PositiveDefiniteKnownSolution) {
+  // z2 = 0 guessed: [2 0; 0 2] (z1, z3) = (1, 1) gives z1 = z3 = 1/2, and w2 = 4 + 1/2 + 1/2 = 5.
+  MatrixXd M(3, 3);
+  M << 2, 1, 0, 1, 2, 1, 0, 1, 2;
+  const VectorXd q = (VectorXd(3) << -1, 4, -1).finished();
+  const cr::LcpResult r = cr::solveLcp(M, q);
+  ASSERT_EQ(r.status, cr::LcpStatus::kSolved);
+  EXPECT_NEAR(r.z(0), 0.5, 1e-12);
+  EXPECT_NEAR(r.z(1), 0.0, 1e-12);
+  EXPECT_NEAR(r.z(2), 0.5, 1e-12);
+  EXPECT_NEAR((M * r.z + q)(1), 5.0, 1e-12);
+}
+
+TEST(Lcp, AllActivePositiveDefinite) {
+  // M z = -q: z = M^-1 (5, 6) = (1/3) [2 -1; -1 2] (5, 6) = (4/3, 7/3).
+  MatrixXd M(2, 2);
+  M << 2, 1, 1, 2;
+  const cr::LcpResult r = cr::solveLcp(M, Eigen::Vector2d(-5, -6));
+  ASSERT_EQ(r.status, cr::LcpStatus::kSolved);
+  EXPECT_NEAR(r.z(0), 4.0 / 3.0, 1e-12);
+  EXPECT_NEAR(r.z(1), 7.0 / 3.0, 1e-12);
+}
+
+TEST(Lcp, SkewSymmetricIsCopositivePlus) {
+  // w1 = z2 - 1, w2 = 1 - z1: z2 >= 1 > 0 forces w2 = 0, so z1 = 1 > 0 forces w1 = 0: z = (1, 1).
+  MatrixXd M(2, 2);
+  M << 0, 1, -1, 0;
+  const cr::LcpResult r = cr::solveLcp(M, Eigen::Vector2d(-1, 1));
+  ASSERT_EQ(r.status, cr::LcpStatus::kSolved);
+  EXPECT_NEAR(r.z(0), 1.0, 1e-12);
+  EXPECT_NEAR(r.z(1), 1.0, 1e-12);
+}
+
+TEST(Lcp, SingularDegenerateProblemDoesNotCycle) {
+  // M = 1 1^T (rank 1, four duplicated contacts): every z >= 0 with sum 1 solves it, and every
+  // ratio test ties.
+  const MatrixXd M = MatrixXd::Ones(4, 4);
+  const VectorXd q = VectorXd::Constant(4, -1.0);
+  const cr::LcpResult r = cr::solveLcp(M, q);
+  ASSERT_EQ(r.status, cr::LcpStatus::kSolved);
+  EXPECT_NEAR(r.z.sum(), 1.0, 1e-12);
+  expectLcpSolution(M, q, r.z, 1e-12);
+
+  // Rank 2 of size 6 with zeros in q (degenerate basic solutions from the start).
+  MatrixXd B(6, 2);
+  B << 1, 0, 1, 0, 0, 1, 0, 1, 1, 1, 1, 1;
+  const MatrixXd S = B * B.transpose();
+  const VectorXd q2 = (VectorXd(6) << -1, -1, 0, 0, -2, -2).finished();
+  const cr::LcpResult r2 = cr::solveLcp(S, q2);
+  ASSERT_EQ(r2.status, cr::LcpStatus::kSolved);
+  expectLcpSolution(S, q2, r2.z, 1e-12);
+}
+
+TEST(Lcp, RandomFeasibleSingularPsdProblems) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  std::uniform_int_distribution<int> coin(0, 2);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = 2 + trial % 12;
+    const int rank = 1 + trial % n;
+    MatrixXd B(n, rank), K(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < rank; ++j) B(i, j) = uniform(rng);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) K(i, j) = uniform(rng);
+    // PSD, possibly non-symmetric (skew part), often with duplicated rows.
+    MatrixXd M = B * B.transpose();
+    if (trial % 2) M += 0.5 * (K - K.transpose());
+    if (trial % 3 == 0) M.row(n - 1) = M.row(0), M.col(n - 1) = M.col(0);
+    // A feasible q: a complementary pair (z*, w*) with q = w* - M z*.
+    VectorXd z(n), w(n);
+    for (int i = 0; i < n; ++i) {
+      const int kind = coin(rng);
+      z(i) = kind == 0 ? std::abs(uniform(rng)) : 0.0;
+      w(i) = kind == 1 ? std::abs(uniform(rng)) : 0.0;
+    }
+    const VectorXd q = w - M * z;
+    const cr::LcpResult r = cr::solveLcp(M, q);
+    ASSERT_EQ(r.status, cr::LcpStatus::kSolved) << "trial " << trial;
+    expectLcpSolution(M, q, r.z, 1e-9);
+  }
+}
+
+TEST(Lcp, InfeasibleProblemEndsOnARay) {
+  // w1 = z1 - z2 - 1.5 >= 0 and w2 = z2 - z1 + 1 >= 0 cannot both hold (PSD M: a ray proves it).
+  MatrixXd M(2, 2);
+  M << 1, -1, -1, 1;
+  const cr::LcpResult r = cr::solveLcp(M, Eigen::Vector2d(-1.5, 1.0));
+  EXPECT_EQ(r.status, cr::LcpStatus::kRayTermination);
+  EXPECT_EQ(r.z, VectorXd::Zero(2));
+  EXPECT_EQ(cr::solveLcp(MatrixXd::Zero(1, 1), VectorXd::Constant(1, -1.0)).status,
+            cr::LcpStatus::kRayTermination);
+}
+
+TEST(Lcp, PivotCap) {
+  MatrixXd M(3, 3);
+  M << 2, 1, 0, 1, 2, 1, 0, 1, 2;
+  cr::LcpOptions options;
+  options.max_pivots = 1;
+  const cr::LcpResult r = cr::solveLcp(M, (VectorXd(3) << -1, 4, -1).finished(), options);
+  EXPECT_EQ(r.status, cr::LcpStatus::kPivotCap);
+  EXPECT_EQ(r.pivots, 1u);
+  EXPECT_STREQ(cr::toString(r.status), "pivot_cap");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Exact solver: hand-derived scenes
+
+// A cube falling flat at 1 m/s onto 4 corner contacts, e = 0.5: by symmetry v' = (0, e, 0),
+// w' = 0, total normal impulse m (1 + e) = 1.5 N s (its split among the corners is not unique).
+TEST(ExactSolver, CubeLandsFlatOnFourCorners) {
+  std::vector<cr::RigidBody> bodies = {kGround, cube(Vector3d(0, -1, 0))};
+  const auto rows = groundContacts(bodies, kCorners, 0.5);
+  std::vector<cr::ContactImpulse> impulses(rows.size());
+  const cr::ExactStats stats =
+      cr::solveExact(bodies, rows, allRows(rows.size()), cr::SolverOptions{}, impulses);
+  ASSERT_TRUE(stats.converged);
+  EXPECT_LE(stats.residual, 1e-12);
+  expectVecNear(bodies[1].linear_velocity, Vector3d(0, 0.5, 0), kTol);
+  expectVecNear(bodies[1].angular_velocity, Vector3d::Zero(), kTol);
+  double total = 0.0;
+  for (std::size_t c = 0; c < rows.size(); ++c) {
+    EXPECT_GE(impulses[c].normal_impulse, 0.0);
+    EXPECT_EQ(impulses[c].friction_impulse, Vector3d::Zero());
+    EXPECT_FALSE(impulses[c].sticking);
+    EXPECT_NEAR(normalVelocity(bodies, rows[c]), 0.5, kTol);
+    total += impulses[c].normal_impulse;
+  }
+  EXPECT_NEAR(total, 1.5, kTol);
+}
+
+// The same with every corner listed twice (8 rows, A of rank 3), and with 8 distinct points of the
+// face (corners and edge midpoints): same velocities.
+TEST(ExactSolver, CubeLandsFlatOnRedundantContacts) {
+  std::vector<Vector3d> doubled = kCorners;
+  doubled.insert(doubled.end(), kCorners.begin(), kCorners.end());
+  std::vector<Vector3d> face = kCorners;
+  for (const Vector3d& p :
+       {Vector3d(0.5, 0, 0), Vector3d(-0.5, 0, 0), Vector3d(0, 0, 0.5), Vector3d(0, 0, -0.5)}) {
+    face.push_back(p);
+  }
+  for (const auto& points : {doubled, face}) {
+    std::vector<cr::RigidBody> bodies = {kGround, cube(Vector3d(0, -1, 0))};
+    const auto rows = groundContacts(bodies, points, 0.5);
+    std::vector<cr::ContactImpulse> impulses(rows.size());
+    const cr::ExactStats stats =
+        cr::solveExact(bodies, rows, allRows(rows.size()), cr::SolverOptions{}, impulses);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_LE(stats.residual, 1e-12);
+    expectVecNear(bodies[1].linear_velocity, Vector3d(0, 0.5, 0), kTol);
+    expectVecNear(bodies[1].angular_velocity, Vector3d::Zero(), kTol);
+    double total = 0.0;
+    for (const cr::ContactImpulse& impulse : impulses) {
+      EXPECT_GE(impulse.normal_impulse, 0.0);
+      total += impulse.normal_impulse;
+    }
+    EXPECT_NEAR(total, 1.5, kTol);
+  }
+}
+
+// One contact: the LCP must reproduce solveSingleContact's closed form (frictionless, sticking,
+// and sliding along a pyramid direction, where pyramid and cone coincide).
+TEST(ExactSolver, SingleContactMatchesClosedForm) {
+  struct Case {
+    Vector3d v, w;
+    double mu_s, mu_d;
+    bool sticking;
+  };
+  // Sphere m = 2, R = 0.5 on the ground, contact at r = (0, -R, 0): K = diag(3.5, 1, 3.5) / m.
+  // Sticking: |P_t| = m |u_t| / 3.5, P_n = (1 + e) m |u_n|; sliding along -x (d_2 = t2 = -x).
+  const Case cases[] = {
+      {Vector3d(0.3, -1, 0.2), Vector3d(1, 0.5, -2), 0.0, 0.0, false},
+      {Vector3d(0.3, -1, 0.2), Vector3d(1, 0.5, -2), 1.5, 1.0, true},
+      {Vector3d(2, -1, 0), Vector3d::Zero(), 0.25, 0.2, false},
+  };
+  for (const Case& c : cases) {
+    std::vector<cr::RigidBody> bodies = {kGround, sphere(2.0, 0.5, Vector3d(0, 0.5, 0), c.v, c.w)};
+    const std::vector<cr::ContactRow> rows = {cr::ContactRow(
+        0, 1, bodies[0], bodies[1], Vector3d::Zero(), Vector3d::UnitY(), 0.7, c.mu_s, c.mu_d)};
+    const cr::ContactImpulse want =
+        cr::solveSingleContact(bodies[0], bodies[1], rows[0], cr::ImpactLaw::kNewton);
+    std::vector<cr::ContactImpulse> impulses(1);
+    const cr::ExactStats stats = cr::solveExact(bodies, rows, {0}, cr::SolverOptions{}, impulses);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_LE(stats.residual, 1e-12);
+    EXPECT_NEAR(impulses[0].normal_impulse, want.normal_impulse, kTol);
+    EXPECT_NEAR(impulses[0].normal_impulse, 1.7 * 2.0, kTol);
+    expectVecNear(impulses[0].friction_impulse, want.friction_impulse, kTol);
+    EXPECT_EQ(impulses[0].sticking, c.sticking);
+    EXPECT_EQ(want.sticking, c.sticking);
+    EXPECT_NEAR(normalVelocity(bodies, rows[0]), 0.7, kTol);
+  }
+}
+
+// Wall (x = 0), sphere 1 (m1 = 1, R = 1) touching it, sphere 2 (m2 = 2) touching sphere 1, e = 0.5.
+TEST(ExactSolver, TwoSpheresInARowAgainstAWall) {
+  const double e = 0.5;
+  auto scene = [](const Vector3d& v1, const Vector3d& v2) {
+    return std::vector<cr::RigidBody>{kGround, sphere(1.0, 1.0, Vector3d(1, 0, 0), v1),
+                                      sphere(2.0, 1.0, Vector3d(3, 0, 0), v2)};
+  };
+  auto contacts = [&](const std::vector<cr::RigidBody>& b) {
+    return std::vector<cr::ContactRow>{
+        cr::ContactRow(0, 1, b[0], b[1], Vector3d::Zero(), Vector3d::UnitX(), e, 0, 0),
+        cr::ContactRow(1, 2, b[1], b[2], Vector3d(2, 0, 0), Vector3d::UnitX(), e, 0, 0)};
+  };
+  {
+    // Sphere 1 at rest, sphere 2 at -1 m/s. Both contacts active: u'_1 = v1' = 0 (it was not
+    // approaching), u'_2 = v2' - v1' = e, so v2' = e and P_2 = P_1 = m2 (1 + e) = 3.
+    std::vector<cr::RigidBody> bodies = scene(Vector3d::Zero(), Vector3d(-1, 0, 0));
+    const auto rows = contacts(bodies);
+    std::vector<cr::ContactImpulse> impulses(2);
+    ASSERT_TRUE(cr::solveExact(bodies, rows, {0, 1}, cr::SolverOptions{}, impulses).converged);
+    expectVecNear(bodies[1].linear_velocity, Vector3d::Zero(), kTol);
+    expectVecNear(bodies[2].linear_velocity, Vector3d(e, 0, 0), kTol);
+    EXPECT_NEAR(impulses[0].normal_impulse, 3.0, kTol);
+    EXPECT_NEAR(impulses[1].normal_impulse, 3.0, kTol);
+  }
+  {
+    // Both at -1 m/s: v1' = e (wall), v2' - v1' = 0, so v1' = v2' = e; P_2 = m2 (1 + e) = 3 and
+    // P_1 = (m1 + m2)(1 + e) = 4.5.
+    std::vector<cr::RigidBody> bodies = scene(Vector3d(-1, 0, 0), Vector3d(-1, 0, 0));
+    const auto rows = contacts(bodies);
+    std::vector<cr::ContactImpulse> impulses(2);
+    ASSERT_TRUE(cr::solveExact(bodies, rows, {0, 1}, cr::SolverOptions{}, impulses).converged);
+    expectVecNear(bodies[1].linear_velocity, Vector3d(e, 0, 0), kTol);
+    expectVecNear(bodies[2].linear_velocity, Vector3d(e, 0, 0), kTol);
+    EXPECT_NEAR(impulses[0].normal_impulse, 4.5, kTol);
+    EXPECT_NEAR(impulses[1].normal_impulse, 3.0, kTol);
+  }
+}
+
+// Ball (m = 2, R = 1) dropped at 1 m/s into a V-groove whose faces are inclined 30 degrees:
+// normals (+-1/2, sqrt(3)/2, 0), coupled (n1.n2 = 1/2). By symmetry v' = (0, e, 0), and each
+// face gives P = m (1 + e) / (2 cos 30) = 3 / sqrt(3) = sqrt(3).
+TEST(ExactSolver, BallInSymmetricVGroove) {
+  const double e = 0.5;
+  std::vector<cr::RigidBody> bodies = {kGround,
+                                       sphere(2.0, 1.0, Vector3d::Zero(), Vector3d(0, -1, 0))};
+  const Vector3d n1(0.5, std::sqrt(3.0) / 2, 0), n2(-0.5, std::sqrt(3.0) / 2, 0);
+  const std::vector<cr::ContactRow> rows = {
+      cr::ContactRow(0, 1, bodies[0], bodies[1], -n1, n1, e, 0, 0),
+      cr::ContactRow(0, 1, bodies[0], bodies[1], -n2, n2, e, 0, 0)};
+  std::vector<cr::ContactImpulse> impulses(2);
+  ASSERT_TRUE(cr::solveExact(bodies, rows, {0, 1}, cr::SolverOptions{}, impulses).converged);
+  expectVecNear(bodies[1].linear_velocity, Vector3d(0, e, 0), kTol);
+  expectVecNear(bodies[1].angular_velocity, Vector3d::Zero(), kTol);
+  EXPECT_NEAR(impulses[0].normal_impulse, std::sqrt(3.0), kTol);
+  EXPECT_NEAR(impulses[1].normal_impulse, std::sqrt(3.0), kTol);
+}
+
+// The cube landing flat while sliding along +x, v = (1, -1, 0), e = 0.5, mu_s = 0.5, mu_d = 0.3.
+// Seen in the x-y plane, with S the total normal impulse and P_F, P_B the normal impulses of the
+// front (x = +1/2) and back corners, all corners sliding with friction -mu P_n along x:
+//   v'_y = -1 + S,  v'_x = 1 - mu S,
+//   w'_z = 6 (1/2 (P_F - P_B) - 1/2 mu S)       (normal and friction moments about the centre),
+// and u'_n = v'_y +- w'_z / 2 = e at both ends gives w'_z = 0, S = 1.5, P_F - P_B = mu S.
+// With mu_s: v'_x = 0.25 > 0, so the corners slide and mu_d applies: v' = (0.55, 0.5, 0), w' = 0,
+// P_F = 0.975, P_B = 0.525.
+TEST(ExactSolver, SlidingCubeLandsFlatWithFriction) {
+  std::vector<cr::RigidBody> bodies = {kGround, cube(Vector3d(1, -1, 0))};
+  const auto rows = groundContacts(bodies, kCorners, 0.5, 0.5, 0.3);
+  std::vector<cr::ContactImpulse> impulses(rows.size());
+  const cr::ExactStats stats =
+      cr::solveExact(bodies, rows, allRows(rows.size()), cr::SolverOptions{}, impulses);
+  ASSERT_TRUE(stats.converged);
+  EXPECT_LE(stats.residual, 1e-12);
+  expectVecNear(bodies[1].linear_velocity, Vector3d(0.55, 0.5, 0), kTol);
+  expectVecNear(bodies[1].angular_velocity, Vector3d::Zero(), kTol);
+  double front = 0.0, back = 0.0;
+  for (std::size_t c = 0; c < rows.size(); ++c) {
+    const double P_n = impulses[c].normal_impulse;
+    (kCorners[c].x() > 0 ? front : back) += P_n;
+    const double P_t = impulses[c].friction_impulse.norm();
+    EXPECT_LE(P_t, 0.3 * P_n + kTol);
+    EXPECT_GE(P_t, cr::pyramidFactor() * 0.3 * P_n - kTol);
+    EXPECT_NEAR(P_t, 0.3 * P_n, kTol);  // -x is a pyramid direction: exact here
+    EXPECT_NEAR(impulses[c].friction_impulse.x(), -P_t, kTol);
+    EXPECT_FALSE(impulses[c].sticking);
+  }
+  EXPECT_NEAR(front, 0.975, kTol);
+  EXPECT_NEAR(back, 0.525, kTol);
+}
+
+// The cube turned 30 degrees about z, landing on its lowest edge (two corners, r = (r_x, r_y,
+// +-1/2)), v = (0, -1, 0), e = 0.5, frictionless. By symmetry both impulses are P (along +y):
+//   v'_y = -1 + 2P,  w'_z = 6 (2 r_x P),  u'_n = v'_y + w'_z r_x = e
+// so P = (1 + e) / (2 + 12 r_x^2).
+TEST(ExactSolver, TiltedCubeLandsOnAnEdge) {
+  const double e = 0.5, angle = kPi / 6;
+  const double r_x = -0.5 * std::cos(angle) + 0.5 * std::sin(angle);
+  const double r_y = -0.5 * std::sin(angle) - 0.5 * std::cos(angle);
+  std::vector<cr::RigidBody> bodies = {
+      kGround, body(1.0, Matrix3d::Identity() / 6.0, Vector3d(0, -r_y, 0), Vector3d(0, -1, 0))};
+  const auto rows = groundContacts(bodies, {Vector3d(r_x, 0, 0.5), Vector3d(r_x, 0, -0.5)}, e);
+  std::vector<cr::ContactImpulse> impulses(2);
+  ASSERT_TRUE(cr::solveExact(bodies, rows, {0, 1}, cr::SolverOptions{}, impulses).converged);
+  const double P = (1 + e) / (2 + 12 * r_x * r_x);
+  EXPECT_NEAR(impulses[0].normal_impulse, P, kTol);
+  EXPECT_NEAR(impulses[1].normal_impulse, P, kTol);
+  expectVecNear(bodies[1].linear_velocity, Vector3d(0, -1 + 2 * P, 0), kTol);
+  expectVecNear(bodies[1].angular_velocity, Vector3d(0, 0, 12 * r_x * P), kTol);
+  EXPECT_NEAR(normalVelocity(bodies, rows[0]), e, kTol);
+}
+
+// A body wedged between two walls cannot bounce off one of them (Newton's law has no solution):
+// reported, nothing applied.
+TEST(ExactSolver, InfeasibleRestitutionIsReported) {
+  std::vector<cr::RigidBody> bodies = {kGround,
+                                       sphere(1.0, 1.0, Vector3d::Zero(), Vector3d(-1, 0, 0))};
+  const std::vector<cr::ContactRow> rows = {
+      cr::ContactRow(0, 1, bodies[0], bodies[1], Vector3d(-1, 0, 0), Vector3d::UnitX(), 0.5, 0, 0),
+      cr::ContactRow(0, 1, bodies[0], bodies[1], Vector3d(1, 0, 0), -Vector3d::UnitX(), 0.5, 0, 0)};
+  std::vector<cr::ContactImpulse> impulses(2);
+  const cr::ExactStats stats = cr::solveExact(bodies, rows, {0, 1}, cr::SolverOptions{}, impulses);
+  EXPECT_FALSE(stats.converged);
+  EXPECT_GT(stats.residual, 0.1);
+  expectVecNear(bodies[1].linear_velocity, Vector3d(-1, 0, 0), 0.0);
+  EXPECT_EQ(impulses[0].normal_impulse, 0.0);
+  EXPECT_EQ(impulses[1].normal_impulse, 0.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Exact solver: random scenes
+
+struct RandomScene {
+  std::vector<cr::RigidBody> bodies;
+  std::vector<cr::ContactRow> rows;
+};
+
+// `movable` random bodies (index 0 is an immovable ground if `ground`), `contacts` contacts
+// between random pairs with random points, normals (roughly from a to b) and materials.
+RandomScene randomScene(std::mt19937& rng, int movable, int contacts, bool ground, bool friction) {
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0), unit(0.0, 1.0);
+  auto vec = [&] { return Vector3d(uniform(rng), uniform(rng), uniform(rng)); };
+  RandomScene s;
+  if (ground) s.bodies.push_back(kGround);
+  for (int i = 0; i < movable; ++i) {
+    const Matrix3d R = Eigen::Quaterniond(uniform(rng), uniform(rng), uniform(rng), uniform(rng))
+                           .normalized()
+                           .toRotationMatrix();
+    const Vector3d diag(0.2 + unit(rng), 0.2 + unit(rng), 0.2 + unit(rng));
+    s.bodies.push_back(body(0.5 + 2.5 * unit(rng), R * diag.asDiagonal() * R.transpose(),
+                            2.0 * vec(), vec(), vec()));
+  }
+  const int n = static_cast<int>(s.bodies.size());
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  for (int c = 0; c < contacts; ++c) {
+    int a = pick(rng), b = pick(rng);
+    while (b == a || (!s.bodies[a].movable() && !s.bodies[b].movable())) b = pick(rng);
+    const Vector3d point = 0.5 * (s.bodies[a].com + s.bodies[b].com) + 0.3 * vec();
+    const Vector3d normal =
+        ((s.bodies[b].com - s.bodies[a].com).normalized() + 0.5 * vec()).normalized();
+    const double mu_s = friction ? unit(rng) : 0.0;
+    s.rows.emplace_back(a, b, s.bodies[a], s.bodies[b], point, normal, unit(rng), mu_s,
+                        mu_s * (0.5 + 0.5 * unit(rng)));
+  }
+  return s;
+}
+
+Vector3d linearMomentum(const std::vector<cr::RigidBody>& bodies) {
+  Vector3d p = Vector3d::Zero();
+  for (const auto& b : bodies)
+    if (b.movable()) p += b.linear_velocity / b.inverse_mass;
+  return p;
+}
+
+Vector3d angularMomentum(const std::vector<cr::RigidBody>& bodies) {
+  Vector3d L = Vector3d::Zero();
+  for (const auto& b : bodies) {
+    if (!b.movable()) continue;
+    L += b.inverse_inertia.inverse() * b.angular_velocity +
+         b.com.cross(b.linear_velocity / b.inverse_mass);
+  }
+  return L;
+}
+
+// Frictionless: the velocities u' = u + A P are unique, so Lemke and projected Gauss-Seidel must
+// agree; momentum is conserved without the ground.
+TEST(ExactSolver, RandomFrictionlessScenesAgreeWithIterative) {
+  std::mt19937 rng(11);
+  int compared = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const bool ground = trial % 2 == 0;
+    RandomScene s = randomScene(rng, 2 + trial % 3, 2 + trial % 6, ground, false);
+    const std::vector<int> island = allRows(s.rows.size());
+    std::vector<cr::RigidBody> exact = s.bodies, iterative = s.bodies;
+    std::vector<cr::ContactImpulse> exact_impulses(s.rows.size()),
+        iterative_impulses(s.rows.size());
+    const cr::ExactStats stats =
+        cr::solveExact(exact, s.rows, island, cr::SolverOptions{}, exact_impulses);
+    ASSERT_TRUE(stats.converged) << "trial " << trial;
+    EXPECT_LE(stats.residual, 1e-9) << "trial " << trial;
+
+    double scale = 0.0;
+    for (const auto& row : s.rows)
+      scale = std::max(
+          scale, row.space.relativeVelocity(s.bodies[row.body_a], s.bodies[row.body_b]).norm());
+    for (std::size_t c = 0; c < s.rows.size(); ++c) {
+      const double u_n = normalVelocity(s.bodies, s.rows[c]);
+      const double target = u_n < 0 ? -s.rows[c].restitution * u_n : 0.0;
+      EXPECT_GE(normalVelocity(exact, s.rows[c]), target - 1e-9 * scale);
+      EXPECT_GE(exact_impulses[c].normal_impulse, 0.0);
+    }
+    if (!ground) {
+      expectVecNear(linearMomentum(exact), linearMomentum(s.bodies), 1e-9);
+      expectVecNear(angularMomentum(exact), angularMomentum(s.bodies), 1e-9);
+    }
+
+    const cr::IterativeStats it =
+        cr::solveIterative(iterative, s.rows, island, cr::SolverOptions{}, iterative_impulses);
+    if (!it.converged) continue;
+    ++compared;
+    for (std::size_t i = 0; i < s.bodies.size(); ++i) {
+      expectVecNear(exact[i].linear_velocity, iterative[i].linear_velocity, 1e-6 * scale);
+      expectVecNear(exact[i].angular_velocity, iterative[i].angular_velocity, 1e-6 * scale);
+    }
+  }
+  EXPECT_GE(compared, 150);
+}
+
+// With friction: solved, no contact approaching, impulses inside the pyramid (hence the cone),
+// friction opposing the slip, sliding friction saturated to within the pyramid factor, momentum.
+TEST(ExactSolver, RandomFrictionalScenesSatisfyCoulomb) {
+  std::mt19937 rng(23);
+  for (int trial = 0; trial < 200; ++trial) {
+    const bool ground = trial % 2 == 0;
+    RandomScene s = randomScene(rng, 2 + trial % 3, 2 + trial % 6, ground, true);
+    std::vector<cr::RigidBody> bodies = s.bodies;
+    std::vector<cr::ContactImpulse> impulses(s.rows.size());
+    const cr::ExactStats stats =
+        cr::solveExact(bodies, s.rows, allRows(s.rows.size()), cr::SolverOptions{}, impulses);
+    ASSERT_TRUE(stats.converged) << "trial " << trial;
+    EXPECT_LE(stats.residual, 1e-9) << "trial " << trial;
+    double scale = 0.0;
+    for (const auto& row : s.rows)
+      scale = std::max(
+          scale, row.space.relativeVelocity(s.bodies[row.body_a], s.bodies[row.body_b]).norm());
+    double largest = 0.0;  // impulse scale
+    for (const auto& impulse : impulses) largest = std::max(largest, impulse.normal_impulse);
+    for (std::size_t c = 0; c < s.rows.size(); ++c) {
+      const cr::ContactRow& row = s.rows[c];
+      const cr::ContactImpulse& impulse = impulses[c];
+      const double u_n = normalVelocity(s.bodies, row);
+      const double target = u_n < 0 ? -row.restitution * u_n : 0.0;
+      const Vector3d u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
+      const Vector3d u_t = u - u.dot(row.normal) * row.normal;
+      const double P_n = impulse.normal_impulse, P_t = impulse.friction_impulse.norm();
+      EXPECT_GE(u.dot(row.normal), target - 1e-9 * scale) << "trial " << trial;
+      EXPECT_GE(P_n, 0.0);
+      EXPECT_NEAR(impulse.friction_impulse.dot(row.normal), 0.0, 1e-12);
+      EXPECT_LE(P_t, row.static_friction * P_n + 1e-10 * largest) << "trial " << trial;
+      EXPECT_LE(impulse.friction_impulse.dot(u_t), 1e-9 * scale * (P_n + 1e-10 * largest));
+      if (impulse.sticking) {
+        EXPECT_LE(u_t.norm(), 1e-8 * scale);
+      } else if (P_n > 1e-6 * largest && u_t.norm() > 1e-6 * scale) {
+        // Sliding (so on mu_d): friction on the boundary of the dynamic pyramid.
+        EXPECT_GE(P_t, cr::pyramidFactor() * row.dynamic_friction * P_n - 1e-10 * largest)
+            << "trial " << trial;
+        EXPECT_LE(P_t, row.dynamic_friction * P_n + 1e-10 * largest) << "trial " << trial;
+      }
+    }
+    if (!ground) {
+      expectVecNear(linearMomentum(bodies), linearMomentum(s.bodies), 1e-9);
+      expectVecNear(angularMomentum(bodies), angularMomentum(s.bodies), 1e-9);
+    }
+  }
+}
+
+}  // namespace
