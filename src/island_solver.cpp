@@ -36,6 +36,12 @@ IslandStats solveNewton(SolverMethod method, std::vector<RigidBody>& bodies,
     stats.iterations = exact.pivots;
     stats.residual = exact.residual;
     stats.converged = exact.converged;
+    if (!exact.converged && options.method == SolverMethod::kAuto) {
+      // No complementarity solution (a jammed island; the exact solver applied nothing): under the
+      // automatic choice the iterative solver gives its best effort, reported as not converged.
+      stats = solveNewton(SolverMethod::kIterative, bodies, rows, island, options, impulses);
+      stats.method = "exact_then_iterative";
+    }
   } else {
     const IterativeStats iterative = solveIterative(bodies, rows, island, options, impulses);
     stats.method = "iterative";

@@ -16,7 +16,8 @@ struct RowState {
   double target_u_n = 0.0;                        // -e u_n for approaching contacts, else 0
   double P_n = 0.0;                               // accumulated normal impulse
   Eigen::Vector2d P_t = Eigen::Vector2d::Zero();  // accumulated tangential impulse, (t1, t2)
-  bool sliding = false;
+  double mu = 0.0;  // cone of the current pass: mu_s until the contact is found sliding, then mu_d
+  bool sliding = false;  // the last sweep had to project onto the cone
 };
 
 }  // namespace
@@ -33,6 +34,7 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
     const double u_n =
         row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
     s.target_u_n = u_n < 0.0 ? -row.restitution * u_n : 0.0;
+    s.mu = row.static_friction;
     if (!row.frictionless()) {
       tangentBasis(row.normal, s.t1, s.t2);
       Eigen::Matrix2d k_tt;
@@ -64,12 +66,12 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
         const Eigen::Vector3d u = row.space.relativeVelocity(a, b);
         Eigen::Vector2d P_t = s.P_t - s.inverse_k_tt * Eigen::Vector2d(u.dot(s.t1), u.dot(s.t2));
         const double magnitude = P_t.norm();
-        s.sliding = magnitude > row.static_friction * P_n || !row.slip_direction.isZero(0.0);
+        s.sliding = magnitude > s.mu * P_n || !row.slip_direction.isZero(0.0);
         if (!row.slip_direction.isZero(0.0)) {  // friction fixed against an existing slip
           P_t = -row.dynamic_friction * P_n *
                 Eigen::Vector2d(row.slip_direction.dot(s.t1), row.slip_direction.dot(s.t2));
         } else if (s.sliding) {
-          const double limit = row.dynamic_friction * P_n;
+          const double limit = s.mu * P_n;
           P_t = magnitude > 0.0 ? Eigen::Vector2d(P_t * (limit / magnitude))
                                 : Eigen::Vector2d::Zero();
         }
@@ -83,8 +85,20 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
     }
     stats.residual = largest_impulse > 0.0 ? largest_change / largest_impulse : largest_change;
     if (stats.residual <= options.tolerance) {
-      stats.converged = true;
-      break;
+      // Converged on the current cones. Contacts that slide on their static cone move to the
+      // dynamic one and the sweeps go on from here; done when none does (as in the exact solver).
+      bool moved = false;
+      for (std::size_t i = 0; i < island.size(); ++i) {
+        const ContactRow& row = rows[island[i]];
+        if (state[i].sliding && state[i].mu != row.dynamic_friction) {
+          state[i].mu = row.dynamic_friction;
+          moved = true;
+        }
+      }
+      if (!moved) {
+        stats.converged = true;
+        break;
+      }
     }
   }
   stats.iterations = std::min(stats.iterations, options.max_iterations);

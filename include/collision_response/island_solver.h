@@ -16,7 +16,8 @@ constexpr std::size_t kExactSolverMaxContacts = 12;
 
 /// How one island was solved.
 struct IslandStats {
-  /// "closed_form", "impulse_space", "sequential", "exact", "iterative", "two_phase_exact" or
+  /// "closed_form", "impulse_space", "sequential", "exact", "iterative", "exact_then_iterative"
+  /// (automatic choice, the exact solver found no solution), "two_phase_exact" or
   /// "two_phase_iterative".
   const char* method = "none";
   std::size_t iterations = 0;  ///< pivots, iterations or integration steps (1 for closed forms)

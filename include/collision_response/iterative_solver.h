@@ -19,7 +19,9 @@ struct IterativeStats {
 /// (sequential impulses), over the rows listed in `island`. At convergence each contact's
 /// accumulated impulse P satisfies: P_n >= 0, u'_n >= -e u_n, P_n (u'_n + e u_n) = 0, and Coulomb
 /// friction: sticking (u'_t = 0) where that needs |P_t| <= mu_s P_n, otherwise sliding with
-/// |P_t| = mu_d P_n (the tangential impulse projected radially onto the cone).
+/// |P_t| = mu_d P_n (the tangential impulse projected radially onto the cone). Static and dynamic:
+/// sweeps run on the static cones to convergence; contacts that slide on theirs then move to the
+/// dynamic cone and the sweeps continue, until no contact moves (the exact solver's rule).
 /// Applies the impulses to `bodies` and writes the impulse of each listed row into `impulses`.
 IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
                               const std::vector<int>& island, const SolverOptions& options,
