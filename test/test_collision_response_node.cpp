@@ -9,6 +9,9 @@
 #include <functional>
 #include <limits>
 #include <mutex>
+#include <random>
+
+#include <Eigen/Geometry>
 
 namespace cr = collision_response;
 
@@ -313,6 +316,73 @@ TEST_F(NodeTest, RestingBallGetsContactForces) {
   EXPECT_NEAR(contact.friction_force.x, -2.0 / 7.0, kTolerance);
   EXPECT_EQ(response.islands[0].method, "resting_closed_form");
   EXPECT_NEAR(response.bodies[1].wrench.force.z, -9.81, kTolerance);
+}
+
+// Random off-centre frictional impacts between two free bodies through the service: momentum is
+// conserved, no contact is left approaching, impulses lie in the cone, and under the default
+// (Stronge) law no energy is gained.
+TEST_F(NodeTest, RandomImpactsKeepThePhysicalProperties) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.2, 2.0), fraction(0.0, 1.0);
+  int checked = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    cr::ComputeResponse srv;
+    srv.request.header.frame_id = "world";
+    for (const char* id : {"a", "b"}) {
+      cr::BodyState body = sphere(id, positive(rng), 0.0, unit(rng), unit(rng), unit(rng));
+      const double x = positive(rng), y = positive(rng);
+      body.inertia.ixx = x;
+      body.inertia.iyy = y;
+      body.inertia.izz = std::abs(x - y) + (x + y - std::abs(x - y)) * fraction(rng);
+      Eigen::Quaterniond q(unit(rng), unit(rng), unit(rng), unit(rng));
+      q.normalize();
+      body.pose.orientation.w = q.w();
+      body.pose.orientation.x = q.x();
+      body.pose.orientation.y = q.y();
+      body.pose.orientation.z = q.z();
+      body.twist.linear.x = unit(rng), body.twist.linear.y = unit(rng),
+      body.twist.linear.z = unit(rng);
+      body.twist.angular.x = unit(rng), body.twist.angular.y = unit(rng),
+      body.twist.angular.z = unit(rng);
+      srv.request.bodies.push_back(body);
+    }
+    Eigen::Vector3d n(unit(rng), unit(rng), unit(rng));
+    n.normalize();
+    const double mu_s = 1.2 * fraction(rng);
+    srv.request.contacts = {contact("a", "b", unit(rng), unit(rng), unit(rng), n.x(), n.y(), n.z(),
+                                    fraction(rng), mu_s, mu_s * fraction(rng))};
+    for (const uint8_t law : {cr::SolverOptions::LAW_DEFAULT, cr::SolverOptions::LAW_NEWTON}) {
+      SCOPED_TRACE("trial " + std::to_string(trial) + " law " + std::to_string(law));
+      srv.request.options.law = law;
+      const auto response = call(srv);
+      ASSERT_TRUE(response.success) << response.message;
+      Eigen::Vector3d momentum_change = Eigen::Vector3d::Zero();
+      for (int i = 0; i < 2; ++i) {
+        const auto& before = srv.request.bodies[i].twist.linear;
+        const auto& after = response.bodies[i].twist.linear;
+        momentum_change +=
+            srv.request.bodies[i].inertia.m *
+            Eigen::Vector3d(after.x - before.x, after.y - before.y, after.z - before.z);
+      }
+      EXPECT_NEAR(momentum_change.norm(), 0.0, 1e-9);
+      const auto& impulse = response.impulses[0];
+      const double friction = std::hypot(impulse.friction_impulse.x, impulse.friction_impulse.y,
+                                         impulse.friction_impulse.z);
+      EXPECT_LE(friction, mu_s * impulse.normal_impulse + 1e-9);
+      EXPECT_GE(impulse.normal_impulse, 0.0);
+      if (impulse.normal_velocity_before < 0.0) {
+        const double e = srv.request.contacts[0].restitution;
+        const double floor =
+            law == cr::SolverOptions::LAW_NEWTON ? -e * impulse.normal_velocity_before : 0.0;
+        EXPECT_GE(impulse.normal_velocity_after, floor - 1e-9);
+        if (law == cr::SolverOptions::LAW_DEFAULT) {
+          EXPECT_LE(response.kinetic_energy_after, response.kinetic_energy_before * (1.0 + 1e-10));
+        }
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 200);  // about half the random contacts approach
 }
 
 TEST_F(NodeTest, UnknownFrameIsAClearError) {
