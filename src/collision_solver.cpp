@@ -23,9 +23,11 @@ bool anyApproaching(const std::vector<ContactImpulse>& impulses, const Island& i
 
 }  // namespace
 
-CollisionResult computeResponse(const Scene& scene, const SolverOptions& options,
+CollisionResult computeResponse(const Scene& scene, const SolverOptions& requested,
                                 const RequestLimits& limits) {
-  const std::vector<std::pair<int, int>> contact_bodies = validate(scene, options, limits);
+  const std::vector<std::pair<int, int>> contact_bodies = validate(scene, requested, limits);
+  SolverOptions options = requested;
+  options.deadline = Deadline::in(requested.time_budget);
 
   std::vector<RigidBody> bodies;
   bodies.reserve(scene.bodies.size());

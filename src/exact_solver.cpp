@@ -68,7 +68,7 @@ class IslandLcp {
   std::vector<Contact>& contacts() { return contacts_; }
 
   /// Solves the LCP with the current coefficients and reads the impulses; false if not solved.
-  bool solve(std::size_t& pivots);
+  bool solve(std::size_t& pivots, const Deadline& deadline);
   /// Moves the contacts still on mu_s that slide after the current impulses to mu_d. True if any.
   bool switchSlidingToDynamic();
 
@@ -182,8 +182,10 @@ void IslandLcp::assemble() {
   }
 }
 
-bool IslandLcp::solve(std::size_t& pivots) {
-  const LcpResult lcp = solveLcp(M_, q_);
+bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
+  LcpOptions lcp_options;
+  lcp_options.deadline = deadline;
+  const LcpResult lcp = solveLcp(M_, q_, lcp_options);
   pivots += lcp.pivots;
   if (lcp.status != LcpStatus::kSolved) return false;
   for (Contact& c : contacts_) {
@@ -240,12 +242,12 @@ double pyramidFactor() {
 }
 
 ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
-                      const std::vector<int>& island, const SolverOptions& /*options*/,
+                      const std::vector<int>& island, const SolverOptions& options,
                       std::vector<ContactImpulse>& impulses) {
   ExactStats stats;
   IslandLcp lcp(bodies, rows, island);
   bool solved = false;
-  while (lcp.solve(stats.pivots)) {
+  while (lcp.solve(stats.pivots, options.deadline)) {
     if (!lcp.switchSlidingToDynamic()) {
       solved = true;
       break;

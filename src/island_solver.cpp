@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "collision_response/errors.h"
 #include "collision_response/exact_solver.h"
 #include "collision_response/impulse_space_integrator.h"
 #include "collision_response/iterative_solver.h"
@@ -165,6 +166,13 @@ IslandStats solveIsland(std::vector<RigidBody>& bodies, const std::vector<Contac
       row.space.applyImpulse(a, b, impulses[c].total(row.normal));
     }
     return stats;
+  }
+  if (options.method == SolverMethod::kExact && island.size() > kExactSolverContactLimit) {
+    throw InvalidInput("options.solver", "the exact solver takes islands of at most " +
+                                             std::to_string(kExactSolverContactLimit) +
+                                             " contacts; this one has " +
+                                             std::to_string(island.size()) +
+                                             ": use the iterative or the automatic solver");
   }
   const SolverMethod method = options.method != SolverMethod::kAuto      ? options.method
                               : island.size() <= kExactSolverMaxContacts ? SolverMethod::kExact

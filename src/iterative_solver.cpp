@@ -45,6 +45,7 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
 
   IterativeStats stats;
   for (stats.iterations = 1; stats.iterations <= options.max_iterations; ++stats.iterations) {
+    if (stats.iterations % 16 == 0) options.deadline.check("the iterative solver");
     double largest_change = 0.0;
     double largest_impulse = 0.0;
     for (std::size_t i = 0; i < island.size(); ++i) {

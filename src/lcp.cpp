@@ -118,6 +118,7 @@ LcpResult solveLcp(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, const Lcp
   const double z0_zero = options.tolerance * q.cwiseAbs().maxCoeff();
   for (;;) {
     if (leaving == z0 || T(z0_row, rhs) <= z0_zero) break;
+    if (result.pivots % 16 == 0) options.deadline.check("the exact (Lemke) solver");
     if (result.pivots >= max_pivots) {
       result.status = LcpStatus::kPivotCap;
       return result;

@@ -100,12 +100,17 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
                        "must be a finite number >= 0 (" + describe(options.tolerance) + ")");
   }
   if (!(options.integration_tolerance > 0.0) || !std::isfinite(options.integration_tolerance)) {
-    throw InvalidInput("options.integration_tolerance",
-                       "must be a finite number > 0 (" + describe(options.integration_tolerance) + ")");
+    throw InvalidInput(
+        "options.integration_tolerance",
+        "must be a finite number > 0 (" + describe(options.integration_tolerance) + ")");
   }
   if (!(options.resting_velocity >= 0.0) || !std::isfinite(options.resting_velocity)) {
     throw InvalidInput("options.resting_velocity",
                        "must be a finite number >= 0 (" + describe(options.resting_velocity) + ")");
+  }
+  if (!(options.time_budget > 0.0) || !std::isfinite(options.time_budget)) {
+    throw InvalidInput("options.time_budget",
+                       "must be a finite number > 0 (" + describe(options.time_budget) + ")");
   }
   if (options.max_iterations == 0)
     throw InvalidInput("options.max_iterations", "must be at least 1");

@@ -4,9 +4,11 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "collision_response/collision_solver.h"
+#include "collision_response/errors.h"
 #include "collision_response/island_solver.h"
 
 namespace core = collision_response::core;
@@ -260,6 +262,53 @@ TEST(ImpactLaws, RandomScenesKeepMomentumConeSeparationAndStrongeEnergy) {
     }
   }
   EXPECT_GT(solved, 3000 * 9 * 95 / 100) << "too many scenes did not converge";
+}
+
+}  // namespace
+
+namespace {
+
+// A row of n frictional spheres, the first moving into the rest: one island of n - 1 contacts.
+core::Scene sphereRow(int n) {
+  core::Scene scene;
+  for (int i = 0; i < n; ++i) {
+    core::BodyState ball;
+    ball.id = "ball" + std::to_string(i);
+    ball.mass = 1.0;
+    ball.inertia = Eigen::Matrix3d::Identity() * 0.004;
+    ball.position = {0.2 * i, 0.0, 0.0};
+    scene.bodies.push_back(ball);
+    if (i > 0) {
+      scene.contacts.push_back(contact(scene.bodies[i - 1].id, ball.id, {0.2 * i - 0.1, 0.0, 0.0},
+                                       Eigen::Vector3d::UnitX(), 0.5, 0.3, 0.2));
+    }
+  }
+  scene.bodies[0].linear_velocity = {1.0, 0.0, 0.3};
+  return scene;
+}
+
+// A solve that cannot finish in its time budget is an error, not a hang: a tolerance of 0 is never
+// met and the iteration cap is out of reach, so only the 10 ms budget stops it.
+TEST(SolverLimits, TimeBudgetStopsAnEndlessSolve) {
+  core::SolverOptions o = options(core::ImpactLaw::kNewton, core::SolverMethod::kIterative);
+  o.tolerance = 0.0;
+  o.max_iterations = std::numeric_limits<std::size_t>::max();
+  o.time_budget = 0.01;
+  EXPECT_THROW(core::computeResponse(sphereRow(300), o), core::SolverTimeout);
+}
+
+// The exact solver's dense tableau grows with the square of the contacts: asking it for an island
+// beyond its limit is a clear error on options.solver; the automatic choice iterates instead.
+TEST(SolverLimits, ExactSolverRefusesOversizedIslands) {
+  const core::Scene scene = sphereRow(static_cast<int>(core::kExactSolverContactLimit) + 2);
+  try {
+    core::computeResponse(scene, options(core::ImpactLaw::kNewton, core::SolverMethod::kExact));
+    FAIL() << "expected InvalidInput";
+  } catch (const core::InvalidInput& e) {
+    EXPECT_EQ(e.field(), "options.solver");
+  }
+  const auto result = core::computeResponse(scene, options(core::ImpactLaw::kNewton));
+  EXPECT_EQ(result.islands[0].method, "iterative");
 }
 
 }  // namespace

@@ -23,4 +23,10 @@ class InvalidInput : public CollisionResponseError {
   std::string field_;
 };
 
+/// A solve that ran past its time budget (SolverOptions::time_budget); nothing is returned.
+class SolverTimeout : public CollisionResponseError {
+ public:
+  using CollisionResponseError::CollisionResponseError;
+};
+
 }  // namespace collision_response::core

@@ -13,6 +13,9 @@ namespace collision_response::core {
 /// Largest island that SolverMethod::kAuto sends to the exact (pivoting) solver; larger ones
 /// iterate.
 constexpr std::size_t kExactSolverMaxContacts = 12;
+/// Largest island the exact solver takes when asked for explicitly (its dense tableau grows as the
+/// square of the contacts); larger ones are an InvalidInput on "options.solver".
+constexpr std::size_t kExactSolverContactLimit = 128;
 
 /// How one island was solved.
 struct IslandStats {

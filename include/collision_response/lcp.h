@@ -1,7 +1,9 @@
 #pragma once
 
 #include <Eigen/Core>
+
 #include <cstddef>
+#include "collision_response/deadline.h"
 
 namespace collision_response::core {
 
@@ -18,6 +20,8 @@ struct LcpOptions {
   /// Relative tolerance (dimensionless): a tableau entry below tolerance x the largest entry of
   /// its column is not a pivot candidate, and ratios within tolerance x their scale are ties.
   double tolerance = 1e-12;
+  /// Checked every few pivots; throws SolverTimeout once expired.
+  Deadline deadline;
 };
 
 struct LcpResult {

@@ -3,6 +3,8 @@
 #include <cstddef>
 #include <string>
 
+#include "collision_response/deadline.h"
+
 namespace collision_response::core {
 
 /// Impact law relating post- to pre-impact velocities at a contact.
@@ -50,6 +52,10 @@ struct SolverOptions {
   /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
   /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.
   double resting_velocity = 1e-6;
+  /// Wall time one computeResponse() may spend solving [s]; past it, it throws SolverTimeout.
+  double time_budget = 1.0;
+  /// Set by computeResponse() from time_budget; callers of the low-level solvers may set it.
+  Deadline deadline;
 };
 
 /// Largest request accepted; larger ones are rejected before any work is done.

@@ -15,13 +15,13 @@ namespace collision_response {
 namespace {
 
 template <typename T>
-T requireParam(const ros::NodeHandle& node, const std::string& name, T value) {
+T readParam(const ros::NodeHandle& node, const std::string& name, T value) {
   node.param(name, value, value);
   return value;
 }
 
 std::size_t positiveSize(const ros::NodeHandle& node, const std::string& name, int fallback) {
-  const int value = requireParam(node, name, fallback);
+  const int value = readParam(node, name, fallback);
   if (value <= 0)
     throw std::invalid_argument("~" + name + " must be positive, got " + std::to_string(value));
   return static_cast<std::size_t>(value);
@@ -33,36 +33,39 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
     : tf_listener_(tf_buffer_, node) {
   const core::SolverOptions built_in;
   // Default impact law for requests whose options.law is 0.
-  const std::string law =
-      requireParam<std::string>(private_node, "law", core::toString(built_in.law));
+  const std::string law = readParam<std::string>(private_node, "law", core::toString(built_in.law));
   if (!core::fromString(law, default_options_.law)) {
     throw std::invalid_argument(
         "~law must be 'stronge', 'poisson', 'newton' or 'seed_one_pass', got '" + law + "'");
   }
   // Default method for islands of several contacts.
   const std::string solver =
-      requireParam<std::string>(private_node, "solver", core::toString(built_in.method));
+      readParam<std::string>(private_node, "solver", core::toString(built_in.method));
   if (!core::fromString(solver, default_options_.method)) {
     throw std::invalid_argument("~solver must be 'auto', 'exact' or 'iterative', got '" + solver +
                                 "'");
   }
   // Relative tolerance and iteration cap of the iterative solver.
-  default_options_.tolerance = requireParam(private_node, "tolerance", built_in.tolerance);
+  default_options_.tolerance = readParam(private_node, "tolerance", built_in.tolerance);
   if (!(default_options_.tolerance >= 0.0)) throw std::invalid_argument("~tolerance must be >= 0");
   default_options_.integration_tolerance =
-      requireParam(private_node, "integration_tolerance", built_in.integration_tolerance);
+      readParam(private_node, "integration_tolerance", built_in.integration_tolerance);
   if (!(default_options_.integration_tolerance > 0.0)) {
     throw std::invalid_argument("~integration_tolerance must be > 0");
   }
   default_options_.max_iterations =
       positiveSize(private_node, "max_iterations", static_cast<int>(built_in.max_iterations));
+  // Wall time one request may spend solving [s].
+  default_options_.time_budget = readParam(private_node, "time_budget", built_in.time_budget);
+  if (!(default_options_.time_budget > 0.0))
+    throw std::invalid_argument("~time_budget must be > 0");
   // Request size limits: larger requests are rejected before any work.
   limits_.max_bodies =
       positiveSize(private_node, "max_bodies", static_cast<int>(limits_.max_bodies));
   limits_.max_contacts =
       positiveSize(private_node, "max_contacts", static_cast<int>(limits_.max_contacts));
   // How long a request may wait for a transform [s].
-  const double tf_timeout = requireParam(private_node, "tf_timeout", 0.1);
+  const double tf_timeout = readParam(private_node, "tf_timeout", 0.1);
   if (!(tf_timeout >= 0.0)) throw std::invalid_argument("~tf_timeout must be >= 0");
   tf_timeout_ = ros::Duration(tf_timeout);
 
@@ -139,6 +142,9 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
   } catch (const core::InvalidInput& e) {
     response.message = e.what();
     ROS_DEBUG("collision_response: rejected request: %s", e.what());
+  } catch (const core::SolverTimeout& e) {
+    response.message = e.what();
+    ROS_WARN("collision_response: %s", e.what());
   } catch (const std::exception& e) {
     response.message = std::string("internal error: ") + e.what();
     ROS_ERROR("collision_response: %s", response.message.c_str());

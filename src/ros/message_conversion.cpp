@@ -141,6 +141,7 @@ core::SolverOptions fromMsg(const SolverOptions& msg, const core::SolverOptions&
   if (msg.max_iterations != 0) options.max_iterations = msg.max_iterations;
   if (msg.integration_tolerance != 0.0) options.integration_tolerance = msg.integration_tolerance;
   if (msg.resting_velocity != 0.0) options.resting_velocity = msg.resting_velocity;
+  if (msg.time_budget != 0.0) options.time_budget = msg.time_budget;
   return options;
 }
 

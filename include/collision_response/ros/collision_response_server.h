@@ -21,6 +21,7 @@ namespace collision_response {
 ///   ~integration_tolerance  relative error of the impulse-space integration
 ///   ~max_bodies      larger requests are rejected
 ///   ~max_contacts    larger requests are rejected
+///   ~time_budget     [s] wall time one request may spend solving; past it the call fails
 ///   ~tf_timeout      [s] how long to wait for a transform
 class CollisionResponseServer {
  public:
