@@ -24,14 +24,17 @@ using Eigen::Index;
 // tolerance (scale: the largest |ratio| among them).
 void keepMinimumRatios(const Eigen::MatrixXd& T, Index column, const Eigen::VectorXd& a,
                        double tolerance, std::vector<Index>& rows) {
+  // Ties are judged against the size of the minimum and of the column's entries, never against the
+  // largest ratio (a tiny a_i makes that huge and would let a clearly larger ratio tie).
   double minimum = INFINITY;
-  double scale = 0.0;
+  double column_scale = 0.0;
+  double a_scale = 0.0;
   for (Index i : rows) {
-    const double ratio = T(i, column) / a(i);
-    minimum = std::min(minimum, ratio);
-    scale = std::max(scale, std::abs(ratio));
+    minimum = std::min(minimum, T(i, column) / a(i));
+    column_scale = std::max(column_scale, std::abs(T(i, column)));
+    a_scale = std::max(a_scale, a(i));
   }
-  const double limit = minimum + tolerance * scale;
+  const double limit = minimum + tolerance * (std::abs(minimum) + column_scale / a_scale);
   rows.erase(std::remove_if(rows.begin(), rows.end(),
                             [&](Index i) { return T(i, column) / a(i) > limit; }),
              rows.end());
@@ -116,8 +119,9 @@ LcpResult solveLcp(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, const Lcp
   // also stop once z0 is at round-off level (degenerate steps with z0 = 0 could otherwise run on
   // into a spurious ray).
   const double z0_zero = options.tolerance * q.cwiseAbs().maxCoeff();
+  Index z0_at = z0_row;  // the row z0 is basic in, while it is
   for (;;) {
-    if (leaving == z0 || T(z0_row, rhs) <= z0_zero) break;
+    if (leaving == z0 || T(z0_at, rhs) <= z0_zero) break;
     if (result.pivots % 16 == 0) options.deadline.check("the exact (Lemke) solver");
     if (result.pivots >= max_pivots) {
       result.status = LcpStatus::kPivotCap;
@@ -131,12 +135,29 @@ LcpResult solveLcp(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, const Lcp
       return result;
     }
     leaving = pivot(r, entering);
+    if (r == z0_at) z0_at = -1;
+    for (Index i = 0; z0_at < 0 && i < n; ++i) {
+      if (basis[i] == z0) z0_at = i;
+    }
+    if (z0_at < 0) break;  // z0 left the basis: z0 = 0
   }
 
-  result.status = LcpStatus::kSolved;
   for (Index i = 0; i < n; ++i) {
     if (basis[i] >= n && basis[i] < 2 * n) result.z(basis[i] - n) = std::max(T(i, rhs), 0.0);
   }
+  // Trust the answer, not the path: z >= 0, w = M z + q >= 0 and z.w = 0 to round-off.
+  const Eigen::VectorXd w = M * result.z + q;
+  const double scale = std::max(q.cwiseAbs().maxCoeff(), (M * result.z).cwiseAbs().maxCoeff());
+  const double slack = std::sqrt(options.tolerance) * scale;
+  const bool feasible = w.minCoeff() >= -slack;
+  const bool complementary = (result.z.cwiseProduct(w)).cwiseAbs().maxCoeff() <=
+                             slack * std::max(result.z.cwiseAbs().maxCoeff(), 1e-300);
+  if (!feasible || !complementary) {
+    result.status = LcpStatus::kInaccurate;
+    result.z.setZero();
+    return result;
+  }
+  result.status = LcpStatus::kSolved;
   return result;
 }
 
@@ -148,6 +169,8 @@ const char* toString(LcpStatus status) {
       return "ray_termination";
     case LcpStatus::kPivotCap:
       return "pivot_cap";
+    case LcpStatus::kInaccurate:
+      return "inaccurate";
   }
   return "unknown";
 }

@@ -12,6 +12,7 @@ enum class LcpStatus {
   kSolved,          ///< z solves the LCP (to round-off)
   kRayTermination,  ///< Lemke's path left on an unbounded ray: no solution found
   kPivotCap,        ///< the pivot cap was reached first
+  kInaccurate,      ///< the path ended but its z fails the check w = M z + q >= 0, z.w = 0
 };
 
 struct LcpOptions {
