@@ -31,6 +31,14 @@ void requireFinite(const Eigen::Vector3d& v, const std::string& field) {
   for (int i = 0; i < 3; ++i) requireFinite(v[i], field + kAxes[i]);
 }
 
+void requireAtMost(const Eigen::Vector3d& v, double limit, const char* unit,
+                   const std::string& field) {
+  if (v.norm() > limit) {
+    throw InvalidInput(field, "magnitude " + describe(v.norm()) + " " + unit +
+                                  " exceeds the accepted " + describe(limit) + " " + unit);
+  }
+}
+
 void validateInertia(const Eigen::Matrix3d& inertia, const std::string& field) {
   if (!inertia.isApprox(inertia.transpose(), 1e-12)) throw InvalidInput(field, "is not symmetric");
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia, Eigen::EigenvaluesOnly);
@@ -40,6 +48,12 @@ void validateInertia(const Eigen::Matrix3d& inertia, const std::string& field) {
     throw InvalidInput(field, "is not positive definite (principal moments " +
                                   describe(moments[0]) + ", " + describe(moments[1]) + ", " +
                                   describe(moments[2]) + ")");
+  }
+  if (moments[0] < MagnitudeLimits::kInertia[0] || moments[2] > MagnitudeLimits::kInertia[1]) {
+    throw InvalidInput(field, "principal moments " + describe(moments[0]) + " .. " +
+                                  describe(moments[2]) + " kg m^2 leave the accepted range [" +
+                                  describe(MagnitudeLimits::kInertia[0]) + ", " +
+                                  describe(MagnitudeLimits::kInertia[1]) + "]");
   }
   if (moments[0] + moments[1] < moments[2] * (1.0 - 1e-9)) {
     throw InvalidInput(field, "violates the triangle inequality of principal moments (" +
@@ -69,6 +83,19 @@ void validateBody(const BodyState& body, const std::string& field) {
 
   if (body.mass < 0.0)
     throw InvalidInput(field + ".inertia.m", "is negative (" + describe(body.mass) + " kg)");
+  if (body.mass != 0.0 &&
+      (body.mass < MagnitudeLimits::kMass[0] || body.mass > MagnitudeLimits::kMass[1])) {
+    throw InvalidInput(field + ".inertia.m",
+                       describe(body.mass) + " kg leaves the accepted range [" +
+                           describe(MagnitudeLimits::kMass[0]) + ", " +
+                           describe(MagnitudeLimits::kMass[1]) + "] (0 = immovable)");
+  }
+  requireAtMost(body.com, MagnitudeLimits::kLength, "m", field + ".inertia.com");
+  requireAtMost(body.position, MagnitudeLimits::kLength, "m", field + ".pose.position");
+  requireAtMost(body.linear_velocity, MagnitudeLimits::kSpeed, "m/s", field + ".twist.linear");
+  requireAtMost(body.angular_velocity, MagnitudeLimits::kSpeed, "rad/s", field + ".twist.angular");
+  requireAtMost(body.force, MagnitudeLimits::kForce, "N", field + ".wrench.force");
+  requireAtMost(body.torque, MagnitudeLimits::kForce, "N m", field + ".wrench.torque");
   const double q_norm = q.norm();
   if (q_norm == 0.0) throw InvalidInput(field + ".pose.orientation", "is a zero quaternion");
   if (std::abs(q_norm - 1.0) > kUnitTolerance) {
@@ -108,9 +135,9 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
     throw InvalidInput("options.resting_velocity",
                        "must be a finite number >= 0 (" + describe(options.resting_velocity) + ")");
   }
-  if (!(options.time_budget > 0.0) || !std::isfinite(options.time_budget)) {
+  if (!(options.time_budget > 0.0) || !(options.time_budget <= 3600.0)) {
     throw InvalidInput("options.time_budget",
-                       "must be a finite number > 0 (" + describe(options.time_budget) + ")");
+                       "must lie in (0, 3600] s (" + describe(options.time_budget) + ")");
   }
   if (options.max_iterations == 0)
     throw InvalidInput("options.max_iterations", "must be at least 1");
@@ -152,6 +179,7 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
     requireFinite(contact.restitution, field + ".restitution");
     requireFinite(contact.static_friction, field + ".static_friction");
     requireFinite(contact.dynamic_friction, field + ".dynamic_friction");
+    requireAtMost(contact.point, MagnitudeLimits::kLength, "m", field + ".point");
     const double n_norm = contact.normal.norm();
     if (n_norm == 0.0) throw InvalidInput(field + ".normal", "is a zero vector");
     if (std::abs(n_norm - 1.0) > kUnitTolerance) {

@@ -77,7 +77,7 @@ class NodeTest : public ::testing::Test {
   void SetUp() override {
     ASSERT_TRUE(ros::service::waitForService(kService, ros::Duration(20.0)))
         << "node did not come up";
-    client_ = node_.serviceClient<cr::ComputeResponse>(kService);
+    client_ = node_.serviceClient<cr::ComputeResponse>(kService, true);  // persistent, as users do
   }
 
   cr::ComputeResponse::Response call(cr::ComputeResponse srv) {

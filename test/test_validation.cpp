@@ -409,3 +409,40 @@ TEST(Validation, FirstOffendingFieldIsNamed) {
 }
 
 }  // namespace
+
+namespace {
+
+// Magnitudes beyond MagnitudeLimits are rejected, naming the field (the fuzzer's overflow inputs:
+// a 1e-300 kg ball, a contact 1e80 m from the centre, a ball at 2e160 m/s; and a time budget whose
+// conversion to std::chrono would overflow).
+TEST(Validation, MagnitudesOutsideThePhysicalRangeAreRejected) {
+  const std::vector<std::pair<std::function<void(cr::Scene&)>, std::string>> cases = {
+      {[](cr::Scene& s) { s.bodies[1].mass = 1e-300; }, "bodies[1].inertia.m"},
+      {[](cr::Scene& s) { s.bodies[1].mass = 1e20; }, "bodies[1].inertia.m"},
+      {[](cr::Scene& s) { s.bodies[1].inertia = Matrix3d::Identity() * 1e-40; },
+       "bodies[1].inertia"},
+      {[](cr::Scene& s) { s.bodies[2].position.x() = 1e80; }, "bodies[2].pose.position"},
+      {[](cr::Scene& s) { s.bodies[1].linear_velocity.y() = -2.2e160; }, "bodies[1].twist.linear"},
+      {[](cr::Scene& s) { s.bodies[2].angular_velocity.z() = 1e9; }, "bodies[2].twist.angular"},
+      {[](cr::Scene& s) { s.bodies[2].force.z() = 1e20; }, "bodies[2].wrench.force"},
+      {[](cr::Scene& s) { s.contacts[1].point.x() = 1e80; }, "contacts[1].point"},
+  };
+  for (const auto& [mutate, field] : cases) {
+    SCOPED_TRACE(field);
+    cr::Scene s = validScene();
+    mutate(s);
+    expectInvalid(s, field);
+  }
+  // The stress suite's extremes stay inside: 1 g, 1e9 kg, 1e4 m/s, 1e5 m.
+  cr::Scene s = validScene();
+  s.bodies[1].mass = 1e-3;
+  s.bodies[2].mass = 1e9;
+  s.bodies[2].inertia *= 1e9;
+  s.bodies[1].linear_velocity.y() = -1e4;
+  EXPECT_NO_THROW(cr::validate(s, {}, {}));
+  cr::SolverOptions huge_budget;
+  huge_budget.time_budget = 1e77;
+  expectInvalid(validScene(), "options.time_budget", huge_budget);
+}
+
+}  // namespace

@@ -52,7 +52,8 @@ struct SolverOptions {
   /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
   /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.
   double resting_velocity = 1e-6;
-  /// Wall time one computeResponse() may spend solving [s]; past it, it throws SolverTimeout.
+  /// Wall time one computeResponse() may spend solving [s], in (0, 3600]; past it, it throws
+  /// SolverTimeout.
   double time_budget = 1.0;
   /// Set by computeResponse() from time_budget; callers of the low-level solvers may set it.
   Deadline deadline;

@@ -12,6 +12,17 @@ namespace collision_response::core {
 /// normalised, beyond it the request is rejected.
 constexpr double kUnitTolerance = 1e-3;
 
+/// Accepted magnitudes; beyond them a request is rejected, naming the field. Physical scenes stay
+/// many orders of magnitude inside (1 g against 1000 t, 1e4 m/s, 1e5 m from the origin), and every
+/// product the solvers form (r^2 / I in K and its 3x3 determinant, m v^2) stays far from overflow.
+struct MagnitudeLimits {
+  static constexpr double kMass[2] = {1e-15, 1e15};     ///< [kg], movable bodies (0 = immovable)
+  static constexpr double kInertia[2] = {1e-30, 1e30};  ///< [kg m^2], principal moments
+  static constexpr double kLength = 1e7;                ///< [m], |position|, |com|, |point|
+  static constexpr double kSpeed = 1e7;                 ///< [m/s] and [rad/s]
+  static constexpr double kForce = 1e18;                ///< [N] and [N m]
+};
+
 /// Throws InvalidInput ("bodies" or "contacts") if a request of this size exceeds the limits;
 /// cheap, so a server can call it before converting anything.
 void checkSize(std::size_t body_count, std::size_t contact_count, const RequestLimits& limits);

@@ -166,6 +166,11 @@ inline core::SolverOptions decodeOptions(ByteReader& in) {
   const std::uint8_t rest = in.byte();
   static const double kResting[] = {1e-6, 0.0, 1e-3, 0.1, 1.0, 1e-12};
   options.resting_velocity = (wild && rest >= 0xf0) ? in.raw() : kResting[rest % 6];
+
+  // A budget well above any input's solve time under the sanitizers (and below libFuzzer's
+  // -timeout=10), so SolverTimeout does not depend on the machine; wild: any value (validation).
+  const std::uint8_t budget = in.byte();
+  options.time_budget = (wild && budget >= 0xf0) ? in.raw() : 5.0;
   return options;
 }
 
@@ -191,7 +196,7 @@ inline Eigen::Matrix3d saneInertia(ByteReader& in) {
                           axes[0] * axes[0] + axes[1] * axes[1]);
   moments *= mass / 5.0;
   if (shape % 8 == 7) moments = Eigen::Vector3d(1.0, 1.0, 2.0) * moments[0];  // flat disk limit
-  if (shape % 8 == 6) moments = Eigen::Vector3d::Constant(moments[0]);       // sphere
+  if (shape % 8 == 6) moments = Eigen::Vector3d::Constant(moments[0]);        // sphere
   const Eigen::Matrix3d rotation = in.unitQuaternion().toRotationMatrix();
   Eigen::Matrix3d inertia = rotation * moments.asDiagonal() * rotation.transpose();
   inertia = 0.5 * (inertia + inertia.transpose()).eval();
@@ -329,19 +334,54 @@ inline DecodedRequest decodeRequest(const std::uint8_t* data, std::size_t size) 
 
 /// What running a request gave.
 struct Outcome {
-  bool solved = false;   ///< computeResponse returned (otherwise InvalidInput, or a bug)
-  std::string invalid;   ///< the InvalidInput message, if any
-  std::string bug;       ///< non-empty: an unexpected exception or a broken invariant
+  bool solved = false;  ///< computeResponse returned (otherwise InvalidInput, a timeout or a bug)
+  std::string invalid;  ///< the InvalidInput message, if any
+  std::string timeout;  ///< the SolverTimeout message, if any (a slow input, not a wrong one)
+  std::string bug;      ///< non-empty: an unexpected exception or a broken invariant
+  bool non_finite = false;  ///< the bug is a non-finite number in a successful answer
   core::CollisionResult result;
 };
 
+/// True if some number of the scene is finite but huge (|x| > bound) or tiny (0 < |x| < 1 /
+/// bound): inputs on which intermediate products can overflow. The fuzz target can be told to
+/// excuse non-finite answers to such inputs (FUZZ_SKIP_EXTREME=1) so that it looks further.
+inline bool extremeMagnitudes(const DecodedRequest& request, double bound = 1e20) {
+  const auto extreme = [bound](double x) {
+    const double m = std::abs(x);
+    return std::isfinite(m) && (m > bound || (m != 0.0 && m < 1.0 / bound));
+  };
+  const auto any = [&](const auto& matrix) {
+    for (Eigen::Index i = 0; i < matrix.size(); ++i) {
+      if (extreme(matrix.data()[i])) return true;
+    }
+    return false;
+  };
+  for (const core::BodyState& b : request.scene.bodies) {
+    if (extreme(b.mass) || any(b.com) || any(b.inertia) || any(b.position) ||
+        any(b.orientation.coeffs()) || any(b.linear_velocity) || any(b.angular_velocity) ||
+        any(b.force) || any(b.torque))
+      return true;
+  }
+  for (const core::Contact& c : request.scene.contacts) {
+    if (any(c.point) || any(c.normal) || extreme(c.restitution) || extreme(c.static_friction) ||
+        extreme(c.dynamic_friction))
+      return true;
+  }
+  return false;
+}
+
 namespace detail {
 
-inline bool finite(const Eigen::Vector3d& v) { return v.allFinite(); }
+inline bool finite(const Eigen::Vector3d& v) {
+  return v.allFinite();
+}
 
-/// Cheap invariants of a successful answer; returns the first one broken, or "".
-inline std::string checkResult(const DecodedRequest& request, const core::CollisionResult& r) {
+/// Cheap invariants of a successful answer; returns the first one broken, or "". Structural ones
+/// first; non_finite says the one returned is a non-finite number.
+inline std::string checkResult(const DecodedRequest& request, const core::CollisionResult& r,
+                               bool& non_finite) {
   const core::Scene& scene = request.scene;
+  non_finite = false;
   std::ostringstream out;
   out.precision(17);
   if (r.bodies.size() != scene.bodies.size()) {
@@ -355,11 +395,6 @@ inline std::string checkResult(const DecodedRequest& request, const core::Collis
   for (std::size_t i = 0; i < r.bodies.size(); ++i) {
     const core::BodyState& before = scene.bodies[i];
     const core::BodyState& after = r.bodies[i];
-    if (!finite(after.linear_velocity) || !finite(after.angular_velocity)) {
-      out << "bodies[" << i << "]: non-finite velocity after: linear "
-          << after.linear_velocity.transpose() << ", angular " << after.angular_velocity.transpose();
-      return out.str();
-    }
     if (after.id != before.id || after.mass != before.mass) {
       out << "bodies[" << i << "]: id or mass changed";
       return out.str();
@@ -369,24 +404,6 @@ inline std::string checkResult(const DecodedRequest& request, const core::Collis
       out << "bodies[" << i << "]: immovable body's velocity changed";
       return out.str();
     }
-  }
-  for (std::size_t c = 0; c < r.impulses.size(); ++c) {
-    const core::ContactImpulse& p = r.impulses[c];
-    if (!std::isfinite(p.normal_impulse) || !finite(p.friction_impulse) ||
-        !std::isfinite(p.normal_velocity_before) || !std::isfinite(p.normal_velocity_after) ||
-        !std::isfinite(p.normal_force) || !finite(p.friction_force)) {
-      out << "impulses[" << c << "]: non-finite value (normal_impulse " << p.normal_impulse
-          << ", friction_impulse " << p.friction_impulse.transpose() << ", u_n before "
-          << p.normal_velocity_before << ", after " << p.normal_velocity_after
-          << ", normal_force " << p.normal_force << ", friction_force "
-          << p.friction_force.transpose() << ")";
-      return out.str();
-    }
-  }
-  if (!std::isfinite(r.kinetic_energy_before) || !std::isfinite(r.kinetic_energy_after)) {
-    out << "non-finite kinetic energy (" << r.kinetic_energy_before << " -> "
-        << r.kinetic_energy_after << ")";
-    return out.str();
   }
   // Islands partition the contacts.
   std::vector<int> seen(scene.contacts.size(), 0);
@@ -398,10 +415,6 @@ inline std::string checkResult(const DecodedRequest& request, const core::Collis
       }
       ++seen[c];
     }
-    if (!std::isfinite(r.islands[k].residual) && r.islands[k].converged) {
-      out << "islands[" << k << "]: converged with a non-finite residual";
-      return out.str();
-    }
   }
   for (std::size_t c = 0; c < seen.size(); ++c) {
     if (seen[c] != 1) {
@@ -409,6 +422,41 @@ inline std::string checkResult(const DecodedRequest& request, const core::Collis
       return out.str();
     }
   }
+
+  non_finite = true;
+  for (std::size_t i = 0; i < r.bodies.size(); ++i) {
+    const core::BodyState& after = r.bodies[i];
+    if (!finite(after.linear_velocity) || !finite(after.angular_velocity)) {
+      out << "bodies[" << i << "]: non-finite velocity after: linear "
+          << after.linear_velocity.transpose() << ", angular "
+          << after.angular_velocity.transpose();
+      return out.str();
+    }
+  }
+  for (std::size_t c = 0; c < r.impulses.size(); ++c) {
+    const core::ContactImpulse& p = r.impulses[c];
+    if (!std::isfinite(p.normal_impulse) || !finite(p.friction_impulse) ||
+        !std::isfinite(p.normal_velocity_before) || !std::isfinite(p.normal_velocity_after) ||
+        !std::isfinite(p.normal_force) || !finite(p.friction_force)) {
+      out << "impulses[" << c << "]: non-finite value (normal_impulse " << p.normal_impulse
+          << ", friction_impulse " << p.friction_impulse.transpose() << ", u_n before "
+          << p.normal_velocity_before << ", after " << p.normal_velocity_after << ", normal_force "
+          << p.normal_force << ", friction_force " << p.friction_force.transpose() << ")";
+      return out.str();
+    }
+  }
+  if (!std::isfinite(r.kinetic_energy_before) || !std::isfinite(r.kinetic_energy_after)) {
+    out << "non-finite kinetic energy (" << r.kinetic_energy_before << " -> "
+        << r.kinetic_energy_after << ")";
+    return out.str();
+  }
+  for (std::size_t k = 0; k < r.islands.size(); ++k) {
+    if (!std::isfinite(r.islands[k].residual) && r.islands[k].converged) {
+      out << "islands[" << k << "]: converged with a non-finite residual";
+      return out.str();
+    }
+  }
+  non_finite = false;
   return "";
 }
 
@@ -424,6 +472,9 @@ inline Outcome run(const DecodedRequest& request) {
   } catch (const core::InvalidInput& error) {
     outcome.invalid = error.what();
     return outcome;
+  } catch (const core::SolverTimeout& error) {
+    outcome.timeout = error.what();
+    return outcome;
   } catch (const std::exception& error) {
     outcome.bug = std::string("unexpected exception: ") + error.what();
     return outcome;
@@ -431,7 +482,7 @@ inline Outcome run(const DecodedRequest& request) {
     outcome.bug = "unexpected exception of unknown type";
     return outcome;
   }
-  outcome.bug = detail::checkResult(request, outcome.result);
+  outcome.bug = detail::checkResult(request, outcome.result, outcome.non_finite);
   return outcome;
 }
 
