@@ -11,7 +11,10 @@
 #include "collision_response/errors.h"
 #include "collision_response/island_solver.h"
 
+#include "scene_builders.h"
+
 namespace core = collision_response::core;
+using collision_response::testing::contact;
 
 namespace {
 
@@ -19,20 +22,6 @@ core::BodyState ground() {
   core::BodyState body;
   body.id = "ground";
   return body;
-}
-
-core::Contact contact(const std::string& a, const std::string& b, const Eigen::Vector3d& point,
-                      const Eigen::Vector3d& normal, double e, double mu_s = 0.0,
-                      double mu_d = 0.0) {
-  core::Contact c;
-  c.body_a = a;
-  c.body_b = b;
-  c.point = point;
-  c.normal = normal;
-  c.restitution = e;
-  c.static_friction = mu_s;
-  c.dynamic_friction = mu_d;
-  return c;
 }
 
 core::SolverOptions options(core::ImpactLaw law,

@@ -19,7 +19,10 @@
 #include "collision_response/scene.h"
 #include "collision_response/solver_options.h"
 
+#include "scene_builders.h"
+
 namespace cr = collision_response::core;
+using namespace collision_response::testing;  // NOLINT: shared builders
 using Eigen::Matrix3d;
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
@@ -29,22 +32,6 @@ namespace {
 constexpr double kTol = 1e-9;
 constexpr double kPi = 3.14159265358979323846;
 
-void expectVecNear(const Vector3d& got, const Vector3d& want, double tol) {
-  for (int i = 0; i < 3; ++i) EXPECT_NEAR(got[i], want[i], tol) << "component " << i;
-}
-
-cr::BodyState sphere(const std::string& id, double m, double radius, const Vector3d& position,
-                     const Vector3d& v, const Vector3d& w = Vector3d::Zero()) {
-  cr::BodyState b;
-  b.id = id;
-  b.mass = m;
-  b.inertia = Matrix3d::Identity() * (0.4 * m * radius * radius);
-  b.position = position;
-  b.linear_velocity = v;
-  b.angular_velocity = w;
-  return b;
-}
-
 cr::BodyState fixed(const std::string& id) {
   cr::BodyState b;
   b.id = id;
@@ -52,29 +39,6 @@ cr::BodyState fixed(const std::string& id) {
   return b;
 }
 
-cr::Contact contact(const std::string& a, const std::string& b, const Vector3d& p,
-                    const Vector3d& n, double e, double mu_s = 0.0, double mu_d = 0.0) {
-  cr::Contact c;
-  c.body_a = a;
-  c.body_b = b;
-  c.point = p;
-  c.normal = n;
-  c.restitution = e;
-  c.static_friction = mu_s;
-  c.dynamic_friction = mu_d;
-  return c;
-}
-
-Matrix3d worldInertia(const cr::BodyState& b) {
-  const Matrix3d R = b.orientation.normalized().toRotationMatrix();
-  return R * b.inertia * R.transpose();
-}
-Vector3d worldCom(const cr::BodyState& b) {
-  return b.position + b.orientation.normalized().toRotationMatrix() * b.com;
-}
-Vector3d pointVelocity(const cr::BodyState& b, const Vector3d& p) {
-  return b.linear_velocity + b.angular_velocity.cross(p - worldCom(b));
-}
 const cr::BodyState& byId(const std::vector<cr::BodyState>& bodies, const std::string& id) {
   for (const auto& b : bodies) {
     if (b.id == id) return b;
@@ -85,37 +49,8 @@ Vector3d relVel(const std::vector<cr::BodyState>& bodies, const cr::Contact& c) 
   return pointVelocity(byId(bodies, c.body_b), c.point) -
          pointVelocity(byId(bodies, c.body_a), c.point);
 }
-Vector3d linearMomentum(const std::vector<cr::BodyState>& bodies) {
-  Vector3d p = Vector3d::Zero();
-  for (const auto& b : bodies) p += b.mass * b.linear_velocity;
-  return p;
-}
-Vector3d angularMomentum(const std::vector<cr::BodyState>& bodies, const Vector3d& o) {
-  Vector3d h = Vector3d::Zero();
-  for (const auto& b : bodies) {
-    if (b.mass == 0.0) continue;
-    h += b.mass * (worldCom(b) - o).cross(b.linear_velocity) + worldInertia(b) * b.angular_velocity;
-  }
-  return h;
-}
-
-struct Random {
-  std::mt19937 gen;
-  explicit Random(unsigned seed) : gen(seed) {}
-  double uniform(double lo, double hi) {
-    return std::uniform_real_distribution<double>(lo, hi)(gen);
-  }
-  Vector3d vec(double lo, double hi) {
-    return Vector3d(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi));
-  }
-  Vector3d unit() {
-    std::normal_distribution<double> g;
-    return Vector3d(g(gen), g(gen), g(gen)).normalized();
-  }
-  Quaterniond rotation() {
-    std::normal_distribution<double> g;
-    return Quaterniond(g(gen), g(gen), g(gen), g(gen)).normalized();
-  }
+struct Random : collision_response::testing::RandomSource {
+  using RandomSource::RandomSource;
   cr::BodyState body(const std::string& id) {
     cr::BodyState b;
     b.id = id;

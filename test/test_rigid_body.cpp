@@ -12,7 +12,10 @@
 #include "collision_response/contact_space.h"
 #include "collision_response/rigid_body.h"
 
+#include "scene_builders.h"
+
 namespace cr = collision_response::core;
+using namespace collision_response::testing;  // NOLINT: shared builders
 using Eigen::Matrix3d;
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
@@ -22,9 +25,6 @@ namespace {
 constexpr double kTol = 1e-9;
 constexpr double kPi = 3.14159265358979323846;
 
-void expectVecNear(const Vector3d& got, const Vector3d& want, double tol) {
-  for (int i = 0; i < 3; ++i) EXPECT_NEAR(got[i], want[i], tol) << "component " << i;
-}
 void expectMatNear(const Matrix3d& got, const Matrix3d& want, double tol) {
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c)
@@ -44,23 +44,8 @@ cr::BodyState box(double m, const Vector3d& moments) {
   return b;
 }
 
-struct Random {
-  std::mt19937 gen;
-  explicit Random(unsigned seed) : gen(seed) {}
-  double uniform(double lo, double hi) {
-    return std::uniform_real_distribution<double>(lo, hi)(gen);
-  }
-  Vector3d vec(double lo, double hi) {
-    return Vector3d(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi));
-  }
-  Vector3d unit() {
-    std::normal_distribution<double> g;
-    return Vector3d(g(gen), g(gen), g(gen)).normalized();
-  }
-  Quaterniond rotation() {
-    std::normal_distribution<double> g;
-    return Quaterniond(g(gen), g(gen), g(gen), g(gen)).normalized();
-  }
+struct Random : collision_response::testing::RandomSource {
+  using RandomSource::RandomSource;
   cr::BodyState body() {
     const double x = uniform(0.1, 2.0), y = uniform(0.1, 2.0), z = uniform(0.1, 2.0);
     cr::BodyState b = box(uniform(0.2, 5.0), Vector3d::Zero());

@@ -20,7 +20,10 @@
 #include "collision_response/single_contact.h"
 #include "collision_response/solver_options.h"
 
+#include "scene_builders.h"
+
 namespace cr = collision_response::core;
+using namespace collision_response::testing;  // NOLINT: shared builders
 using Eigen::Matrix3d;
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
@@ -30,22 +33,6 @@ namespace {
 constexpr double kTol = 1e-9;
 constexpr double kPi = 3.14159265358979323846;
 
-void expectVecNear(const Vector3d& got, const Vector3d& want, double tol) {
-  for (int i = 0; i < 3; ++i) EXPECT_NEAR(got[i], want[i], tol) << "component " << i;
-}
-
-cr::BodyState sphere(const std::string& id, double m, double radius, const Vector3d& position,
-                     const Vector3d& v, const Vector3d& w = Vector3d::Zero()) {
-  cr::BodyState b;
-  b.id = id;
-  b.mass = m;
-  b.inertia = Matrix3d::Identity() * (0.4 * m * radius * radius);
-  b.position = position;
-  b.linear_velocity = v;
-  b.angular_velocity = w;
-  return b;
-}
-
 cr::BodyState ground(const std::string& id = "ground", const Vector3d& v = Vector3d::Zero()) {
   cr::BodyState b;
   b.id = id;
@@ -54,30 +41,7 @@ cr::BodyState ground(const std::string& id = "ground", const Vector3d& v = Vecto
   return b;
 }
 
-cr::Contact contact(const std::string& a, const std::string& b, const Vector3d& p,
-                    const Vector3d& n, double e, double mu_s = 0.0, double mu_d = 0.0) {
-  cr::Contact c;
-  c.body_a = a;
-  c.body_b = b;
-  c.point = p;
-  c.normal = n;
-  c.restitution = e;
-  c.static_friction = mu_s;
-  c.dynamic_friction = mu_d;
-  return c;
-}
-
 // World-frame quantities computed independently of the library.
-Matrix3d worldInertia(const cr::BodyState& b) {
-  const Matrix3d R = b.orientation.normalized().toRotationMatrix();
-  return R * b.inertia * R.transpose();
-}
-Vector3d worldCom(const cr::BodyState& b) {
-  return b.position + b.orientation.normalized().toRotationMatrix() * b.com;
-}
-Vector3d pointVelocity(const cr::BodyState& b, const Vector3d& p) {
-  return b.linear_velocity + b.angular_velocity.cross(p - worldCom(b));
-}
 Vector3d relVel(const cr::BodyState& a, const cr::BodyState& b, const Vector3d& p) {
   return pointVelocity(b, p) - pointVelocity(a, p);
 }
@@ -85,19 +49,6 @@ double energy(const cr::BodyState& b) {
   if (b.mass == 0.0) return 0.0;
   return 0.5 * b.mass * b.linear_velocity.squaredNorm() +
          0.5 * b.angular_velocity.dot(worldInertia(b) * b.angular_velocity);
-}
-Vector3d linearMomentum(const std::vector<cr::BodyState>& bodies) {
-  Vector3d p = Vector3d::Zero();
-  for (const auto& b : bodies) p += b.mass * b.linear_velocity;
-  return p;
-}
-Vector3d angularMomentum(const std::vector<cr::BodyState>& bodies, const Vector3d& o) {
-  Vector3d h = Vector3d::Zero();
-  for (const auto& b : bodies) {
-    if (b.mass == 0.0) continue;
-    h += b.mass * (worldCom(b) - o).cross(b.linear_velocity) + worldInertia(b) * b.angular_velocity;
-  }
-  return h;
 }
 // Contact-space inverse mass matrix written out from PHYSICS.md, independent of ContactSpace.
 Matrix3d skew(const Vector3d& r) {
@@ -116,25 +67,8 @@ Matrix3d contactK(const cr::BodyState& a, const cr::BodyState& b, const Vector3d
 }
 
 // Random bodies: inertia of a solid box (always obeys the triangle inequality), randomly rotated.
-struct Random {
-  std::mt19937 gen;
-  explicit Random(unsigned seed) : gen(seed) {}
-  double uniform(double lo, double hi) {
-    return std::uniform_real_distribution<double>(lo, hi)(gen);
-  }
-  Vector3d vec(double lo, double hi) {
-    return Vector3d(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi));
-  }
-  Vector3d unit() {
-    std::normal_distribution<double> g;
-    Vector3d v(g(gen), g(gen), g(gen));
-    return v.normalized();
-  }
-  Quaterniond rotation() {
-    std::normal_distribution<double> g;
-    Quaterniond q(g(gen), g(gen), g(gen), g(gen));
-    return q.normalized();
-  }
+struct Random : collision_response::testing::RandomSource {
+  using RandomSource::RandomSource;
   cr::BodyState body(const std::string& id) {
     cr::BodyState b;
     b.id = id;
