@@ -23,9 +23,6 @@
 
 namespace cr = collision_response::core;
 using namespace collision_response::testing;  // NOLINT: shared builders
-using Eigen::Matrix3d;
-using Eigen::Quaterniond;
-using Eigen::Vector3d;
 
 namespace {
 
