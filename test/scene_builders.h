@@ -79,6 +79,13 @@ inline Vector3d angularMomentum(const std::vector<cr::BodyState>& bodies, const 
   return h;
 }
 
+/// Inertia tensor of a solid box of the given full sizes, about its centre (always satisfies the
+/// triangle inequality).
+inline Matrix3d boxInertia(double mass, const Vector3d& size) {
+  const Vector3d s2 = size.cwiseProduct(size);
+  return (mass / 12.0 * Vector3d(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y())).asDiagonal();
+}
+
 /// Seeded random numbers, vectors and rotations; test files add the bodies they need.
 struct RandomSource {
   std::mt19937 gen;
@@ -92,6 +99,11 @@ struct RandomSource {
   Vector3d unit() {
     std::normal_distribution<double> g;
     return Vector3d(g(gen), g(gen), g(gen)).normalized();
+  }
+  /// Box sizes for boxInertia(), each in [0.1, 2] m.
+  Vector3d boxSize() {
+    const double x = uniform(0.1, 2.0), y = uniform(0.1, 2.0), z = uniform(0.1, 2.0);
+    return Vector3d(x, y, z);
   }
   Quaterniond rotation() {
     std::normal_distribution<double> g;

@@ -52,9 +52,7 @@ struct Random : collision_response::testing::RandomSource {
     cr::BodyState b;
     b.id = id;
     b.mass = uniform(0.2, 5.0);
-    const double x = uniform(0.1, 2.0), y = uniform(0.1, 2.0), z = uniform(0.1, 2.0);
-    b.inertia =
-        (b.mass / 12.0 * Vector3d(y * y + z * z, x * x + z * z, x * x + y * y)).asDiagonal();
+    b.inertia = boxInertia(b.mass, boxSize());
     b.com = vec(-0.3, 0.3);
     b.position = vec(-2.0, 2.0);
     b.orientation = rotation();

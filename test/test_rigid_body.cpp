@@ -44,10 +44,9 @@ cr::BodyState box(double m, const Vector3d& moments) {
 struct Random : collision_response::testing::RandomSource {
   using RandomSource::RandomSource;
   cr::BodyState body() {
-    const double x = uniform(0.1, 2.0), y = uniform(0.1, 2.0), z = uniform(0.1, 2.0);
+    const Vector3d size = boxSize();
     cr::BodyState b = box(uniform(0.2, 5.0), Vector3d::Zero());
-    b.inertia =
-        (b.mass / 12.0 * Vector3d(y * y + z * z, x * x + z * z, x * x + y * y)).asDiagonal();
+    b.inertia = boxInertia(b.mass, size);
     b.com = vec(-0.3, 0.3);
     b.position = vec(-1, 1);
     b.orientation = rotation();

@@ -70,9 +70,7 @@ struct Random : collision_response::testing::RandomSource {
     cr::BodyState b;
     b.id = id;
     b.mass = uniform(0.2, 5.0);
-    const double x = uniform(0.1, 2.0), y = uniform(0.1, 2.0), z = uniform(0.1, 2.0);
-    b.inertia =
-        (b.mass / 12.0 * Vector3d(y * y + z * z, x * x + z * z, x * x + y * y)).asDiagonal();
+    b.inertia = boxInertia(b.mass, boxSize());
     const Quaterniond Q = rotation();  // principal axes rotated within the body frame
     b.inertia = Q.toRotationMatrix() * b.inertia * Q.toRotationMatrix().transpose();
     b.inertia = 0.5 * (b.inertia + b.inertia.transpose()).eval();
