@@ -1,9 +1,11 @@
 #include "collision_response/shapes.h"
 
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "collision_response/errors.h"
+#include "collision_response/validation.h"
 
 namespace collision_response::core {
 
@@ -13,11 +15,21 @@ std::string indexed(const std::string& prefix, std::size_t i) {
   return prefix + "[" + std::to_string(i) + "]";
 }
 
+// Lengths beyond MagnitudeLimits::kLength are rejected like the bodies' positions.
+void checkLength(double length, const std::string& field) {
+  if (length > MagnitudeLimits::kLength) {
+    std::ostringstream os;
+    os << "length " << length << " m exceeds the accepted " << MagnitudeLimits::kLength << " m";
+    throw InvalidInput(field, os.str());
+  }
+}
+
 void checkPose(const Eigen::Isometry3d& pose, const std::string& field) {
   if (!pose.matrix().allFinite()) throw InvalidInput(field, "has a non-finite entry");
   const Eigen::Matrix3d r = pose.linear();
   const double err = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (err > 1e-6 || r.determinant() < 0.0) throw InvalidInput(field, "is not a rigid transform");
+  checkLength(pose.translation().norm(), field + ".position");
 }
 
 }  // namespace
@@ -52,6 +64,7 @@ void validateGeometry(const std::vector<BodyGeometry>& geometry, std::size_t bod
               os << "must be finite and > 0 (entry " << k << " is " << v << ")";
               throw InvalidInput(field + ".dimensions", os.str());
             }
+            checkLength(v, field + ".dimensions");
           }
           checkPose(shape.pose, body + indexed(".primitive_poses", primitive));
           ++primitive;
@@ -64,6 +77,7 @@ void validateGeometry(const std::vector<BodyGeometry>& geometry, std::size_t bod
             if (!shape.vertices[k].allFinite()) {
               throw InvalidInput(field + indexed(".vertices", k), "is not finite");
             }
+            checkLength(shape.vertices[k].norm(), field + indexed(".vertices", k));
           }
           if (shape.triangles.empty()) throw InvalidInput(field + ".triangles", "is empty");
           const long n = static_cast<long>(shape.vertices.size());
@@ -96,6 +110,7 @@ void validateGeometry(const std::vector<BodyGeometry>& geometry, std::size_t bod
           const double norm =
               Eigen::Vector3d(shape.dimensions[0], shape.dimensions[1], shape.dimensions[2]).norm();
           if (!(norm > 1e-12)) throw InvalidInput(field, "has a zero normal (a, b, c)");
+          checkLength(std::abs(shape.dimensions[3]) / norm, field + ".coef[3]");
           checkPose(shape.pose, body + indexed(".plane_poses", plane));
           ++plane;
           break;

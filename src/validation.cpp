@@ -107,6 +107,30 @@ void validateBody(const BodyState& body, const std::string& field) {
 
 }  // namespace
 
+void validateCoefficients(double restitution, double static_friction, double dynamic_friction,
+                          const std::string& field) {
+  requireFinite(restitution, field + ".restitution");
+  requireFinite(static_friction, field + ".static_friction");
+  requireFinite(dynamic_friction, field + ".dynamic_friction");
+  if (restitution < 0.0 || restitution > 1.0) {
+    throw InvalidInput(field + ".restitution",
+                       "must lie in [0, 1] (" + describe(restitution) + ")");
+  }
+  if (static_friction < 0.0) {
+    throw InvalidInput(field + ".static_friction",
+                       "is negative (" + describe(static_friction) + ")");
+  }
+  if (dynamic_friction < 0.0) {
+    throw InvalidInput(field + ".dynamic_friction",
+                       "is negative (" + describe(dynamic_friction) + ")");
+  }
+  if (dynamic_friction > static_friction) {
+    throw InvalidInput(field + ".dynamic_friction", "exceeds static_friction (" +
+                                                        describe(dynamic_friction) + " > " +
+                                                        describe(static_friction) + ")");
+  }
+}
+
 void checkSize(std::size_t body_count, std::size_t contact_count, const RequestLimits& limits) {
   if (body_count > limits.max_bodies) {
     throw InvalidInput("bodies", std::to_string(body_count) + " bodies exceed the limit of " +
@@ -117,6 +141,19 @@ void checkSize(std::size_t body_count, std::size_t contact_count, const RequestL
                                        " contacts exceed the limit of " +
                                        std::to_string(limits.max_contacts));
   }
+}
+
+void checkGeometrySize(std::size_t shapes, std::size_t mesh_vertices, std::size_t mesh_triangles,
+                       const RequestLimits& limits) {
+  const auto check = [](std::size_t count, std::size_t limit, const char* what) {
+    if (count > limit) {
+      throw InvalidInput("bodies", std::to_string(count) + " " + what + " exceed the limit of " +
+                                       std::to_string(limit));
+    }
+  };
+  check(shapes, limits.max_shapes, "collision shapes");
+  check(mesh_vertices, limits.max_mesh_vertices, "mesh vertices");
+  check(mesh_triangles, limits.max_mesh_triangles, "mesh triangles");
 }
 
 std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,
@@ -176,32 +213,14 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
     }
     requireFinite(contact.point, field + ".point");
     requireFinite(contact.normal, field + ".normal");
-    requireFinite(contact.restitution, field + ".restitution");
-    requireFinite(contact.static_friction, field + ".static_friction");
-    requireFinite(contact.dynamic_friction, field + ".dynamic_friction");
     requireAtMost(contact.point, MagnitudeLimits::kLength, "m", field + ".point");
     const double n_norm = contact.normal.norm();
     if (n_norm == 0.0) throw InvalidInput(field + ".normal", "is a zero vector");
     if (std::abs(n_norm - 1.0) > kUnitTolerance) {
       throw InvalidInput(field + ".normal", "is not a unit vector (norm " + describe(n_norm) + ")");
     }
-    if (contact.restitution < 0.0 || contact.restitution > 1.0) {
-      throw InvalidInput(field + ".restitution",
-                         "must lie in [0, 1] (" + describe(contact.restitution) + ")");
-    }
-    if (contact.static_friction < 0.0) {
-      throw InvalidInput(field + ".static_friction",
-                         "is negative (" + describe(contact.static_friction) + ")");
-    }
-    if (contact.dynamic_friction < 0.0) {
-      throw InvalidInput(field + ".dynamic_friction",
-                         "is negative (" + describe(contact.dynamic_friction) + ")");
-    }
-    if (contact.dynamic_friction > contact.static_friction) {
-      throw InvalidInput(field + ".dynamic_friction",
-                         "exceeds static_friction (" + describe(contact.dynamic_friction) + " > " +
-                             describe(contact.static_friction) + ")");
-    }
+    validateCoefficients(contact.restitution, contact.static_friction, contact.dynamic_friction,
+                         field);
     contact_bodies.emplace_back(a, b);
   }
   return contact_bodies;

@@ -63,6 +63,9 @@ struct SolverOptions {
 struct RequestLimits {
   std::size_t max_bodies = 1000;
   std::size_t max_contacts = 10000;
+  std::size_t max_shapes = 10000;            ///< collision shapes over all bodies
+  std::size_t max_mesh_vertices = 1000000;   ///< mesh vertices over all bodies
+  std::size_t max_mesh_triangles = 1000000;  ///< mesh triangles over all bodies
 };
 
 const char* toString(ImpactLaw law);

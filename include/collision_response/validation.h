@@ -1,5 +1,6 @@
 #pragma once
 
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -23,9 +24,19 @@ struct MagnitudeLimits {
   static constexpr double kForce = 1e18;                ///< [N] and [N m]
 };
 
+/// Checks a contact's (or a material's) coefficients: finite, e in [0, 1], 0 <= mu_d <= mu_s.
+/// Throws InvalidInput naming `field` + ".restitution", ".static_friction" or ".dynamic_friction".
+void validateCoefficients(double restitution, double static_friction, double dynamic_friction,
+                          const std::string& field);
+
 /// Throws InvalidInput ("bodies" or "contacts") if a request of this size exceeds the limits;
 /// cheap, so a server can call it before converting anything.
 void checkSize(std::size_t body_count, std::size_t contact_count, const RequestLimits& limits);
+
+/// Throws InvalidInput ("bodies") if the request's collision geometry (counted over all bodies)
+/// exceeds the limits; cheap, so a server can call it before converting any shape.
+void checkGeometrySize(std::size_t shapes, std::size_t mesh_vertices, std::size_t mesh_triangles,
+                       const RequestLimits& limits);
 
 /// Checks everything the solvers rely on and throws InvalidInput naming the first offending field:
 /// sizes within limits; finite numbers everywhere; non-empty, unique ids; mass >= 0; for movable

@@ -3,6 +3,7 @@
 #include <collision_response/CollisionResponse.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -25,6 +26,44 @@ std::size_t positiveSize(const ros::NodeHandle& node, const std::string& name, i
   if (value <= 0)
     throw std::invalid_argument("~" + name + " must be positive, got " + std::to_string(value));
   return static_cast<std::size_t>(value);
+}
+
+double numberParam(const XmlRpc::XmlRpcValue& value, const std::string& field) {
+  if (value.getType() == XmlRpc::XmlRpcValue::TypeDouble) return static_cast<double>(value);
+  if (value.getType() == XmlRpc::XmlRpcValue::TypeInt) return static_cast<int>(value);
+  throw std::invalid_argument(field + " must be a number");
+}
+
+// ~materials: a list of {a, b, restitution, static_friction, dynamic_friction}.
+core::MaterialTable readMaterials(const ros::NodeHandle& node) {
+  core::MaterialTable table;
+  XmlRpc::XmlRpcValue list;
+  if (!node.getParam("materials", list)) return table;
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    throw std::invalid_argument("~materials must be a list of {a, b, restitution, ...}");
+  for (int i = 0; i < list.size(); ++i) {
+    const std::string field = "~materials[" + std::to_string(i) + "]";
+    XmlRpc::XmlRpcValue& entry = list[i];
+    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct || !entry.hasMember("a") ||
+        !entry.hasMember("b") || entry["a"].getType() != XmlRpc::XmlRpcValue::TypeString ||
+        entry["b"].getType() != XmlRpc::XmlRpcValue::TypeString) {
+      throw std::invalid_argument(field + " must have string members a and b");
+    }
+    core::ContactMaterial material;
+    const auto member = [&](const char* name, double& out) {
+      if (entry.hasMember(name)) out = numberParam(entry[name], field + "." + name);
+    };
+    member("restitution", material.restitution);
+    member("static_friction", material.static_friction);
+    member("dynamic_friction", material.dynamic_friction);
+    try {
+      table.set(static_cast<std::string>(entry["a"]), static_cast<std::string>(entry["b"]),
+                material, field);
+    } catch (const core::InvalidInput& e) {
+      throw std::invalid_argument(e.what());
+    }
+  }
+  return table;
 }
 
 }  // namespace
@@ -68,6 +107,20 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
   const double tf_timeout = readParam(private_node, "tf_timeout", 0.1);
   if (!(tf_timeout >= 0.0)) throw std::invalid_argument("~tf_timeout must be >= 0");
   tf_timeout_ = ros::Duration(tf_timeout);
+  // Contacts from shapes: default tolerance [m], points per pair of shapes, geometry limits.
+  contact_tolerance_ = readParam(private_node, "contact_tolerance", contact_tolerance_);
+  if (!(contact_tolerance_ > 0.0) || !(contact_tolerance_ <= 1.0))
+    throw std::invalid_argument("~contact_tolerance must lie in (0, 1] m");
+  max_contacts_per_pair_ =
+      positiveSize(private_node, "max_contacts_per_pair", static_cast<int>(max_contacts_per_pair_));
+  limits_.max_shapes =
+      positiveSize(private_node, "max_shapes", static_cast<int>(limits_.max_shapes));
+  limits_.max_mesh_vertices =
+      positiveSize(private_node, "max_mesh_vertices", static_cast<int>(limits_.max_mesh_vertices));
+  limits_.max_mesh_triangles = positiveSize(private_node, "max_mesh_triangles",
+                                            static_cast<int>(limits_.max_mesh_triangles));
+  // Coefficients of detected contacts per pair of materials.
+  materials_ = readMaterials(private_node);
 
   responses_ = private_node.advertise<CollisionResponse>("responses", 10);
   service_ = private_node.advertiseService("compute", &CollisionResponseServer::compute, this);
@@ -108,12 +161,80 @@ core::Scene CollisionResponseServer::toScene(const ComputeResponse::Request& req
   return scene;
 }
 
+bool CollisionResponseServer::wantsDetection(const ComputeResponse::Request& request) {
+  switch (request.detection.mode) {
+    case DetectionOptions::MODE_AUTO:
+      return request.contacts.empty() &&
+             std::any_of(request.bodies.begin(), request.bodies.end(),
+                         [](const BodyState& body) { return hasGeometry(body); });
+    case DetectionOptions::MODE_ALWAYS:
+      return true;
+    case DetectionOptions::MODE_NEVER:
+      return false;
+    default:
+      throw core::InvalidInput("detection.mode", "unknown value " +
+                                                     std::to_string(request.detection.mode) +
+                                                     " (MODE_AUTO 0, MODE_ALWAYS 1, MODE_NEVER 2)");
+  }
+}
+
+std::unique_ptr<core::ContactDetector> CollisionResponseServer::acquireDetector() {
+  const std::lock_guard<std::mutex> lock(detectors_mutex_);
+  if (idle_detectors_.empty()) return std::make_unique<core::ContactDetector>();
+  std::unique_ptr<core::ContactDetector> detector = std::move(idle_detectors_.back());
+  idle_detectors_.pop_back();
+  return detector;
+}
+
+void CollisionResponseServer::releaseDetector(std::unique_ptr<core::ContactDetector> detector) {
+  const std::lock_guard<std::mutex> lock(detectors_mutex_);
+  idle_detectors_.push_back(std::move(detector));
+}
+
+core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Request& request,
+                                                       const core::Scene& scene) {
+  // Limits first, from the messages, so an oversized mesh costs no conversion.
+  std::size_t shapes = 0, vertices = 0, triangles = 0;
+  for (const BodyState& body : request.bodies) countGeometry(body, shapes, vertices, triangles);
+  core::checkGeometrySize(shapes, vertices, triangles, limits_);
+
+  core::DetectionInput input;
+  input.options = fromMsg(request.detection, contact_tolerance_);
+  input.options.max_contacts_per_pair = max_contacts_per_pair_;
+  input.defaults = {request.detection.restitution, request.detection.static_friction,
+                    request.detection.dynamic_friction};
+  input.geometry.reserve(request.bodies.size());
+  input.materials.reserve(request.bodies.size());
+  for (std::size_t i = 0; i < request.bodies.size(); ++i) {
+    input.geometry.push_back(
+        geometryFromMsg(request.bodies[i], "bodies[" + std::to_string(i) + "]"));
+    input.materials.push_back(request.bodies[i].material);
+  }
+  std::unique_ptr<core::ContactDetector> detector = acquireDetector();
+  struct Return {  // the detector goes back to the pool whatever happens
+    CollisionResponseServer* server;
+    std::unique_ptr<core::ContactDetector>& detector;
+    ~Return() { server->releaseDetector(std::move(detector)); }
+  } give_back{this, detector};
+  return core::detectContacts(*detector, scene.bodies, input, materials_, limits_);
+}
+
 bool CollisionResponseServer::compute(ComputeResponse::Request& request,
                                       ComputeResponse::Response& response) {
   response.success = false;
   try {
-    const core::Scene scene = toScene(request);
+    core::Scene scene = toScene(request);
     const core::SolverOptions options = fromMsg(request.options, default_options_);
+    if (wantsDetection(request)) {
+      core::validate(scene, options, limits_);  // detection needs valid poses
+      const core::DetectedContacts detected = detect(request, scene);
+      response.detected_contacts.reserve(detected.contacts.size());
+      for (const core::Contact& contact : detected.contacts)
+        response.detected_contacts.push_back(toMsg(contact));
+      response.detected_depths = detected.depths;
+      scene.contacts.insert(scene.contacts.end(), detected.contacts.begin(),
+                            detected.contacts.end());
+    }
     const auto start = std::chrono::steady_clock::now();
     const core::CollisionResult result = core::computeResponse(scene, options, limits_);
     response.solve_time =
@@ -135,6 +256,8 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
     published.header = request.header;
     published.bodies = response.bodies;
     published.contacts = request.contacts;
+    published.contacts.insert(published.contacts.end(), response.detected_contacts.begin(),
+                              response.detected_contacts.end());
     published.impulses = response.impulses;
     published.kinetic_energy_before = response.kinetic_energy_before;
     published.kinetic_energy_after = response.kinetic_energy_after;
@@ -153,6 +276,8 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
     response.bodies.clear();
     response.impulses.clear();
     response.islands.clear();
+    response.detected_contacts.clear();
+    response.detected_depths.clear();
   }
   return true;
 }

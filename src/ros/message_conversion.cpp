@@ -1,6 +1,9 @@
 #include "collision_response/ros/message_conversion.h"
 
+#include <cmath>
+
 #include "collision_response/errors.h"
+#include "collision_response/validation.h"
 
 namespace collision_response {
 namespace {
@@ -77,6 +80,133 @@ core::Contact fromMsg(const Contact& msg) {
   contact.static_friction = msg.static_friction;
   contact.dynamic_friction = msg.dynamic_friction;
   return contact;
+}
+
+Contact toMsg(const core::Contact& contact) {
+  Contact msg;
+  msg.body_a = contact.body_a;
+  msg.body_b = contact.body_b;
+  msg.point.x = contact.point.x();
+  msg.point.y = contact.point.y();
+  msg.point.z = contact.point.z();
+  msg.normal = toVector3(contact.normal);
+  msg.restitution = contact.restitution;
+  msg.static_friction = contact.static_friction;
+  msg.dynamic_friction = contact.dynamic_friction;
+  return msg;
+}
+
+bool hasGeometry(const BodyState& msg) {
+  return !msg.primitives.empty() || !msg.meshes.empty() || !msg.planes.empty();
+}
+
+void countGeometry(const BodyState& msg, std::size_t& shapes, std::size_t& vertices,
+                   std::size_t& triangles) {
+  shapes += msg.primitives.size() + msg.meshes.size() + msg.planes.size();
+  for (const shape_msgs::Mesh& mesh : msg.meshes) {
+    vertices += mesh.vertices.size();
+    triangles += mesh.triangles.size();
+  }
+}
+
+core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& field) {
+  const auto checkCount = [&](std::size_t shapes, std::size_t poses, const char* name) {
+    if (shapes != poses) {
+      throw core::InvalidInput(field + "." + name, "has " + std::to_string(poses) +
+                                                       " entries for " + std::to_string(shapes) +
+                                                       " shapes: give one pose per shape");
+    }
+  };
+  checkCount(msg.primitives.size(), msg.primitive_poses.size(), "primitive_poses");
+  checkCount(msg.meshes.size(), msg.mesh_poses.size(), "mesh_poses");
+  checkCount(msg.planes.size(), msg.plane_poses.size(), "plane_poses");
+
+  const auto pose = [&](const geometry_msgs::Pose& p, const std::string& pose_field) {
+    const geometry_msgs::Quaternion& q = p.orientation;
+    const Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
+    const double norm = rotation.coeffs().norm();
+    if (norm == 0.0) {
+      throw core::InvalidInput(pose_field + ".orientation",
+                               "is a zero quaternion (orientation.w: 1 means no rotation)");
+    }
+    if (!(std::abs(norm - 1.0) <= core::kUnitTolerance)) {
+      throw core::InvalidInput(pose_field + ".orientation",
+                               "is not a unit quaternion (norm " + std::to_string(norm) + ")");
+    }
+    Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+    out.translate(toEigen(p.position));
+    out.rotate(rotation.normalized().toRotationMatrix());
+    return out;
+  };
+
+  core::BodyGeometry geometry;
+  geometry.shapes.reserve(msg.primitives.size() + msg.meshes.size() + msg.planes.size());
+  for (std::size_t i = 0; i < msg.primitives.size(); ++i) {
+    const shape_msgs::SolidPrimitive& primitive = msg.primitives[i];
+    const std::string index = "[" + std::to_string(i) + "]";
+    core::Shape shape;
+    switch (primitive.type) {
+      case shape_msgs::SolidPrimitive::BOX:
+        shape.type = core::Shape::Type::kBox;
+        break;
+      case shape_msgs::SolidPrimitive::SPHERE:
+        shape.type = core::Shape::Type::kSphere;
+        break;
+      case shape_msgs::SolidPrimitive::CYLINDER:
+        shape.type = core::Shape::Type::kCylinder;
+        break;
+      case shape_msgs::SolidPrimitive::CONE:
+        shape.type = core::Shape::Type::kCone;
+        break;
+      default:
+        throw core::InvalidInput(field + ".primitives" + index + ".type",
+                                 "unknown type " + std::to_string(primitive.type) +
+                                     " (BOX 1, SPHERE 2, CYLINDER 3, CONE 4)");
+    }
+    shape.dimensions.assign(primitive.dimensions.begin(), primitive.dimensions.end());
+    shape.pose = pose(msg.primitive_poses[i], field + ".primitive_poses" + index);
+    geometry.shapes.push_back(std::move(shape));
+  }
+  for (std::size_t i = 0; i < msg.meshes.size(); ++i) {
+    const shape_msgs::Mesh& mesh = msg.meshes[i];
+    const std::string index = "[" + std::to_string(i) + "]";
+    core::Shape shape;
+    shape.type = core::Shape::Type::kMesh;
+    shape.vertices.reserve(mesh.vertices.size());
+    for (const geometry_msgs::Point& v : mesh.vertices) shape.vertices.push_back(toEigen(v));
+    shape.triangles.reserve(mesh.triangles.size());
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+      std::array<int, 3> triangle{};
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t vertex = mesh.triangles[t].vertex_indices[k];
+        if (vertex >= mesh.vertices.size()) {
+          throw core::InvalidInput(
+              field + ".meshes" + index + ".triangles[" + std::to_string(t) + "]",
+              "vertex index " + std::to_string(vertex) + " is out of range (" +
+                  std::to_string(mesh.vertices.size()) + " vertices)");
+        }
+        triangle[k] = static_cast<int>(vertex);
+      }
+      shape.triangles.push_back(triangle);
+    }
+    shape.pose = pose(msg.mesh_poses[i], field + ".mesh_poses" + index);
+    geometry.shapes.push_back(std::move(shape));
+  }
+  for (std::size_t i = 0; i < msg.planes.size(); ++i) {
+    core::Shape shape;
+    shape.type = core::Shape::Type::kPlane;
+    shape.dimensions.assign(msg.planes[i].coef.begin(), msg.planes[i].coef.end());
+    shape.pose = pose(msg.plane_poses[i], field + ".plane_poses[" + std::to_string(i) + "]");
+    geometry.shapes.push_back(std::move(shape));
+  }
+  return geometry;
+}
+
+core::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance) {
+  core::DetectionOptions options;
+  options.contact_tolerance =
+      msg.contact_tolerance != 0.0 ? msg.contact_tolerance : default_tolerance;
+  return options;
 }
 
 ContactImpulse toMsg(const core::ContactImpulse& impulse) {

@@ -6,6 +6,7 @@
 #include <collision_response/BodyState.h>
 #include <collision_response/Contact.h>
 #include <collision_response/ContactImpulse.h>
+#include <collision_response/DetectionOptions.h>
 #include <collision_response/IslandReport.h>
 #include <collision_response/SolverOptions.h>
 
@@ -13,6 +14,7 @@
 #include "collision_response/collision_solver.h"
 #include "collision_response/contact.h"
 #include "collision_response/contact_impulse.h"
+#include "collision_response/detected_contacts.h"
 #include "collision_response/solver_options.h"
 
 namespace collision_response {
@@ -23,6 +25,22 @@ core::BodyState fromMsg(const BodyState& msg);
 BodyState toMsg(const core::BodyState& state, const std::string& frame_id);
 
 core::Contact fromMsg(const Contact& msg);
+Contact toMsg(const core::Contact& contact);
+
+/// True if the body carries any collision shape (primitives, meshes or planes).
+bool hasGeometry(const BodyState& msg);
+/// Number of shapes, mesh vertices and mesh triangles of the body, for the request limits.
+void countGeometry(const BodyState& msg, std::size_t& shapes, std::size_t& vertices,
+                   std::size_t& triangles);
+/// The body's collision shapes, each placed in the body frame. Throws core::InvalidInput naming
+/// the field under `field` (e.g. "bodies[2]"): "bodies[2].primitive_poses" when its count differs
+/// from the primitives' (likewise mesh_poses, plane_poses), "bodies[2].primitives[0].type" for an
+/// unknown type, "bodies[2].primitive_poses[0].orientation" for a zero or non-unit quaternion, an
+/// out-of-range mesh vertex index. Sizes and values are checked by core::detectContacts().
+core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& field);
+
+/// Detection settings of a request; a zero contact_tolerance takes `default_tolerance`.
+core::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance);
 ContactImpulse toMsg(const core::ContactImpulse& impulse);
 IslandReport toMsg(const core::IslandReport& report);
 

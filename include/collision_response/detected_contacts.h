@@ -1,0 +1,39 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "collision_response/body_state.h"
+#include "collision_response/contact.h"
+#include "collision_response/contact_detection.h"
+#include "collision_response/materials.h"
+#include "collision_response/shapes.h"
+#include "collision_response/solver_options.h"
+
+namespace collision_response::core {
+
+/// What contact detection needs of a scene besides the bodies' states.
+struct DetectionInput {
+  std::vector<BodyGeometry> geometry;  ///< empty (no geometry) or one entry per body
+  std::vector<std::string> materials;  ///< empty or one per body; "" = no material
+  DetectionOptions options;            ///< contact tolerance, points per pair
+  ContactMaterial defaults;            ///< coefficients of pairs the material table does not name
+};
+
+/// Contacts found from the bodies' shapes, ready for computeResponse().
+struct DetectedContacts {
+  std::vector<Contact> contacts;  ///< scene frame; normal from body_a towards body_b
+  std::vector<double> depths;     ///< [m], one per contact: > 0 penetrating, 0 touching, < 0 apart
+};
+
+/// Finds the contacts between `bodies` (already validated: validate()) from their geometry with
+/// `detector` (which keeps its FCL objects for the next call) and gives each contact the
+/// coefficients of its pair of materials (MaterialTable::lookup(), falling back to
+/// input.defaults). Throws InvalidInput naming the field ("detection.contact_tolerance",
+/// "detection.restitution", "bodies[i].primitives[j].dimensions", "bodies" for geometry beyond
+/// the limits, ...).
+DetectedContacts detectContacts(ContactDetector& detector, const std::vector<BodyState>& bodies,
+                                const DetectionInput& input, const MaterialTable& materials,
+                                const RequestLimits& limits = {});
+
+}  // namespace collision_response::core

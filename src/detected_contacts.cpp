@@ -1,0 +1,57 @@
+#include "collision_response/detected_contacts.h"
+
+#include <cmath>
+
+#include "collision_response/errors.h"
+#include "collision_response/validation.h"
+
+namespace collision_response::core {
+
+DetectedContacts detectContacts(ContactDetector& detector, const std::vector<BodyState>& bodies,
+                                const DetectionInput& input, const MaterialTable& materials,
+                                const RequestLimits& limits) {
+  const double tolerance = input.options.contact_tolerance;
+  if (!std::isfinite(tolerance) || tolerance < 0.0 || tolerance > MagnitudeLimits::kLength) {
+    throw InvalidInput("detection.contact_tolerance",
+                       "must be a finite length in [0, 1e7] m (" + std::to_string(tolerance) + ")");
+  }
+  validateCoefficients(input.defaults.restitution, input.defaults.static_friction,
+                       input.defaults.dynamic_friction, "detection");
+  if (!input.materials.empty() && input.materials.size() != bodies.size()) {
+    throw InvalidInput("bodies", "materials given for " + std::to_string(input.materials.size()) +
+                                     " bodies, expected " + std::to_string(bodies.size()));
+  }
+  std::size_t shapes = 0, vertices = 0, triangles = 0;
+  for (const BodyGeometry& body : input.geometry) {
+    shapes += body.shapes.size();
+    for (const Shape& shape : body.shapes) {
+      vertices += shape.vertices.size();
+      triangles += shape.triangles.size();
+    }
+  }
+  checkGeometrySize(shapes, vertices, triangles, limits);
+
+  DetectedContacts out;
+  const std::vector<DetectedContact> found = detector.detect(bodies, input.geometry, input.options);
+  out.contacts.reserve(found.size());
+  out.depths.reserve(found.size());
+  static const std::string kNone;
+  for (const DetectedContact& d : found) {
+    const std::string& material_a = input.materials.empty() ? kNone : input.materials[d.body_a];
+    const std::string& material_b = input.materials.empty() ? kNone : input.materials[d.body_b];
+    const ContactMaterial m = materials.lookup(material_a, material_b, input.defaults);
+    Contact c;
+    c.body_a = bodies[d.body_a].id;
+    c.body_b = bodies[d.body_b].id;
+    c.point = d.point;
+    c.normal = d.normal;
+    c.restitution = m.restitution;
+    c.static_friction = m.static_friction;
+    c.dynamic_friction = m.dynamic_friction;
+    out.contacts.push_back(std::move(c));
+    out.depths.push_back(d.depth);
+  }
+  return out;
+}
+
+}  // namespace collision_response::core
