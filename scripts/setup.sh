@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake python3 python3-catkin-pkg catkin
   ros-core-dev ros-base-dev libroscpp-dev ros-message-generation rosbash
-  libstd-msgs-dev libgeometry-msgs-dev libshape-msgs-dev python3-shape-msgs libtf2-ros-dev libtf2-eigen-dev libeigen3-dev libfcl-dev
+  libstd-msgs-dev libgeometry-msgs-dev libshape-msgs-dev python3-shape-msgs libtf2-ros-dev python3-tf2-ros libtf2-eigen-dev libeigen3-dev libfcl-dev
   librostest-dev python3-rostest python3-rosservice python3-rostopic libgtest-dev
   python3-std-msgs python3-geometry-msgs libbenchmark-dev
 )

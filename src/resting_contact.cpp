@@ -1,6 +1,6 @@
 #include "collision_response/resting_contact.h"
 
-#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "collision_response/iterative_solver.h"
@@ -17,7 +17,9 @@ RigidBody accelerationBody(const BodyState& state, const RigidBody& body) {
   out.angular_velocity.setZero();
   if (body.movable()) {
     const Eigen::Vector3d& w = body.angular_velocity;
-    const Eigen::Vector3d Iw_w = body.inverse_inertia.ldlt().solve(w);
+    // Iw w from the body-frame tensor (not by inverting Iw^-1, which loses the small moments).
+    const Eigen::Matrix3d R = state.orientation.normalized().toRotationMatrix();
+    const Eigen::Vector3d Iw_w = R * (state.inertia * (R.transpose() * w));
     out.angular_velocity = body.inverse_inertia * (state.torque - w.cross(Iw_w));
   }
   return out;

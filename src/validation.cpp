@@ -39,7 +39,8 @@ void requireAtMost(const Eigen::Vector3d& v, double limit, const char* unit,
   }
 }
 
-void validateInertia(const Eigen::Matrix3d& inertia, const std::string& field) {
+// Returns the smallest principal moment [kg m^2].
+double validateInertia(const Eigen::Matrix3d& inertia, const std::string& field) {
   if (!inertia.isApprox(inertia.transpose(), 1e-12)) throw InvalidInput(field, "is not symmetric");
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia, Eigen::EigenvaluesOnly);
   const Eigen::Vector3d moments = solver.eigenvalues();  // ascending
@@ -60,9 +61,11 @@ void validateInertia(const Eigen::Matrix3d& inertia, const std::string& field) {
                                   describe(moments[0]) + " + " + describe(moments[1]) + " < " +
                                   describe(moments[2]) + ")");
   }
+  return moments[0];
 }
 
-void validateBody(const BodyState& body, const std::string& field) {
+// Returns the smallest principal moment [kg m^2] of a movable body, 0 for an immovable one.
+double validateBody(const BodyState& body, const std::string& field) {
   if (body.id.empty()) throw InvalidInput(field + ".id", "is empty");
   requireFinite(body.mass, field + ".inertia.m");
   requireFinite(body.com, field + ".inertia.com");
@@ -102,7 +105,23 @@ void validateBody(const BodyState& body, const std::string& field) {
     throw InvalidInput(field + ".pose.orientation",
                        "is not a unit quaternion (norm " + describe(q_norm) + ")");
   }
-  if (!body.immovable()) validateInertia(body.inertia, field + ".inertia");
+  return body.immovable() ? 0.0 : validateInertia(body.inertia, field + ".inertia");
+}
+
+// Rejects a contact whose lever arm on a movable body is beyond MagnitudeLimits::kLeverOverGyration
+// times the body's smallest radius of gyration.
+void checkLeverArm(const BodyState& body, double smallest_moment, const Eigen::Vector3d& point,
+                   const std::string& field, const std::string& body_field) {
+  if (body.immovable()) return;
+  const double lever = (point - body.worldCom()).norm();
+  const double gyration = std::sqrt(smallest_moment / body.mass);
+  if (lever > MagnitudeLimits::kLeverOverGyration * gyration) {
+    throw InvalidInput(field, "lies " + describe(lever) + " m from the centre of mass of " +
+                                  body_field + " ('" + body.id + "'), more than " +
+                                  describe(MagnitudeLimits::kLeverOverGyration) +
+                                  " times its smallest radius of gyration (" + describe(gyration) +
+                                  " m): the impact would be computed without precision");
+  }
 }
 
 }  // namespace
@@ -181,9 +200,10 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
 
   std::unordered_map<std::string, int> index_of;
   index_of.reserve(scene.bodies.size());
+  std::vector<double> smallest_moments(scene.bodies.size());
   for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
     const std::string field = indexed("bodies", i);
-    validateBody(scene.bodies[i], field);
+    smallest_moments[i] = validateBody(scene.bodies[i], field);
     const auto [it, inserted] = index_of.emplace(scene.bodies[i].id, static_cast<int>(i));
     if (!inserted) {
       throw InvalidInput(field + ".id", "'" + scene.bodies[i].id + "' duplicates bodies[" +
@@ -221,6 +241,10 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
     }
     validateCoefficients(contact.restitution, contact.static_friction, contact.dynamic_friction,
                          field);
+    checkLeverArm(scene.bodies[a], smallest_moments[a], contact.point, field + ".point",
+                  indexed("bodies", a));
+    checkLeverArm(scene.bodies[b], smallest_moments[b], contact.point, field + ".point",
+                  indexed("bodies", b));
     contact_bodies.emplace_back(a, b);
   }
   return contact_bodies;

@@ -433,6 +433,14 @@ TEST(Validation, MagnitudesOutsideThePhysicalRangeAreRejected) {
     mutate(s);
     expectInvalid(s, field);
   }
+  // A lever arm beyond 1e6 radii of gyration: ball (0.5 m from contact 0) with k = 1e-7 m.
+  cr::Scene lever = validScene();
+  lever.bodies[1].mass = 1e12;
+  lever.bodies[1].inertia = Matrix3d::Identity() * 1e-2;  // k^2 = 1e-14 m^2
+  const std::string message = expectInvalid(lever, "contacts[0].point");
+  EXPECT_NE(message.find("bodies[1] ('ball')"), std::string::npos) << message;
+  lever.bodies[1].inertia = Matrix3d::Identity() * 1.0;  // k = 1e-6 m: lever 5e5 k, accepted
+  EXPECT_NO_THROW(cr::validate(lever, {}, {}));
   // The stress suite's extremes stay inside: 1 g, 1e9 kg, 1e4 m/s, 1e5 m.
   cr::Scene s = validScene();
   s.bodies[1].mass = 1e-3;
