@@ -785,7 +785,6 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<BodyState
 
   // Cache: rebuild a body's objects only when its shapes changed.
   const std::size_t count = geometry.empty() ? 0 : bodies.size();
-  bool rebuilt = im.bodies.size() != count;
   im.bodies.resize(count);
   for (std::size_t i = 0; i < count; ++i) {
     BodyCache& cache = im.bodies[i];
@@ -802,7 +801,6 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<BodyState
       cache.hash = hash;
       cache.valid = true;
       im.stats.objects_built += cache.items.size();
-      rebuilt = true;
     }
     Eigen::Isometry3d body_pose = Eigen::Isometry3d::Identity();
     body_pose.translate(bodies[i].position);
@@ -819,15 +817,14 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<BodyState
       (item->kind == Kind::kHalfspace ? planes : solids).push_back(item.get());
     }
   }
-  if (rebuilt) {
-    im.manager.clear();
-    im.registered.clear();
-    for (ShapeData* s : solids) im.registered.push_back(s->object.get());
-    im.manager.registerObjects(im.registered);
-    im.manager.setup();
-  } else {
-    im.manager.update();
-  }
+  // The tree is built anew each call (a balanced top-down build over the moved boxes): FCL's
+  // update(), which re-inserts every moved leaf, measured slower for scenes where everything moves
+  // (benchmark/bench_detection.cpp). The FCL geometry objects themselves stay cached.
+  im.manager.clear();
+  im.registered.clear();
+  for (ShapeData* s : solids) im.registered.push_back(s->object.get());
+  im.manager.registerObjects(im.registered);
+  im.manager.setup();
   std::vector<std::pair<ShapeData*, ShapeData*>> candidates;
   if (!im.registered.empty()) im.manager.collide(&candidates, collectPair);
   // Planes against every shape's inflated box.

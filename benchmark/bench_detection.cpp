@@ -1,0 +1,182 @@
+// Cost of contact detection from shapes (Google Benchmark), Release build:
+//   build/devel/lib/collision_response/bench_detection
+// Per pair of shapes (one touching pair per scene, FCL objects cached across calls as in the node),
+// and a scene of 200 bodies (boxes, spheres, cylinders on a floor, neighbours touching), both with
+// the cache warm (poses change, shapes do not) and cold (every object rebuilt), and detect + solve.
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <vector>
+
+#include "collision_response/collision_solver.h"
+#include "collision_response/detected_contacts.h"
+
+namespace core = collision_response::core;
+
+namespace {
+
+core::Shape primitive(core::Shape::Type type, std::vector<double> dimensions) {
+  core::Shape s;
+  s.type = type;
+  s.dimensions = std::move(dimensions);
+  return s;
+}
+
+core::Shape boxMesh() {
+  core::Shape s;
+  s.type = core::Shape::Type::kMesh;
+  for (int k = 0; k < 8; ++k) {
+    s.vertices.emplace_back(k & 1 ? 0.5 : -0.5, k & 2 ? 0.5 : -0.5, k & 4 ? 0.5 : -0.5);
+  }
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    s.triangles.push_back({q[0], q[1], q[2]});
+    s.triangles.push_back({q[0], q[2], q[3]});
+  }
+  return s;
+}
+
+core::BodyState body(const char* id, double mass, const Eigen::Vector3d& position,
+                     const Eigen::Quaterniond& q = Eigen::Quaterniond::Identity()) {
+  core::BodyState b;
+  b.id = id;
+  b.mass = mass;
+  if (mass > 0.0) b.inertia = Eigen::Matrix3d::Identity() * mass / 6.0;
+  b.position = position;
+  b.orientation = q;
+  b.linear_velocity = {0.0, 0.0, -1.0};
+  return b;
+}
+
+struct PairScene {
+  std::vector<core::BodyState> bodies;
+  core::DetectionInput input;
+};
+
+// One touching pair of shapes; `kind` picks the pair.
+PairScene pairScene(int kind) {
+  const core::Shape floor = primitive(core::Shape::Type::kPlane, {0, 0, 1, 0});
+  const core::Shape box = primitive(core::Shape::Type::kBox, {1, 1, 1});
+  PairScene s;
+  s.input.defaults = {0.5, 0.3, 0.3};
+  switch (kind) {
+    case 0:  // sphere on a plane: one point
+      s.bodies = {body("floor", 0, {0, 0, 0}), body("ball", 1, {0, 0, 0.1})};
+      s.input.geometry = {{{floor}}, {{primitive(core::Shape::Type::kSphere, {0.1})}}};
+      break;
+    case 1:  // box flat on a plane: 4 corners
+      s.bodies = {body("floor", 0, {0, 0, 0}), body("box", 1, {0, 0, 0.5})};
+      s.input.geometry = {{{floor}}, {{box}}};
+      break;
+    case 2:  // box on a box, turned 30 degrees about z: clipped manifold
+      s.bodies = {body("below", 1, {0, 0, 0}),
+                  body("above", 1, {0.1, 0.2, 1.0},
+                       Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())))};
+      s.input.geometry = {{{box}}, {{box}}};
+      break;
+    case 3:  // convex mesh (a box's hull) flat on a plane
+      s.bodies = {body("floor", 0, {0, 0, 0}), body("hull", 1, {0, 0, 0.5})};
+      s.input.geometry = {{{floor}}, {{boxMesh()}}};
+      break;
+    default: {  // cylinder on its side on a box: the contact line's ends
+      core::Shape cylinder = primitive(core::Shape::Type::kCylinder, {1.0, 0.1});
+      cylinder.pose.rotate(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY()));
+      s.bodies = {body("table", 0, {0, 0, -0.5}), body("cylinder", 1, {0, 0, 0.1})};
+      s.input.geometry = {{{box}}, {{cylinder}}};
+    }
+  }
+  return s;
+}
+
+void BM_DetectPair(benchmark::State& state) {
+  PairScene s = pairScene(static_cast<int>(state.range(0)));
+  core::ContactDetector detector;
+  const core::MaterialTable materials;
+  std::size_t contacts = 0;
+  for (auto _ : state) {
+    const core::DetectedContacts found =
+        core::detectContacts(detector, s.bodies, s.input, materials);
+    contacts = found.contacts.size();
+    benchmark::DoNotOptimize(found.contacts.data());
+  }
+  static const char* const kNames[] = {"sphere_plane", "box_plane", "box_box_turned", "hull_plane",
+                                       "cylinder_side_box"};
+  state.SetLabel(std::string(kNames[state.range(0)]) + ", " + std::to_string(contacts) + " points");
+}
+BENCHMARK(BM_DetectPair)->DenseRange(0, 4);
+
+// 200 bodies on a floor in a 20 x 10 grid of 1.0 m cells: boxes (side 1), spheres (radius 0.5)
+// and upright cylinders (radius 0.5, height 1), alternating, each touching the floor and its
+// neighbours along x; 3 of every 4 falling at 1 m/s.
+struct BigScene {
+  std::vector<core::BodyState> bodies;
+  core::DetectionInput input;
+};
+
+BigScene bigScene() {
+  BigScene s;
+  s.input.defaults = {0.5, 0.3, 0.3};
+  s.bodies.push_back(body("floor", 0, {0, 0, 0}));
+  s.input.geometry.push_back({{primitive(core::Shape::Type::kPlane, {0, 0, 1, 0})}});
+  static std::vector<std::string> ids;
+  ids.clear();
+  for (int i = 0; i < 200; ++i) ids.push_back("b" + std::to_string(i));
+  for (int i = 0; i < 200; ++i) {
+    const int kind = i % 3;
+    core::BodyState b = body("", 1.0, {1.0 * (i % 20), 1.5 * (i / 20), 0.5});
+    b.id = ids[i];
+    if (i % 4 == 3) b.linear_velocity.setZero();
+    s.bodies.push_back(b);
+    s.input.geometry.push_back(
+        {{kind == 0   ? primitive(core::Shape::Type::kBox, {1, 1, 1})
+          : kind == 1 ? primitive(core::Shape::Type::kSphere, {0.5})
+                      : primitive(core::Shape::Type::kCylinder, {1.0, 0.5})}});
+  }
+  return s;
+}
+
+void BM_Detect200Bodies(benchmark::State& state) {
+  BigScene s = bigScene();
+  const bool cold = state.range(0) != 0;
+  const core::MaterialTable materials;
+  core::ContactDetector warm_detector;
+  std::size_t contacts = 0, narrowphase = 0;
+  for (auto _ : state) {
+    core::ContactDetector cold_detector;
+    core::ContactDetector& detector = cold ? cold_detector : warm_detector;
+    // Poses change every call (shapes do not): the warm cache updates transforms only.
+    for (std::size_t i = 1; i < s.bodies.size(); ++i) s.bodies[i].position.z() += 1e-12;
+    const core::DetectedContacts found =
+        core::detectContacts(detector, s.bodies, s.input, materials);
+    contacts = found.contacts.size();
+    narrowphase = detector.lastStats().narrowphase_pairs;
+    benchmark::DoNotOptimize(found.contacts.data());
+  }
+  state.counters["contacts"] = static_cast<double>(contacts);
+  state.counters["narrowphase_pairs"] = static_cast<double>(narrowphase);
+  state.SetLabel(cold ? "cold: objects rebuilt each call" : "warm: cached objects");
+}
+BENCHMARK(BM_Detect200Bodies)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+void BM_DetectAndSolve200Bodies(benchmark::State& state) {
+  BigScene s = bigScene();
+  const core::MaterialTable materials;
+  core::ContactDetector detector;
+  std::size_t contacts = 0;
+  for (auto _ : state) {
+    core::Scene scene;
+    scene.bodies = s.bodies;
+    scene.contacts = core::detectContacts(detector, s.bodies, s.input, materials).contacts;
+    contacts = scene.contacts.size();
+    const core::CollisionResult result = core::computeResponse(scene);
+    benchmark::DoNotOptimize(result.bodies.data());
+  }
+  state.counters["contacts"] = static_cast<double>(contacts);
+}
+BENCHMARK(BM_DetectAndSolve200Bodies)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
