@@ -24,7 +24,9 @@ struct RowState {
 
 IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
                               const std::vector<int>& island, const SolverOptions& options,
-                              std::vector<ContactImpulse>& impulses) {
+                              std::vector<ContactImpulse>& impulses,
+                              const std::vector<double>* fixed_normal_impulses) {
+  const bool friction_only = fixed_normal_impulses != nullptr;
   std::vector<RowState> state(island.size());
   for (std::size_t i = 0; i < island.size(); ++i) {
     const ContactRow& row = rows[island[i]];
@@ -35,11 +37,22 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
         row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
     s.target_u_n = u_n < 0.0 ? -row.restitution * u_n : 0.0;
     s.mu = row.static_friction;
+    if (friction_only) s.P_n = (*fixed_normal_impulses)[i];
     if (!row.frictionless()) {
       tangentBasis(row.normal, s.t1, s.t2);
       Eigen::Matrix2d k_tt;
       k_tt << s.t1.dot(K * s.t1), s.t1.dot(K * s.t2), s.t2.dot(K * s.t1), s.t2.dot(K * s.t2);
       s.inverse_k_tt = k_tt.inverse();
+    }
+  }
+
+  // The island's movable bodies as they were, to restore if the sweeps diverge.
+  std::vector<std::pair<int, RigidBody>> initial;
+  for (const int c : island) {
+    for (const int body : {rows[c].body_a, rows[c].body_b}) {
+      const bool seen = std::any_of(initial.begin(), initial.end(),
+                                    [body](const auto& saved) { return saved.first == body; });
+      if (bodies[body].movable() && !seen) initial.emplace_back(body, bodies[body]);
     }
   }
 
@@ -55,12 +68,16 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
       RigidBody& b = bodies[row.body_b];
 
       // Normal row: drive u_n to its target, keep the accumulated impulse compressive.
-      const double u_n = row.normal.dot(row.space.relativeVelocity(a, b));
-      const double P_n = std::max(s.P_n - (u_n - s.target_u_n) * s.inverse_k_nn, 0.0);
-      const double dP_n = P_n - s.P_n;
-      s.P_n = P_n;
-      row.space.applyImpulse(a, b, dP_n * row.normal);
-      double change = std::abs(dP_n);
+      double change = 0.0;
+      if (!friction_only) {
+        const double u_n = row.normal.dot(row.space.relativeVelocity(a, b));
+        const double P_n = std::max(s.P_n - (u_n - s.target_u_n) * s.inverse_k_nn, 0.0);
+        const double dP_n = P_n - s.P_n;
+        s.P_n = P_n;
+        row.space.applyImpulse(a, b, dP_n * row.normal);
+        change = std::abs(dP_n);
+      }
+      const double P_n = s.P_n;
 
       // Tangential block: stop the slip, then project onto the Coulomb cone.
       if (!row.frictionless()) {
@@ -83,6 +100,18 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
       }
       largest_change = std::max(largest_change, change);
       largest_impulse = std::max(largest_impulse, std::hypot(s.P_n, s.P_t.norm()));
+    }
+    if (!std::isfinite(largest_impulse) || !std::isfinite(largest_change)) {
+      // Diverged (no solution: e.g. a squeeze that cannot bounce, or sliding friction that makes a
+      // row's effective mass negative, Painleve's case): apply nothing, report not converged.
+      for (const auto& [index, body] : initial) bodies[index] = body;
+      for (RowState& s : state) {
+        s.P_n = 0.0;
+        s.P_t.setZero();
+        s.sliding = false;
+      }
+      stats.converged = false;
+      break;
     }
     stats.residual = largest_impulse > 0.0 ? largest_change / largest_impulse : largest_change;
     if (stats.residual <= options.tolerance) {

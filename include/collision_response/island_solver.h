@@ -38,14 +38,16 @@ struct IslandStats {
 ///   1. compression: the plastic problem (e = 0) with Coulomb friction: no contact approaches and
 ///      friction opposes the final slip, so kinetic energy drops by D_c >= 0;
 ///   2. restitution: normal impulses R_i = e_i P_c,i at every contact (Poisson). For Stronge they
-///   are
-///      scaled down together, if needed, so that the energy they release is at most e_max^2 D_c;
+///      are scaled down together, if needed, so that the energy they release is at most
+///      e_max^2 D_c. Friction acts through this phase too: with the R_i fixed, the tangential
+///      impulses T_i stick each contact where that needs |T_i| <= mu_s R_i, else slide with
+///      mu_d R_i (solveIterative() with fixed normal impulses: least energy over the cones);
 ///   3. a second plastic solve, so that no contact ends approaching, with friction.
-/// Phase 2 releases 1/2 R^T A R (R.u_c = 0 by complementarity) and phases 1 and 3 dissipate, so
-/// with Stronge kinetic energy never increases; for frictionless contacts with a common e phase 2
-/// needs no scaling and Poisson and Stronge coincide. The answer of simultaneous laws is not unique
-/// in general (Newton's cradle): this is the simultaneous one. The seed's one-pass law takes its
-/// contacts one at a time, in request order.
+/// Phase 2's normal impulses release 1/2 R^T A R (R.u_c = 0 by complementarity), its friction and
+/// phases 1 and 3 dissipate, so with Stronge kinetic energy never increases; for frictionless
+/// contacts with a common e phase 2 needs no scaling and Poisson and Stronge coincide. The answer
+/// of simultaneous laws is not unique in general (Newton's cradle): this is the simultaneous one.
+/// The seed's one-pass law takes its contacts one at a time, in request order.
 IslandStats solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
                         const std::vector<int>& island, const SolverOptions& options,
                         std::vector<ContactImpulse>& impulses);

@@ -23,8 +23,17 @@ struct IterativeStats {
 /// sweeps run on the static cones to convergence; contacts that slide on theirs then move to the
 /// dynamic cone and the sweeps continue, until no contact moves (the exact solver's rule).
 /// Applies the impulses to `bodies` and writes the impulse of each listed row into `impulses`.
+/// If the sweeps diverge (an accumulated impulse overflows: no solution exists), nothing is
+/// applied, the impulses are zero and the result is not converged.
+///
+/// Friction only: with `fixed_normal_impulses` (one per listed row, >= 0, already applied to the
+/// bodies) the normal rows are not solved; each row's friction is bounded by mu times its fixed
+/// normal impulse, and the sweeps find the tangential impulses alone (the restitution phase of the
+/// two-phase scheme). At convergence that is the least kinetic energy over the cones, never more
+/// than without friction. Reported normal impulses are the fixed ones.
 IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
                               const std::vector<int>& island, const SolverOptions& options,
-                              std::vector<ContactImpulse>& impulses);
+                              std::vector<ContactImpulse>& impulses,
+                              const std::vector<double>* fixed_normal_impulses = nullptr);
 
 }  // namespace collision_response::core
