@@ -93,52 +93,64 @@ IslandStats solveTwoPhase(SolverMethod method, std::vector<RigidBody>& bodies,
   const IslandStats first = solveNewton(method, bodies, plastic, local, options, compression);
   const double dissipated = std::max(energy_before - kineticEnergy(bodies, island_bodies), 0.0);
 
-  // 2. Restitution: R_i = s e_i P_c,i. Its energy is s (R.u_c) + s^2 q, measured by applying R
-  // once.
-  double linear = 0.0;
+  // 2. Restitution: normal impulses R_i = s e_i P_c,i, and friction through the phase: with the
+  // R_i fixed, each contact sticks if that needs |T_i| <= mu_s R_i, else slides with mu_d R_i
+  // (Coulomb integrated over the phase; solveIterative() with fixed normal impulses).
+  double linear = 0.0;  // R.u_c at s = 1
   for (std::size_t i = 0; i < island.size(); ++i) {
     const ContactRow& row = plastic[i];
     const double u_n =
         row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
     linear += rows[island[i]].restitution * compression[i].normal_impulse * u_n;
   }
-  const auto applyRestitution = [&](double scale) {
+  std::vector<std::pair<int, RigidBody>> compressed;  // to undo the phase
+  for (const int body : island_bodies) compressed.emplace_back(body, bodies[body]);
+  const double energy_compressed = kineticEnergy(bodies, island_bodies);
+  std::vector<double> restitution_normal(island.size());
+  std::vector<ContactImpulse> restitution(island.size());
+  const auto applyNormal = [&](double scale) {
     for (std::size_t i = 0; i < island.size(); ++i) {
       const ContactRow& row = plastic[i];
-      const double R = scale * rows[island[i]].restitution * compression[i].normal_impulse;
-      row.space.applyImpulse(bodies[row.body_a], bodies[row.body_b], R * row.normal);
+      restitution_normal[i] = scale * rows[island[i]].restitution * compression[i].normal_impulse;
+      row.space.applyImpulse(bodies[row.body_a], bodies[row.body_b],
+                             restitution_normal[i] * row.normal);
     }
   };
-  const double energy_compressed = kineticEnergy(bodies, island_bodies);
-  applyRestitution(1.0);
+  const auto restitutionPhase = [&](double scale) {
+    applyNormal(scale);
+    IterativeStats friction;
+    friction.converged = true;
+    std::fill(restitution.begin(), restitution.end(), ContactImpulse{});
+    for (std::size_t i = 0; i < island.size(); ++i) {
+      if (!plastic[i].frictionless() && restitution_normal[i] > 0.0) {
+        friction =
+            solveIterative(bodies, plastic, local, options, restitution, &restitution_normal);
+        break;
+      }
+    }
+    return friction;
+  };
+  const auto undo = [&] {
+    for (const auto& [index, body] : compressed) bodies[index] = body;
+  };
   double scale = 1.0;
+  IterativeStats friction = restitutionPhase(scale);
   if (options.law == ImpactLaw::kStronge) {
-    const double released = kineticEnergy(bodies, island_bodies) - energy_compressed;
+    // Stronge: the phase may release at most e_max^2 D_c. If it releases more at s = 1 (friction
+    // included), the R_i are scaled down together: alone they release s linear + s^2 q, so the
+    // largest s within the bound is taken from that, and friction (least energy over its cones,
+    // T = 0 being feasible) can only lower it further.
     const double allowed = e_max * e_max * dissipated;
-    if (released > allowed) {
-      // Largest s in [0, 1] with s linear + s^2 q <= allowed.
-      const double q = released - linear;
+    if (kineticEnergy(bodies, island_bodies) - energy_compressed > allowed) {
+      undo();
+      applyNormal(1.0);
+      const double q = kineticEnergy(bodies, island_bodies) - energy_compressed - linear;
+      undo();
       scale =
           q > 0.0 ? (-linear + std::sqrt(linear * linear + 4.0 * q * allowed)) / (2.0 * q) : 0.0;
       scale = std::clamp(scale, 0.0, 1.0);
-      applyRestitution(scale - 1.0);
+      friction = restitutionPhase(scale);
     }
-  }
-
-  // Friction through restitution: with the normal impulses R_i fixed, each contact sticks if
-  // that needs |T_i| <= mu_s R_i, else slides with mu_d R_i (Coulomb integrated over the phase).
-  // T = 0 is feasible, so at convergence friction only lowers the energy the scale above allowed.
-  std::vector<ContactImpulse> restitution(island.size());
-  IterativeStats friction;
-  friction.converged = true;
-  bool frictional = false;
-  std::vector<double> restitution_normal(island.size());
-  for (std::size_t i = 0; i < island.size(); ++i) {
-    restitution_normal[i] = scale * rows[island[i]].restitution * compression[i].normal_impulse;
-    frictional = frictional || (!plastic[i].frictionless() && restitution_normal[i] > 0.0);
-  }
-  if (frictional) {
-    friction = solveIterative(bodies, plastic, local, options, restitution, &restitution_normal);
   }
 
   // 3. No contact may end approaching.
