@@ -7,7 +7,6 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
-
 #include <chrono>
 #include <stdexcept>
 
