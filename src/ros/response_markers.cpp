@@ -61,8 +61,8 @@ void addArrow(visualization_msgs::MarkerArray& array, const std_msgs::Header& he
   Marker m = marker(header, ns, id, Marker::ARROW, c);
   m.points = {point(from), point(from + v)};
   m.scale.x = std::min(0.012, 0.2 * length);  // shaft diameter [m]
-  m.scale.y = 2.0 * m.scale.x;                 // head diameter [m]
-  m.scale.z = std::min(0.04, 0.4 * length);    // head length [m]
+  m.scale.y = 2.0 * m.scale.x;                // head diameter [m]
+  m.scale.z = std::min(0.04, 0.4 * length);   // head length [m]
   array.markers.push_back(std::move(m));
 }
 
