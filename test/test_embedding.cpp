@@ -465,6 +465,47 @@ TEST_F(EmbeddingTest, PublishedResponsesRecordAndReplayWithRosbag) {
   EXPECT_EQ(back.kinetic_energy_after, answer.kinetic_energy_after);
 }
 
+// `rosbag record` (started by embedding.test with --limit=1) records the node's ~responses: the
+// bag it closes holds the message of one of our calls, equal to that call's answer.
+TEST_F(EmbeddingTest, RosbagRecordCapturesAPublishedResponse) {
+  std::string path;
+  ASSERT_TRUE(node_.getParam("/recorded_bag", path));
+  const std::string service = "/bag/collision_response";
+  ASSERT_TRUE(ros::service::waitForService(service + "/compute", ros::Duration(30.0)));
+  // Stamps unique to this run (a bag of an earlier run may still be there).
+  const int32_t run = static_cast<int32_t>(ros::WallTime::now().sec);
+  std::map<ros::Time, std::pair<cr::ComputeResponse::Request, cr::ComputeResponse::Response>> calls;
+  std::vector<cr::CollisionResponse> recorded;
+  // Call until the recorder has subscribed, got one message and closed the bag.
+  for (int attempt = 0; attempt < 300 && recorded.empty(); ++attempt) {
+    cr::ComputeResponse::Request request = boxCorner(cr::SolverOptions::LAW_STRONGE);
+    request.bodies[1].twist.linear.x = 0.01 * attempt;  // a different answer per call
+    request.header.stamp = ros::Time(run, attempt);
+    const cr::ComputeResponse::Response answer = call(service, request);
+    ASSERT_TRUE(answer.success) << answer.message;
+    calls[request.header.stamp] = {request, answer};
+    ros::WallDuration(0.1).sleep();
+    try {
+      rosbag::Bag bag(path, rosbag::bagmode::Read);
+      for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+        const auto msg = m.instantiate<cr::CollisionResponse>();
+        if (msg && calls.count(msg->header.stamp)) recorded.push_back(*msg);
+      }
+    } catch (const rosbag::BagException&) {
+      // not there yet (still recording into PATH.active)
+    }
+  }
+  ASSERT_EQ(recorded.size(), 1u) << "no bag with one of our responses at " << path;
+  const cr::CollisionResponse& back = recorded[0];
+  const auto& [request, answer] = calls.at(back.header.stamp);
+  EXPECT_EQ(back.header.frame_id, "world");
+  EXPECT_EQ(bytes(back.bodies), bytes(answer.bodies));
+  EXPECT_EQ(bytes(back.impulses), bytes(answer.impulses));
+  EXPECT_EQ(bytes(back.contacts), bytes(request.contacts));
+  EXPECT_EQ(back.kinetic_energy_before, answer.kinetic_energy_before);
+  EXPECT_EQ(back.kinetic_energy_after, answer.kinetic_energy_after);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+
 namespace collision_response {
 namespace {
 
@@ -52,7 +54,7 @@ Marker marker(const std_msgs::Header& header, const std::string& ns, int id, int
   return m;
 }
 
-/// An arrow from `from` to `from + v`; false (nothing added) for a zero-length arrow.
+/// An arrow from `from` to `from + v`; nothing is added for a zero-length arrow.
 void addArrow(visualization_msgs::MarkerArray& array, const std_msgs::Header& header,
               const std::string& ns, int id, const std_msgs::ColorRGBA& c,
               const Eigen::Vector3d& from, const Eigen::Vector3d& v) {
