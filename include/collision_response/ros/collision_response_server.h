@@ -27,8 +27,10 @@ namespace collision_response {
 
 class SolverConfig;  // generated from cfg/Solver.cfg
 
-/// The ROS face of the core library: serves ~compute, publishes every successful answer on
-/// ~responses, and transforms bodies given in other frames into the request frame with tf2.
+/// The ROS face of the core library: serves ~compute and ~compute_batch, publishes every successful
+/// ~compute answer on ~responses (and on ~markers for RViz, if subscribed), and transforms bodies
+/// given in other frames into the request frame with tf2. Used by collision_response_node and by
+/// the nodelet collision_response/CollisionResponseNodelet.
 ///
 /// Parameters (private namespace, read once here):
 ///   ~law             "stronge" | "poisson" | "newton" | "seed_one_pass": default impact law
