@@ -10,6 +10,10 @@ packages=(
   libstd-msgs-dev libgeometry-msgs-dev libshape-msgs-dev python3-shape-msgs libtf2-ros-dev python3-tf2-ros libtf2-eigen-dev libeigen3-dev libfcl-dev
   librostest-dev python3-rostest python3-rosservice python3-rostopic libgtest-dev
   python3-std-msgs python3-geometry-msgs libbenchmark-dev
+  libnodelet-dev libnodeletlib-dev libnodeletlib-tools python3-nodelet pluginlib-dev
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure libdiagnostic-updater-dev
+  libdiagnostic-msgs-dev libvisualization-msgs-dev python3-visualization-msgs librosbag-dev
+  librosbag-storage-dev python3-rosbag python3-rospkg
 )
 scripts/install_packages.sh "${packages[@]}"
 

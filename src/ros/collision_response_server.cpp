@@ -1,6 +1,9 @@
 #include "collision_response/ros/collision_response_server.h"
 
 #include <collision_response/CollisionResponse.h>
+#include <collision_response/SolverConfig.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
@@ -109,8 +112,8 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
   tf_timeout_ = ros::Duration(tf_timeout);
   // Contacts from shapes: default tolerance [m], points per pair of shapes, geometry limits.
   contact_tolerance_ = readParam(private_node, "contact_tolerance", contact_tolerance_);
-  if (!(contact_tolerance_ > 0.0) || !(contact_tolerance_ <= 1.0))
-    throw std::invalid_argument("~contact_tolerance must lie in (0, 1] m");
+  if (!(contact_tolerance_ >= 0.0) || !(contact_tolerance_ <= 1.0))
+    throw std::invalid_argument("~contact_tolerance must lie in [0, 1] m");
   max_contacts_per_pair_ =
       positiveSize(private_node, "max_contacts_per_pair", static_cast<int>(max_contacts_per_pair_));
   limits_.max_shapes =
@@ -122,8 +125,19 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
   // Coefficients of detected contacts per pair of materials.
   materials_ = readMaterials(private_node);
 
+  max_batch_scenes_ = positiveSize(private_node, "max_batch_scenes", 10000);
+  marker_scales_.impulse = readParam(private_node, "marker_impulse_scale", marker_scales_.impulse);
+  marker_scales_.velocity =
+      readParam(private_node, "marker_velocity_scale", marker_scales_.velocity);
+  if (!(marker_scales_.impulse > 0.0) || !(marker_scales_.velocity > 0.0))
+    throw std::invalid_argument("~marker_impulse_scale and ~marker_velocity_scale must be > 0");
+
   responses_ = private_node.advertise<CollisionResponse>("responses", 10);
+  markers_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   service_ = private_node.advertiseService("compute", &CollisionResponseServer::compute, this);
+  batch_service_ =
+      private_node.advertiseService("compute_batch", &CollisionResponseServer::computeBatch, this);
+  setUpMonitoring(node, private_node);
   ROS_INFO("collision_response: serving %s (law %s, solver %s)", service_.getService().c_str(),
            core::toString(default_options_.law), core::toString(default_options_.method));
 }
@@ -199,7 +213,7 @@ core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Re
   core::checkGeometrySize(shapes, vertices, triangles, limits_);
 
   core::DetectionInput input;
-  input.options = fromMsg(request.detection, contact_tolerance_);
+  input.options = fromMsg(request.detection, contactTolerance());
   input.options.max_contacts_per_pair = max_contacts_per_pair_;
   input.defaults = {request.detection.restitution, request.detection.static_friction,
                     request.detection.dynamic_friction};
@@ -221,10 +235,31 @@ core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Re
 
 bool CollisionResponseServer::compute(ComputeResponse::Request& request,
                                       ComputeResponse::Response& response) {
+  solve(request, response);
+  recordCalls(1, 1, response.success ? 0 : 1, response.solve_time, response.solve_time);
+  if (!response.success) return true;
+  CollisionResponse published;
+  published.header = request.header;
+  published.bodies = response.bodies;
+  published.contacts = request.contacts;
+  published.contacts.insert(published.contacts.end(), response.detected_contacts.begin(),
+                            response.detected_contacts.end());
+  published.impulses = response.impulses;
+  published.kinetic_energy_before = response.kinetic_energy_before;
+  published.kinetic_energy_after = response.kinetic_energy_after;
+  responses_.publish(published);
+  // Markers only when someone looks: the hot path does not pay for them.
+  if (markers_.getNumSubscribers() > 0)
+    markers_.publish(makeMarkers(request, response, marker_scales_));
+  return true;
+}
+
+void CollisionResponseServer::solve(const ComputeResponse::Request& request,
+                                    ComputeResponse::Response& response) {
   response.success = false;
   try {
     core::Scene scene = toScene(request);
-    const core::SolverOptions options = fromMsg(request.options, default_options_);
+    const core::SolverOptions options = fromMsg(request.options, defaultOptions());
     if (wantsDetection(request)) {
       core::validate(scene, options, limits_);  // detection needs valid poses
       const core::DetectedContacts detected = detect(request, scene);
@@ -251,17 +286,6 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
     response.kinetic_energy_before = result.kinetic_energy_before;
     response.kinetic_energy_after = result.kinetic_energy_after;
     response.success = true;
-
-    CollisionResponse published;
-    published.header = request.header;
-    published.bodies = response.bodies;
-    published.contacts = request.contacts;
-    published.contacts.insert(published.contacts.end(), response.detected_contacts.begin(),
-                              response.detected_contacts.end());
-    published.impulses = response.impulses;
-    published.kinetic_energy_before = response.kinetic_energy_before;
-    published.kinetic_energy_after = response.kinetic_energy_after;
-    responses_.publish(published);
   } catch (const core::InvalidInput& e) {
     response.message = e.what();
     ROS_DEBUG("collision_response: rejected request: %s", e.what());
@@ -279,7 +303,152 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
     response.detected_contacts.clear();
     response.detected_depths.clear();
   }
+}
+
+bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
+                                           ComputeBatch::Response& response) {
+  response.success = false;
+  response.solve_time = 0.0;
+  if (request.scenes.size() > max_batch_scenes_) {
+    response.message = "scenes: " + std::to_string(request.scenes.size()) +
+                       " scenes exceed ~max_batch_scenes (" + std::to_string(max_batch_scenes_) +
+                       ")";
+    recordCalls(1, 0, 0, 0.0, 0.0);
+    return true;
+  }
+  std::size_t failures = 0;
+  double max_solve_time = 0.0;
+  response.results.resize(request.scenes.size());
+  ComputeResponse::Request single;
+  ComputeResponse::Response answer;
+  for (std::size_t i = 0; i < request.scenes.size(); ++i) {
+    Scene& scene = request.scenes[i];
+    single.header = scene.header.frame_id.empty() ? request.header : scene.header;
+    single.bodies = std::move(scene.bodies);
+    single.contacts = std::move(scene.contacts);
+    single.options = scene.options;
+    single.detection = scene.detection;
+    answer = ComputeResponse::Response();
+    solve(single, answer);
+    SceneResult& result = response.results[i];
+    result.success = answer.success;
+    if (!answer.success) {
+      result.message = "scenes[" + std::to_string(i) + "]." + answer.message;
+      ++failures;
+    }
+    result.bodies = std::move(answer.bodies);
+    result.impulses = std::move(answer.impulses);
+    result.kinetic_energy_before = answer.kinetic_energy_before;
+    result.kinetic_energy_after = answer.kinetic_energy_after;
+    result.islands = std::move(answer.islands);
+    result.detected_contacts = std::move(answer.detected_contacts);
+    result.detected_depths = std::move(answer.detected_depths);
+    result.solve_time = answer.solve_time;
+    response.solve_time += answer.solve_time;
+    max_solve_time = std::max(max_solve_time, answer.solve_time);
+  }
+  response.success = true;
+  recordCalls(1, request.scenes.size(), failures, response.solve_time, max_solve_time);
   return true;
+}
+
+double CollisionResponseServer::contactTolerance() const {
+  std::lock_guard<std::mutex> lock(options_mutex_);
+  return contact_tolerance_;
+}
+
+core::SolverOptions CollisionResponseServer::defaultOptions() const {
+  std::lock_guard<std::mutex> lock(options_mutex_);
+  return default_options_;
+}
+
+void CollisionResponseServer::setUpMonitoring(const ros::NodeHandle& node,
+                                              const ros::NodeHandle& private_node) {
+  // dynamic_reconfigure starts from the validated parameters: write them back first so that the
+  // server's first callback (with the values it reads from the parameter server) changes nothing.
+  ros::NodeHandle reconfigure_node(private_node);
+  reconfigure_node.setParam("law", std::string(core::toString(default_options_.law)));
+  reconfigure_node.setParam("solver", std::string(core::toString(default_options_.method)));
+  reconfigure_node.setParam("tolerance", default_options_.tolerance);
+  reconfigure_node.setParam("max_iterations", static_cast<int>(default_options_.max_iterations));
+  reconfigure_node.setParam("integration_tolerance", default_options_.integration_tolerance);
+  reconfigure_node.setParam("contact_tolerance", contact_tolerance_);
+  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<SolverConfig>>(private_node);
+  reconfigure_server_->setCallback(
+      [this](SolverConfig& config, uint32_t level) { reconfigure(config, level); });
+
+  statistics_.last_update = ros::WallTime::now();
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(node, private_node,
+                                                               private_node.getNamespace());
+  diagnostics_->setHardwareID("none");
+  diagnostics_->add("solver", this, &CollisionResponseServer::diagnose);
+  diagnostics_timer_ = private_node.createWallTimer(
+      ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+}
+
+CollisionResponseServer::~CollisionResponseServer() = default;
+
+void CollisionResponseServer::reconfigure(SolverConfig& config, uint32_t /*level*/) {
+  std::lock_guard<std::mutex> lock(options_mutex_);
+  core::SolverOptions options = default_options_;
+  // String enums are not enforced by dynamic_reconfigure: an unknown name keeps the old value.
+  if (!core::fromString(config.law, options.law)) {
+    ROS_WARN("collision_response: reconfigure: unknown law '%s', keeping '%s'", config.law.c_str(),
+             core::toString(options.law));
+    config.law = core::toString(options.law);
+  }
+  if (!core::fromString(config.solver, options.method)) {
+    ROS_WARN("collision_response: reconfigure: unknown solver '%s', keeping '%s'",
+             config.solver.c_str(), core::toString(options.method));
+    config.solver = core::toString(options.method);
+  }
+  options.tolerance = config.tolerance;
+  options.max_iterations = static_cast<std::size_t>(std::max(1, config.max_iterations));
+  options.integration_tolerance = config.integration_tolerance;
+  default_options_ = options;
+  contact_tolerance_ = config.contact_tolerance;
+  ROS_INFO(
+      "collision_response: solver defaults: law %s, solver %s, tolerance %g, max_iterations "
+      "%zu, integration_tolerance %g, contact_tolerance %g m",
+      core::toString(options.law), core::toString(options.method), options.tolerance,
+      options.max_iterations, options.integration_tolerance, contact_tolerance_);
+}
+
+void CollisionResponseServer::recordCalls(std::size_t calls, std::size_t scenes,
+                                          std::size_t failures, double solve_time,
+                                          double max_solve_time) {
+  std::lock_guard<std::mutex> lock(statistics_mutex_);
+  statistics_.calls += calls;
+  statistics_.scenes += scenes;
+  statistics_.failures += failures;
+  statistics_.solve_time += solve_time;
+  statistics_.max_solve_time = std::max(statistics_.max_solve_time, max_solve_time);
+}
+
+void CollisionResponseServer::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(statistics_mutex_);
+  Statistics& s = statistics_;
+  const ros::WallTime now = ros::WallTime::now();
+  const double period = std::max(1e-9, (now - s.last_update).toSec());
+  const double rate = static_cast<double>(s.calls - s.calls_at_update) / period;
+  const std::uint64_t new_failures = s.failures - s.failures_at_update;
+  if (new_failures == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "serving");
+  } else {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu failed scenes in the last %.1f s",
+                    static_cast<unsigned long>(new_failures), period);
+  }
+  status.add("call rate [1/s]", rate);
+  status.add("calls", s.calls);
+  status.add("scenes", s.scenes);
+  status.add("failures", s.failures);
+  status.add("mean solver time per scene [s]",
+             s.scenes > 0 ? s.solve_time / static_cast<double>(s.scenes) : 0.0);
+  status.add("max solver time per call since last update [s]", s.max_solve_time);
+  s.calls_at_update = s.calls;
+  s.failures_at_update = s.failures;
+  s.max_solve_time = 0.0;
+  s.last_update = now;
 }
 
 }  // namespace collision_response

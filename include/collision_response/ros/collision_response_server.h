@@ -1,10 +1,12 @@
 #pragma once
 
+#include <collision_response/ComputeBatch.h>
 #include <collision_response/ComputeResponse.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -12,13 +14,27 @@
 #include "collision_response/contact_detection.h"
 #include "collision_response/detected_contacts.h"
 #include "collision_response/materials.h"
+#include "collision_response/ros/response_markers.h"
 #include "collision_response/scene.h"
 #include "collision_response/solver_options.h"
 
+namespace diagnostic_updater {
+class DiagnosticStatusWrapper;
+class Updater;
+}  // namespace diagnostic_updater
+namespace dynamic_reconfigure {
+template <class ConfigType>
+class Server;
+}  // namespace dynamic_reconfigure
+
 namespace collision_response {
 
-/// The ROS face of the core library: serves ~compute, publishes every successful answer on
-/// ~responses, and transforms bodies given in other frames into the request frame with tf2.
+class SolverConfig;  // generated from cfg/Solver.cfg
+
+/// The ROS face of the core library: serves ~compute and ~compute_batch, publishes every successful
+/// ~compute answer on ~responses (and on ~markers for RViz, if subscribed), and transforms bodies
+/// given in other frames into the request frame with tf2. Used by collision_response_node and by
+/// the nodelet collision_response/CollisionResponseNodelet.
 ///
 /// Parameters (private namespace, read once here):
 ///   ~law             "stronge" | "poisson" | "newton" | "seed_one_pass": default impact law
@@ -35,6 +51,15 @@ namespace collision_response {
 ///   ~max_shapes, ~max_mesh_vertices, ~max_mesh_triangles  geometry limits of a request
 ///   ~materials       list of {a, b, restitution, static_friction, dynamic_friction}: the
 ///                    coefficients of detected contacts between bodies of materials a and b
+///   ~max_batch_scenes   larger ~compute_batch requests are rejected as a whole
+///   ~marker_impulse_scale   [m per N s] length of the impulse arrows on ~markers
+///   ~marker_velocity_scale  [m per m/s] length of the velocity arrows on ~markers
+/// law, solver, tolerance, max_iterations, integration_tolerance and contact_tolerance can be
+/// changed at run time with dynamic_reconfigure (cfg/Solver.cfg); diagnostics (call rate,
+/// failures, solver time) go to /diagnostics at 1 Hz.
+///
+/// Thread-safe: the callbacks may run concurrently (a multi-threaded spinner, or a nodelet's MT
+/// node handles).
 class CollisionResponseServer {
  public:
   /// Throws std::invalid_argument for a bad parameter value.
@@ -44,7 +69,28 @@ class CollisionResponseServer {
   /// message naming the field.
   bool compute(ComputeResponse::Request& request, ComputeResponse::Response& response);
 
+  /// The ~compute_batch callback: every scene solved independently, results in order; a bad scene
+  /// gets success = false and does not affect the others. Batch results are not published on
+  /// ~responses or ~markers. Always answers (returns true).
+  bool computeBatch(ComputeBatch::Request& request, ComputeBatch::Response& response);
+
+  /// [m] the contact tolerance for contact detection (parameter / dynamic_reconfigure).
+  double contactTolerance() const;
+
+  ~CollisionResponseServer();
+
  private:
+  /// One scene: fills `response` (success false with a message on bad input); publishes nothing.
+  void solve(const ComputeResponse::Request& request, ComputeResponse::Response& response);
+  /// The request defaults (parameters, dynamic_reconfigure), read under the mutex.
+  core::SolverOptions defaultOptions() const;
+  /// dynamic_reconfigure and diagnostics, at the end of construction.
+  void setUpMonitoring(const ros::NodeHandle& node, const ros::NodeHandle& private_node);
+  void reconfigure(SolverConfig& config, uint32_t level);
+  void recordCalls(std::size_t calls, std::size_t scenes, std::size_t failures, double solve_time,
+                   double max_solve_time);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
   /// Request to core scene in the request frame (tf2 look-ups for bodies in other frames).
   core::Scene toScene(const ComputeResponse::Request& request) const;
   /// Whether the request's contacts are to be found from the bodies' shapes (detection.mode).
@@ -57,10 +103,13 @@ class CollisionResponseServer {
   std::unique_ptr<core::ContactDetector> acquireDetector();
   void releaseDetector(std::unique_ptr<core::ContactDetector> detector);
 
+  mutable std::mutex options_mutex_;  // guards default_options_ and contact_tolerance_
   core::SolverOptions default_options_;
+  double contact_tolerance_ = 1e-3;
+  std::size_t max_batch_scenes_ = 10000;
+  MarkerScales marker_scales_;
   core::RequestLimits limits_;
   ros::Duration tf_timeout_;
-  double contact_tolerance_ = 1e-3;
   std::size_t max_contacts_per_pair_ = 8;
   core::MaterialTable materials_;
   std::mutex detectors_mutex_;
@@ -69,6 +118,25 @@ class CollisionResponseServer {
   tf2_ros::TransformListener tf_listener_;
   ros::Publisher responses_;
   ros::ServiceServer service_;
+  ros::Publisher markers_;
+  ros::ServiceServer batch_service_;
+
+  // Diagnostics: totals since start and the state at the last diagnostics update.
+  struct Statistics {
+    std::uint64_t calls = 0;      // service calls (compute and compute_batch)
+    std::uint64_t scenes = 0;     // scenes solved or rejected (1 per compute call)
+    std::uint64_t failures = 0;   // scenes answered with success = false
+    double solve_time = 0.0;      // [s] total solver time
+    double max_solve_time = 0.0;  // [s] largest per-call solver time since the last update
+    std::uint64_t calls_at_update = 0;
+    std::uint64_t failures_at_update = 0;
+    ros::WallTime last_update;
+  };
+  std::mutex statistics_mutex_;
+  Statistics statistics_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+  std::unique_ptr<dynamic_reconfigure::Server<SolverConfig>> reconfigure_server_;
 };
 
 }  // namespace collision_response

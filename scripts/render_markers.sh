@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Renders what config/collision_response.rviz shows into docs/markers.png, headlessly: a private ROS
+# master, the node, RViz under Xvfb (software OpenGL), scripts/marker_demo_request.yaml sent in a
+# loop, a screenshot of the virtual screen (xwd), cropped to the 3D view. Installs rviz, xvfb, xauth,
+# x11-apps and python3-pil if missing. GALLIUM_DRIVER (default llvmpipe), RVIZ_ARGS: passed on.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+# Only this script needs them (not the build or the tests).
+scripts/install_packages.sh rviz xvfb xauth x11-apps python3-pil
+scripts/setup.sh
+source scripts/ros_env.sh
+output=${1:-docs/markers.png}
+mkdir -p "$(dirname "$output")"
+
+port=$(free_port)
+export ROS_MASTER_URI=http://127.0.0.1:$port
+pids=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+}
+trap cleanup EXIT
+
+roscore -p "$port" >"$ROS_HOME/roscore.out" 2>&1 &
+pids+=($!)
+roslaunch --wait collision_response collision_response.launch >"$ROS_HOME/node.out" 2>&1 &
+pids+=($!)
+for _ in $(seq 1 300); do
+  rosservice list 2>/dev/null | grep -qx /collision_response/compute && break
+  sleep 0.1
+done
+
+display=:$((90 + RANDOM % 100))
+Xvfb "$display" -screen 0 1280x800x24 >"$ROS_HOME/xvfb.out" 2>&1 &
+pids+=($!)
+sleep 2
+DISPLAY=$display LIBGL_ALWAYS_SOFTWARE=1 GALLIUM_DRIVER=${GALLIUM_DRIVER:-llvmpipe} rviz -d config/collision_response.rviz ${RVIZ_ARGS:-} \
+  >"$ROS_HOME/rviz.out" 2>&1 &
+pids+=($!)
+
+# Send the request twice a second while RViz starts and subscribes (markers go to subscribers only).
+request=$(cat scripts/marker_demo_request.yaml)
+for _ in $(seq 1 12); do
+  rosservice call /collision_response/compute "$request" >/dev/null
+  sleep 0.5
+done
+DISPLAY=$display xwd -root -silent >"$ROS_HOME/screen.xwd"
+/usr/bin/python3 scripts/xwd_to_png.py "$ROS_HOME/screen.xwd" "$output"
+echo "render_markers: wrote $output"
