@@ -192,19 +192,19 @@ struct Writer {
     std::fprintf(f,
                  "scene,family,reference,contacts,instances,engine,curve,param,law,expressible,"
                  "ns_per_solve,ns_per_contact,vel_err,energy_err,energy_gain,restitution_err,"
-                 "approach,cone_violation,energy_ratio,note\n");
+                 "approach,cone_violation,energy_ratio,vel_err_newton_lcp,note\n");
   }
   void row(const bench::BenchScene& s, const std::string& engine, const std::string& curve,
            const std::string& param, const std::string& law, const std::string& expressible,
-           double ns, const bench::Errors& e, const std::string& note) {
+           double ns, const bench::Errors& e, double vel_err_lcp, const std::string& note) {
     const double contacts = static_cast<double>(s.contactsPerInstance());
     std::fprintf(f,
-                 "%s,%s,\"%s\",%zu,%zu,%s,%s,%s,%s,\"%s\",%.1f,%.2f,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e,%"
-                 ".6f,\"%s\"\n",
+                 "%s,%s,\"%s\",%zu,%zu,%s,%s,%s,%s,\"%s\",%.1f,%.2f,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e,"
+                 "%.6f,%.3e,\"%s\"\n",
                  s.name.c_str(), s.family.c_str(), s.reference.c_str(), s.contactsPerInstance(),
                  s.instances.size(), engine.c_str(), curve.c_str(), param.c_str(), law.c_str(),
                  expressible.c_str(), ns, ns / contacts, e.velocity, e.energy, e.energy_gain,
-                 e.restitution, e.approach, e.cone, e.energy_ratio, note.c_str());
+                 e.restitution, e.approach, e.cone, e.energy_ratio, vel_err_lcp, note.c_str());
     std::fflush(f);
   }
 };
@@ -239,15 +239,17 @@ int main(int argc, char** argv) {
                      m.curve == "stronge_iterative" ||
                      (m.curve == "seed_one_pass" && !m.single_contact_only)))
         continue;  // one contact: the laws' own single-contact paths above
-      bench::Errors total;
+      bench::Errors total, total_lcp;
       double ns = 0.0;
       const auto& ref = s.referenceFor(m.reference_law);
+      const auto& lcp = s.referenceFor("newton_lcp");
       for (std::size_t i = 0; i < s.instances.size(); ++i) {
         const Answer a = answerOf(m, prepared[i]);
         bench::accumulate(total, bench::measure(s.instances[i], a.after, a.impulses, ref[i]));
+        bench::accumulate(total_lcp, bench::measure(s.instances[i], a.after, a.impulses, lcp[i]));
         ns += timePerCall(m, prepared[i], reps) / s.instances.size();
       }
-      w.row(s, "ours", m.curve, m.param, m.reference_law, "yes", ns, total, "");
+      w.row(s, "ours", m.curve, m.param, m.reference_law, "yes", ns, total, total_lcp.velocity, "");
     }
     const std::string expressible =
         s.friction_split ? "no: one friction coefficient (given mu_d)" : "yes";
@@ -264,7 +266,7 @@ int main(int argc, char** argv) {
         ns += r.ns_per_solve / s.instances.size();
         if (!r.note.empty()) note = r.note;
       }
-      w.row(s, engine, curve, param, "newton_lcp", expressible, ns, total, note);
+      w.row(s, engine, curve, param, "newton_lcp", expressible, ns, total, total.velocity, note);
     };
 #ifdef HAVE_BULLET
     for (int k = 1; k <= 256; k *= 2)
