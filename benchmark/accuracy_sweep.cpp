@@ -84,6 +84,8 @@ struct OurMethod {
   std::function<void(const Prepared&, std::vector<core::RigidBody>& work,
                      std::vector<core::ContactImpulse>& impulses)>
       solve;
+  /// Optional: work counts of one run on an instance (integrator: Runge-Kutta steps, segments).
+  std::function<core::IntegrationStats(const Prepared&)> stats = nullptr;
 };
 
 Answer answerOf(const OurMethod& m, const Prepared& p) {
@@ -153,6 +155,13 @@ std::vector<OurMethod> ourMethods() {
                                                                   work[row.body_b], row, l, tol);
                        row.space.applyImpulse(work[row.body_a], work[row.body_b],
                                               impulses[0].total(row.normal));
+                     },
+                     [l, tol](const Prepared& p) {
+                       core::IntegrationStats stats;
+                       const auto& row = p.rows[0];
+                       core::integrateSingleContact(p.bodies[row.body_a], p.bodies[row.body_b], row,
+                                                    l, tol, &stats);
+                       return stats;
                      }});
     }
   }
@@ -240,7 +249,7 @@ int main(int argc, char** argv) {
                      (m.curve == "seed_one_pass" && !m.single_contact_only)))
         continue;  // one contact: the laws' own single-contact paths above
       bench::Errors total, total_lcp;
-      double ns = 0.0;
+      double ns = 0.0, steps = 0.0, segments = 0.0;
       const auto& ref = s.referenceFor(m.reference_law);
       const auto& lcp = s.referenceFor("newton_lcp");
       for (std::size_t i = 0; i < s.instances.size(); ++i) {
@@ -248,8 +257,18 @@ int main(int argc, char** argv) {
         bench::accumulate(total, bench::measure(s.instances[i], a.after, a.impulses, ref[i]));
         bench::accumulate(total_lcp, bench::measure(s.instances[i], a.after, a.impulses, lcp[i]));
         ns += timePerCall(m, prepared[i], reps) / s.instances.size();
+        if (m.stats) {
+          const core::IntegrationStats st = m.stats(prepared[i]);
+          steps += static_cast<double>(st.steps) / s.instances.size();
+          segments += static_cast<double>(st.segments) / s.instances.size();
+        }
       }
-      w.row(s, "ours", m.curve, m.param, m.reference_law, "yes", ns, total, total_lcp.velocity, "");
+      char note[96] = "";
+      if (m.stats)
+        std::snprintf(note, sizeof note, "mean %.1f Runge-Kutta steps, %.1f segments", steps,
+                      segments);
+      w.row(s, "ours", m.curve, m.param, m.reference_law, "yes", ns, total, total_lcp.velocity,
+            note);
     }
     const std::string expressible =
         s.friction_split ? "no: one friction coefficient (given mu_d)" : "yes";

@@ -19,7 +19,7 @@ out=benchmark
 echo "benchmark: micro figures (Google Benchmark) -> $out/micro.json"
 "$bin/bench_solvers" --benchmark_repetitions=5 --benchmark_min_time=0.2 \
   --benchmark_report_aggregates_only=true --benchmark_out="$out/micro.json" \
-  --benchmark_out_format=json >"$out/micro.txt"
+  --benchmark_out_format=json >"$build_dir/micro.txt"
 
 echo "benchmark: accuracy sweep (ours, Bullet, ODE) -> $out/results.csv"
 "$bin/accuracy_sweep" --out "$out/results.csv" --reps "${SWEEP_REPS:-31}"
