@@ -9,6 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$(date +%s)
+fresh=$([ -d "${BUILD_DIR:-build}" ] && echo no || echo yes)
 scripts/install_packages.sh libbenchmark-dev libbullet-dev libode-dev pkg-config python3-matplotlib
 CMAKE_ARGS="-DCOLLISION_RESPONSE_BENCHMARKS=ON ${CMAKE_ARGS:-}" scripts/setup.sh
 build_s=$(($(date +%s) - start))
@@ -48,6 +49,7 @@ pids=()
 
 elapsed=$(($(date +%s) - start))
 echo "benchmark: report -> $out/RESULTS.md, $out/pareto.png"
-/usr/bin/python3 benchmark/report.py --dir "$out" --command "scripts/benchmark.sh" \
+/usr/bin/python3 benchmark/report.py --dir "$out" \
+  --command "${BUILD_DIR:+BUILD_DIR=$BUILD_DIR }scripts/benchmark.sh (fresh build dir: ${fresh})" \
   --elapsed "$elapsed" --build-seconds "$build_s"
 echo "benchmark: done in $(($(date +%s) - start)) s"
