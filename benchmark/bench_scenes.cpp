@@ -250,6 +250,40 @@ Velocities cubeFlatClosedForm(const core::Scene& scene) {
   return out;
 }
 
+/// `boxes` unit cubes (1 kg) stacked on the ground, all moving at v = (0.3, -1, 0.1) m/s: 4 corner
+/// contacts per face, e = 0.5, mu = 0.5. The closed form (Newton, simultaneous) is the stack
+/// moving as one: v' = (0, 0.5, 0), w' = 0 for every box; the ground corners end at u'_n = -e u_n,
+/// the faces between boxes at u'_n = 0, every contact stuck (the friction the ground needs, 0.32
+/// N s per box, is inside the cone, and the normal impulses can balance its torques).
+core::Scene stack(int boxes) {
+  core::Scene s;
+  s.bodies = {ground()};
+  for (int i = 0; i < boxes; ++i) {
+    core::BodyState box;
+    box.id = "box" + std::to_string(i);
+    box.mass = 1.0;
+    box.inertia = Matrix3d::Identity() / 6.0;
+    box.position = {0.0, 0.5 + i, 0.0};
+    box.linear_velocity = {0.3, -1.0, 0.1};
+    s.bodies.push_back(box);
+    const std::string below = i == 0 ? "ground" : "box" + std::to_string(i - 1);
+    for (const double x : {-0.5, 0.5})
+      for (const double z : {-0.5, 0.5})
+        s.contacts.push_back(contact(below, box.id, {x, static_cast<double>(i), z},
+                                     Vector3d::UnitY(), 0.5, 0.5, 0.5));
+  }
+  return s;
+}
+
+Velocities stackClosedForm(const core::Scene& scene) {
+  Velocities out = velocitiesBefore(scene);
+  for (std::size_t i = 1; i < scene.bodies.size(); ++i) {
+    out.linear[i] = Vector3d(0.0, 0.5, 0.0);
+    out.angular[i] = Vector3d::Zero();
+  }
+  return out;
+}
+
 /// The rod of PHYSICS.md: 1 kg, 1 m, 50 degrees to the floor, tip striking, centre of mass at
 /// 1 m/s 20 degrees off vertical, e = 0.9, mu_s = 0.8 and mu_d = `mu_d`.
 core::Scene rodTip(double mu_d) {
@@ -308,7 +342,8 @@ std::vector<core::Scene> randomImpacts(int count, double heavy, unsigned seed) {
   return out;
 }
 
-/// 16 spheres in a row along x, touching, the first at 1 m/s: 15 frictionless contacts, e = 0.5.
+/// `spheres` spheres in a row along x, touching, the first at 1 m/s: 15 frictionless contacts, e =
+/// 0.5.
 core::Scene chain(int spheres) {
   core::Scene s;
   for (int i = 0; i < spheres; ++i) {
@@ -352,6 +387,7 @@ std::vector<BenchScene> makeScenes() {
   scenes.push_back(fineScene("chain_16", "many_contacts",
                              "exact (Lemke) solver of the same law (frictionless: unique)",
                              {chain(16)}));
+  scenes.push_back(closedFormScene("stack_4", "many_contacts", {stack(4)}, stackClosedForm));
   return scenes;
 }
 
