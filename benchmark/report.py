@@ -93,17 +93,21 @@ def read_rows(path):
 
 
 def micro_figures(path):
-    """name -> (cpu ns per item, wall ns per item) from the medians."""
+    """name -> (median cpu ns per item, median wall ns per item, best cpu ns per item) over the
+    repetitions."""
     if not os.path.exists(path):
         return {}, {}
     data = json.load(open(path))
-    out = {}
+    out, best = {}, {}
     for b in data["benchmarks"]:
-        if b.get("aggregate_name") != "median" or "items_per_second" not in b:
+        if "items_per_second" not in b:
             continue
         cpu_ns = 1e9 / b["items_per_second"]
-        out[b["run_name"]] = (cpu_ns, cpu_ns * b["real_time"] / b["cpu_time"])
-    return out, data.get("context", {})
+        if b.get("run_type") == "iteration":
+            best[b["run_name"]] = min(best.get(b["run_name"], cpu_ns), cpu_ns)
+        elif b.get("aggregate_name") == "median":
+            out[b["run_name"]] = (cpu_ns, cpu_ns * b["real_time"] / b["cpu_time"])
+    return {k: v + (best.get(k, v[0]),) for k, v in out.items()}, data.get("context", {})
 
 
 def best_within(rows, key, limit):
@@ -224,11 +228,14 @@ def main():
         if name not in micro:
             w("| %s | not measured | - |" % what)
             return
-        cpu, wall = micro[name]
+        cpu, wall, best = micro[name]
         verdict = "met" if cpu < limit else "missed by %.1f ns (%.2fx)" % (cpu - limit,
                                                                           cpu / limit)
-        w("| %s: under %.0f ns per contact | %.1f ns CPU (%.1f ns wall) per contact, `%s` | %s |"
-          % (what, limit, cpu, wall, name, verdict))
+        if cpu >= limit and best < limit:
+            verdict += "; best repetition under it"
+        w("| %s: under %.0f ns per contact | median %.1f ns CPU (%.1f ns wall, best of the "
+          "repetitions %.1f ns CPU) per contact, `%s` | %s |" % (what, limit, cpu, wall, best,
+                                                                name, verdict))
 
     micro_line("BM_Newton_Friction", 50, "single frictional contact, closed form, batch loop")
     micro_line("BM_Newton_Frictionless", 30, "frictionless contact, closed form, batch loop")
@@ -376,10 +383,14 @@ def main():
       "exact solver, unique for frictionless contacts).\n")
 
     # ---------------- micro
-    w("## Micro figures (Google Benchmark, `bench_solvers`, median of 5)\n")
-    w("| benchmark | ns per contact (CPU) | ns per contact (wall) |\n| --- | --- | --- |")
-    for name, (cpu, wall) in micro.items():
-        w("| `%s` | %.1f | %.1f |" % (name, cpu, wall))
+    w("## Micro figures (Google Benchmark, `bench_solvers`, 9 repetitions)\n")
+    w("Per contact (items processed). The machine is shared with other builds: CPU time is what "
+      "the benchmark thread used, wall time includes waiting for a core; the best repetition "
+      "shows the cost with the least interference.\n")
+    w("| benchmark | median ns per contact (CPU) | median (wall) | best repetition (CPU) |\n"
+      "| --- | --- | --- | --- |")
+    for name, (cpu, wall, best) in micro.items():
+        w("| `%s` | %.1f | %.1f | %.1f |" % (name, cpu, wall, best))
     w("")
 
     # ---------------- service

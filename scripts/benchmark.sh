@@ -18,8 +18,8 @@ bin=$build_dir/devel/lib/collision_response
 out=benchmark
 
 echo "benchmark: micro figures (Google Benchmark) -> $out/micro.json"
-"$bin/bench_solvers" --benchmark_repetitions=5 --benchmark_min_time=0.2 \
-  --benchmark_report_aggregates_only=true --benchmark_out="$out/micro.json" \
+"$bin/bench_solvers" --benchmark_repetitions=9 --benchmark_min_time=0.1 \
+  --benchmark_out="$out/micro.json" \
   --benchmark_out_format=json >"$build_dir/micro.txt"
 
 echo "benchmark: accuracy sweep (ours, Bullet, ODE) -> $out/results.csv"
