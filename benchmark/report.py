@@ -146,7 +146,7 @@ def scene_comparison(rows):
 def pareto_plot(rows, path):
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     cols = 4
-    nrows = math.ceil(len(scenes) / cols)
+    nrows = math.ceil((len(scenes) + 1) / cols)  # one panel more, for the legend
     fig, axes = plt.subplots(nrows, cols, figsize=(5.0 * cols, 4.0 * nrows), squeeze=False)
     styles = {"ours": "-", "bullet": "--", "ode": ":"}
     curves = list(dict.fromkeys(r["engine"] + "/" + r["curve"] for r in rows))
@@ -179,7 +179,8 @@ def pareto_plot(rows, path):
             if lab not in labels:
                 handles.append(h)
                 labels.append(lab)
-    fig.legend(handles, labels, loc="lower right", ncol=2, fontsize=8)
+    legend_ax = list(axes.flat)[len(scenes)]
+    legend_ax.legend(handles, labels, loc="center", ncol=1, fontsize=8, frameon=False)
     fig.suptitle("Error against run time, one curve per method (solid: ours, dashed: Bullet, "
                  "dotted: ODE; errors of 0 drawn at 1e-17; grey line: 1e-6)")
     fig.tight_layout(rect=(0, 0, 1, 0.97))
@@ -259,7 +260,8 @@ def main():
                     p["vel_err"])
             else:
                 speed = p["ns_per_solve"] / match["ns_per_solve"]
-                verdict = "met (%.1fx)" % speed if speed >= 3 else "missed: %.2fx, not 3x" % speed
+                verdict = ("met (%.1fx faster)" % speed if speed >= 3 else
+                           "missed: ours %.2fx as fast, not 3x" % speed)
             w("| %s: 3x faster than %s at the same or better error | %s: %s ns at %s; ours %s: %s "
               "ns at %s | %s |" % (
                   line["scene"], engine, label(p), fmt_ns(p["ns_per_solve"]),
@@ -307,10 +309,11 @@ def main():
             cells.append("%s: %s ns, %s" % (label(p), fmt_ns(p["ns_per_solve"]),
                                             fmt_err(p["vel_err"])))
             if match:
-                matches.append("%s: %s ns, %s (%.1fx faster)" % (
+                ratio = p["ns_per_solve"] / match["ns_per_solve"]
+                matches.append("%s: %s ns, %s (%s)" % (
                     label(match), fmt_ns(match["ns_per_solve"]),
                     fmt_err(match["vel_err_newton_lcp"]),
-                    p["ns_per_solve"] / match["ns_per_solve"]))
+                    "%.1fx faster" % ratio if ratio >= 1 else "%.1fx slower" % (1 / ratio)))
             else:
                 matches.append("none as accurate")
         w("| %s | %s | %s | %s | %s | %s |" % (line["scene"], line["expressible"], cells[0],
