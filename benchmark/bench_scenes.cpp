@@ -1,0 +1,394 @@
+// Benchmark scenes and their reference answers (see bench_scenes.h).
+#include "bench_scenes.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+#include "collision_response/contact_row.h"
+#include "collision_response/impulse_space_integrator.h"
+#include "collision_response/island_solver.h"
+#include "collision_response/rigid_body.h"
+#include "collision_response/single_contact.h"
+
+namespace collision_response::bench {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+constexpr core::ImpactLaw kNewton = core::ImpactLaw::kNewton;
+constexpr core::ImpactLaw kPoisson = core::ImpactLaw::kPoisson;
+constexpr core::ImpactLaw kStronge = core::ImpactLaw::kStronge;
+
+core::BodyState ground() {
+  core::BodyState body;
+  body.id = "ground";
+  return body;
+}
+
+/// Solid sphere of radius `radius` [m]: I = 2/5 m r^2.
+core::BodyState sphere(const std::string& id, double mass, double radius, const Vector3d& position,
+                       const Vector3d& v, const Vector3d& w = Vector3d::Zero()) {
+  core::BodyState body;
+  body.id = id;
+  body.mass = mass;
+  body.inertia = Matrix3d::Identity() * (0.4 * mass * radius * radius);
+  body.position = position;
+  body.linear_velocity = v;
+  body.angular_velocity = w;
+  return body;
+}
+
+core::Contact contact(const std::string& a, const std::string& b, const Vector3d& point,
+                      const Vector3d& normal, double e, double mu_s, double mu_d) {
+  core::Contact c;
+  c.body_a = a;
+  c.body_b = b;
+  c.point = point;
+  c.normal = normal;
+  c.restitution = e;
+  c.static_friction = mu_s;
+  c.dynamic_friction = mu_d;
+  return c;
+}
+
+/// Closed form for one central contact between spheres (or a sphere and the immovable ground),
+/// computed here independently of the library. K = k_n n n^T + k_t (I - n n^T) with
+/// k_n = sum 1/m_i and k_t = sum (1/m_i + r_i^2 / I_i). Normal impulse P_n = -(1 + e) u_n / k_n
+/// (every law agrees: K_tn = 0). Friction: the sticking impulse |u_t| / k_t if it is within
+/// mu_d P_n (the contact stops slipping during the impact and stays stuck), mu_d P_n against the
+/// slip if the sticking impulse exceeds mu_s P_n; scenes in between are not built (there Newton's
+/// static-cone test and Routh's integration disagree).
+Velocities centralSpheres(const core::Scene& scene) {
+  const core::Contact& c = scene.contacts.at(0);
+  Velocities out = velocitiesBefore(scene);
+  int ia = -1, ib = -1;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    if (scene.bodies[i].id == c.body_a) ia = static_cast<int>(i);
+    if (scene.bodies[i].id == c.body_b) ib = static_cast<int>(i);
+  }
+  const auto& a = scene.bodies[ia];
+  const auto& b = scene.bodies[ib];
+  const Vector3d ra = c.point - a.position, rb = c.point - b.position;
+  const Vector3d u = b.linear_velocity + b.angular_velocity.cross(rb) - a.linear_velocity -
+                     a.angular_velocity.cross(ra);
+  const double un = u.dot(c.normal);
+  const Vector3d ut = u - un * c.normal;
+  double kn = 0.0, kt = 0.0;
+  for (const auto* body : {&a, &b}) {
+    if (body->mass == 0.0) continue;
+    const Vector3d r = c.point - body->position;
+    kn += 1.0 / body->mass;
+    kt += 1.0 / body->mass + r.squaredNorm() / body->inertia(0, 0);
+  }
+  const double pn = -(1.0 + c.restitution) * un / kn;
+  Vector3d p = pn * c.normal;
+  if (ut.norm() > 0.0) {
+    const double stick = ut.norm() / kt;
+    double pt;
+    if (stick <= c.dynamic_friction * pn) {
+      pt = stick;
+    } else if (stick > c.static_friction * pn) {
+      pt = c.dynamic_friction * pn;
+    } else {
+      throw std::logic_error("centralSpheres: ambiguous scene (between mu_d and mu_s)");
+    }
+    p -= pt * ut.normalized();
+  }
+  for (const auto& [index, sign, r] : {std::tuple<int, double, Vector3d>{ia, -1.0, ra},
+                                       std::tuple<int, double, Vector3d>{ib, 1.0, rb}}) {
+    const auto& body = scene.bodies[index];
+    if (body.mass == 0.0) continue;
+    out.linear[index] += sign * p / body.mass;
+    out.angular[index] += sign * r.cross(p) / body.inertia(0, 0);
+  }
+  return out;
+}
+
+/// The library's own answer at the finest setting, for scenes without a closed form: one contact
+/// by the closed form (Newton) or the impulse-space integration at 1e-14 (Poisson, Stronge);
+/// several contacts by the exact (Lemke) solver, two-phase for Poisson and Stronge. `lcp`: Newton's
+/// law with friction opposing the final slip, by the iterative solver to round-off (a frictionless
+/// island: the exact solver).
+Velocities fineSolve(const core::Scene& scene, core::ImpactLaw law, bool lcp) {
+  std::vector<core::RigidBody> bodies;
+  for (const auto& b : scene.bodies) bodies.push_back(core::makeRigidBody(b));
+  std::vector<core::ContactRow> rows;
+  auto index = [&](const std::string& id) {
+    for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+      if (scene.bodies[i].id == id) return static_cast<int>(i);
+    throw std::logic_error("unknown body " + id);
+  };
+  for (const auto& c : scene.contacts) {
+    const int a = index(c.body_a), b = index(c.body_b);
+    rows.emplace_back(a, b, bodies[a], bodies[b], c.point, c.normal, c.restitution,
+                      c.static_friction, c.dynamic_friction);
+  }
+  if (rows.size() == 1 && !lcp) {
+    const auto& row = rows[0];
+    const core::ContactImpulse impulse =
+        law == kNewton
+            ? core::solveSingleContact(bodies[row.body_a], bodies[row.body_b], row, law)
+            : core::integrateSingleContact(bodies[row.body_a], bodies[row.body_b], row, law, 1e-14);
+    row.space.applyImpulse(bodies[row.body_a], bodies[row.body_b], impulse.total(row.normal));
+  } else {
+    core::SolverOptions options;
+    options.law = law;
+    // "newton_lcp": projected Gauss-Seidel on the friction cone itself, converged to round-off.
+    options.method = lcp ? core::SolverMethod::kIterative : core::SolverMethod::kExact;
+    options.tolerance = 1e-15;
+    options.max_iterations = 1000000;
+    options.time_budget = 600.0;
+    std::vector<int> island(rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) island[i] = static_cast<int>(i);
+    std::vector<core::ContactImpulse> impulses(rows.size());
+    core::solveIsland(bodies, rows, island, options, impulses);
+  }
+  Velocities out;
+  for (const auto& b : bodies) {
+    out.linear.push_back(b.linear_velocity);
+    out.angular.push_back(b.angular_velocity);
+  }
+  return out;
+}
+
+BenchScene closedFormScene(const std::string& name, const std::string& family,
+                           std::vector<core::Scene> instances,
+                           Velocities (*closed_form)(const core::Scene&)) {
+  BenchScene s;
+  s.name = name;
+  s.family = family;
+  s.reference = "closed form (every law)";
+  s.instances = std::move(instances);
+  for (const auto& scene : s.instances) {
+    for (const auto& c : scene.contacts)
+      s.friction_split |= c.static_friction != c.dynamic_friction;
+    s.reference_by_law["newton"].push_back(closed_form(scene));
+  }
+  for (const char* law : {"newton_lcp", "poisson", "stronge"})
+    s.reference_by_law[law] = s.reference_by_law["newton"];
+  return s;
+}
+
+BenchScene fineScene(const std::string& name, const std::string& family,
+                     const std::string& reference, std::vector<core::Scene> instances) {
+  BenchScene s;
+  s.name = name;
+  s.family = family;
+  s.reference = reference;
+  s.instances = std::move(instances);
+  for (const auto& scene : s.instances) {
+    for (const auto& c : scene.contacts)
+      s.friction_split |= c.static_friction != c.dynamic_friction;
+    bool frictionless = true;
+    for (const auto& c : scene.contacts) frictionless &= c.frictionless();
+    s.reference_by_law["newton"].push_back(fineSolve(scene, kNewton, false));
+    s.reference_by_law["newton_lcp"].push_back(fineSolve(scene, kNewton, !frictionless));
+    s.reference_by_law["poisson"].push_back(fineSolve(scene, kPoisson, false));
+    s.reference_by_law["stronge"].push_back(fineSolve(scene, kStronge, false));
+  }
+  return s;
+}
+
+/// Two spheres head on (README's example): 1 kg at 2 m/s meets 2 kg at -1 m/s, e = 0.5.
+core::Scene headOn() {
+  core::Scene s;
+  s.bodies = {sphere("left", 1.0, 0.1, {-0.1, 0, 0}, {2, 0, 0}),
+              sphere("right", 2.0, 0.1, {0.1, 0, 0}, {-1, 0, 0})};
+  s.contacts = {contact("left", "right", Vector3d::Zero(), Vector3d::UnitX(), 0.5, 0.0, 0.0)};
+  return s;
+}
+
+/// A 1 kg sphere (r 0.1 m) strikes a resting sphere `ratio` times heavier (r 1 m), head on with
+/// a tangential component: central, frictional (mu 0.4), e = 0.8; it sticks.
+core::Scene massRatio(double ratio) {
+  core::Scene s;
+  s.bodies = {sphere("light", 1.0, 0.1, {-0.1, 0, 0}, {1.0, 0.2, 0.0}, {0, 0, 3.0}),
+              sphere("heavy", ratio, 1.0, {1.0, 0, 0}, Vector3d::Zero())};
+  s.contacts = {contact("light", "heavy", Vector3d::Zero(), Vector3d::UnitX(), 0.8, 0.4, 0.4)};
+  return s;
+}
+
+/// A ball (1 kg, r 0.1 m) lands on the ground at 1 m/s down, e = 0.5; `slide`: 3 m/s along x,
+/// mu_s 0.3 mu_d 0.2 (it slides throughout); otherwise 1 m/s along x with back spin 2 rad/s,
+/// mu_s 0.6 mu_d 0.5 (it stops slipping and sticks).
+core::Scene sphereOnGround(bool slide) {
+  core::Scene s;
+  const Vector3d v = slide ? Vector3d(3.0, 0.0, -1.0) : Vector3d(1.0, 0.0, -1.0);
+  const Vector3d w = slide ? Vector3d::Zero() : Vector3d(0.0, -2.0, 0.0);
+  s.bodies = {ground(), sphere("ball", 1.0, 0.1, {0, 0, 0.1}, v, w)};
+  s.contacts = {contact("ground", "ball", Vector3d::Zero(), Vector3d::UnitZ(), 0.5,
+                        slide ? 0.3 : 0.6, slide ? 0.2 : 0.5)};
+  return s;
+}
+
+/// A unit cube (1 kg) lands flat on the ground at v = (0.3, -1, 0.1) m/s: 4 corner contacts,
+/// e = 0.5, mu_s 0.5, mu_d 0.4. The sticking impulse (0.32 N s) is inside the cone (0.4 x 1.5),
+/// so the closed form is v' = (0, 0.5, 0), w' = 0: every corner ends at u'_n = -e u_n, stuck.
+core::Scene cubeFlat() {
+  core::Scene s;
+  core::BodyState cube;
+  cube.id = "cube";
+  cube.mass = 1.0;
+  cube.inertia = Matrix3d::Identity() / 6.0;
+  cube.position = {0.0, 0.5, 0.0};
+  cube.linear_velocity = {0.3, -1.0, 0.1};
+  s.bodies = {ground(), cube};
+  for (const double x : {-0.5, 0.5})
+    for (const double z : {-0.5, 0.5})
+      s.contacts.push_back(contact("ground", "cube", {x, 0, z}, Vector3d::UnitY(), 0.5, 0.5, 0.4));
+  return s;
+}
+
+Velocities cubeFlatClosedForm(const core::Scene& scene) {
+  Velocities out = velocitiesBefore(scene);
+  out.linear[1] = Vector3d(0.0, 0.5, 0.0);
+  out.angular[1] = Vector3d::Zero();
+  return out;
+}
+
+/// `boxes` unit cubes (1 kg) stacked on the ground, all moving at v = (0.3, -1, 0.1) m/s: 4 corner
+/// contacts per face, e = 0.5, mu = 0.5. The closed form (Newton, simultaneous) is the stack
+/// moving as one: v' = (0, 0.5, 0), w' = 0 for every box; the ground corners end at u'_n = -e u_n,
+/// the faces between boxes at u'_n = 0, every contact stuck (the friction the ground needs, 0.32
+/// N s per box, is inside the cone, and the normal impulses can balance its torques).
+core::Scene stack(int boxes) {
+  core::Scene s;
+  s.bodies = {ground()};
+  for (int i = 0; i < boxes; ++i) {
+    core::BodyState box;
+    box.id = "box" + std::to_string(i);
+    box.mass = 1.0;
+    box.inertia = Matrix3d::Identity() / 6.0;
+    box.position = {0.0, 0.5 + i, 0.0};
+    box.linear_velocity = {0.3, -1.0, 0.1};
+    s.bodies.push_back(box);
+    const std::string below = i == 0 ? "ground" : "box" + std::to_string(i - 1);
+    for (const double x : {-0.5, 0.5})
+      for (const double z : {-0.5, 0.5})
+        s.contacts.push_back(contact(below, box.id, {x, static_cast<double>(i), z},
+                                     Vector3d::UnitY(), 0.5, 0.5, 0.5));
+  }
+  return s;
+}
+
+Velocities stackClosedForm(const core::Scene& scene) {
+  Velocities out = velocitiesBefore(scene);
+  for (std::size_t i = 1; i < scene.bodies.size(); ++i) {
+    out.linear[i] = Vector3d(0.0, 0.5, 0.0);
+    out.angular[i] = Vector3d::Zero();
+  }
+  return out;
+}
+
+/// The rod of PHYSICS.md: 1 kg, 1 m, 50 degrees to the floor, tip striking, centre of mass at
+/// 1 m/s 20 degrees off vertical, e = 0.9, mu_s = 0.8 and mu_d = `mu_d`.
+core::Scene rodTip(double mu_d) {
+  const double pi = std::acos(-1.0);
+  const double tilt = 50.0 * pi / 180.0, off_vertical = 20.0 * pi / 180.0;
+  core::BodyState rod;
+  rod.id = "rod";
+  rod.mass = 1.0;
+  const double radius = 0.01;  // thin cylinder along body x
+  const double across = (3.0 * radius * radius + 1.0) / 12.0, along = 0.5 * radius * radius;
+  rod.inertia = Vector3d(along, across, across).asDiagonal();
+  rod.orientation = Quaterniond(Eigen::AngleAxisd(-tilt, Vector3d::UnitY()));
+  rod.position = 0.5 * Vector3d(std::cos(tilt), 0.0, std::sin(tilt));
+  rod.linear_velocity = Vector3d(std::sin(off_vertical), 0.0, -std::cos(off_vertical));
+  core::Scene s;
+  s.bodies = {ground(), rod};
+  s.contacts = {contact("ground", "rod", Vector3d::Zero(), Vector3d::UnitZ(), 0.9, 0.8, mu_d)};
+  return s;
+}
+
+/// Random box-like body (mass 0.5..2 kg, diagonal body inertia obeying the triangle inequality).
+core::BodyState randomBody(std::mt19937& rng, const std::string& id, double mass_scale) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.5, 2.0);
+  core::BodyState body;
+  body.id = id;
+  body.mass = positive(rng) * mass_scale;
+  const double x = positive(rng), y = positive(rng), z = std::min(x + y, positive(rng));
+  body.inertia = Vector3d(x, y, z).asDiagonal() * (0.1 * mass_scale);
+  body.orientation = Quaterniond(unit(rng), unit(rng), unit(rng), unit(rng)).normalized();
+  body.position = Vector3d(unit(rng), unit(rng), unit(rng));
+  body.linear_velocity = Vector3d(unit(rng), unit(rng), unit(rng));
+  body.angular_velocity = Vector3d(unit(rng), unit(rng), unit(rng));
+  return body;
+}
+
+/// `count` random off-centre frictional impacts (e = 0.5, mu 0.6), approaching only: a body
+/// against the immovable ground, or (heavy > 0) against a movable body `heavy` times heavier.
+std::vector<core::Scene> randomImpacts(int count, double heavy, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<core::Scene> out;
+  while (static_cast<int>(out.size()) < count) {
+    core::Scene s;
+    core::BodyState a = heavy > 0.0 ? randomBody(rng, "heavy", heavy) : ground();
+    if (heavy == 0.0) a.position = Vector3d(unit(rng), unit(rng), unit(rng));
+    core::BodyState b = randomBody(rng, "body", 1.0);
+    const Vector3d normal = Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+    const Vector3d point(unit(rng), unit(rng), unit(rng));
+    s.bodies = {a, b};
+    s.contacts = {contact(a.id, b.id, point, normal, 0.5, 0.6, 0.6)};
+    const core::RigidBody ra = core::makeRigidBody(a), rb = core::makeRigidBody(b);
+    const core::ContactSpace space(ra, rb, point);
+    if (normal.dot(space.relativeVelocity(ra, rb)) >= -1e-3) continue;  // approaching only
+    out.push_back(s);
+  }
+  return out;
+}
+
+/// `spheres` spheres in a row along x, touching, the first at 1 m/s: 15 frictionless contacts, e =
+/// 0.5.
+core::Scene chain(int spheres) {
+  core::Scene s;
+  for (int i = 0; i < spheres; ++i) {
+    s.bodies.push_back(sphere("ball" + std::to_string(i), 1.0, 0.1, {0.2 * i, 0, 0},
+                              i == 0 ? Vector3d(1, 0, 0) : Vector3d::Zero()));
+    if (i > 0)
+      s.contacts.push_back(contact(s.bodies[i - 1].id, s.bodies[i].id, {0.2 * i - 0.1, 0, 0},
+                                   Vector3d::UnitX(), 0.5, 0.0, 0.0));
+  }
+  return s;
+}
+
+}  // namespace
+
+Velocities velocitiesBefore(const core::Scene& scene) {
+  Velocities v;
+  for (const auto& b : scene.bodies) {
+    v.linear.push_back(b.linear_velocity);
+    v.angular.push_back(b.angular_velocity);
+  }
+  return v;
+}
+
+std::vector<BenchScene> makeScenes() {
+  std::vector<BenchScene> scenes;
+  scenes.push_back(closedFormScene("head_on", "closed_form", {headOn()}, centralSpheres));
+  scenes.push_back(
+      closedFormScene("sphere_slide", "closed_form", {sphereOnGround(true)}, centralSpheres));
+  scenes.push_back(
+      closedFormScene("sphere_stick", "closed_form", {sphereOnGround(false)}, centralSpheres));
+  scenes.push_back(closedFormScene("cube_flat", "closed_form", {cubeFlat()}, cubeFlatClosedForm));
+  scenes.push_back(
+      closedFormScene("mass_ratio_1e3", "mass_ratio", {massRatio(1e3)}, centralSpheres));
+  scenes.push_back(
+      closedFormScene("mass_ratio_1e6", "mass_ratio", {massRatio(1e6)}, centralSpheres));
+  const std::string fine = "same law, finest setting: closed form (Newton), integrator at 1e-14";
+  scenes.push_back(fineScene("rod_tip", "closed_form", fine, {rodTip(0.8)}));
+  scenes.push_back(fineScene("rod_tip_split", "closed_form", fine, {rodTip(0.5)}));
+  scenes.push_back(fineScene("random_offcentre", "random", fine, randomImpacts(32, 0.0, 7)));
+  scenes.push_back(fineScene("random_ratio_1e6", "mass_ratio", fine, randomImpacts(32, 1e6, 11)));
+  scenes.push_back(fineScene("chain_16", "many_contacts",
+                             "exact (Lemke) solver of the same law (frictionless: unique)",
+                             {chain(16)}));
+  scenes.push_back(closedFormScene("stack_4", "many_contacts", {stack(4)}, stackClosedForm));
+  return scenes;
+}
+
+}  // namespace collision_response::bench

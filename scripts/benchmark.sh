@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# The benchmark of the README, end to end: installs what it needs, builds (Release, portable flags)
+# into build/ (or $BUILD_DIR) with the benchmark targets, then runs
+#   1. Google Benchmark micro figures (bench_solvers)          -> benchmark/micro.json
+#   2. the accuracy sweep, ours and the peers Bullet and ODE     -> benchmark/results.csv
+#   3. the service load (private ROS master on a free port)     -> benchmark/service_load.csv
+#   4. benchmark/report.py                                      -> benchmark/RESULTS.md, pareto.png
+# Environment: BUILD_DIR (default build), SWEEP_REPS (default 31), LOAD_CALLS (default 2000).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+start=$(date +%s)
+fresh=$([ -d "${BUILD_DIR:-build}" ] && echo no || echo yes)
+scripts/install_packages.sh libbenchmark-dev libbullet-dev libode-dev pkg-config python3-matplotlib
+CMAKE_ARGS="-DCOLLISION_RESPONSE_BENCHMARKS=ON ${CMAKE_ARGS:-}" scripts/setup.sh
+build_s=$(($(date +%s) - start))
+build_dir=${BUILD_DIR:-build}
+bin=$build_dir/devel/lib/collision_response
+out=benchmark
+
+echo "benchmark: micro figures (Google Benchmark) -> $out/micro.json"
+"$bin/bench_solvers" --benchmark_repetitions=9 --benchmark_min_time=0.1 \
+  --benchmark_out="$out/micro.json" \
+  --benchmark_out_format=json >"$build_dir/micro.txt"
+
+echo "benchmark: accuracy sweep (ours, Bullet, ODE) -> $out/results.csv"
+"$bin/accuracy_sweep" --out "$out/results.csv" --reps "${SWEEP_REPS:-31}"
+
+echo "benchmark: service load -> $out/service_load.csv"
+source scripts/ros_env.sh
+port=$(free_port)
+export ROS_MASTER_URI=http://127.0.0.1:$port
+pids=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+}
+trap cleanup EXIT
+roscore -p "$port" >"$ROS_HOME/roscore.out" 2>&1 &
+pids+=($!)
+for _ in $(seq 1 100); do rosparam list >/dev/null 2>&1 && break; sleep 0.1; done
+rosparam load config/collision_response.yaml /collision_response
+"$bin/collision_response_node" __name:=collision_response >"$ROS_HOME/node.out" 2>&1 &
+node_pid=$!
+pids+=("$node_pid")
+"$bin/service_load" --calls "${LOAD_CALLS:-2000}" --out "$out/service_load.csv" \
+  --node-pid "$node_pid"
+cleanup
+pids=()
+
+elapsed=$(($(date +%s) - start))
+echo "benchmark: report -> $out/RESULTS.md, $out/pareto.png"
+/usr/bin/python3 benchmark/report.py --dir "$out" \
+  --command "${BUILD_DIR:+BUILD_DIR=$BUILD_DIR }scripts/benchmark.sh (fresh build dir: ${fresh})" \
+  --elapsed "$elapsed" --build-seconds "$build_s"
+echo "benchmark: done in $(($(date +%s) - start)) s"
