@@ -1,6 +1,6 @@
 #include "collision_response/single_contact.h"
 
-#include <Eigen/LU>
+#include <Eigen/Core>
 
 namespace collision_response::core {
 namespace {
@@ -28,6 +28,18 @@ Eigen::Vector3d seedOnePass(const ContactRow& row, const Eigen::Vector3d& u, dou
   return P;
 }
 
+// x with K x = rhs for a symmetric 3x3 K, by its adjugate (K is positive definite here: at least
+// one body is movable).
+Eigen::Vector3d solveSymmetric(const Eigen::Matrix3d& K, const Eigen::Vector3d& rhs) {
+  const double a = K(0, 0), b = K(0, 1), c = K(0, 2), d = K(1, 1), e = K(1, 2), f = K(2, 2);
+  const double A = d * f - e * e, B = c * e - b * f, C = b * e - c * d;
+  const double D = a * f - c * c, E = b * c - a * e, F = a * d - b * b;
+  const double inverse_det = 1.0 / (a * A + b * B + c * C);
+  return inverse_det * Eigen::Vector3d(A * rhs.x() + B * rhs.y() + C * rhs.z(),
+                                       B * rhs.x() + D * rhs.y() + E * rhs.z(),
+                                       C * rhs.x() + E * rhs.y() + F * rhs.z());
+}
+
 // Newton restitution with Coulomb friction, normal and tangential impulses solved together.
 Eigen::Vector3d coupledNewton(const ContactRow& row, const Eigen::Vector3d& u, double u_n,
                               bool& sticking) {
@@ -38,14 +50,15 @@ Eigen::Vector3d coupledNewton(const ContactRow& row, const Eigen::Vector3d& u, d
 
   // Sticking: u' = -e u_n n, i.e. the change -(1 + e) u_n n - u_t.
   const Eigen::Vector3d u_t = u - u_n * n;
-  const Eigen::Vector3d P_stick = K.inverse() * (-(1.0 + row.restitution) * u_n * n - u_t);
+  const Eigen::Vector3d P_stick = solveSymmetric(K, -(1.0 + row.restitution) * u_n * n - u_t);
   const double P_n = P_stick.dot(n);
   const Eigen::Vector3d P_t = P_stick - P_n * n;
-  const double P_t_norm = P_t.norm();
-  if (P_n >= 0.0 && P_t_norm <= row.static_friction * P_n) {
+  const double limit = row.static_friction * P_n;
+  if (P_n >= 0.0 && P_t.squaredNorm() <= limit * limit) {
     sticking = true;
     return P_stick;
   }
+  const double P_t_norm = P_t.norm();
   // Sliding along the direction the sticking impulse wanted, on the dynamic cone.
   if (P_t_norm == 0.0) return (-(1.0 + row.restitution) * u_n / n.dot(K * n)) * n;
   const Eigen::Vector3d direction = n + (row.dynamic_friction / P_t_norm) * P_t;
@@ -73,7 +86,11 @@ ContactImpulse solveSingleContact(const RigidBody& a, const RigidBody& b, const 
                                 : coupledNewton(row, u, u_n, impulse.sticking);
   impulse.normal_impulse = P.dot(row.normal);
   impulse.friction_impulse = P - impulse.normal_impulse * row.normal;
-  impulse.normal_velocity_after = u_n + row.normal.dot(row.space.K * P);
+  // The coupled law meets u'_n = -e u_n by construction (every branch); the seed's second pass
+  // changes it, so it is measured.
+  impulse.normal_velocity_after = law == ImpactLaw::kSeedOnePass
+                                      ? u_n + row.normal.dot(row.space.K * P)
+                                      : -row.restitution * u_n;
   return impulse;
 }
 
