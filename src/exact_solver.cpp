@@ -12,6 +12,7 @@
 //   q = [u_n,i + e_i u_n,i (or u_n,i);  d_ik . u_i;  0].
 #include "collision_response/exact_solver.h"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 
@@ -67,6 +68,12 @@ class IslandLcp {
   double speed() const { return u_reference_; }
   std::vector<Contact>& contacts() { return contacts_; }
 
+  /// The all-sticking guess: every contact approaches, and the impulses that give each its target
+  /// normal velocity and no slip (the least-norm ones, the Delassus matrix being singular for
+  /// redundant contacts) are compressive and inside the static Coulomb cones. Then they solve the
+  /// problem (complementarity holds with every contact active and sticking) and are read; false
+  /// otherwise (nothing changed). One linear solve instead of Lemke's pivots: a box landing flat.
+  bool solveAllSticking();
   /// Solves the LCP with the current coefficients and reads the impulses; false if not solved.
   bool solve(std::size_t& pivots, const Deadline& deadline);
   /// Moves the contacts still on mu_s that slide after the current impulses to mu_d. True if any.
@@ -85,6 +92,7 @@ class IslandLcp {
   std::vector<Eigen::Vector3d> dv_, dw_;  // velocity changes of the island-local bodies
   std::vector<const RigidBody*> local_body_;
   double u_reference_ = 0.0;
+  bool assembled_ = false;
 };
 
 IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
@@ -123,21 +131,6 @@ IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<Con
     }
   }
 
-  // J^T and W J^T, one 6 x columns block per incidence.
-  JT_.resize(6, jacobian_columns);
-  WJT_.resize(6, jacobian_columns);
-  for (const Incidence& inc : incidences_) {
-    const Contact& c = contacts_[inc.contact];
-    const RigidBody& body = bodies[inc.body];
-    const double sign = inc.side == 0 ? -1.0 : 1.0;
-    for (Index j = 0; j < c.columns; ++j) {
-      const Eigen::Vector3d dir = sign * c.directions.col(j);
-      const Eigen::Vector3d moment = c.r(inc.side).cross(dir);
-      JT_.col(inc.column + j) << dir, moment;
-      WJT_.col(inc.column + j) << body.inverse_mass * dir, body.inverse_inertia * moment;
-    }
-  }
-
   // Island-local body indices, in body order.
   std::sort(incidences_.begin(), incidences_.end(), [](const Incidence& x, const Incidence& y) {
     return x.body < y.body || (x.body == y.body && x.contact < y.contact);
@@ -152,12 +145,26 @@ IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<Con
   dv_.resize(local_body_.size());
   dw_.resize(local_body_.size());
 
+  JT_.resize(6, jacobian_columns);
+  WJT_.resize(6, jacobian_columns);
   M_.setZero(unknowns, unknowns);
   q_.setZero(unknowns);
-  assemble();
 }
 
 void IslandLcp::assemble() {
+  // J^T and W J^T, one 6 x columns block per incidence.
+  for (const Incidence& inc : incidences_) {
+    const Contact& c = contacts_[inc.contact];
+    const RigidBody& body = bodies_[inc.body];
+    const double sign = inc.side == 0 ? -1.0 : 1.0;
+    for (Index j = 0; j < c.columns; ++j) {
+      const Eigen::Vector3d dir = sign * c.directions.col(j);
+      const Eigen::Vector3d moment = c.r(inc.side).cross(dir);
+      JT_.col(inc.column + j) << dir, moment;
+      WJT_.col(inc.column + j) << body.inverse_mass * dir, body.inverse_inertia * moment;
+    }
+  }
+
   // A = J W J^T: contacts couple through each body they share (including a contact with itself).
   for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
     end = begin + 1;
@@ -182,7 +189,86 @@ void IslandLcp::assemble() {
   }
 }
 
+bool IslandLcp::solveAllSticking() {
+  // Unknowns: P_n per contact, and (t1, t2) components for frictional ones; A = J W J^T over them.
+  std::vector<Index> first(contacts_.size());
+  Index unknowns = 0;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Contact& c = contacts_[i];
+    if (!(c.u.dot(c.row->normal) < 0.0)) return false;  // a contact that is not approaching
+    first[i] = unknowns;
+    unknowns += c.frictional ? 3 : 1;
+  }
+  // Columns n, t1, t2: t1 = d_0 and t2 = d_(D/4) of the pyramid.
+  const auto directions = [](const Contact& c) {
+    Eigen::Matrix3d D;
+    D << c.directions.col(0), c.directions.col(1), c.directions.col(1 + kD / 4);
+    return D;
+  };
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(unknowns, unknowns);
+  Eigen::VectorXd rhs(unknowns);
+  for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
+    end = begin + 1;
+    while (end < incidences_.size() && incidences_[end].body == incidences_[begin].body) ++end;
+    const RigidBody& body = bodies_[incidences_[begin].body];
+    for (std::size_t x = begin; x < end; ++x) {
+      const Incidence& ix = incidences_[x];
+      const Contact& cx = contacts_[ix.contact];
+      const Index kx = cx.frictional ? 3 : 1;
+      const Eigen::Matrix3d Dx = directions(cx) * (ix.side == 0 ? -1.0 : 1.0);
+      Eigen::Matrix<double, 6, 3> Jx;  // [dir; r x dir]
+      Eigen::Matrix<double, 6, 3> WJx;
+      for (int j = 0; j < 3; ++j) {
+        const Eigen::Vector3d moment = cx.r(ix.side).cross(Dx.col(j));
+        Jx.col(j) << Dx.col(j), moment;
+        WJx.col(j) << body.inverse_mass * Dx.col(j), body.inverse_inertia * moment;
+      }
+      for (std::size_t y = begin; y < end; ++y) {
+        const Incidence& iy = incidences_[y];
+        const Contact& cy = contacts_[iy.contact];
+        const Index ky = cy.frictional ? 3 : 1;
+        const Eigen::Matrix3d Dy = directions(cy) * (iy.side == 0 ? -1.0 : 1.0);
+        Eigen::Matrix<double, 6, 3> Jy;
+        for (int j = 0; j < 3; ++j) Jy.col(j) << Dy.col(j), cy.r(iy.side).cross(Dy.col(j));
+        A.block(first[ix.contact], first[iy.contact], kx, ky) +=
+            (WJx.transpose() * Jy).topLeftCorner(kx, ky);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Contact& c = contacts_[i];
+    const Eigen::Vector3d change = directions(c).transpose() * -c.u;  // to u' = 0 ...
+    rhs.segment(first[i], c.frictional ? 3 : 1) = change.head(c.frictional ? 3 : 1);
+    rhs(first[i]) += c.target_u_n;  // ... but u'_n = -e u_n
+  }
+  const Eigen::VectorXd P = A.completeOrthogonalDecomposition().solve(rhs);
+  // Consistent (the targets are reachable) and admissible, to round-off of the island's scale.
+  const double scale = std::max(u_reference_, rhs.cwiseAbs().maxCoeff());
+  if (!P.allFinite() || (A * P - rhs).cwiseAbs().maxCoeff() > 1e-10 * scale) return false;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Contact& c = contacts_[i];
+    const double P_n = P(first[i]);
+    if (!(P_n >= 0.0)) return false;
+    if (c.frictional && P.segment<2>(first[i] + 1).norm() > c.row->static_friction * P_n)
+      return false;
+  }
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    Contact& c = contacts_[i];
+    c.P_n = P(first[i]);
+    c.beta.setZero();
+    c.P_t = c.frictional
+                ? Eigen::Vector3d(directions(c).rightCols<2>() * P.segment<2>(first[i] + 1))
+                : Eigen::Vector3d::Zero();
+  }
+  velocityChanges();
+  return true;
+}
+
 bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
+  if (!assembled_) {  // only when the all-sticking guess did not answer
+    assemble();
+    assembled_ = true;
+  }
   LcpOptions lcp_options;
   lcp_options.deadline = deadline;
   const LcpResult lcp = solveLcp(M_, q_, lcp_options);
@@ -246,8 +332,8 @@ ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactR
                       std::vector<ContactImpulse>& impulses) {
   ExactStats stats;
   IslandLcp lcp(bodies, rows, island);
-  bool solved = false;
-  while (lcp.solve(stats.pivots, options.deadline)) {
+  bool solved = lcp.solveAllSticking();
+  while (!solved && lcp.solve(stats.pivots, options.deadline)) {
     if (!lcp.switchSlidingToDynamic()) {
       solved = true;
       break;

@@ -21,45 +21,51 @@ std::string describe(double value) {
   return out.str();
 }
 
-void requireFinite(double value, const std::string& field) {
-  if (!std::isfinite(value))
-    throw InvalidInput(field, "is not a finite number (" + describe(value) + ")");
+// The checks take the field's name in pieces (base + suffix + detail) and join them only to
+// report a failure: a valid request builds no strings (validation runs on every call).
+void requireFinite(double value, const std::string& base, const char* suffix,
+                   const char* detail = "") {
+  if (!std::isfinite(value)) {
+    throw InvalidInput(base + suffix + detail, "is not a finite number (" + describe(value) + ")");
+  }
 }
 
-void requireFinite(const Eigen::Vector3d& v, const std::string& field) {
+void requireFinite(const Eigen::Vector3d& v, const std::string& base, const char* suffix) {
   static const char* const kAxes[] = {".x", ".y", ".z"};
-  for (int i = 0; i < 3; ++i) requireFinite(v[i], field + kAxes[i]);
+  for (int i = 0; i < 3; ++i) requireFinite(v[i], base, suffix, kAxes[i]);
 }
 
 void requireAtMost(const Eigen::Vector3d& v, double limit, const char* unit,
-                   const std::string& field) {
+                   const std::string& base, const char* suffix) {
   if (v.norm() > limit) {
-    throw InvalidInput(field, "magnitude " + describe(v.norm()) + " " + unit +
-                                  " exceeds the accepted " + describe(limit) + " " + unit);
+    throw InvalidInput(base + suffix, "magnitude " + describe(v.norm()) + " " + unit +
+                                          " exceeds the accepted " + describe(limit) + " " + unit);
   }
 }
 
 // Returns the smallest principal moment [kg m^2].
-double validateInertia(const Eigen::Matrix3d& inertia, const std::string& field) {
-  if (!inertia.isApprox(inertia.transpose(), 1e-12)) throw InvalidInput(field, "is not symmetric");
+double validateInertia(const Eigen::Matrix3d& inertia, const std::string& body_field) {
+  const auto field = [&] { return body_field + ".inertia"; };
+  if (!inertia.isApprox(inertia.transpose(), 1e-12))
+    throw InvalidInput(field(), "is not symmetric");
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia, Eigen::EigenvaluesOnly);
   const Eigen::Vector3d moments = solver.eigenvalues();  // ascending
   const double scale = moments.cwiseAbs().maxCoeff();
   if (!(moments[0] > 1e-12 * scale) || scale == 0.0) {
-    throw InvalidInput(field, "is not positive definite (principal moments " +
-                                  describe(moments[0]) + ", " + describe(moments[1]) + ", " +
-                                  describe(moments[2]) + ")");
+    throw InvalidInput(field(), "is not positive definite (principal moments " +
+                                    describe(moments[0]) + ", " + describe(moments[1]) + ", " +
+                                    describe(moments[2]) + ")");
   }
   if (moments[0] < MagnitudeLimits::kInertia[0] || moments[2] > MagnitudeLimits::kInertia[1]) {
-    throw InvalidInput(field, "principal moments " + describe(moments[0]) + " .. " +
-                                  describe(moments[2]) + " kg m^2 leave the accepted range [" +
-                                  describe(MagnitudeLimits::kInertia[0]) + ", " +
-                                  describe(MagnitudeLimits::kInertia[1]) + "]");
+    throw InvalidInput(field(), "principal moments " + describe(moments[0]) + " .. " +
+                                    describe(moments[2]) + " kg m^2 leave the accepted range [" +
+                                    describe(MagnitudeLimits::kInertia[0]) + ", " +
+                                    describe(MagnitudeLimits::kInertia[1]) + "]");
   }
   if (moments[0] + moments[1] < moments[2] * (1.0 - 1e-9)) {
-    throw InvalidInput(field, "violates the triangle inequality of principal moments (" +
-                                  describe(moments[0]) + " + " + describe(moments[1]) + " < " +
-                                  describe(moments[2]) + ")");
+    throw InvalidInput(field(), "violates the triangle inequality of principal moments (" +
+                                    describe(moments[0]) + " + " + describe(moments[1]) + " < " +
+                                    describe(moments[2]) + ")");
   }
   return moments[0];
 }
@@ -67,22 +73,22 @@ double validateInertia(const Eigen::Matrix3d& inertia, const std::string& field)
 // Returns the smallest principal moment [kg m^2] of a movable body, 0 for an immovable one.
 double validateBody(const BodyState& body, const std::string& field) {
   if (body.id.empty()) throw InvalidInput(field + ".id", "is empty");
-  requireFinite(body.mass, field + ".inertia.m");
-  requireFinite(body.com, field + ".inertia.com");
+  requireFinite(body.mass, field, ".inertia.m");
+  requireFinite(body.com, field, ".inertia.com");
   static const char* const kInertia[3][3] = {
       {"ixx", "ixy", "ixz"}, {"ixy", "iyy", "iyz"}, {"ixz", "iyz", "izz"}};
   for (int r = 0; r < 3; ++r) {
     for (int c = r; c < 3; ++c)
-      requireFinite(body.inertia(r, c), field + ".inertia." + kInertia[r][c]);
+      requireFinite(body.inertia(r, c), field, ".inertia.", kInertia[r][c]);
   }
-  requireFinite(body.position, field + ".pose.position");
+  requireFinite(body.position, field, ".pose.position");
   const Eigen::Vector4d q = body.orientation.coeffs();
   static const char* const kQuaternion[] = {".x", ".y", ".z", ".w"};
-  for (int i = 0; i < 4; ++i) requireFinite(q[i], field + ".pose.orientation" + kQuaternion[i]);
-  requireFinite(body.linear_velocity, field + ".twist.linear");
-  requireFinite(body.angular_velocity, field + ".twist.angular");
-  requireFinite(body.force, field + ".wrench.force");
-  requireFinite(body.torque, field + ".wrench.torque");
+  for (int i = 0; i < 4; ++i) requireFinite(q[i], field, ".pose.orientation", kQuaternion[i]);
+  requireFinite(body.linear_velocity, field, ".twist.linear");
+  requireFinite(body.angular_velocity, field, ".twist.angular");
+  requireFinite(body.force, field, ".wrench.force");
+  requireFinite(body.torque, field, ".wrench.torque");
 
   if (body.mass < 0.0)
     throw InvalidInput(field + ".inertia.m", "is negative (" + describe(body.mass) + " kg)");
@@ -93,34 +99,35 @@ double validateBody(const BodyState& body, const std::string& field) {
                            describe(MagnitudeLimits::kMass[0]) + ", " +
                            describe(MagnitudeLimits::kMass[1]) + "] (0 = immovable)");
   }
-  requireAtMost(body.com, MagnitudeLimits::kLength, "m", field + ".inertia.com");
-  requireAtMost(body.position, MagnitudeLimits::kLength, "m", field + ".pose.position");
-  requireAtMost(body.linear_velocity, MagnitudeLimits::kSpeed, "m/s", field + ".twist.linear");
-  requireAtMost(body.angular_velocity, MagnitudeLimits::kSpeed, "rad/s", field + ".twist.angular");
-  requireAtMost(body.force, MagnitudeLimits::kForce, "N", field + ".wrench.force");
-  requireAtMost(body.torque, MagnitudeLimits::kForce, "N m", field + ".wrench.torque");
+  requireAtMost(body.com, MagnitudeLimits::kLength, "m", field, ".inertia.com");
+  requireAtMost(body.position, MagnitudeLimits::kLength, "m", field, ".pose.position");
+  requireAtMost(body.linear_velocity, MagnitudeLimits::kSpeed, "m/s", field, ".twist.linear");
+  requireAtMost(body.angular_velocity, MagnitudeLimits::kSpeed, "rad/s", field, ".twist.angular");
+  requireAtMost(body.force, MagnitudeLimits::kForce, "N", field, ".wrench.force");
+  requireAtMost(body.torque, MagnitudeLimits::kForce, "N m", field, ".wrench.torque");
   const double q_norm = q.norm();
   if (q_norm == 0.0) throw InvalidInput(field + ".pose.orientation", "is a zero quaternion");
   if (std::abs(q_norm - 1.0) > kUnitTolerance) {
     throw InvalidInput(field + ".pose.orientation",
                        "is not a unit quaternion (norm " + describe(q_norm) + ")");
   }
-  return body.immovable() ? 0.0 : validateInertia(body.inertia, field + ".inertia");
+  return body.immovable() ? 0.0 : validateInertia(body.inertia, field);
 }
 
 // Rejects a contact whose lever arm on a movable body is beyond MagnitudeLimits::kLeverOverGyration
 // times the body's smallest radius of gyration.
-void checkLeverArm(const BodyState& body, double smallest_moment, const Eigen::Vector3d& point,
-                   const std::string& field, const std::string& body_field) {
+void checkLeverArm(const BodyState& body, std::size_t body_index, double smallest_moment,
+                   const Eigen::Vector3d& point, const std::string& contact_field) {
   if (body.immovable()) return;
   const double lever = (point - body.worldCom()).norm();
   const double gyration = std::sqrt(smallest_moment / body.mass);
   if (lever > MagnitudeLimits::kLeverOverGyration * gyration) {
-    throw InvalidInput(field, "lies " + describe(lever) + " m from the centre of mass of " +
-                                  body_field + " ('" + body.id + "'), more than " +
-                                  describe(MagnitudeLimits::kLeverOverGyration) +
-                                  " times its smallest radius of gyration (" + describe(gyration) +
-                                  " m): the impact would be computed without precision");
+    throw InvalidInput(contact_field + ".point",
+                       "lies " + describe(lever) + " m from the centre of mass of " +
+                           indexed("bodies", body_index) + " ('" + body.id + "'), more than " +
+                           describe(MagnitudeLimits::kLeverOverGyration) +
+                           " times its smallest radius of gyration (" + describe(gyration) +
+                           " m): the impact would be computed without precision");
   }
 }
 
@@ -128,9 +135,9 @@ void checkLeverArm(const BodyState& body, double smallest_moment, const Eigen::V
 
 void validateCoefficients(double restitution, double static_friction, double dynamic_friction,
                           const std::string& field) {
-  requireFinite(restitution, field + ".restitution");
-  requireFinite(static_friction, field + ".static_friction");
-  requireFinite(dynamic_friction, field + ".dynamic_friction");
+  requireFinite(restitution, field, ".restitution");
+  requireFinite(static_friction, field, ".static_friction");
+  requireFinite(dynamic_friction, field, ".dynamic_friction");
   if (restitution < 0.0 || restitution > 1.0) {
     throw InvalidInput(field + ".restitution",
                        "must lie in [0, 1] (" + describe(restitution) + ")");
@@ -231,9 +238,9 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
       throw InvalidInput(
           field, "both bodies ('" + contact.body_a + "', '" + contact.body_b + "') are immovable");
     }
-    requireFinite(contact.point, field + ".point");
-    requireFinite(contact.normal, field + ".normal");
-    requireAtMost(contact.point, MagnitudeLimits::kLength, "m", field + ".point");
+    requireFinite(contact.point, field, ".point");
+    requireFinite(contact.normal, field, ".normal");
+    requireAtMost(contact.point, MagnitudeLimits::kLength, "m", field, ".point");
     const double n_norm = contact.normal.norm();
     if (n_norm == 0.0) throw InvalidInput(field + ".normal", "is a zero vector");
     if (std::abs(n_norm - 1.0) > kUnitTolerance) {
@@ -241,10 +248,8 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
     }
     validateCoefficients(contact.restitution, contact.static_friction, contact.dynamic_friction,
                          field);
-    checkLeverArm(scene.bodies[a], smallest_moments[a], contact.point, field + ".point",
-                  indexed("bodies", a));
-    checkLeverArm(scene.bodies[b], smallest_moments[b], contact.point, field + ".point",
-                  indexed("bodies", b));
+    checkLeverArm(scene.bodies[a], a, smallest_moments[a], contact.point, field);
+    checkLeverArm(scene.bodies[b], b, smallest_moments[b], contact.point, field);
     contact_bodies.emplace_back(a, b);
   }
   return contact_bodies;

@@ -571,3 +571,55 @@ TEST(ExactSolver, RandomFrictionalScenesSatisfyCoulomb) {
 }
 
 }  // namespace
+
+// A cube sliding onto the ground flat on four corners (m = 1 kg, I = 1/6 kg m^2, v = (0.3, -1,
+// 0.1), e = 0.5, ground normal +y). With enough static friction every corner sticks and bounces:
+// the velocity field -e u_n n at four non-collinear points is the rigid motion v' = (0, 0.5, 0),
+// w' = 0, reached by one linear solve (the all-sticking answer, no pivot). With mu_s = 0.1 the
+// sticking impulse (|P_t| = m |v_t| = 0.316 > 0.1 x 1.5) leaves the cones: Lemke pivots, every
+// corner still leaves at -e u_n (v'_y = 0.5, P_n = 1.5 in all), and the cube slides on with a
+// total friction impulse of mu_d P_n, at least the pyramid's cos(pi/8) of it.
+TEST(ExactSolver, AllStickingAnswerIsTakenWhenInsideTheCones) {
+  for (const double mu_s : {0.5, 0.1}) {
+    SCOPED_TRACE("mu_s " + std::to_string(mu_s));
+    std::vector<cr::RigidBody> bodies(2);
+    bodies[1].inverse_mass = 1.0;
+    bodies[1].inverse_inertia = Matrix3d::Identity() * 6.0;
+    bodies[1].com = Vector3d(0, 0.5, 0);
+    bodies[1].linear_velocity = Vector3d(0.3, -1.0, 0.1);
+    std::vector<cr::ContactRow> rows;
+    std::vector<int> island;
+    for (const double x : {-0.5, 0.5}) {
+      for (const double z : {-0.5, 0.5}) {
+        rows.emplace_back(0, 1, bodies[0], bodies[1], Vector3d(x, 0, z), Vector3d::UnitY(), 0.5,
+                          mu_s, 0.8 * mu_s);
+        island.push_back(static_cast<int>(island.size()));
+      }
+    }
+    std::vector<cr::ContactImpulse> impulses(rows.size());
+    const cr::ExactStats stats = cr::solveExact(bodies, rows, island, {}, impulses);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_LT(stats.residual, 1e-12);
+    Vector3d friction = Vector3d::Zero();
+    double normal = 0.0;
+    for (const auto& p : impulses) {
+      EXPECT_GE(p.normal_impulse, 0.0);
+      EXPECT_LE(p.friction_impulse.norm(), mu_s * p.normal_impulse * (1 + 1e-12));
+      friction += p.friction_impulse;
+      normal += p.normal_impulse;
+    }
+    EXPECT_NEAR(normal, 1.5, 1e-12);
+    EXPECT_NEAR(bodies[1].linear_velocity.y(), 0.5, 1e-12);
+    if (mu_s == 0.5) {
+      EXPECT_EQ(stats.pivots, 0u);  // one linear solve
+      EXPECT_LT((bodies[1].linear_velocity - Vector3d(0, 0.5, 0)).norm(), 1e-12);
+      EXPECT_LT(bodies[1].angular_velocity.norm(), 1e-12);
+      for (const auto& p : impulses) EXPECT_TRUE(p.sticking);
+    } else {
+      EXPECT_GT(stats.pivots, 0u);
+      EXPECT_LE(friction.norm(), 0.08 * 1.5 * (1 + 1e-12));
+      EXPECT_GE(friction.norm(), cr::pyramidFactor() * 0.08 * 1.5 * (1 - 1e-12));
+      EXPECT_GT(bodies[1].linear_velocity.x(), 0.0);  // still sliding forward
+    }
+  }
+}

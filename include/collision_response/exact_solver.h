@@ -60,6 +60,11 @@ struct ExactStats {
 /// contact still on mu_s slides (at most one more solve per contact, usually one). `sticking` is
 /// set for a frictional contact with P_n > 0 that ends without slip.
 ///
+/// First, one linear solve: if every contact approaches and the impulses that make each leave at
+/// -e u_n without slip (least-norm, A being singular for redundant contacts) are compressive and
+/// inside the static Coulomb cones, they are the answer (every contact active and sticking; the
+/// cone, not the pyramid, bounds them), with no pivot: a box landing flat. Otherwise Lemke.
+///
 /// On success the impulses are applied to `bodies` and each listed row's normal_impulse,
 /// friction_impulse and sticking are written (normal velocities are left to the caller). If an
 /// LCP is not solved, zero impulses are written and applied, and converged is false.
