@@ -413,6 +413,17 @@ def main():
                 float(r["node_vmhwm_kib"]) / 1024))
         w("")
 
+    soak_path = os.path.join(a.dir, "service_soak.txt")
+    if os.path.exists(soak_path):
+        w("## Soak (`test/load.test` at `CR_LOAD_SCALE=10`)\n")
+        w("Four concurrent clients on persistent connections cycling good, bad and oversized "
+          "requests; every call answered correctly (the test fails otherwise), the node's "
+          "resident memory read between the two halves:\n")
+        with open(soak_path) as f:
+            for line in f:
+                w("    " + line.rstrip())
+        w("")
+
     # ---------------- plot
     w("## Pareto plot\n")
     w("![error against time](pareto.png)\n")

@@ -4,6 +4,7 @@
 #   1. Google Benchmark micro figures (bench_solvers)          -> benchmark/micro.json
 #   2. the accuracy sweep, ours and the peers Bullet and ODE     -> benchmark/results.csv
 #   3. the service load (private ROS master on a free port)     -> benchmark/service_load.csv
+#      and the soak: the load rostest at 10x                    -> benchmark/service_soak.txt
 #   4. benchmark/report.py                                      -> benchmark/RESULTS.md, pareto.png
 # Environment: BUILD_DIR (default build), SWEEP_REPS (default 31), LOAD_CALLS (default 2000).
 set -euo pipefail
@@ -46,6 +47,15 @@ pids+=("$node_pid")
   --node-pid "$node_pid"
 cleanup
 pids=()
+
+echo "benchmark: soak (the load rostest at 10x: 4 clients, 40,000 mixed calls) -> $out/service_soak.txt"
+make -C "$build_dir" --no-print-directory tests >/dev/null
+CR_LOAD_SCALE=10 rostest --text collision_response load.test >"$build_dir/soak.log" 2>&1 || {
+  tail -n 30 "$build_dir/soak.log"
+  echo "benchmark: the soak failed" >&2
+  exit 1
+}
+grep -E "^load: " "$build_dir/soak.log" >"$out/service_soak.txt"
 
 elapsed=$(($(date +%s) - start))
 echo "benchmark: report -> $out/RESULTS.md, $out/pareto.png"

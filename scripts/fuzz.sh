@@ -9,7 +9,10 @@
 #   scripts/fuzz.sh --replay PATH...     run the given inputs (files or directories) once each
 #
 # Environment: BUILD_DIR (default build-fuzz; corpus, crash artifacts and log live there, out of
-# git), FUZZ_SECONDS (default 120), FUZZ_ARGS (extra libFuzzer flags), FUZZ_PRINT=1 (print each
+# git), FUZZ_SECONDS (default 120: the time cap), FUZZ_RUNS (stop after this many executions;
+# default 0, no cap), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
+# fixed seed and FUZZ_RUNS, and an empty corpus, a run is reproducible, as CI's is), FUZZ_ARGS
+# (extra libFuzzer flags), FUZZ_PRINT=1 (print each
 # decoded request and its outcome; useful with --replay), FUZZ_SKIP_EXTREME=1 (excuse non-finite
 # answers to requests holding finite but extreme magnitudes, |x| > 1e20 or < 1e-20: a known
 # overflow class; set it to look past it).
@@ -94,11 +97,12 @@ FUZZ_EMIT_SEEDS="$seeds" "$target" >"$build_dir/seeds.log" 2>&1 || {
 count() { find "$1" -maxdepth 1 -type f | wc -l; }
 seconds=${FUZZ_SECONDS:-120}
 log="$build_dir/fuzz.log"
-echo "fuzz: $(count "$seeds") seeds, corpus $corpus ($(count "$corpus") inputs), ${seconds} s (log: $log)"
+echo "fuzz: $(count "$seeds") seeds, corpus $corpus ($(count "$corpus") inputs), ${seconds} s at most, ${FUZZ_RUNS:-unlimited} runs, seed ${FUZZ_SEED:-random} (log: $log)"
 status=0
 # shellcheck disable=SC2086
 # Inputs slower than 3 s are saved as $artifacts/slow-unit-* (not a failure; worth a look).
-"$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+"$target" -max_total_time="$seconds" -runs="${FUZZ_RUNS:--1}" -seed="${FUZZ_SEED:-0}" \
+  -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
   -report_slow_units=3 -artifact_prefix="$artifacts/" ${FUZZ_ARGS:-} "$corpus" "$seeds" >"$log" 2>&1 || status=$?
 executions=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
 if [ -z "$executions" ]; then  # no final stats after a crash: the last progress line
