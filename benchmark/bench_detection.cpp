@@ -9,34 +9,15 @@
 #include <cmath>
 #include <vector>
 
+#include "../test/shape_builders.h"
 #include "collision_response/collision_solver.h"
 #include "collision_response/detected_contacts.h"
 
 namespace core = collision_response::core;
+using collision_response::testing::boxMesh;
+using collision_response::testing::primitive;
 
 namespace {
-
-core::Shape primitive(core::Shape::Type type, std::vector<double> dimensions) {
-  core::Shape s;
-  s.type = type;
-  s.dimensions = std::move(dimensions);
-  return s;
-}
-
-core::Shape boxMesh() {
-  core::Shape s;
-  s.type = core::Shape::Type::kMesh;
-  for (int k = 0; k < 8; ++k) {
-    s.vertices.emplace_back(k & 1 ? 0.5 : -0.5, k & 2 ? 0.5 : -0.5, k & 4 ? 0.5 : -0.5);
-  }
-  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    s.triangles.push_back({q[0], q[1], q[2]});
-    s.triangles.push_back({q[0], q[2], q[3]});
-  }
-  return s;
-}
 
 core::BodyState body(const char* id, double mass, const Eigen::Vector3d& position,
                      const Eigen::Quaterniond& q = Eigen::Quaterniond::Identity()) {

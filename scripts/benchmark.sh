@@ -28,25 +28,14 @@ echo "benchmark: accuracy sweep (ours, Bullet, ODE) -> $out/results.csv"
 
 echo "benchmark: service load -> $out/service_load.csv"
 source scripts/ros_env.sh
-port=$(free_port)
-export ROS_MASTER_URI=http://127.0.0.1:$port
-pids=()
-cleanup() {
-  for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-}
-trap cleanup EXIT
-roscore -p "$port" >"$ROS_HOME/roscore.out" 2>&1 &
-pids+=($!)
-for _ in $(seq 1 100); do rosparam list >/dev/null 2>&1 && break; sleep 0.1; done
+start_master
 rosparam load config/collision_response.yaml /collision_response
 "$bin/collision_response_node" __name:=collision_response >"$ROS_HOME/node.out" 2>&1 &
 node_pid=$!
-pids+=("$node_pid")
+ros_pids+=("$node_pid")
 "$bin/service_load" --calls "${LOAD_CALLS:-2000}" --out "$out/service_load.csv" \
   --node-pid "$node_pid"
-cleanup
-pids=()
+stop_all
 
 echo "benchmark: soak (the load rostest at 10x: 4 clients, 40,000 mixed calls) -> $out/service_soak.txt"
 make -C "$build_dir" --no-print-directory tests >/dev/null

@@ -12,31 +12,16 @@ source scripts/ros_env.sh
 output=${1:-docs/markers.png}
 mkdir -p "$(dirname "$output")"
 
-port=$(free_port)
-export ROS_MASTER_URI=http://127.0.0.1:$port
-pids=()
-cleanup() {
-  for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-}
-trap cleanup EXIT
-
-roscore -p "$port" >"$ROS_HOME/roscore.out" 2>&1 &
-pids+=($!)
-roslaunch --wait collision_response collision_response.launch >"$ROS_HOME/node.out" 2>&1 &
-pids+=($!)
-for _ in $(seq 1 300); do
-  rosservice list 2>/dev/null | grep -qx /collision_response/compute && break
-  sleep 0.1
-done
+start_master
+launch_node
 
 display=:$((90 + RANDOM % 100))
 Xvfb "$display" -screen 0 1280x800x24 >"$ROS_HOME/xvfb.out" 2>&1 &
-pids+=($!)
+ros_pids+=($!)
 sleep 2
 DISPLAY=$display LIBGL_ALWAYS_SOFTWARE=1 GALLIUM_DRIVER=${GALLIUM_DRIVER:-llvmpipe} rviz -d config/collision_response.rviz ${RVIZ_ARGS:-} \
   >"$ROS_HOME/rviz.out" 2>&1 &
-pids+=($!)
+ros_pids+=($!)
 
 # Send the request twice a second while RViz starts and subscribes (markers go to subscribers only).
 request=$(cat scripts/marker_demo_request.yaml)

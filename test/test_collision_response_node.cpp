@@ -13,26 +13,14 @@
 
 #include <Eigen/Geometry>
 
+#include "node_test_messages.h"
+
 namespace cr = collision_response;
+using namespace collision_response::testing;
 
 namespace {
 
 constexpr double kTolerance = 1e-9;
-const char* const kService = "/collision_response/compute";
-
-cr::BodyState sphere(const std::string& id, double mass, double radius, double x, double y,
-                     double z) {
-  cr::BodyState body;
-  body.id = id;
-  body.inertia.m = mass;
-  const double moment = 0.4 * mass * radius * radius;  // solid sphere
-  body.inertia.ixx = body.inertia.iyy = body.inertia.izz = moment;
-  body.pose.position.x = x;
-  body.pose.position.y = y;
-  body.pose.position.z = z;
-  body.pose.orientation.w = 1.0;
-  return body;
-}
 
 cr::BodyState ground() {
   cr::BodyState body;
@@ -41,62 +29,27 @@ cr::BodyState ground() {
   return body;
 }
 
-cr::Contact contact(const std::string& a, const std::string& b, double px, double py, double pz,
-                    double nx, double ny, double nz, double e, double mu_s = 0.0,
-                    double mu_d = 0.0) {
-  cr::Contact c;
-  c.body_a = a;
-  c.body_b = b;
-  c.point.x = px;
-  c.point.y = py;
-  c.point.z = pz;
-  c.normal.x = nx;
-  c.normal.y = ny;
-  c.normal.z = nz;
-  c.restitution = e;
-  c.static_friction = mu_s;
-  c.dynamic_friction = mu_d;
-  return c;
-}
-
 // Head-on spheres on the x axis: m1 = 1 kg at 2 m/s, m2 = 2 kg at -1 m/s, e = 0.5. Momentum
 // m1 v1 + m2 v2 = 0 and v2' - v1' = e (v1 - v2) = 1.5 give v1' = -1, v2' = 0.5.
 cr::ComputeResponse headOnSpheres() {
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
   srv.request.header.stamp = ros::Time(1234, 5678);  // no tf look-up: every body is in "world"
-  srv.request.bodies = {sphere("left", 1.0, 0.1, -0.1, 0, 0), sphere("right", 2.0, 0.1, 0.1, 0, 0)};
+  srv.request.bodies = {sphere("left", 1.0, 0.1, pose(-0.1, 0, 0)),
+                        sphere("right", 2.0, 0.1, pose(0.1, 0, 0))};
   srv.request.bodies[0].twist.linear.x = 2.0;
   srv.request.bodies[1].twist.linear.x = -1.0;
   srv.request.contacts = {contact("left", "right", 0, 0, 0, 1, 0, 0, 0.5)};
   return srv;
 }
 
-class NodeTest : public ::testing::Test {
+class NodeTest : public ServiceTest {
  protected:
-  void SetUp() override {
-    ASSERT_TRUE(ros::service::waitForService(kService, ros::Duration(20.0)))
-        << "node did not come up";
-    client_ = node_.serviceClient<cr::ComputeResponse>(kService, true);  // persistent, as users do
-  }
-
-  cr::ComputeResponse::Response call(cr::ComputeResponse srv) {
-    EXPECT_TRUE(client_.call(srv)) << "the service call itself failed: the node must always answer";
-    return srv.response;
-  }
-
   // A bad request is rejected with a message naming `field`, and the node still answers a good one.
   void expectRejected(const cr::ComputeResponse& srv, const std::string& field) {
-    const cr::ComputeResponse::Response response = call(srv);
-    EXPECT_FALSE(response.success);
-    EXPECT_NE(response.message.find(field), std::string::npos)
-        << "message '" << response.message << "' does not name " << field;
-    EXPECT_TRUE(response.bodies.empty());
+    ServiceTest::expectRejected(srv, field);
     EXPECT_TRUE(call(headOnSpheres()).success) << "node stopped serving after a bad request";
   }
-
-  ros::NodeHandle node_;
-  ros::ServiceClient client_;
 };
 
 TEST_F(NodeTest, HeadOnSpheresMatchClosedForm) {
@@ -157,7 +110,7 @@ TEST_F(NodeTest, PublishesEverySuccessfulResponse) {
 TEST_F(NodeTest, SphereOnGroundSticksAndRolls) {
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
-  srv.request.bodies = {ground(), sphere("ball", 1.0, 0.1, 0, 0, 0.1)};
+  srv.request.bodies = {ground(), sphere("ball", 1.0, 0.1, pose(0, 0, 0.1))};
   srv.request.bodies[1].twist.linear.x = 1.0;
   srv.request.bodies[1].twist.linear.z = -2.0;
   srv.request.contacts = {contact("ground", "ball", 0, 0, 0, 0, 0, 1, 0.5, 1.0, 1.0)};
@@ -191,7 +144,7 @@ TEST_F(NodeTest, TransformsBodiesIntoTheRequestFrame) {
 
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "odom";
-  srv.request.bodies = {sphere("ball", 1.0, 0.1, 0, 0, 0), ground()};
+  srv.request.bodies = {sphere("ball", 1.0, 0.1, pose(0, 0, 0)), ground()};
   srv.request.bodies[0].frame_id = "base_link";
   srv.request.bodies[0].twist.linear.x = 1.0;
   srv.request.bodies[1].id = "wall";
@@ -216,7 +169,7 @@ TEST_F(NodeTest, TransformsBodiesIntoTheRequestFrame) {
 TEST_F(NodeTest, CubeLandingFlatBouncesWithoutSpin) {
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
-  cr::BodyState cube = sphere("cube", 1.0, 0.0, 0, 0, 0.5);
+  cr::BodyState cube = sphere("cube", 1.0, 0.0, pose(0, 0, 0.5));
   cube.inertia.ixx = cube.inertia.iyy = cube.inertia.izz = 1.0 / 6.0;
   cube.twist.linear.z = -1.0;
   srv.request.bodies = {ground(), cube};
@@ -249,7 +202,8 @@ TEST_F(NodeTest, CubeLandingFlatBouncesWithoutSpin) {
 // default (Stronge) law does not, and the tip separates.
 TEST_F(NodeTest, RodOnRoughFloorGainsNoEnergyUnderTheDefaultLaw) {
   const double tilt = 50.0 * M_PI / 180.0, off_vertical = 20.0 * M_PI / 180.0;
-  cr::BodyState rod = sphere("rod", 1.0, 0.0, 0.5 * std::cos(tilt), 0.0, 0.5 * std::sin(tilt));
+  cr::BodyState rod =
+      sphere("rod", 1.0, 0.0, pose(0.5 * std::cos(tilt), 0.0, 0.5 * std::sin(tilt)));
   rod.inertia.ixx = 0.5 * 0.01 * 0.01;  // thin cylinder (radius 1 cm) along body x
   rod.inertia.iyy = rod.inertia.izz = (3.0 * 0.01 * 0.01 + 1.0) / 12.0;
   rod.pose.orientation.y =
@@ -281,7 +235,7 @@ TEST_F(NodeTest, NewtonsCradleGivesTheSimultaneousAnswer) {
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
   for (int i = 0; i < 3; ++i)
-    srv.request.bodies.push_back(sphere("ball" + std::to_string(i), 1.0, 0.1, 0.2 * i, 0, 0));
+    srv.request.bodies.push_back(sphere("ball" + std::to_string(i), 1.0, 0.1, pose(0.2 * i, 0, 0)));
   srv.request.bodies[0].twist.linear.x = 1.0;
   srv.request.contacts = {contact("ball0", "ball1", 0.1, 0, 0, 1, 0, 0, 1.0),
                           contact("ball1", "ball2", 0.3, 0, 0, 1, 0, 0, 1.0)};
@@ -303,7 +257,7 @@ TEST_F(NodeTest, NewtonsCradleGivesTheSimultaneousAnswer) {
 TEST_F(NodeTest, RestingBallGetsContactForces) {
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
-  srv.request.bodies = {ground(), sphere("ball", 1.0, 0.1, 0, 0, 0.1)};
+  srv.request.bodies = {ground(), sphere("ball", 1.0, 0.1, pose(0, 0, 0.1))};
   srv.request.bodies[1].wrench.force.x = 1.0;
   srv.request.bodies[1].wrench.force.z = -9.81;
   srv.request.contacts = {contact("ground", "ball", 0, 0, 0, 0, 0, 1, 0.5, 0.5, 0.4)};
@@ -329,7 +283,7 @@ TEST_F(NodeTest, RandomImpactsKeepThePhysicalProperties) {
     cr::ComputeResponse srv;
     srv.request.header.frame_id = "world";
     for (const char* id : {"a", "b"}) {
-      cr::BodyState body = sphere(id, positive(rng), 0.0, unit(rng), unit(rng), unit(rng));
+      cr::BodyState body = sphere(id, positive(rng), 0.0, pose(unit(rng), unit(rng), unit(rng)));
       const double x = positive(rng), y = positive(rng);
       body.inertia.ixx = x;
       body.inertia.iyy = y;

@@ -9,8 +9,11 @@
 
 #include "collision_response/contact_detection.h"
 #include "collision_response/errors.h"
+#include "shape_builders.h"
 
 namespace cr = collision_response::core;
+using collision_response::testing::boxMesh;
+using collision_response::testing::primitive;
 using Eigen::Vector3d;
 
 namespace {
@@ -28,14 +31,6 @@ cr::BodyState body(const char* id, double mass, const Vector3d& position,
   return b;
 }
 
-cr::Shape primitive(cr::Shape::Type type, std::vector<double> dims,
-                    const Eigen::Isometry3d& pose = Eigen::Isometry3d::Identity()) {
-  cr::Shape s;
-  s.type = type;
-  s.dimensions = std::move(dims);
-  s.pose = pose;
-  return s;
-}
 cr::Shape box(double x, double y, double z) {
   return primitive(cr::Shape::Type::kBox, {x, y, z});
 }
@@ -51,24 +46,6 @@ cr::Shape cone(double h, double r) {
 cr::Shape plane(double a, double b, double c, double d,
                 const Eigen::Isometry3d& pose = Eigen::Isometry3d::Identity()) {
   return primitive(cr::Shape::Type::kPlane, {a, b, c, d}, pose);
-}
-
-/// The closed surface of an axis-aligned box as a triangle mesh (its own convex hull).
-cr::Shape boxMesh(double x, double y, double z) {
-  cr::Shape s;
-  s.type = cr::Shape::Type::kMesh;
-  for (int k = 0; k < 8; ++k) {
-    s.vertices.emplace_back((k & 1 ? 0.5 : -0.5) * x, (k & 2 ? 0.5 : -0.5) * y,
-                            (k & 4 ? 0.5 : -0.5) * z);
-  }
-  // Faces as quads of corner indices, split in two triangles (winding deliberately mixed).
-  const int quads[6][4] = {{0, 1, 3, 2}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                           {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    s.triangles.push_back({q[0], q[1], q[2]});
-    s.triangles.push_back({q[0], q[2], q[3]});
-  }
-  return s;
 }
 
 /// Two disjoint tetrahedra in one mesh: not convex, handled as a triangle soup.

@@ -11,21 +11,13 @@
 #include "collision_response/detected_contacts.h"
 #include "collision_response/errors.h"
 #include "scene_builders.h"
+#include "shape_builders.h"
 
 namespace {
 
 using namespace collision_response::testing;
 
 constexpr double kTol = 1e-9;
-
-cr::Shape primitive(cr::Shape::Type type, std::vector<double> dimensions,
-                    const Eigen::Isometry3d& pose = Eigen::Isometry3d::Identity()) {
-  cr::Shape s;
-  s.type = type;
-  s.dimensions = std::move(dimensions);
-  s.pose = pose;
-  return s;
-}
 
 cr::Shape floorPlane() {
   return primitive(cr::Shape::Type::kPlane, {0.0, 0.0, 1.0, 0.0});
@@ -47,22 +39,6 @@ cr::BodyState cube(const Vector3d& position, const Quaterniond& q, const Vector3
   b.orientation = q;
   b.linear_velocity = v;
   return b;
-}
-
-/// The closed surface of a unit cube as a triangle mesh: its own convex hull.
-cr::Shape unitCubeMesh() {
-  cr::Shape s;
-  s.type = cr::Shape::Type::kMesh;
-  for (int k = 0; k < 8; ++k) {
-    s.vertices.emplace_back(k & 1 ? 0.5 : -0.5, k & 2 ? 0.5 : -0.5, k & 4 ? 0.5 : -0.5);
-  }
-  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    s.triangles.push_back({q[0], q[1], q[2]});
-    s.triangles.push_back({q[0], q[2], q[3]});
-  }
-  return s;
 }
 
 struct Solved {
@@ -130,7 +106,7 @@ TEST(DetectedContacts, BoxLandingFlatKeepsNoSpin) {
     SCOPED_TRACE(as_mesh ? "convex-hull mesh" : "box primitive");
     const Solved s =
         detectAndSolve({ground(), cube({0, 0, 0.5}, Quaterniond::Identity(), {0, 0, -1})},
-                       shapesOf({{floorPlane()}, {as_mesh ? unitCubeMesh() : box}}, 0.5));
+                       shapesOf({{floorPlane()}, {as_mesh ? boxMesh() : box}}, 0.5));
     EXPECT_EQ(s.detected.contacts.size(), 4u);
     expectVecNear(s.result.bodies[1].linear_velocity, {0, 0, 0.5}, kTol);
     expectVecNear(s.result.bodies[1].angular_velocity, Vector3d::Zero(), kTol);
@@ -149,7 +125,7 @@ TEST(DetectedContacts, BoxLandingOnAnEdgeOffCentre) {
   const Quaterniond q(Eigen::AngleAxisd(theta, Vector3d::UnitX()));
   for (const bool as_mesh : {false, true}) {
     SCOPED_TRACE(as_mesh ? "convex-hull mesh" : "box primitive");
-    const cr::Shape box = as_mesh ? unitCubeMesh() : primitive(cr::Shape::Type::kBox, {1, 1, 1});
+    const cr::Shape box = as_mesh ? boxMesh() : primitive(cr::Shape::Type::kBox, {1, 1, 1});
     const Solved s = detectAndSolve({ground(), cube({0, 0, height}, q, {0, 0, -1})},
                                     shapesOf({{floorPlane()}, {box}}, e));
     ASSERT_EQ(s.detected.contacts.size(), 2u);

@@ -11,25 +11,14 @@
 #include <cmath>
 #include <mutex>
 
+#include "node_test_messages.h"
+
 namespace cr = collision_response;
+using namespace collision_response::testing;
 
 namespace {
 
 constexpr double kTolerance = 1e-9;
-const char* const kService = "/collision_response/compute";
-
-geometry_msgs::Pose pose(double x, double y, double z,
-                         const Eigen::Quaterniond& q = Eigen::Quaterniond::Identity()) {
-  geometry_msgs::Pose p;
-  p.position.x = x;
-  p.position.y = y;
-  p.position.z = z;
-  p.orientation.w = q.w();
-  p.orientation.x = q.x();
-  p.orientation.y = q.y();
-  p.orientation.z = q.z();
-  return p;
-}
 
 shape_msgs::SolidPrimitive primitive(uint8_t type, std::vector<double> dimensions) {
   shape_msgs::SolidPrimitive p;
@@ -56,13 +45,10 @@ cr::BodyState floorBody(const std::string& frame = "") {
   return body;
 }
 
+/// A solid sphere carrying a sphere primitive.
 cr::BodyState ball(const std::string& id, double mass, double radius,
                    const geometry_msgs::Pose& p) {
-  cr::BodyState body;
-  body.id = id;
-  body.inertia.m = mass;
-  body.inertia.ixx = body.inertia.iyy = body.inertia.izz = 0.4 * mass * radius * radius;
-  body.pose = p;
+  cr::BodyState body = sphere(id, mass, radius, p);
   addPrimitive(body, primitive(shape_msgs::SolidPrimitive::SPHERE, {radius}));
   return body;
 }
@@ -117,30 +103,7 @@ void expectVector(const geometry_msgs::Vector3& got, const Eigen::Vector3d& want
   EXPECT_NEAR(got.z, want.z(), tol);
 }
 
-class DetectionNodeTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    ASSERT_TRUE(ros::service::waitForService(kService, ros::Duration(20.0)))
-        << "node did not come up";
-    client_ = node_.serviceClient<cr::ComputeResponse>(kService, true);
-  }
-
-  cr::ComputeResponse::Response call(cr::ComputeResponse srv) {
-    EXPECT_TRUE(client_.call(srv)) << "the service call itself failed";
-    return srv.response;
-  }
-
-  void expectRejected(const cr::ComputeResponse& srv, const std::string& field) {
-    const cr::ComputeResponse::Response response = call(srv);
-    EXPECT_FALSE(response.success);
-    EXPECT_NE(response.message.find(field), std::string::npos)
-        << "message '" << response.message << "' does not name " << field;
-    EXPECT_TRUE(response.detected_contacts.empty());
-  }
-
-  ros::NodeHandle node_;
-  ros::ServiceClient client_;
-};
+using DetectionNodeTest = ServiceTest;
 
 TEST_F(DetectionNodeTest, SphereOnAPlaneBouncesAndRolls) {
   // R = 0.1 m, 1 kg, v = (1, 0, -2), e = 0.5, mu = 1: v' = (5/7, 0, 1), w' = (0, 5/7 / R, 0).
@@ -288,12 +251,7 @@ TEST_F(DetectionNodeTest, GivenContactsAreSolvedWithoutDetection) {
   left.twist.linear.x = 2.0;
   right.twist.linear.x = -1.0;
   cr::ComputeResponse srv = request({left, right}, 0.5);
-  cr::Contact contact;
-  contact.body_a = "left";
-  contact.body_b = "right";
-  contact.normal.x = 1.0;
-  contact.restitution = 1.0;
-  srv.request.contacts = {contact};
+  srv.request.contacts = {contact("left", "right", 0, 0, 0, 1, 0, 0, 1.0)};
   auto response = call(srv);
   ASSERT_TRUE(response.success) << response.message;
   EXPECT_TRUE(response.detected_contacts.empty());

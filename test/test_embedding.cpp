@@ -18,7 +18,10 @@
 #include <mutex>
 #include <vector>
 
+#include "node_test_messages.h"
+
 namespace cr = collision_response;
+using namespace collision_response::testing;
 
 namespace {
 
@@ -26,34 +29,11 @@ constexpr double kTolerance = 1e-9;
 const std::string kNode = "/node/collision_response";
 const std::string kNodelet = "/nodelet/collision_response";
 
-cr::BodyState sphere(const std::string& id, double mass, double radius, double x, double vx) {
-  cr::BodyState body;
-  body.id = id;
-  body.inertia.m = mass;
-  const double moment = 0.4 * mass * radius * radius;  // solid sphere
-  body.inertia.ixx = body.inertia.iyy = body.inertia.izz = moment;
-  body.pose.position.x = x;
-  body.pose.orientation.w = 1.0;
+/// A sphere on the x axis at x [m] moving at vx [m/s].
+cr::BodyState movingSphere(const std::string& id, double mass, double radius, double x, double vx) {
+  cr::BodyState body = sphere(id, mass, radius, pose(x, 0, 0));
   body.twist.linear.x = vx;
   return body;
-}
-
-cr::Contact contact(const std::string& a, const std::string& b, double px, double py, double pz,
-                    double nx, double ny, double nz, double e, double mu_s = 0.0,
-                    double mu_d = 0.0) {
-  cr::Contact c;
-  c.body_a = a;
-  c.body_b = b;
-  c.point.x = px;
-  c.point.y = py;
-  c.point.z = pz;
-  c.normal.x = nx;
-  c.normal.y = ny;
-  c.normal.z = nz;
-  c.restitution = e;
-  c.static_friction = mu_s;
-  c.dynamic_friction = mu_d;
-  return c;
 }
 
 // Head-on spheres on the x axis, m1 at v1 (left) and m2 at v2 (right), restitution e. Closed form:
@@ -68,8 +48,8 @@ struct HeadOn {
 cr::ComputeResponse::Request headOnRequest(const HeadOn& s, const std::string& suffix = "") {
   cr::ComputeResponse::Request request;
   request.header.frame_id = "world";
-  request.bodies = {sphere("left" + suffix, s.m1, 0.1, -0.1, s.v1),
-                    sphere("right" + suffix, s.m2, 0.1, 0.1, s.v2)};
+  request.bodies = {movingSphere("left" + suffix, s.m1, 0.1, -0.1, s.v1),
+                    movingSphere("right" + suffix, s.m2, 0.1, 0.1, s.v2)};
   request.contacts = {contact("left" + suffix, "right" + suffix, 0, 0, 0, 1, 0, 0, s.e)};
   return request;
 }
@@ -109,7 +89,7 @@ cr::ComputeResponse::Request ballInCorner() {
   ground.pose.orientation.w = 1.0;
   cr::BodyState wall = ground;
   wall.id = "wall";
-  cr::BodyState ball = sphere("ball", 1.0, 0.1, 0.0, 1.0);
+  cr::BodyState ball = movingSphere("ball", 1.0, 0.1, 0.0, 1.0);
   ball.pose.position.z = 0.1;
   ball.twist.linear.z = -1.5;
   ball.twist.angular.x = 3.0;

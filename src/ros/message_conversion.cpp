@@ -6,7 +6,6 @@
 #include "collision_response/validation.h"
 
 namespace collision_response {
-namespace {
 
 Eigen::Vector3d toEigen(const geometry_msgs::Vector3& v) {
   return {v.x, v.y, v.z};
@@ -23,7 +22,13 @@ geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) {
   return out;
 }
 
-}  // namespace
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p) {
+  geometry_msgs::Point out;
+  out.x = p.x();
+  out.y = p.y();
+  out.z = p.z();
+  return out;
+}
 
 core::BodyState fromMsg(const BodyState& msg) {
   core::BodyState state;
@@ -86,9 +91,7 @@ Contact toMsg(const core::Contact& contact) {
   Contact msg;
   msg.body_a = contact.body_a;
   msg.body_b = contact.body_b;
-  msg.point.x = contact.point.x();
-  msg.point.y = contact.point.y();
-  msg.point.z = contact.point.z();
+  msg.point = toPoint(contact.point);
   msg.normal = toVector3(contact.normal);
   msg.restitution = contact.restitution;
   msg.static_friction = contact.static_friction;

@@ -1,5 +1,7 @@
 #include "collision_response/ros/response_markers.h"
 
+#include "collision_response/ros/message_conversion.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -19,27 +21,12 @@ std_msgs::ColorRGBA color(float r, float g, float b) {
   return c;
 }
 
-geometry_msgs::Point point(const Eigen::Vector3d& p) {
-  geometry_msgs::Point msg;
-  msg.x = p.x();
-  msg.y = p.y();
-  msg.z = p.z();
-  return msg;
-}
-
-Eigen::Vector3d vector(const geometry_msgs::Vector3& v) {
-  return {v.x, v.y, v.z};
-}
-Eigen::Vector3d vector(const geometry_msgs::Point& v) {
-  return {v.x, v.y, v.z};
-}
-
 /// Centre of mass of a body in the frame of its pose.
 Eigen::Vector3d centreOfMass(const BodyState& body) {
   const auto& q = body.pose.orientation;
   Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
   if (rotation.norm() > 0.0) rotation.normalize();
-  return vector(body.pose.position) + rotation * vector(body.inertia.com);
+  return toEigen(body.pose.position) + rotation * toEigen(body.inertia.com);
 }
 
 Marker marker(const std_msgs::Header& header, const std::string& ns, int id, int type,
@@ -62,7 +49,7 @@ void addArrow(visualization_msgs::MarkerArray& array, const std_msgs::Header& he
   const double length = v.norm();
   if (!(length > 1e-9)) return;
   Marker m = marker(header, ns, id, Marker::ARROW, c);
-  m.points = {point(from), point(from + v)};
+  m.points = {toPoint(from), toPoint(from + v)};
   m.scale.x = std::min(0.012, 0.2 * length);  // shaft diameter [m]
   m.scale.y = 2.0 * m.scale.x;                // head diameter [m]
   m.scale.z = std::min(0.04, 0.4 * length);   // head length [m]
@@ -93,15 +80,15 @@ visualization_msgs::MarkerArray makeMarkers(const ComputeResponse::Request& requ
   }
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const Contact& c = *contacts[i];
-    Eigen::Vector3d n = vector(c.normal);
+    Eigen::Vector3d n = toEigen(c.normal);
     if (n.norm() > 0.0) n.normalize();
     addArrow(array, header, "contact_normals", static_cast<int>(i), color(0, 0.6f, 1),
-             vector(c.point), scales.normal * n);
+             toEigen(c.point), scales.normal * n);
     if (i < response.impulses.size()) {
       const ContactImpulse& impulse = response.impulses[i];
-      const Eigen::Vector3d j = impulse.normal_impulse * n + vector(impulse.friction_impulse);
+      const Eigen::Vector3d j = impulse.normal_impulse * n + toEigen(impulse.friction_impulse);
       addArrow(array, header, "contact_impulses", static_cast<int>(i), color(1, 0, 0),
-               vector(c.point), scales.impulse * j);
+               toEigen(c.point), scales.impulse * j);
     }
   }
   for (std::size_t i = 0; i < response.bodies.size(); ++i) {
@@ -112,11 +99,11 @@ visualization_msgs::MarkerArray makeMarkers(const ComputeResponse::Request& requ
       const BodyState& before = request.bodies[i];
       if (before.frame_id.empty() || before.frame_id == header.frame_id) {
         addArrow(array, header, "velocity_before", static_cast<int>(i), color(0.6f, 0.6f, 0.6f),
-                 com, scales.velocity * vector(before.twist.linear));
+                 com, scales.velocity * toEigen(before.twist.linear));
       }
     }
     addArrow(array, header, "velocity_after", static_cast<int>(i), color(0, 0.8f, 0), com,
-             scales.velocity * vector(after.twist.linear));
+             scales.velocity * toEigen(after.twist.linear));
   }
   return array;
 }

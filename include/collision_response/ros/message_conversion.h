@@ -19,6 +19,12 @@
 
 namespace collision_response {
 
+/// Vectors and points, component by component (no frame change).
+Eigen::Vector3d toEigen(const geometry_msgs::Vector3& v);
+Eigen::Vector3d toEigen(const geometry_msgs::Point& p);
+geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v);
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p);
+
 /// Pose and twist are taken as given, in whatever frame msg.frame_id names.
 core::BodyState fromMsg(const BodyState& msg);
 /// `frame_id` is the frame the state is expressed in.

@@ -1,0 +1,91 @@
+// Request builders and a service-client fixture shared by the rostest clients.
+#pragma once
+
+#include <collision_response/ComputeResponse.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include <Eigen/Geometry>
+#include <string>
+
+namespace collision_response::testing {
+
+/// A pose at (x, y, z) [m] with orientation q.
+inline geometry_msgs::Pose pose(double x, double y, double z,
+                                const Eigen::Quaterniond& q = Eigen::Quaterniond::Identity()) {
+  geometry_msgs::Pose p;
+  p.position.x = x;
+  p.position.y = y;
+  p.position.z = z;
+  p.orientation.w = q.w();
+  p.orientation.x = q.x();
+  p.orientation.y = q.y();
+  p.orientation.z = q.z();
+  return p;
+}
+
+/// A solid sphere (I = 2/5 m r^2) at rest at `where`, without shapes.
+inline BodyState sphere(const std::string& id, double mass, double radius,
+                        const geometry_msgs::Pose& where) {
+  BodyState body;
+  body.id = id;
+  body.inertia.m = mass;
+  body.inertia.ixx = body.inertia.iyy = body.inertia.izz = 0.4 * mass * radius * radius;
+  body.pose = where;
+  return body;
+}
+
+/// A contact from a towards b at point (px, py, pz), normal (nx, ny, nz).
+inline Contact contact(const std::string& a, const std::string& b, double px, double py, double pz,
+                       double nx, double ny, double nz, double e, double mu_s = 0.0,
+                       double mu_d = 0.0) {
+  Contact c;
+  c.body_a = a;
+  c.body_b = b;
+  c.point.x = px;
+  c.point.y = py;
+  c.point.z = pz;
+  c.normal.x = nx;
+  c.normal.y = ny;
+  c.normal.z = nz;
+  c.restitution = e;
+  c.static_friction = mu_s;
+  c.dynamic_friction = mu_d;
+  return c;
+}
+
+/// A persistent client of `service` (as users keep one), waiting for the node in SetUp.
+class ServiceTest : public ::testing::Test {
+ protected:
+  explicit ServiceTest(std::string service = "/collision_response/compute")
+      : service_(std::move(service)) {}
+
+  void SetUp() override {
+    ASSERT_TRUE(ros::service::waitForService(service_, ros::Duration(20.0)))
+        << "node did not come up";
+    client_ = node_.serviceClient<ComputeResponse>(service_, true);
+  }
+
+  ComputeResponse::Response call(ComputeResponse srv) {
+    EXPECT_TRUE(client_.call(srv)) << "the service call itself failed: the node must always answer";
+    return srv.response;
+  }
+
+  /// A bad request is answered with success false and a message naming `field`, and nothing else.
+  ComputeResponse::Response expectRejected(const ComputeResponse& srv, const std::string& field) {
+    const ComputeResponse::Response response = call(srv);
+    EXPECT_FALSE(response.success);
+    EXPECT_NE(response.message.find(field), std::string::npos)
+        << "message '" << response.message << "' does not name " << field;
+    EXPECT_TRUE(response.bodies.empty());
+    EXPECT_TRUE(response.impulses.empty());
+    EXPECT_TRUE(response.detected_contacts.empty());
+    return response;
+  }
+
+  std::string service_;
+  ros::NodeHandle node_;
+  ros::ServiceClient client_;
+};
+
+}  // namespace collision_response::testing
