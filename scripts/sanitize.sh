@@ -48,6 +48,14 @@ supp="$root/test/sanitizer/lsan.supp"
 export LSAN_OPTIONS="print_suppressions=1"
 [ -f "$supp" ] && LSAN_OPTIONS="$LSAN_OPTIONS:suppressions=$supp"
 
+# Programs built outside this CMake project load the instrumented libraries too: the downstream
+# package of the tests (configured afresh: CMake takes CXXFLAGS and LDFLAGS as its initial flags),
+# and Debian's nodelet manager, which is not instrumented, so the ASan runtime is preloaded into it
+# (test/embedding.test passes CR_NODELET_PREFIX as the launch file's launch_prefix).
+export CXXFLAGS="$flags" LDFLAGS="-fsanitize=address,undefined"
+CR_NODELET_PREFIX="env LD_PRELOAD=$(g++ -print-file-name=libasan.so)"
+export CR_NODELET_PREFIX
+
 echo "sanitize: building into $build_dir with $flags (RelWithDebInfo)"
 status=0
 BUILD_DIR="$build_dir" BUILD_TYPE=RelWithDebInfo CMAKE_ARGS="-C$cache" scripts/test.sh || status=$?
