@@ -10,7 +10,7 @@
 #
 # Environment: BUILD_DIR (default build-fuzz; corpus, crash artifacts and log live there, out of
 # git), FUZZ_SECONDS (default 120: the time cap), FUZZ_RUNS (stop after this many executions;
-# default 0, no cap), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
+# unset: no cap), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
 # fixed seed and FUZZ_RUNS, and an empty corpus, a run is reproducible, as CI's is), FUZZ_ARGS
 # (extra libFuzzer flags), FUZZ_PRINT=1 (print each
 # decoded request and its outcome; useful with --replay), FUZZ_SKIP_EXTREME=1 (excuse non-finite

@@ -852,8 +852,18 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<BodyState
   im.stats.narrowphase_pairs = pairs.size();
 
   std::vector<DetectedContact> contacts;
-  for (const auto& [a, b] : pairs) {
-    for (const DetectedContact& c : narrowphase(*a, *b, ctx)) contacts.push_back(c);
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (k % 64 == 63) options.deadline.check("contact detection");
+    for (const DetectedContact& c : narrowphase(*pairs[k].first, *pairs[k].second, ctx)) {
+      contacts.push_back(c);
+    }
+    if (contacts.size() > options.max_contacts) {
+      throw InvalidInput("bodies", "the shapes touch at more than " +
+                                       std::to_string(options.max_contacts) +
+                                       " contact points (the contact limit); " +
+                                       std::to_string(pairs.size() - k - 1) +
+                                       " pairs of shapes were left untested");
+    }
   }
   return contacts;
 }

@@ -11,9 +11,9 @@ DetectedContacts detectContacts(ContactDetector& detector, const std::vector<Bod
                                 const DetectionInput& input, const MaterialTable& materials,
                                 const RequestLimits& limits) {
   const double tolerance = input.options.contact_tolerance;
-  if (!std::isfinite(tolerance) || tolerance < 0.0 || tolerance > MagnitudeLimits::kLength) {
+  if (!std::isfinite(tolerance) || tolerance < 0.0 || tolerance > kMaxContactTolerance) {
     throw InvalidInput("detection.contact_tolerance",
-                       "must be a finite length in [0, 1e7] m (" + std::to_string(tolerance) + ")");
+                       "must be a finite length in [0, 1] m (" + std::to_string(tolerance) + ")");
   }
   validateCoefficients(input.defaults.restitution, input.defaults.static_friction,
                        input.defaults.dynamic_friction, "detection");
@@ -30,6 +30,12 @@ DetectedContacts detectContacts(ContactDetector& detector, const std::vector<Bod
     }
   }
   checkGeometrySize(shapes, vertices, triangles, limits);
+  for (std::size_t i = 0; i < input.materials.size(); ++i) {
+    if (!input.materials[i].empty() && !materials.knows(input.materials[i])) {
+      throw InvalidInput("bodies[" + std::to_string(i) + "].material",
+                         "'" + input.materials[i] + "' is in no entry of the material table");
+    }
+  }
 
   DetectedContacts out;
   const std::vector<DetectedContact> found = detector.detect(bodies, input.geometry, input.options);

@@ -47,14 +47,18 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
   }
 
   // The island's movable bodies as they were, to restore if the sweeps diverge.
-  std::vector<std::pair<int, RigidBody>> initial;
+  std::vector<int> touched;
+  touched.reserve(2 * island.size());
   for (const int c : island) {
     for (const int body : {rows[c].body_a, rows[c].body_b}) {
-      const bool seen = std::any_of(initial.begin(), initial.end(),
-                                    [body](const auto& saved) { return saved.first == body; });
-      if (bodies[body].movable() && !seen) initial.emplace_back(body, bodies[body]);
+      if (bodies[body].movable()) touched.push_back(body);
     }
   }
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  std::vector<std::pair<int, RigidBody>> initial;
+  initial.reserve(touched.size());
+  for (const int body : touched) initial.emplace_back(body, bodies[body]);
 
   IterativeStats stats;
   for (stats.iterations = 1; stats.iterations <= options.max_iterations; ++stats.iterations) {
@@ -104,11 +108,12 @@ IterativeStats solveIterative(std::vector<RigidBody>& bodies, const std::vector<
     if (!std::isfinite(largest_impulse) || !std::isfinite(largest_change)) {
       // Diverged (no solution: e.g. a squeeze that cannot bounce, or sliding friction that makes a
       // row's effective mass negative, Painleve's case): apply nothing, report not converged.
+      // (Friction only: the fixed normal impulses were applied before, and stay.)
       for (const auto& [index, body] : initial) bodies[index] = body;
-      for (RowState& s : state) {
-        s.P_n = 0.0;
-        s.P_t.setZero();
-        s.sliding = false;
+      for (std::size_t i = 0; i < state.size(); ++i) {
+        state[i].P_n = friction_only ? (*fixed_normal_impulses)[i] : 0.0;
+        state[i].P_t.setZero();
+        state[i].sliding = false;
       }
       stats.converged = false;
       break;

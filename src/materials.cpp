@@ -28,7 +28,16 @@ void MaterialTable::set(const std::string& a, const std::string& b, const Contac
   if (b.empty()) throw InvalidInput(field + ".b", "is empty");
   validateCoefficients(material.restitution, material.static_friction, material.dynamic_friction,
                        field);
-  pairs_[key(a, b)] = material;
+  if (!pairs_.emplace(key(a, b), material).second) {
+    throw InvalidInput(field, "repeats the pair (" + a + ", " + b + ")");
+  }
+}
+
+bool MaterialTable::knows(const std::string& name) const {
+  for (const auto& [pair, material] : pairs_) {
+    if (pair.first == name || pair.second == name) return true;
+  }
+  return false;
 }
 
 ContactMaterial MaterialTable::lookup(const std::string& a, const std::string& b,

@@ -237,6 +237,28 @@ TEST(DetectedContacts, BadInputNamesTheField) {
   cr::MaterialTable table;
   EXPECT_THROW(table.set("steel", "", {0.5, 0.1, 0.1}), cr::InvalidInput);
   EXPECT_THROW(table.set("steel", "steel", {0.5, 0.1, 0.2}), cr::InvalidInput);
+  table.set("steel", "glass", {0.5, 0.1, 0.1});
+  EXPECT_THROW(table.set("glass", "steel", {0.6, 0.1, 0.1}), cr::InvalidInput);  // repeated pair
+  // A material name in no entry of the table is a typo, not a silent fallback.
+  input = shapesOf({{ball}, {ball}}, 0.5);
+  input.materials = {"glass", "stel"};
+  try {
+    cr::detectContacts(detector, bodies, input, table);
+    ADD_FAILURE() << "an unknown material was accepted";
+  } catch (const cr::InvalidInput& e) {
+    EXPECT_EQ(e.field(), "bodies[1].material");
+  }
+  input.materials = {"glass", ""};  // no material: the request's coefficients
+  EXPECT_NO_THROW(cr::detectContacts(detector, bodies, input, table));
+  // More contact points than the solver would take: refused before the rest is tested.
+  const std::vector<cr::BodyState> boxes = {ground(),
+                                            cube({0, 0, 0.5}, Quaterniond::Identity(), {0, 0, -1})};
+  input = shapesOf({{floorPlane()}, {primitive(cr::Shape::Type::kBox, {1, 1, 1})}}, 0.5);
+  input.options.max_contacts = 3;
+  EXPECT_EQ(fieldOf(input, {}), "bodies");
+  EXPECT_THROW(cr::detectContacts(detector, boxes, input, {}), cr::InvalidInput);
+  input.options.max_contacts = 4;
+  EXPECT_EQ(cr::detectContacts(detector, boxes, input, {}).contacts.size(), 4u);
 }
 
 }  // namespace

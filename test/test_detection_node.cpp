@@ -200,8 +200,15 @@ TEST_F(DetectionNodeTest, MaterialsFromTheParameterTable) {
     return e;
   };
   EXPECT_DOUBLE_EQ(restitution("glass", "steel"), 0.8);
-  EXPECT_DOUBLE_EQ(restitution("steel", "rubber"), 0.6);  // sqrt(0.9 * 0.4)
-  EXPECT_DOUBLE_EQ(restitution("wood", "steel"), 0.25);   // not in the table: the request's
+  EXPECT_DOUBLE_EQ(restitution("steel", "rubber"), 0.6);   // sqrt(0.9 * 0.4)
+  EXPECT_DOUBLE_EQ(restitution("glass", "rubber"), 0.25);  // no pair, no mix: the request's
+  EXPECT_DOUBLE_EQ(restitution("", "steel"), 0.25);        // no material: the request's
+  // A name in no entry of the table is a typo: rejected, naming the body.
+  cr::BodyState left = ball("left", 1.0, 0.1, pose(-0.1, 0, 0));
+  cr::BodyState right = ball("right", 2.0, 0.1, pose(0.1, 0, 0));
+  left.twist.linear.x = 1.0;
+  right.material = "wood";
+  expectRejected(request({left, right}, 0.25), "bodies[1].material");
 }
 
 TEST_F(DetectionNodeTest, BodiesInDifferentFramesAreSolvedInTheRequestFrame) {
@@ -335,6 +342,19 @@ TEST_F(DetectionNodeTest, BadGeometryIsRejectedNamingTheField) {
   srv.request.detection.contact_tolerance = 0.0;
   srv.request.detection.mode = 7;
   expectRejected(srv, "detection.mode");
+
+  // Detected contacts beyond ~max_contacts (6 in this test): two boxes flat on the floor give 8.
+  cr::BodyState second = cube(pose(2, 0, 0.5), false);
+  second.id = "cube2";
+  expectRejected(request({floorBody(), cube(pose(0, 0, 0.5), false), second}, 0.5),
+                 "bodies: the shapes touch at more than 6 contact points");
+
+  // An error on a detected contact names it as such: a 1e12 kg ball with a radius of gyration of
+  // 1e-7 m touched 0.2 m from its centre is past the lever-arm limit (1e6 radii).
+  cr::BodyState heavy = ball("heavy", 1e12, 0.2, pose(0, 0, 0.2));
+  heavy.inertia.ixx = heavy.inertia.iyy = heavy.inertia.izz = 1e-2;
+  heavy.twist.linear.z = -1.0;
+  expectRejected(request({floorBody(), heavy}, 0.5), "detected_contacts[0].point");
 
   // Still serving.
   EXPECT_TRUE(call(request({floorBody(), cube(pose(0, 0, 0.5), false)}, 0.5)).success);

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "collision_response/body_state.h"
+#include "collision_response/deadline.h"
 #include "collision_response/shapes.h"
 
 namespace collision_response::core {
@@ -18,6 +19,11 @@ struct DetectionOptions {
   /// At most this many points per pair of shapes (a body pair made of several shapes can have more
   /// in total); extra points are dropped keeping the deepest one and the extreme corners. >= 1.
   std::size_t max_contacts_per_pair = 8;
+  /// detect() throws InvalidInput ("bodies") once it has found more contacts than this: a scene
+  /// whose contacts the solver would refuse costs no more detection.
+  std::size_t max_contacts = static_cast<std::size_t>(-1);
+  /// Checked while pairs are tested; throws SolverTimeout once expired. Never, by default.
+  Deadline deadline;
 };
 
 struct DetectedContact {

@@ -12,12 +12,16 @@
 
 namespace collision_response::core {
 
+/// Largest contact tolerance accepted [m] (as ~contact_tolerance's range).
+constexpr double kMaxContactTolerance = 1.0;
+
 /// What contact detection needs of a scene besides the bodies' states.
 struct DetectionInput {
   std::vector<BodyGeometry> geometry;  ///< empty (no geometry) or one entry per body
-  std::vector<std::string> materials;  ///< empty or one per body; "" = no material
-  DetectionOptions options;            ///< contact tolerance, points per pair
-  ContactMaterial defaults;            ///< coefficients of pairs the material table does not name
+  /// Empty or one per body; "" = no material. A name must appear in the material table.
+  std::vector<std::string> materials;
+  DetectionOptions options;  ///< contact tolerance, points per pair
+  ContactMaterial defaults;  ///< coefficients of pairs the material table does not name
 };
 
 /// Contacts found from the bodies' shapes, ready for computeResponse().
@@ -30,8 +34,9 @@ struct DetectedContacts {
 /// `detector` (which keeps its FCL objects for the next call) and gives each contact the
 /// coefficients of its pair of materials (MaterialTable::lookup(), falling back to
 /// input.defaults). Throws InvalidInput naming the field ("detection.contact_tolerance",
-/// "detection.restitution", "bodies[i].primitives[j].dimensions", "bodies" for geometry beyond
-/// the limits, ...).
+/// "detection.restitution", "bodies[i].primitives[j].dimensions", "bodies[i].material" for a name
+/// in no table entry, "bodies" for geometry or contacts beyond the limits, ...) and SolverTimeout
+/// past input.options.deadline.
 DetectedContacts detectContacts(ContactDetector& detector, const std::vector<BodyState>& bodies,
                                 const DetectionInput& input, const MaterialTable& materials,
                                 const RequestLimits& limits = {});

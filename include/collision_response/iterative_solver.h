@@ -24,7 +24,8 @@ struct IterativeStats {
 /// dynamic cone and the sweeps continue, until no contact moves (the exact solver's rule).
 /// Applies the impulses to `bodies` and writes the impulse of each listed row into `impulses`.
 /// If the sweeps diverge (an accumulated impulse overflows: no solution exists), nothing is
-/// applied, the impulses are zero and the result is not converged.
+/// applied, the impulses are zero (friction only: no friction, the fixed normal impulses) and the
+/// result is not converged.
 ///
 /// Friction only: with `fixed_normal_impulses` (one per listed row, >= 0, already applied to the
 /// bodies) the normal rows are not solved; each row's friction is bounded by mu times its fixed

@@ -34,6 +34,9 @@ class MaterialTable {
   ContactMaterial lookup(const std::string& a, const std::string& b,
                          const ContactMaterial& fallback) const;
 
+  /// True if `name` appears in some entry (as a or b).
+  bool knows(const std::string& name) const;
+
   bool empty() const { return pairs_.empty(); }
   std::size_t size() const { return pairs_.size(); }
 

@@ -52,6 +52,13 @@ core::MaterialTable readMaterials(const ros::NodeHandle& node) {
         entry["b"].getType() != XmlRpc::XmlRpcValue::TypeString) {
       throw std::invalid_argument(field + " must have string members a and b");
     }
+    for (const auto& [name, value] : entry) {
+      if (name != "a" && name != "b" && name != "restitution" && name != "static_friction" &&
+          name != "dynamic_friction") {
+        throw std::invalid_argument(field + " has an unknown member '" + name +
+                                    "' (a, b, restitution, static_friction, dynamic_friction)");
+      }
+    }
     core::ContactMaterial material;
     const auto member = [&](const char* name, double& out) {
       if (entry.hasMember(name)) out = numberParam(entry[name], field + "." + name);
@@ -67,6 +74,19 @@ core::MaterialTable readMaterials(const ros::NodeHandle& node) {
     }
   }
   return table;
+}
+
+// The core numbers the request's contacts and the detected ones together: a field
+// "contacts[k]..." with k past the request's own contacts names detected_contacts[k - given].
+std::string detectedContactField(const core::InvalidInput& error, std::size_t given,
+                                 std::size_t detected) {
+  const std::string& field = error.field();
+  const std::string message = error.what();
+  if (detected == 0 || field.rfind("contacts[", 0) != 0) return message;
+  const std::size_t close = field.find(']');
+  const std::size_t k = std::stoul(field.substr(9, close - 9));
+  if (k < given) return message;
+  return "detected_contacts[" + std::to_string(k - given) + "]" + message.substr(close + 1);
 }
 
 }  // namespace
@@ -89,14 +109,19 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
   }
   // Relative tolerance and iteration cap of the iterative solver.
   default_options_.tolerance = readParam(private_node, "tolerance", built_in.tolerance);
-  if (!(default_options_.tolerance >= 0.0)) throw std::invalid_argument("~tolerance must be >= 0");
+  // Ranges as in cfg/Solver.cfg, so that dynamic_reconfigure never clamps a start-up value.
+  if (!(default_options_.tolerance >= 0.0 && default_options_.tolerance <= 1.0))
+    throw std::invalid_argument("~tolerance must lie in [0, 1]");
   default_options_.integration_tolerance =
       readParam(private_node, "integration_tolerance", built_in.integration_tolerance);
-  if (!(default_options_.integration_tolerance > 0.0)) {
-    throw std::invalid_argument("~integration_tolerance must be > 0");
+  if (!(default_options_.integration_tolerance >= 1e-15 &&
+        default_options_.integration_tolerance <= 1.0)) {
+    throw std::invalid_argument("~integration_tolerance must lie in [1e-15, 1]");
   }
   default_options_.max_iterations =
       positiveSize(private_node, "max_iterations", static_cast<int>(built_in.max_iterations));
+  if (default_options_.max_iterations > 100000000)
+    throw std::invalid_argument("~max_iterations must be at most 100000000");
   // Wall time one request may spend solving [s].
   default_options_.time_budget = readParam(private_node, "time_budget", built_in.time_budget);
   if (!(default_options_.time_budget > 0.0))
@@ -134,10 +159,11 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
 
   responses_ = private_node.advertise<CollisionResponse>("responses", 10);
   markers_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  setUpMonitoring(node, private_node);
+  // The services last: their callbacks may run at once, on other threads.
   service_ = private_node.advertiseService("compute", &CollisionResponseServer::compute, this);
   batch_service_ =
       private_node.advertiseService("compute_batch", &CollisionResponseServer::computeBatch, this);
-  setUpMonitoring(node, private_node);
   ROS_INFO("collision_response: serving %s (law %s, solver %s)", service_.getService().c_str(),
            core::toString(default_options_.law), core::toString(default_options_.method));
 }
@@ -206,7 +232,8 @@ void CollisionResponseServer::releaseDetector(std::unique_ptr<core::ContactDetec
 }
 
 core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Request& request,
-                                                       const core::Scene& scene) {
+                                                       const core::Scene& scene,
+                                                       const core::SolverOptions& options) {
   // Limits first, from the messages, so an oversized mesh costs no conversion.
   std::size_t shapes = 0, vertices = 0, triangles = 0;
   for (const BodyState& body : request.bodies) countGeometry(body, shapes, vertices, triangles);
@@ -215,6 +242,10 @@ core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Re
   core::DetectionInput input;
   input.options = fromMsg(request.detection, contactTolerance());
   input.options.max_contacts_per_pair = max_contacts_per_pair_;
+  // What the solver would accept, within the request's time budget.
+  input.options.max_contacts =
+      limits_.max_contacts - std::min(limits_.max_contacts, request.contacts.size());
+  input.options.deadline = core::Deadline::in(options.time_budget);
   input.defaults = {request.detection.restitution, request.detection.static_friction,
                     request.detection.dynamic_friction};
   input.geometry.reserve(request.bodies.size());
@@ -225,12 +256,11 @@ core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Re
     input.materials.push_back(request.bodies[i].material);
   }
   std::unique_ptr<core::ContactDetector> detector = acquireDetector();
-  struct Return {  // the detector goes back to the pool whatever happens
-    CollisionResponseServer* server;
-    std::unique_ptr<core::ContactDetector>& detector;
-    ~Return() { server->releaseDetector(std::move(detector)); }
-  } give_back{this, detector};
-  return core::detectContacts(*detector, scene.bodies, input, materials_, limits_);
+  // Back to the pool after a detection; one that threw (its cache half rebuilt) is dropped.
+  core::DetectedContacts found =
+      core::detectContacts(*detector, scene.bodies, input, materials_, limits_);
+  releaseDetector(std::move(detector));
+  return found;
 }
 
 bool CollisionResponseServer::compute(ComputeResponse::Request& request,
@@ -262,7 +292,7 @@ void CollisionResponseServer::solve(const ComputeResponse::Request& request,
     const core::SolverOptions options = fromMsg(request.options, defaultOptions());
     if (wantsDetection(request)) {
       core::validate(scene, options, limits_);  // detection needs valid poses
-      const core::DetectedContacts detected = detect(request, scene);
+      const core::DetectedContacts detected = detect(request, scene, options);
       response.detected_contacts.reserve(detected.contacts.size());
       for (const core::Contact& contact : detected.contacts)
         response.detected_contacts.push_back(toMsg(contact));
@@ -287,8 +317,9 @@ void CollisionResponseServer::solve(const ComputeResponse::Request& request,
     response.kinetic_energy_after = result.kinetic_energy_after;
     response.success = true;
   } catch (const core::InvalidInput& e) {
-    response.message = e.what();
-    ROS_DEBUG("collision_response: rejected request: %s", e.what());
+    response.message =
+        detectedContactField(e, request.contacts.size(), response.detected_contacts.size());
+    ROS_DEBUG("collision_response: rejected request: %s", response.message.c_str());
   } catch (const core::SolverTimeout& e) {
     response.message = e.what();
     ROS_WARN("collision_response: %s", e.what());
@@ -333,7 +364,12 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
     SceneResult& result = response.results[i];
     result.success = answer.success;
     if (!answer.success) {
-      result.message = "scenes[" + std::to_string(i) + "]." + answer.message;
+      // A field error reads "scenes[i].bodies[1].inertia.m: ...", anything else "scenes[i]: ...".
+      const std::size_t colon = answer.message.find(": ");
+      const bool field_error = colon != std::string::npos && colon > 0 &&
+                               answer.message.substr(0, colon).find(' ') == std::string::npos;
+      result.message =
+          "scenes[" + std::to_string(i) + "]" + (field_error ? "." : ": ") + answer.message;
       ++failures;
     }
     result.bodies = std::move(answer.bodies);
@@ -386,7 +422,13 @@ void CollisionResponseServer::setUpMonitoring(const ros::NodeHandle& node,
       ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
 }
 
-CollisionResponseServer::~CollisionResponseServer() = default;
+CollisionResponseServer::~CollisionResponseServer() {
+  // Callbacks first (shutdown waits for one in progress), then the members they use.
+  service_.shutdown();
+  batch_service_.shutdown();
+  diagnostics_timer_.stop();
+  reconfigure_server_.reset();
+}
 
 void CollisionResponseServer::reconfigure(SolverConfig& config, uint32_t /*level*/) {
   std::lock_guard<std::mutex> lock(options_mutex_);

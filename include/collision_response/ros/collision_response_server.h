@@ -96,8 +96,9 @@ class CollisionResponseServer {
   /// Whether the request's contacts are to be found from the bodies' shapes (detection.mode).
   static bool wantsDetection(const ComputeResponse::Request& request);
   /// Contacts from the bodies' shapes in `scene` (validated, request frame), with a detector of
-  /// the pool.
-  core::DetectedContacts detect(const ComputeResponse::Request& request, const core::Scene& scene);
+  /// the pool, within the contact limit and options.time_budget.
+  core::DetectedContacts detect(const ComputeResponse::Request& request, const core::Scene& scene,
+                                const core::SolverOptions& options);
 
   /// Detectors keep FCL objects between calls but are not thread-safe: each request borrows one.
   std::unique_ptr<core::ContactDetector> acquireDetector();
