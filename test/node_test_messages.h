@@ -1,11 +1,13 @@
 // Request builders and a service-client fixture shared by the rostest clients.
 #pragma once
 
+#include <collision_response/CollisionResponse.h>
 #include <collision_response/ComputeResponse.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
 #include <Eigen/Geometry>
+#include <mutex>
 #include <string>
 
 namespace collision_response::testing {
@@ -86,6 +88,44 @@ class ServiceTest : public ::testing::Test {
   std::string service_;
   ros::NodeHandle node_;
   ros::ServiceClient client_;
+};
+
+/// Subscribes to ~responses of the node and keeps the latest message (delivered on the spinner's
+/// thread).
+class ResponsesListener {
+ public:
+  explicit ResponsesListener(ros::NodeHandle& node,
+                             const std::string& topic = "/collision_response/responses")
+      : subscriber_(node.subscribe<CollisionResponse>(
+            topic, 10, [this](const CollisionResponse::ConstPtr& msg) {
+              std::lock_guard<std::mutex> lock(mutex_);
+              latest_ = msg;
+            })) {}
+
+  /// True once the node's publisher is connected, or false after `seconds`.
+  bool waitForPublisher(double seconds) const {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+    while (subscriber_.getNumPublishers() == 0 && ros::WallTime::now() < deadline)
+      ros::WallDuration(0.01).sleep();
+    return subscriber_.getNumPublishers() > 0;
+  }
+
+  /// The latest message, waiting up to `seconds` for one; null if none came.
+  CollisionResponse::ConstPtr waitForMessage(double seconds) const {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+    for (;;) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (latest_ || ros::WallTime::now() >= deadline) return latest_;
+      }
+      ros::WallDuration(0.01).sleep();
+    }
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  CollisionResponse::ConstPtr latest_;
+  ros::Subscriber subscriber_;
 };
 
 }  // namespace collision_response::testing

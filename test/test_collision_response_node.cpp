@@ -8,7 +8,6 @@
 #include <cmath>
 #include <functional>
 #include <limits>
-#include <mutex>
 #include <random>
 
 #include <Eigen/Geometry>
@@ -73,26 +72,12 @@ TEST_F(NodeTest, HeadOnSpheresMatchClosedForm) {
 }
 
 TEST_F(NodeTest, PublishesEverySuccessfulResponse) {
-  std::mutex mutex;  // the AsyncSpinner delivers on its own thread
-  cr::CollisionResponse::ConstPtr received;
-  const auto latest = [&] {
-    std::lock_guard<std::mutex> lock(mutex);
-    return received;
-  };
-  const ros::Subscriber subscriber = node_.subscribe<cr::CollisionResponse>(
-      "/collision_response/responses", 10, [&](const cr::CollisionResponse::ConstPtr& msg) {
-        std::lock_guard<std::mutex> lock(mutex);
-        received = msg;
-      });
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
-  while (subscriber.getNumPublishers() == 0 && ros::WallTime::now() < deadline)
-    ros::WallDuration(0.01).sleep();
-  ASSERT_GT(subscriber.getNumPublishers(), 0u);
+  const ResponsesListener listener(node_);
+  ASSERT_TRUE(listener.waitForPublisher(10.0));
 
   const auto response = call(headOnSpheres());
   ASSERT_TRUE(response.success);
-  while (!latest() && ros::WallTime::now() < deadline) ros::WallDuration(0.01).sleep();
-  received = latest();
+  const cr::CollisionResponse::ConstPtr received = listener.waitForMessage(10.0);
   ASSERT_TRUE(received) << "no message on /collision_response/responses";
   EXPECT_EQ(received->header.frame_id, "world");
   EXPECT_EQ(received->header.stamp, ros::Time(1234, 5678));  // (roscpp rewrites seq)

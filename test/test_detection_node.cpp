@@ -9,7 +9,6 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
-#include <mutex>
 
 #include "node_test_messages.h"
 
@@ -279,26 +278,11 @@ TEST_F(DetectionNodeTest, GivenContactsAreSolvedWithoutDetection) {
 }
 
 TEST_F(DetectionNodeTest, PublishesTheDetectedContacts) {
-  std::mutex mutex;
-  cr::CollisionResponse::ConstPtr received;
-  const ros::Subscriber subscriber = node_.subscribe<cr::CollisionResponse>(
-      "/collision_response/responses", 10, [&](const cr::CollisionResponse::ConstPtr& msg) {
-        std::lock_guard<std::mutex> lock(mutex);
-        received = msg;
-      });
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
-  while (subscriber.getNumPublishers() == 0 && ros::WallTime::now() < deadline)
-    ros::WallDuration(0.01).sleep();
+  const ResponsesListener listener(node_);
+  listener.waitForPublisher(10.0);
   const auto response = call(request({floorBody(), cube(pose(0, 0, 0.5), false)}, 0.5));
   ASSERT_TRUE(response.success);
-  for (int i = 0; i < 500; ++i) {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (received) break;
-    }
-    ros::WallDuration(0.01).sleep();
-  }
-  std::lock_guard<std::mutex> lock(mutex);
+  const cr::CollisionResponse::ConstPtr received = listener.waitForMessage(5.0);
   ASSERT_TRUE(received);
   EXPECT_EQ(received->contacts.size(), 4u);
   EXPECT_EQ(received->impulses.size(), 4u);
