@@ -35,3 +35,10 @@ make -C "$build_dir" -j"$(nproc)" --no-print-directory all "$@" >"$log" 2>&1 || 
   echo "setup: build failed, see $log" >&2
   exit 1
 }
+# catkin snapshots the environment that `make run_tests` uses at configure time, and takes only
+# directories that exist then: on a first configure the devel space's Python path (the generated
+# messages) and library path are missing, so the Python nodes and clients of the rostests could not
+# import them. One configure more, now that they exist, fixes the snapshot.
+if grep -q "^export PYTHONPATH=''" "$build_dir/catkin_generated/setup_cached.sh" 2>/dev/null; then
+  cmake "$build_dir" >/dev/null
+fi

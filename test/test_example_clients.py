@@ -20,17 +20,18 @@ EXPECTED = [
 def run(command):
     result = subprocess.run(command + [SERVER], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             universal_newlines=True, timeout=100)
-    return result.returncode, [line for line in result.stdout.splitlines()
-                               if line.startswith(("single", "batch", "closed"))]
+    lines = [line for line in result.stdout.splitlines()
+             if line.startswith(("single", "batch", "closed"))]
+    return result.returncode, lines, result.stdout
 
 
 class ExampleClients(unittest.TestCase):
     def test_python_client(self):
         script = os.path.join(rospkg.RosPack().get_path("collision_response"), "scripts",
                               "example_client.py")
-        code, lines = run(["/usr/bin/python3", script])
-        self.assertEqual(lines, EXPECTED)
-        self.assertEqual(code, 0)
+        code, lines, output = run(["/usr/bin/python3", script])
+        self.assertEqual(lines, EXPECTED, "output of the client:\n" + output)
+        self.assertEqual(code, 0, output)
 
     def test_cpp_client(self):
         binary = os.environ.get("COLLISION_RESPONSE_EXAMPLE_CLIENT")
@@ -42,9 +43,9 @@ class ExampleClients(unittest.TestCase):
                     binary = candidate
                     break
         self.assertTrue(binary, "example_client binary not found")
-        code, lines = run([binary])
-        self.assertEqual(lines, EXPECTED)
-        self.assertEqual(code, 0)
+        code, lines, output = run([binary])
+        self.assertEqual(lines, EXPECTED, "output of the client:\n" + output)
+        self.assertEqual(code, 0, output)
 
 
 if __name__ == "__main__":
