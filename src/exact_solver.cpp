@@ -12,8 +12,10 @@
 //   q = [u_n,i + e_i u_n,i (or u_n,i);  d_ik . u_i;  0].
 #include "collision_response/exact_solver.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "collision_response/lcp.h"
@@ -25,6 +27,19 @@ using Eigen::Index;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kD = kPyramidDirections;
+
+/// (cos, sin) of the pyramid's direction angles 2 pi k / D, computed once.
+const std::array<Eigen::Vector2d, kD>& pyramidAngles() {
+  static const std::array<Eigen::Vector2d, kD> table = [] {
+    std::array<Eigen::Vector2d, kD> out;
+    for (int k = 0; k < kD; ++k) {
+      const double angle = 2.0 * kPi * k / kD;
+      out[k] = Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    }
+    return out;
+  }();
+  return table;
+}
 /// A contact slides if |u'_t| exceeds this fraction of the largest pre-impact |u| of the island.
 constexpr double kSlipTolerance = 1e-9;
 
@@ -49,6 +64,16 @@ struct Contact {
   Eigen::Vector3d impulse() const { return P_n * row->normal + P_t; }
   const Eigen::Vector3d& r(int side) const { return side == 0 ? row->space.r_a : row->space.r_b; }
 };
+
+/// Directions of the all-sticking unknowns: n, t1 = d_0 and t2 = d_(D/4) of the pyramid.
+Eigen::Matrix3d stickingDirections(const Contact& c) {
+  Eigen::Matrix3d D;
+  D << c.directions.col(0), c.directions.col(1), c.directions.col(1 + kD / 4);
+  return D;
+}
+
+/// An LDL^T whose smallest pivot is below this fraction of the largest is treated as singular.
+constexpr double kRegularPivot = 1e-10;
 
 // A movable body touched by a contact, and the contact's block of columns in J^T and W J^T.
 struct Incidence {
@@ -80,8 +105,17 @@ class IslandLcp {
   bool switchSlidingToDynamic();
 
  private:
+  /// The all-sticking impulses when every contact touches the same one movable body, solved in
+  /// its six velocity unknowns; false if the contacts leave it a free direction.
+  bool stickingOnOneBody(const std::vector<Index>& first, const Eigen::VectorXd& rhs,
+                         Eigen::VectorXd& P) const;
+  /// The all-sticking impulses from the Delassus matrix A = J W J^T (least-norm if singular).
+  Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
+                                     const Eigen::VectorXd& rhs) const;
   void assemble();
   void velocityChanges();
+  /// Change of the relative velocity at contact c from dv_, dw_ [m/s].
+  Eigen::Vector3d velocityChangeAt(const Contact& c) const;
 
   const std::vector<RigidBody>& bodies_;
   std::vector<Contact> contacts_;
@@ -92,6 +126,8 @@ class IslandLcp {
   std::vector<Eigen::Vector3d> dv_, dw_;  // velocity changes of the island-local bodies
   std::vector<const RigidBody*> local_body_;
   double u_reference_ = 0.0;
+  Index unknowns_ = 0;          // LCP size
+  Index jacobian_columns_ = 0;  // columns of J^T
   bool assembled_ = false;
 };
 
@@ -115,10 +151,9 @@ IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<Con
     if (c.frictional) {
       Eigen::Vector3d t1, t2;
       tangentBasis(row.normal, t1, t2);
-      for (int k = 0; k < kD; ++k) {
-        const double angle = 2.0 * kPi * k / kD;
-        c.directions.col(1 + k) = std::cos(angle) * t1 + std::sin(angle) * t2;
-      }
+      const std::array<Eigen::Vector2d, kD>& angles = pyramidAngles();
+      for (int k = 0; k < kD; ++k)
+        c.directions.col(1 + k) = angles[k].x() * t1 + angles[k].y() * t2;
       c.columns = 1 + kD;
     }
     c.offset = unknowns;
@@ -145,13 +180,15 @@ IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<Con
   dv_.resize(local_body_.size());
   dw_.resize(local_body_.size());
 
-  JT_.resize(6, jacobian_columns);
-  WJT_.resize(6, jacobian_columns);
-  M_.setZero(unknowns, unknowns);
-  q_.setZero(unknowns);
+  unknowns_ = unknowns;
+  jacobian_columns_ = jacobian_columns;
 }
 
 void IslandLcp::assemble() {
+  JT_.resize(6, jacobian_columns_);
+  WJT_.resize(6, jacobian_columns_);
+  M_.setZero(unknowns_, unknowns_);
+  q_.setZero(unknowns_);
   // J^T and W J^T, one 6 x columns block per incidence.
   for (const Incidence& inc : incidences_) {
     const Contact& c = contacts_[inc.contact];
@@ -190,7 +227,7 @@ void IslandLcp::assemble() {
 }
 
 bool IslandLcp::solveAllSticking() {
-  // Unknowns: P_n per contact, and (t1, t2) components for frictional ones; A = J W J^T over them.
+  // Unknowns: P_n per contact, and (t1, t2) components for frictional ones.
   std::vector<Index> first(contacts_.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
@@ -199,52 +236,20 @@ bool IslandLcp::solveAllSticking() {
     first[i] = unknowns;
     unknowns += c.frictional ? 3 : 1;
   }
-  // Columns n, t1, t2: t1 = d_0 and t2 = d_(D/4) of the pyramid.
-  const auto directions = [](const Contact& c) {
-    Eigen::Matrix3d D;
-    D << c.directions.col(0), c.directions.col(1), c.directions.col(1 + kD / 4);
-    return D;
-  };
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(unknowns, unknowns);
   Eigen::VectorXd rhs(unknowns);
-  for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
-    end = begin + 1;
-    while (end < incidences_.size() && incidences_[end].body == incidences_[begin].body) ++end;
-    const RigidBody& body = bodies_[incidences_[begin].body];
-    for (std::size_t x = begin; x < end; ++x) {
-      const Incidence& ix = incidences_[x];
-      const Contact& cx = contacts_[ix.contact];
-      const Index kx = cx.frictional ? 3 : 1;
-      const Eigen::Matrix3d Dx = directions(cx) * (ix.side == 0 ? -1.0 : 1.0);
-      Eigen::Matrix<double, 6, 3> Jx;  // [dir; r x dir]
-      Eigen::Matrix<double, 6, 3> WJx;
-      for (int j = 0; j < 3; ++j) {
-        const Eigen::Vector3d moment = cx.r(ix.side).cross(Dx.col(j));
-        Jx.col(j) << Dx.col(j), moment;
-        WJx.col(j) << body.inverse_mass * Dx.col(j), body.inverse_inertia * moment;
-      }
-      for (std::size_t y = begin; y < end; ++y) {
-        const Incidence& iy = incidences_[y];
-        const Contact& cy = contacts_[iy.contact];
-        const Index ky = cy.frictional ? 3 : 1;
-        const Eigen::Matrix3d Dy = directions(cy) * (iy.side == 0 ? -1.0 : 1.0);
-        Eigen::Matrix<double, 6, 3> Jy;
-        for (int j = 0; j < 3; ++j) Jy.col(j) << Dy.col(j), cy.r(iy.side).cross(Dy.col(j));
-        A.block(first[ix.contact], first[iy.contact], kx, ky) +=
-            (WJx.transpose() * Jy).topLeftCorner(kx, ky);
-      }
-    }
-  }
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const Contact& c = contacts_[i];
-    const Eigen::Vector3d change = directions(c).transpose() * -c.u;  // to u' = 0 ...
+    const Eigen::Vector3d change = stickingDirections(c).transpose() * -c.u;  // to u' = 0 ...
     rhs.segment(first[i], c.frictional ? 3 : 1) = change.head(c.frictional ? 3 : 1);
     rhs(first[i]) += c.target_u_n;  // ... but u'_n = -e u_n
   }
-  const Eigen::VectorXd P = A.completeOrthogonalDecomposition().solve(rhs);
-  // Consistent (the targets are reachable) and admissible, to round-off of the island's scale.
-  const double scale = std::max(u_reference_, rhs.cwiseAbs().maxCoeff());
-  if (!P.allFinite() || (A * P - rhs).cwiseAbs().maxCoeff() > 1e-10 * scale) return false;
+  Eigen::VectorXd P;
+  if (!(local_body_.size() == 1 && unknowns > 6 && stickingOnOneBody(first, rhs, P))) {
+    P = stickingByDelassus(first, rhs);
+  }
+  if (!P.allFinite()) return false;
+
+  // Admissible: compressive and inside the static cones.
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const Contact& c = contacts_[i];
     const double P_n = P(first[i]);
@@ -257,11 +262,110 @@ bool IslandLcp::solveAllSticking() {
     c.P_n = P(first[i]);
     c.beta.setZero();
     c.P_t = c.frictional
-                ? Eigen::Vector3d(directions(c).rightCols<2>() * P.segment<2>(first[i] + 1))
+                ? Eigen::Vector3d(stickingDirections(c).rightCols<2>() * P.segment<2>(first[i] + 1))
                 : Eigen::Vector3d::Zero();
   }
   velocityChanges();
+  // Consistent: the velocity changes these impulses make reach every target (A P = rhs), to
+  // round-off of the island's scale. Otherwise the targets are not reachable together.
+  const double tolerance = 1e-10 * std::max(u_reference_, rhs.cwiseAbs().maxCoeff());
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Contact& c = contacts_[i];
+    const Index k = c.frictional ? 3 : 1;
+    const Eigen::Vector3d change = stickingDirections(c).transpose() * velocityChangeAt(c);
+    if ((change.head(k) - rhs.segment(first[i], k)).cwiseAbs().maxCoeff() > tolerance) {
+      for (Contact& reset : contacts_) reset.P_n = 0.0, reset.P_t.setZero();
+      return false;
+    }
+  }
   return true;
+}
+
+bool IslandLcp::stickingOnOneBody(const std::vector<Index>& first, const Eigen::VectorXd& rhs,
+                                  Eigen::VectorXd& P) const {
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  const RigidBody& body = *local_body_[0];
+  // Rows s [d^T, (r x d)^T / L] of J S: the lever arms scaled by the largest one, L.
+  double L = 0.0;
+  for (const Contact& c : contacts_) {
+    if (c.local[0] >= 0 && c.local[1] >= 0) return false;  // the body on both sides
+    L = std::max(L, c.r(c.local[0] >= 0 ? 0 : 1).norm());
+  }
+  if (!(L > 0.0)) return false;  // every contact at the centre of mass: rotations are free
+  Eigen::Matrix<double, Eigen::Dynamic, 6> J(rhs.size(), 6);
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Contact& c = contacts_[i];
+    const int side = c.local[0] >= 0 ? 0 : 1;
+    const Eigen::Matrix3d D = stickingDirections(c) * (side == 0 ? -1.0 : 1.0);
+    for (Index j = 0; j < (c.frictional ? 3 : 1); ++j) {
+      J.row(first[i] + j) << D.col(j).transpose(), c.r(side).cross(D.col(j)).transpose() / L;
+    }
+  }
+  // The velocity change [dv; L dw] that reaches the targets (least squares; exact if they are
+  // consistent), when the contacts pin all six degrees of freedom (G = (J S)^T J S regular).
+  const Eigen::Matrix<double, 6, 6> G = J.transpose().lazyProduct(J);  // small: no blocked GEMM
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(G);
+  const Vector6d d = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !(d.minCoeff() > kRegularPivot * d.maxCoeff())) {
+    return false;
+  }
+  const Vector6d change = ldlt.solve(J.transpose() * rhs);
+  // The least-norm impulses giving it: P = J S y with G y = S M S [dv; L dw], M = diag(m, I).
+  Vector6d momentum;
+  momentum << change.head<3>() / body.inverse_mass,
+      body.inverse_inertia.llt().solve(change.tail<3>()) / (L * L);
+  P = J * ldlt.solve(momentum);
+  return true;
+}
+
+Eigen::VectorXd IslandLcp::stickingByDelassus(const std::vector<Index>& first,
+                                              const Eigen::VectorXd& rhs) const {
+  // A = J W J^T over the sticking unknowns, summed body by body.
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rhs.size(), rhs.size());
+  for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
+    end = begin + 1;
+    while (end < incidences_.size() && incidences_[end].body == incidences_[begin].body) ++end;
+    const RigidBody& body = bodies_[incidences_[begin].body];
+    for (std::size_t x = begin; x < end; ++x) {
+      const Incidence& ix = incidences_[x];
+      const Contact& cx = contacts_[ix.contact];
+      const Index kx = cx.frictional ? 3 : 1;
+      const Eigen::Matrix3d Dx = stickingDirections(cx) * (ix.side == 0 ? -1.0 : 1.0);
+      Eigen::Matrix<double, 6, 3> WJx;  // W [dir; r x dir]
+      for (int j = 0; j < 3; ++j) {
+        WJx.col(j) << body.inverse_mass * Dx.col(j),
+            body.inverse_inertia * cx.r(ix.side).cross(Dx.col(j));
+      }
+      for (std::size_t y = begin; y < end; ++y) {
+        const Incidence& iy = incidences_[y];
+        const Contact& cy = contacts_[iy.contact];
+        const Index ky = cy.frictional ? 3 : 1;
+        const Eigen::Matrix3d Dy = stickingDirections(cy) * (iy.side == 0 ? -1.0 : 1.0);
+        Eigen::Matrix<double, 6, 3> Jy;
+        for (int j = 0; j < 3; ++j) Jy.col(j) << Dy.col(j), cy.r(iy.side).cross(Dy.col(j));
+        A.block(first[ix.contact], first[iy.contact], kx, ky) +=
+            (WJx.transpose() * Jy).topLeftCorner(kx, ky);
+      }
+    }
+  }
+  // Independent contacts: A is positive definite and LDL^T solves it. Redundant ones (a singular
+  // A): the least-norm solution, by a complete orthogonal decomposition.
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(A);
+  if (ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+    const Eigen::VectorXd d = ldlt.vectorD();
+    if (d.minCoeff() > kRegularPivot * d.maxCoeff()) return ldlt.solve(rhs);
+  }
+  return A.completeOrthogonalDecomposition().solve(rhs);
+}
+
+Eigen::Vector3d IslandLcp::velocityChangeAt(const Contact& c) const {
+  Eigen::Vector3d du = Eigen::Vector3d::Zero();  // change of v_b(p) - v_a(p)
+  for (int side = 0; side < 2; ++side) {
+    if (c.local[side] < 0) continue;
+    const Eigen::Vector3d change = dv_[c.local[side]] + dw_[c.local[side]].cross(c.r(side));
+    du += side == 0 ? Eigen::Vector3d(-change) : change;
+  }
+  return du;
 }
 
 bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
@@ -305,12 +409,7 @@ bool IslandLcp::switchSlidingToDynamic() {
   bool changed = false;
   for (Contact& c : contacts_) {
     if (!c.frictional || c.dynamic || c.row->dynamic_friction == c.row->static_friction) continue;
-    Eigen::Vector3d u = c.u;  // u' = u + change of v_b(p) - change of v_a(p)
-    for (int side = 0; side < 2; ++side) {
-      if (c.local[side] < 0) continue;
-      const Eigen::Vector3d du = dv_[c.local[side]] + dw_[c.local[side]].cross(c.r(side));
-      u += side == 0 ? Eigen::Vector3d(-du) : du;
-    }
+    const Eigen::Vector3d u = c.u + velocityChangeAt(c);
     const Eigen::Vector3d u_t = u - u.dot(c.row->normal) * c.row->normal;
     if (u_t.norm() > kSlipTolerance * u_reference_) {
       c.dynamic = true;

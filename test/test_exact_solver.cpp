@@ -623,3 +623,88 @@ TEST(ExactSolver, AllStickingAnswerIsTakenWhenInsideTheCones) {
     }
   }
 }
+
+// A body of random mass, inertia and orientation lands, sliding and tumbling a little, on 3 to 8
+// points of its flat underside spread around the centre's projection (or all on one line through
+// it), with cones wide enough to hold it. Closed form: every point ends at u'_n = -e u_n and
+// u'_t = 0; spread points fix the rigid motion w' = -e w_p (w_p: w's part in the ground plane),
+// v' = -e v_n n + h w' x n (h: the centre's height), while on a line the rotation about it follows
+// from the impulses. The solver takes the all-sticking answer (no pivot); the impulses give the
+// momenta exactly and are the least-norm ones: orthogonal to every self-equilibrated set of contact
+// impulses (J^T P = 0 in body space), as for any redundant contact set.
+TEST(ExactSolver, AllStickingLandingOnManyPointsIsTheRigidClosedFormWithLeastNormImpulses) {
+  std::mt19937 rng(20261123);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.5, 2.0);
+  const Vector3d n = Vector3d::UnitY();
+  const double e = 0.4, h = 0.3;
+  for (int scene = 0; scene < 60; ++scene) {
+    const bool collinear = scene % 4 == 3;  // rank-deficient: rotation about the edge is free
+    const int points = 3 + scene % 6;
+    SCOPED_TRACE("scene " + std::to_string(scene) + (collinear ? " (on one line)" : ""));
+    std::vector<cr::RigidBody> bodies(2);
+    const double mass = positive(rng);
+    const Matrix3d R =
+        Eigen::Quaterniond(unit(rng), unit(rng), unit(rng), unit(rng)).normalized().matrix();
+    const Vector3d inertia = 0.1 * mass * Vector3d(positive(rng), positive(rng), positive(rng));
+    cr::RigidBody& body = bodies[1];
+    body.inverse_mass = 1.0 / mass;
+    body.inverse_inertia = R * inertia.cwiseInverse().asDiagonal() * R.transpose();
+    body.com = Vector3d(unit(rng), h, unit(rng));
+    body.angular_velocity = Vector3d(0.2 * unit(rng), unit(rng), 0.2 * unit(rng));
+    if (collinear) body.angular_velocity.x() = body.angular_velocity.z() = 0.0;
+    body.linear_velocity = Vector3d(0.5 * unit(rng), -2.0, 0.5 * unit(rng));
+    const Vector3d v = body.linear_velocity, w = body.angular_velocity;
+    std::vector<cr::ContactRow> rows;
+    std::vector<int> island;
+    const double phase = kPi * unit(rng);
+    for (int k = 0; k < points; ++k) {
+      Vector3d point;
+      if (collinear) {  // along the direction of angle `phase`, spread over [-1, 1]
+        const double s = -1.0 + 2.0 * k / (points - 1) + 0.2 * unit(rng) / points;
+        point = body.com + s * Vector3d(std::cos(phase), 0.0, std::sin(phase));
+      } else {  // around the centre, at radius 0.5 to 1
+        const double angle = phase + 2.0 * kPi * (k + 0.25 * unit(rng)) / points;
+        const double radius = 0.75 + 0.25 * unit(rng);
+        point = body.com + radius * Vector3d(std::cos(angle), 0.0, std::sin(angle));
+      }
+      rows.emplace_back(0, 1, bodies[0], bodies[1], Vector3d(point.x(), 0.0, point.z()), n, e, 10.0,
+                        8.0);
+      island.push_back(k);
+    }
+    std::vector<double> u_n(rows.size());
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      u_n[k] = n.dot(rows[k].space.relativeVelocity(bodies[0], bodies[1]));
+      ASSERT_LT(u_n[k], 0.0);
+    }
+    std::vector<cr::ContactImpulse> impulses(rows.size());
+    const cr::ExactStats stats = cr::solveExact(bodies, rows, island, {}, impulses);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_EQ(stats.pivots, 0u);
+
+    const Vector3d w_plane = w - w.dot(n) * n;
+    const Vector3d w_after = -e * w_plane;
+    if (!collinear) expectVecNear(body.angular_velocity, w_after, 1e-9);
+    Vector3d linear = Vector3d::Zero(), angular = Vector3d::Zero();
+    Eigen::MatrixXd JT(6, 3 * rows.size());  // body-space columns [d; r x d] of every impulse
+    VectorXd P(3 * rows.size());
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      const Vector3d u = rows[k].space.relativeVelocity(bodies[0], bodies[1]);
+      EXPECT_NEAR(u.dot(n), -e * u_n[k], 1e-9);
+      EXPECT_LT((u - u.dot(n) * n).norm(), 1e-9);
+      EXPECT_TRUE(impulses[k].sticking);
+      const Vector3d p = impulses[k].total(n);
+      linear += p;
+      angular += rows[k].space.r_b.cross(p);
+      for (int a = 0; a < 3; ++a) {
+        JT.col(3 * k + a) << Vector3d::Unit(a), rows[k].space.r_b.cross(Vector3d::Unit(a));
+        P(3 * k + a) = p(a);
+      }
+    }
+    expectVecNear(linear, mass * (body.linear_velocity - v), 1e-9);
+    expectVecNear(body.inverse_inertia * angular, body.angular_velocity - w, 1e-9);
+    const Eigen::MatrixXd equilibrated = Eigen::FullPivLU<Eigen::MatrixXd>(JT).kernel();
+    EXPECT_LT((equilibrated.transpose() * P).cwiseAbs().maxCoeff(), 1e-9 * P.norm());
+    if (!collinear)
+      expectVecNear(body.linear_velocity, -e * v.dot(n) * n + h * w_after.cross(n), 1e-9);
+  }
+}
