@@ -1,6 +1,7 @@
 #include "collision_response/single_contact.h"
 
 #include <Eigen/Core>
+#include <cmath>
 
 namespace collision_response::core {
 namespace {
@@ -48,17 +49,17 @@ Eigen::Vector3d coupledNewton(const ContactRow& row, const Eigen::Vector3d& u, d
   sticking = false;
   if (row.frictionless()) return (-(1.0 + row.restitution) * u_n / n.dot(K * n)) * n;
 
-  // Sticking: u' = -e u_n n, i.e. the change -(1 + e) u_n n - u_t.
-  const Eigen::Vector3d u_t = u - u_n * n;
-  const Eigen::Vector3d P_stick = solveSymmetric(K, -(1.0 + row.restitution) * u_n * n - u_t);
+  // Sticking: u' = -e u_n n, i.e. the change -(1 + e) u_n n - u_t = -u - e u_n n.
+  const Eigen::Vector3d P_stick = solveSymmetric(K, -u - row.restitution * u_n * n);
   const double P_n = P_stick.dot(n);
   const Eigen::Vector3d P_t = P_stick - P_n * n;
   const double limit = row.static_friction * P_n;
-  if (P_n >= 0.0 && P_t.squaredNorm() <= limit * limit) {
+  const double P_t_squared = P_t.squaredNorm();
+  if (P_n >= 0.0 && P_t_squared <= limit * limit) {
     sticking = true;
     return P_stick;
   }
-  const double P_t_norm = P_t.norm();
+  const double P_t_norm = std::sqrt(P_t_squared);
   // Sliding along the direction the sticking impulse wanted, on the dynamic cone.
   if (P_t_norm == 0.0) return (-(1.0 + row.restitution) * u_n / n.dot(K * n)) * n;
   const Eigen::Vector3d direction = n + (row.dynamic_friction / P_t_norm) * P_t;
