@@ -97,11 +97,12 @@ class IslandLcp {
   double speed() const { return u_reference_; }
   std::vector<Contact>& contacts() { return contacts_; }
 
-  /// The all-sticking guess: every contact approaches, and the impulses that give each its target
-  /// normal velocity and no slip (the least-norm ones, the Delassus matrix being singular for
-  /// redundant contacts) are compressive and inside the static Coulomb cones. Then they solve the
-  /// problem (complementarity holds with every contact active and sticking) and are read; false
-  /// otherwise (nothing changed). One linear solve instead of Lemke's pivots: a box landing flat.
+  /// The all-sticking guess: the impulses that give every contact its target normal velocity
+  /// (-e u_n approaching, 0 touching or separating) and no slip (the least-norm ones, the Delassus
+  /// matrix being singular for redundant contacts) are compressive and inside the static Coulomb
+  /// cones. Then they solve the problem (complementarity holds with every contact active and
+  /// sticking) and are read; false otherwise (nothing changed). One linear solve instead of
+  /// Lemke's pivots: a box landing flat, a row of touching bodies struck at one end.
   bool solveAllSticking();
   /// Solves the LCP with the current coefficients and reads the impulses; false if not solved.
   bool solve(std::size_t& pivots, const Deadline& deadline);
@@ -235,10 +236,8 @@ bool IslandLcp::solveAllSticking() {
   std::vector<Index> first(contacts_.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const Contact& c = contacts_[i];
-    if (!(c.u.dot(c.row->normal) < 0.0)) return false;  // a contact that is not approaching
     first[i] = unknowns;
-    unknowns += c.frictional ? 3 : 1;
+    unknowns += contacts_[i].frictional ? 3 : 1;
   }
   Eigen::VectorXd rhs(unknowns);
   for (std::size_t i = 0; i < contacts_.size(); ++i) {

@@ -807,3 +807,36 @@ TEST(ExactSolver, AnswerLeavingAContactApproachingIsRefused) {
     EXPECT_GE(u.dot(rows[k].normal), bound - 1e-6 * speed) << "contact " << k;
   }
 }
+
+// A row of N touching balls (1 kg, frictionless), the first struck into the others at v: with
+// every contact active, ball 1 leaves at v(1 + e)/N - e v and the rest move together at
+// v(1 + e)/N, pushed by P_k = (N - k) v(1 + e)/N >= 0 between balls k and k + 1. That is the
+// LCP's unique solution, reached by one linear solve although only the first contact approaches.
+TEST(ExactSolver, StruckRowOfTouchingBallsIsOneLinearSolve) {
+  for (const int N : {2, 3, 16}) {
+    SCOPED_TRACE("balls " + std::to_string(N));
+    const double e = 0.5, v = 2.0;
+    std::vector<cr::RigidBody> bodies(N);
+    for (int k = 0; k < N; ++k) {
+      bodies[k].inverse_mass = 1.0;
+      bodies[k].inverse_inertia = Matrix3d::Identity() / 0.004;
+      bodies[k].com = Vector3d(0.2 * k, 0, 0);
+    }
+    bodies[0].linear_velocity = Vector3d(v, 0, 0);
+    std::vector<cr::ContactRow> rows;
+    std::vector<int> island;
+    for (int k = 0; k + 1 < N; ++k) {
+      rows.emplace_back(k, k + 1, bodies[k], bodies[k + 1], Vector3d(0.2 * k + 0.1, 0, 0),
+                        Vector3d::UnitX(), e, 0.0, 0.0);
+      island.push_back(k);
+    }
+    std::vector<cr::ContactImpulse> impulses(rows.size());
+    const cr::ExactStats stats = cr::solveExact(bodies, rows, island, {}, impulses);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_EQ(stats.pivots, 0u);
+    const double V = v * (1.0 + e) / N;
+    expectVecNear(bodies[0].linear_velocity, Vector3d(V - e * v, 0, 0), 1e-12);
+    for (int k = 1; k < N; ++k) expectVecNear(bodies[k].linear_velocity, Vector3d(V, 0, 0), 1e-12);
+    for (int k = 0; k + 1 < N; ++k) EXPECT_NEAR(impulses[k].normal_impulse, (N - 1 - k) * V, 1e-12);
+  }
+}
