@@ -49,8 +49,8 @@ constexpr double kAcceptedResidual = 1e-3;
 
 struct Contact {
   const ContactRow* row = nullptr;
-  Eigen::Matrix<double, 3, kD + 1> directions =  // n, then d_1..d_D (frictional rows)
-      Eigen::Matrix<double, 3, kD + 1>::Zero();
+  // n, then d_1..d_D: only n is set for a frictionless contact, whose other columns are unused.
+  Eigen::Matrix<double, 3, kD + 1> directions;
   Index columns = 1;                            // unknowns with a column of J^T: 1 or 1 + D
   Index offset = 0;                             // first LCP unknown (P_n)
   int local[2] = {-1, -1};                      // island-local index of body a, b (-1: immovable)
@@ -72,7 +72,11 @@ struct Contact {
 /// Directions of the all-sticking unknowns: n, t1 = d_0 and t2 = d_(D/4) of the pyramid.
 Eigen::Matrix3d stickingDirections(const Contact& c) {
   Eigen::Matrix3d D;
-  D << c.directions.col(0), c.directions.col(1), c.directions.col(1 + kD / 4);
+  if (c.frictional) {
+    D << c.directions.col(0), c.directions.col(1), c.directions.col(1 + kD / 4);
+  } else {
+    D << c.directions.col(0), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero();
+  }
   return D;
 }
 
@@ -323,31 +327,44 @@ bool IslandLcp::stickingOnOneBody(const std::vector<Index>& first, const Eigen::
 
 Eigen::VectorXd IslandLcp::stickingByDelassus(const std::vector<Index>& first,
                                               const Eigen::VectorXd& rhs) const {
-  // A = J W J^T over the sticking unknowns, summed body by body.
+  // Columns [d; r x d] of J^T and of W J^T for each incidence, computed once.
+  struct Columns {
+    Eigen::Matrix<double, 6, 3> J, WJ;
+    Index first, count;
+  };
+  std::vector<Columns> columns(incidences_.size());
+  for (std::size_t g = 0; g < incidences_.size(); ++g) {
+    const Incidence& inc = incidences_[g];
+    const Contact& c = contacts_[inc.contact];
+    const RigidBody& body = bodies_[inc.body];
+    const Eigen::Matrix3d D = stickingDirections(c) * (inc.side == 0 ? -1.0 : 1.0);
+    Columns& out = columns[g];
+    out.first = first[inc.contact];
+    out.count = c.frictional ? 3 : 1;
+    for (Index j = 0; j < out.count; ++j) {
+      const Eigen::Vector3d moment = c.r(inc.side).cross(D.col(j));
+      out.J.col(j) << D.col(j), moment;
+      out.WJ.col(j) << body.inverse_mass * D.col(j), body.inverse_inertia * moment;
+    }
+  }
+  // A = J W J^T over the sticking unknowns: contacts couple through each body they share.
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rhs.size(), rhs.size());
   for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
     end = begin + 1;
     while (end < incidences_.size() && incidences_[end].body == incidences_[begin].body) ++end;
-    const RigidBody& body = bodies_[incidences_[begin].body];
     for (std::size_t x = begin; x < end; ++x) {
-      const Incidence& ix = incidences_[x];
-      const Contact& cx = contacts_[ix.contact];
-      const Index kx = cx.frictional ? 3 : 1;
-      const Eigen::Matrix3d Dx = stickingDirections(cx) * (ix.side == 0 ? -1.0 : 1.0);
-      Eigen::Matrix<double, 6, 3> WJx;  // W [dir; r x dir]
-      for (int j = 0; j < 3; ++j) {
-        WJx.col(j) << body.inverse_mass * Dx.col(j),
-            body.inverse_inertia * cx.r(ix.side).cross(Dx.col(j));
-      }
+      const Columns& cx = columns[x];
       for (std::size_t y = begin; y < end; ++y) {
-        const Incidence& iy = incidences_[y];
-        const Contact& cy = contacts_[iy.contact];
-        const Index ky = cy.frictional ? 3 : 1;
-        const Eigen::Matrix3d Dy = stickingDirections(cy) * (iy.side == 0 ? -1.0 : 1.0);
-        Eigen::Matrix<double, 6, 3> Jy;
-        for (int j = 0; j < 3; ++j) Jy.col(j) << Dy.col(j), cy.r(iy.side).cross(Dy.col(j));
-        A.block(first[ix.contact], first[iy.contact], kx, ky) +=
-            (WJx.transpose() * Jy).topLeftCorner(kx, ky);
+        const Columns& cy = columns[y];
+        if (cx.count == 3 && cy.count == 3) {
+          A.block<3, 3>(cx.first, cy.first).noalias() += cx.WJ.transpose() * cy.J;
+        } else {
+          for (Index i = 0; i < cx.count; ++i) {
+            for (Index j = 0; j < cy.count; ++j) {
+              A(cx.first + i, cy.first + j) += cx.WJ.col(i).dot(cy.J.col(j));
+            }
+          }
+        }
       }
     }
   }
@@ -434,7 +451,8 @@ ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactR
                       std::vector<ContactImpulse>& impulses) {
   ExactStats stats;
   IslandLcp lcp(bodies, rows, island);
-  bool solved = lcp.solveAllSticking();
+  const bool all_sticking = lcp.solveAllSticking();  // checked against its targets already
+  bool solved = all_sticking;
   while (!solved && lcp.solve(stats.pivots, options.deadline)) {
     if (!lcp.switchSlidingToDynamic()) {
       solved = true;
@@ -469,7 +487,7 @@ ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactR
   // cancelling impulses can still leave contacts approaching. It is refused here, from the
   // velocities it would give, and nothing is applied.
   std::vector<Contact>& contacts = lcp.contacts();
-  if (solved) {
+  if (solved && !all_sticking) {
     double worst = 0.0;
     for (const Contact& c : contacts) {
       worst = std::max(worst, violation(c, c.u + lcp.velocityChangeAt(c)));
