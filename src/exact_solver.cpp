@@ -157,12 +157,11 @@ IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<Con
     u_reference_ = std::max(u_reference_, c.u.norm());
     c.frictional = !row.frictionless();
     c.directions.col(0) = row.normal;
-    if (c.frictional) {
+    if (c.frictional) {  // t1 = d_1 and t2 = d_(1 + D/4) now, the rest of the pyramid for Lemke
       Eigen::Vector3d t1, t2;
       tangentBasis(row.normal, t1, t2);
-      const std::array<Eigen::Vector2d, kD>& angles = pyramidAngles();
-      for (int k = 0; k < kD; ++k)
-        c.directions.col(1 + k) = angles[k].x() * t1 + angles[k].y() * t2;
+      c.directions.col(1) = t1;
+      c.directions.col(1 + kD / 4) = t2;
       c.columns = 1 + kD;
     }
     c.offset = unknowns;
@@ -198,6 +197,17 @@ void IslandLcp::assemble() {
   WJT_.resize(6, jacobian_columns_);
   M_.setZero(unknowns_, unknowns_);
   q_.setZero(unknowns_);
+  // The friction pyramids: d_k = cos(2 pi k / D) t1 + sin(2 pi k / D) t2.
+  const std::array<Eigen::Vector2d, kD>& angles = pyramidAngles();
+  for (Contact& c : contacts_) {
+    if (!c.frictional) continue;
+    const Eigen::Vector3d t1 = c.directions.col(1), t2 = c.directions.col(1 + kD / 4);
+    for (int k = 0; k < kD; ++k) {
+      if (k % (kD / 4) != 0) c.directions.col(1 + k) = angles[k].x() * t1 + angles[k].y() * t2;
+    }
+    c.directions.col(1 + kD / 2) = -t1;
+    c.directions.col(1 + 3 * kD / 4) = -t2;
+  }
   // J^T and W J^T, one 6 x columns block per incidence.
   for (const Incidence& inc : incidences_) {
     const Contact& c = contacts_[inc.contact];
@@ -462,7 +472,7 @@ ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactR
 
   // Complementarity violation of contact c at post-impact relative velocity u [m/s]:
   // |min(velocity, k_nn impulse)| is 0 iff both are >= 0 and one of them is 0.
-  const auto violation = [](const Contact& c, const Eigen::Vector3d& u) {
+  const auto violation = [all_sticking](const Contact& c, const Eigen::Vector3d& u) {
     const ContactRow& row = *c.row;
     const double u_n = u.dot(row.normal);
     const double k_nn = row.normal.dot(row.space.K * row.normal);
@@ -470,7 +480,10 @@ ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactR
       return std::abs(std::min(velocity, k_nn * impulse));
     };
     double worst = pair(u_n - c.target_u_n, c.P_n);
-    if (c.frictional) {
+    if (c.frictional && all_sticking) {
+      // No pyramid (beta = 0): its terms are min(lambda, k_nn mu P_n) <= min(|u_t|, k_nn mu P_n).
+      worst = std::max(worst, pair((u - u_n * row.normal).norm(), c.mu() * c.P_n));
+    } else if (c.frictional) {
       const Eigen::Matrix<double, kD, 1> slip =
           c.directions.rightCols<kD>().transpose() * (u - u_n * row.normal);
       const double lambda = std::max(0.0, -slip.minCoeff());
