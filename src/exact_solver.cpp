@@ -116,10 +116,6 @@ class IslandLcp {
   Eigen::Vector3d velocityChangeAt(const Contact& c) const;
 
  private:
-  /// The all-sticking impulses when every contact touches the same one movable body, solved in
-  /// its six velocity unknowns; false if the contacts leave it a free direction.
-  bool stickingOnOneBody(const std::vector<Index>& first, const Eigen::VectorXd& rhs,
-                         Eigen::VectorXd& P) const;
   /// The all-sticking impulses from the Delassus matrix A = J W J^T (least-norm if singular).
   Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
                                      const Eigen::VectorXd& rhs) const;
@@ -139,6 +135,67 @@ class IslandLcp {
   Index jacobian_columns_ = 0;  // columns of J^T
   bool assembled_ = false;
 };
+
+/// The least-norm all-sticking impulses P (A P = rhs, A = J W J^T) solved in body space: the
+/// velocity changes D of the island's bodies that reach the targets, J D = rhs (least squares,
+/// exact when consistent), then P = J y with J^T J y = M D, M = diag(m_b, I_b). Needs J of full
+/// column rank, every body pinned by its contacts: false if one keeps a free direction. Each
+/// body's moment columns are scaled by its largest lever arm L_b, for conditioning. `Columns`: 6
+/// for one body (fixed-size), Eigen::Dynamic for several.
+template <int Columns>
+bool stickingInBodySpace(const std::vector<Contact>& contacts,
+                         const std::vector<const RigidBody*>& bodies,
+                         const std::vector<Index>& first, const Eigen::VectorXd& rhs,
+                         Eigen::VectorXd& P) {
+  using MatrixJ = Eigen::Matrix<double, Eigen::Dynamic, Columns>;
+  using MatrixG = Eigen::Matrix<double, Columns, Columns>;
+  using VectorG = Eigen::Matrix<double, Columns, 1>;
+  const Index count = static_cast<Index>(bodies.size());
+  std::vector<double> L(bodies.size(), 0.0);
+  for (const Contact& c : contacts) {
+    for (int side = 0; side < 2; ++side) {
+      if (c.local[side] >= 0) L[c.local[side]] = std::max(L[c.local[side]], c.r(side).norm());
+    }
+  }
+  for (const double l : L) {
+    if (!(l > 0.0)) return false;  // touched only at its centre of mass: rotations are free
+  }
+  // Rows s [d^T, (r x d)^T / L_b] for each body b a contact touches (side s = -1 for a, +1 for b).
+  MatrixJ J = MatrixJ::Zero(rhs.size(), 6 * count);
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const Contact& c = contacts[i];
+    const Eigen::Matrix3d D = stickingDirections(c);
+    for (int side = 0; side < 2; ++side) {
+      const int b = c.local[side];
+      if (b < 0) continue;
+      for (Index j = 0; j < (c.frictional ? 3 : 1); ++j) {
+        const Eigen::Vector3d d = (side == 0 ? -1.0 : 1.0) * D.col(j);
+        J.template block<1, 3>(first[i] + j, 6 * b) += d.transpose();
+        J.template block<1, 3>(first[i] + j, 6 * b + 3) += c.r(side).cross(d).transpose() / L[b];
+      }
+    }
+  }
+  MatrixG G;
+  if constexpr (Columns == Eigen::Dynamic) {
+    G.noalias() = J.transpose() * J;
+  } else {
+    G.noalias() = J.transpose().lazyProduct(J);  // small: no blocked product
+  }
+  const Eigen::LDLT<MatrixG> ldlt(G);
+  if (ldlt.info() != Eigen::Success) return false;
+  const VectorG d = ldlt.vectorD();
+  if (!(d.minCoeff() > kRegularPivot * d.maxCoeff())) return false;
+  const VectorG change = ldlt.solve(J.transpose() * rhs);  // [dv_b; L_b dw_b]
+  VectorG momentum = VectorG::Zero(6 * count);             // S M S [dv_b; L_b dw_b]
+  for (Index b = 0; b < count; ++b) {
+    const RigidBody& body = *bodies[b];
+    momentum.template segment<3>(6 * b) = change.template segment<3>(6 * b) / body.inverse_mass;
+    momentum.template segment<3>(6 * b + 3) =
+        body.inverse_inertia.llt().solve(change.template segment<3>(6 * b + 3)) / (L[b] * L[b]);
+  }
+  P = J * ldlt.solve(momentum);
+  return true;
+}
 
 IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
                      const std::vector<int>& island)
@@ -260,10 +317,15 @@ bool IslandLcp::solveAllSticking() {
     rhs.segment(first[i], c.frictional ? 3 : 1) = change.head(c.frictional ? 3 : 1);
     rhs(first[i]) += c.target_u_n;  // ... but u'_n = -e u_n
   }
+  // More unknowns than the bodies' degrees of freedom (redundant contacts, as under a box): solved
+  // in body space; otherwise, or if a body keeps a free direction, with the Delassus matrix.
   Eigen::VectorXd P;
-  if (!(local_body_.size() == 1 && unknowns > 6 && stickingOnOneBody(first, rhs, P))) {
-    P = stickingByDelassus(first, rhs);
-  }
+  const bool in_body_space =
+      unknowns > 6 * static_cast<Index>(local_body_.size()) &&
+      (local_body_.size() == 1
+           ? stickingInBodySpace<6>(contacts_, local_body_, first, rhs, P)
+           : stickingInBodySpace<Eigen::Dynamic>(contacts_, local_body_, first, rhs, P));
+  if (!in_body_space) P = stickingByDelassus(first, rhs);
   if (!P.allFinite()) return false;
 
   // Admissible: compressive and inside the static cones.
@@ -295,43 +357,6 @@ bool IslandLcp::solveAllSticking() {
       return false;
     }
   }
-  return true;
-}
-
-bool IslandLcp::stickingOnOneBody(const std::vector<Index>& first, const Eigen::VectorXd& rhs,
-                                  Eigen::VectorXd& P) const {
-  using Vector6d = Eigen::Matrix<double, 6, 1>;
-  const RigidBody& body = *local_body_[0];
-  // Rows s [d^T, (r x d)^T / L] of J S: the lever arms scaled by the largest one, L.
-  double L = 0.0;
-  for (const Contact& c : contacts_) {
-    if (c.local[0] >= 0 && c.local[1] >= 0) return false;  // the body on both sides
-    L = std::max(L, c.r(c.local[0] >= 0 ? 0 : 1).norm());
-  }
-  if (!(L > 0.0)) return false;  // every contact at the centre of mass: rotations are free
-  Eigen::Matrix<double, Eigen::Dynamic, 6> J(rhs.size(), 6);
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const Contact& c = contacts_[i];
-    const int side = c.local[0] >= 0 ? 0 : 1;
-    const Eigen::Matrix3d D = stickingDirections(c) * (side == 0 ? -1.0 : 1.0);
-    for (Index j = 0; j < (c.frictional ? 3 : 1); ++j) {
-      J.row(first[i] + j) << D.col(j).transpose(), c.r(side).cross(D.col(j)).transpose() / L;
-    }
-  }
-  // The velocity change [dv; L dw] that reaches the targets (least squares; exact if they are
-  // consistent), when the contacts pin all six degrees of freedom (G = (J S)^T J S regular).
-  const Eigen::Matrix<double, 6, 6> G = J.transpose().lazyProduct(J);  // small: no blocked GEMM
-  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(G);
-  const Vector6d d = ldlt.vectorD();
-  if (ldlt.info() != Eigen::Success || !(d.minCoeff() > kRegularPivot * d.maxCoeff())) {
-    return false;
-  }
-  const Vector6d change = ldlt.solve(J.transpose() * rhs);
-  // The least-norm impulses giving it: P = J S y with G y = S M S [dv; L dw], M = diag(m, I).
-  Vector6d momentum;
-  momentum << change.head<3>() / body.inverse_mass,
-      body.inverse_inertia.llt().solve(change.tail<3>()) / (L * L);
-  P = J * ldlt.solve(momentum);
   return true;
 }
 

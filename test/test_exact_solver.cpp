@@ -840,3 +840,76 @@ TEST(ExactSolver, StruckRowOfTouchingBallsIsOneLinearSolve) {
     for (int k = 0; k + 1 < N; ++k) EXPECT_NEAR(impulses[k].normal_impulse, (N - 1 - k) * V, 1e-12);
   }
 }
+
+// A stack of 2 to 4 unit boxes of one random mass, all descending at v = (0.3, -1, 0.1) m/s onto
+// the ground, four corner contacts per face (e = 0.5, mu = 0.5): the closed form is the stack
+// moving as one, v' = (0, 0.5, 0), w' = 0, every ground corner leaving at -e u_n, every face
+// between boxes at u'_n = 0, every contact stuck. The contacts pin each box (more unknowns than the
+// boxes' degrees of freedom): one body-space solve, no pivot. The impulses give each box its
+// momentum change and are the least-norm ones (orthogonal to every self-equilibrated set).
+TEST(ExactSolver, DescendingStackLandsAsOneWithLeastNormImpulses) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> mass_of(0.5, 2.0);
+  for (const int boxes : {2, 3, 4}) {
+    SCOPED_TRACE(std::to_string(boxes) + " boxes");
+    std::vector<cr::RigidBody> bodies(boxes + 1);  // 0: the ground
+    std::vector<double> mass(boxes + 1, 0.0);
+    const double box_mass = mass_of(rng);  // unequal boxes tip: a light one under heavy ones
+    for (int k = 1; k <= boxes; ++k) {
+      mass[k] = box_mass;
+      bodies[k].inverse_mass = 1.0 / mass[k];
+      bodies[k].inverse_inertia = Matrix3d::Identity() * 6.0 / mass[k];
+      bodies[k].com = Vector3d(0, k - 0.5, 0);
+      bodies[k].linear_velocity = Vector3d(0.06, -1.0, 0.02);
+    }
+    std::vector<cr::ContactRow> rows;
+    std::vector<int> island;
+    for (int k = 1; k <= boxes; ++k) {
+      for (const double x : {-0.5, 0.5}) {
+        for (const double z : {-0.5, 0.5}) {
+          rows.emplace_back(k - 1, k, bodies[k - 1], bodies[k], Vector3d(x, k - 1, z),
+                            Vector3d::UnitY(), 0.5, 0.5, 0.5);
+          island.push_back(static_cast<int>(island.size()));
+        }
+      }
+    }
+    const std::vector<cr::RigidBody> before = bodies;
+    std::vector<cr::ContactImpulse> impulses(rows.size());
+    const cr::ExactStats stats = cr::solveExact(bodies, rows, island, {}, impulses);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_EQ(stats.pivots, 0u);
+    for (int k = 1; k <= boxes; ++k) {
+      expectVecNear(bodies[k].linear_velocity, Vector3d(0, 0.5, 0), 1e-12);
+      expectVecNear(bodies[k].angular_velocity, Vector3d::Zero(), 1e-12);
+    }
+    // Momentum of each box from the impulses; J^T over all boxes for the least-norm check.
+    std::vector<Vector3d> linear(boxes + 1, Vector3d::Zero()), angular(boxes + 1, Vector3d::Zero());
+    MatrixXd JT = MatrixXd::Zero(6 * boxes, 3 * rows.size());
+    VectorXd P(3 * rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      EXPECT_TRUE(impulses[i].sticking);
+      const Vector3d p = impulses[i].total(rows[i].normal);
+      P.segment<3>(3 * i) = p;
+      const int sides[2] = {rows[i].body_a, rows[i].body_b};
+      const Vector3d r[2] = {rows[i].space.r_a, rows[i].space.r_b};
+      for (int side = 0; side < 2; ++side) {
+        const int k = sides[side];
+        if (k == 0) continue;
+        const double sign = side == 0 ? -1.0 : 1.0;
+        linear[k] += sign * p;
+        angular[k] += sign * r[side].cross(p);
+        for (int a = 0; a < 3; ++a) {
+          const Vector3d unit = sign * Vector3d::Unit(a);
+          JT.block<6, 1>(6 * (k - 1), 3 * i + a) << unit, r[side].cross(unit);
+        }
+      }
+    }
+    for (int k = 1; k <= boxes; ++k) {
+      expectVecNear(linear[k], mass[k] * (bodies[k].linear_velocity - before[k].linear_velocity),
+                    1e-12);
+      expectVecNear(angular[k], Vector3d::Zero(), 1e-12);
+    }
+    const MatrixXd equilibrated = Eigen::FullPivLU<MatrixXd>(JT).kernel();
+    EXPECT_LT((equilibrated.transpose() * P).cwiseAbs().maxCoeff(), 1e-9 * P.norm());
+  }
+}
