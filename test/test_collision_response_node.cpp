@@ -324,6 +324,34 @@ TEST_F(NodeTest, RandomImpactsKeepThePhysicalProperties) {
   EXPECT_GT(checked, 200);  // about half the random contacts approach
 }
 
+// A request that cannot be solved within its options.time_budget fails with a message, reports
+// the time it was given (at least the budget: the deadline fires only past it), and the node
+// keeps serving. A row of 50 touching frictional spheres struck at one end, iterated with a
+// budget of 1 microsecond.
+TEST_F(NodeTest, TimedOutRequestFailsAndReportsTheTimeSpent) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  for (int i = 0; i < 50; ++i) {  // the test node's ~max_bodies
+    srv.request.bodies.push_back(sphere("ball" + std::to_string(i), 1.0, 0.1, pose(0.2 * i, 0, 0)));
+    if (i > 0) {
+      srv.request.contacts.push_back(contact("ball" + std::to_string(i - 1),
+                                             "ball" + std::to_string(i), 0.2 * i - 0.1, 0, 0, 1, 0,
+                                             0, 0.5, 0.3, 0.2));
+    }
+  }
+  srv.request.bodies[0].twist.linear.x = 1.0;
+  srv.request.bodies[0].twist.linear.z = 0.3;
+  srv.request.options.solver = cr::SolverOptions::SOLVER_ITERATIVE;
+  srv.request.options.time_budget = 1e-6;
+  const auto response = call(srv);
+  EXPECT_FALSE(response.success);
+  EXPECT_NE(response.message.find("time budget"), std::string::npos) << response.message;
+  EXPECT_GE(response.solve_time, 1e-6);
+  EXPECT_LT(response.solve_time, 10.0);
+  EXPECT_TRUE(response.bodies.empty());
+  EXPECT_TRUE(call(headOnSpheres()).success) << "node stopped serving after a timeout";
+}
+
 TEST_F(NodeTest, UnknownFrameIsAClearError) {
   cr::ComputeResponse srv = headOnSpheres();
   srv.request.bodies[1].frame_id = "no_such_frame";

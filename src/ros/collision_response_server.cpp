@@ -233,14 +233,15 @@ void CollisionResponseServer::releaseDetector(std::unique_ptr<core::ContactDetec
 
 core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Request& request,
                                                        const core::Scene& scene,
-                                                       const core::SolverOptions& options) {
+                                                       const core::SolverOptions& options,
+                                                       double contact_tolerance) {
   // Limits first, from the messages, so an oversized mesh costs no conversion.
   std::size_t shapes = 0, vertices = 0, triangles = 0;
   for (const BodyState& body : request.bodies) countGeometry(body, shapes, vertices, triangles);
   core::checkGeometrySize(shapes, vertices, triangles, limits_);
 
   core::DetectionInput input;
-  input.options = fromMsg(request.detection, contactTolerance());
+  input.options = fromMsg(request.detection, contact_tolerance);
   input.options.max_contacts_per_pair = max_contacts_per_pair_;
   // What the solver would accept, within the request's time budget.
   input.options.max_contacts =
@@ -287,12 +288,15 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
 void CollisionResponseServer::solve(const ComputeResponse::Request& request,
                                     ComputeResponse::Response& response) {
   response.success = false;
+  const auto begin = std::chrono::steady_clock::now();  // a timeout reports the time to it
   try {
     core::Scene scene = toScene(request);
-    const core::SolverOptions options = fromMsg(request.options, defaultOptions());
+    const Defaults defaults_now = defaults();
+    const core::SolverOptions options = fromMsg(request.options, defaults_now.options);
     if (wantsDetection(request)) {
       core::validate(scene, options, limits_);  // detection needs valid poses
-      const core::DetectedContacts detected = detect(request, scene, options);
+      const core::DetectedContacts detected =
+          detect(request, scene, options, defaults_now.contact_tolerance);
       response.detected_contacts.reserve(detected.contacts.size());
       for (const core::Contact& contact : detected.contacts)
         response.detected_contacts.push_back(toMsg(contact));
@@ -322,6 +326,8 @@ void CollisionResponseServer::solve(const ComputeResponse::Request& request,
     ROS_DEBUG("collision_response: rejected request: %s", response.message.c_str());
   } catch (const core::SolverTimeout& e) {
     response.message = e.what();
+    response.solve_time =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
     ROS_WARN("collision_response: %s", e.what());
   } catch (const std::exception& e) {
     response.message = std::string("internal error: ") + e.what();
@@ -393,9 +399,9 @@ double CollisionResponseServer::contactTolerance() const {
   return contact_tolerance_;
 }
 
-core::SolverOptions CollisionResponseServer::defaultOptions() const {
+CollisionResponseServer::Defaults CollisionResponseServer::defaults() const {
   std::lock_guard<std::mutex> lock(options_mutex_);
-  return default_options_;
+  return {default_options_, contact_tolerance_};
 }
 
 void CollisionResponseServer::setUpMonitoring(const ros::NodeHandle& node,

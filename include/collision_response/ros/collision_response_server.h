@@ -82,8 +82,13 @@ class CollisionResponseServer {
  private:
   /// One scene: fills `response` (success false with a message on bad input); publishes nothing.
   void solve(const ComputeResponse::Request& request, ComputeResponse::Response& response);
-  /// The request defaults (parameters, dynamic_reconfigure), read under the mutex.
-  core::SolverOptions defaultOptions() const;
+  /// The request defaults (parameters, dynamic_reconfigure), read together under the mutex so that
+  /// a reconfigure cannot land between them.
+  struct Defaults {
+    core::SolverOptions options;
+    double contact_tolerance;  ///< [m]
+  };
+  Defaults defaults() const;
   /// dynamic_reconfigure and diagnostics, at the end of construction.
   void setUpMonitoring(const ros::NodeHandle& node, const ros::NodeHandle& private_node);
   void reconfigure(SolverConfig& config, uint32_t level);
@@ -98,7 +103,7 @@ class CollisionResponseServer {
   /// Contacts from the bodies' shapes in `scene` (validated, request frame), with a detector of
   /// the pool, within the contact limit and options.time_budget.
   core::DetectedContacts detect(const ComputeResponse::Request& request, const core::Scene& scene,
-                                const core::SolverOptions& options);
+                                const core::SolverOptions& options, double contact_tolerance);
 
   /// Detectors keep FCL objects between calls but are not thread-safe: each request borrows one.
   std::unique_ptr<core::ContactDetector> acquireDetector();
