@@ -39,6 +39,6 @@ make -C "$build_dir" -j"$(nproc)" --no-print-directory all "$@" >"$log" 2>&1 || 
 # directories that exist then: on a first configure the devel space's Python path (the generated
 # messages) and library path are missing, so the Python nodes and clients of the rostests could not
 # import them. One configure more, now that they exist, fixes the snapshot.
-if grep -q "^export PYTHONPATH=''" "$build_dir/catkin_generated/setup_cached.sh" 2>/dev/null; then
+if ! grep -q "devel/lib/python3/dist-packages" "$build_dir/catkin_generated/setup_cached.sh"; then
   cmake "$build_dir" >/dev/null
 fi

@@ -27,6 +27,7 @@ using Eigen::Index;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kD = kPyramidDirections;
+static_assert(kD % 4 == 0, "t1, t2 and their opposites must be pyramid directions");
 
 /// (cos, sin) of the pyramid's direction angles 2 pi k / D, computed once.
 const std::array<Eigen::Vector2d, kD>& pyramidAngles() {

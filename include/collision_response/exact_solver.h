@@ -24,7 +24,9 @@ struct ExactStats {
   /// Largest violation of the complementarity conditions below, from the final velocities, in
   /// velocity units (impulses scaled by n^T K n), relative to the largest pre-impact |u|.
   double residual = 0.0;
-  bool converged = false;  ///< every LCP was solved (false: ray termination or pivot cap)
+  /// Every LCP was solved and its answer accepted (false: ray termination, pivot cap, or an answer
+  /// refused for its residual).
+  bool converged = false;
 };
 
 /// Newton law for simultaneous contacts, solved exactly by Lemke's method (lcp.h), over the rows
@@ -60,14 +62,19 @@ struct ExactStats {
 /// contact still on mu_s slides (at most one more solve per contact, usually one). `sticking` is
 /// set for a frictional contact with P_n > 0 that ends without slip.
 ///
-/// First, one linear solve: if every contact approaches and the impulses that make each leave at
-/// -e u_n without slip (least-norm, A being singular for redundant contacts) are compressive and
-/// inside the static Coulomb cones, they are the answer (every contact active and sticking; the
-/// cone, not the pyramid, bounds them), with no pivot: a box landing flat. Otherwise Lemke.
+/// First, one linear solve: if the impulses that give every contact its target normal velocity
+/// without slip (least-norm, A being singular for redundant contacts; solved in the bodies'
+/// velocity unknowns when the contacts outnumber them) are compressive and inside the static
+/// Coulomb cones, they are the answer (every contact active and sticking; the cone, not the
+/// pyramid, bounds them), with no pivot: a box landing flat, a row of touching bodies struck at
+/// one end. Otherwise Lemke. Where Coulomb friction admits several answers, this sticking one is
+/// the one given.
 ///
 /// On success the impulses are applied to `bodies` and each listed row's normal_impulse,
 /// friction_impulse and sticking are written (normal velocities are left to the caller). If an
-/// LCP is not solved, zero impulses are written and applied, and converged is false.
+/// LCP is not solved, or its answer violates the conditions above by more than 1e-3 of the
+/// island's largest pre-impact |u| (round-off of extreme mass ratios stays below 2e-5), zero
+/// impulses are written and applied, and converged is false.
 /// `options` is not used (the law is Newton's; the pivot cap is lcp.h's default, 50 (n + 1) for n
 /// unknowns: 1 per frictionless contact, D + 2 per frictional one).
 ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
