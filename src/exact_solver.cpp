@@ -70,7 +70,7 @@ struct Contact {
   const Eigen::Vector3d& r(int side) const { return side == 0 ? row->space.r_a : row->space.r_b; }
 };
 
-/// Directions of the all-sticking unknowns: n, t1 = d_0 and t2 = d_(D/4) of the pyramid.
+/// Directions of the all-sticking unknowns: n, t1 = d_1 and t2 = d_(1 + D/4) of the pyramid.
 Eigen::Matrix3d stickingDirections(const Contact& c) {
   Eigen::Matrix3d D;
   if (c.frictional) {
