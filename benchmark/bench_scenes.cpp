@@ -11,6 +11,7 @@
 #include "collision_response/island_solver.h"
 #include "collision_response/rigid_body.h"
 #include "collision_response/single_contact.h"
+#include "scenes.h"
 
 namespace collision_response::bench {
 namespace {
@@ -23,37 +24,9 @@ constexpr core::ImpactLaw kNewton = core::ImpactLaw::kNewton;
 constexpr core::ImpactLaw kPoisson = core::ImpactLaw::kPoisson;
 constexpr core::ImpactLaw kStronge = core::ImpactLaw::kStronge;
 
-core::BodyState ground() {
-  core::BodyState body;
-  body.id = "ground";
-  return body;
-}
-
-/// Solid sphere of radius `radius` [m]: I = 2/5 m r^2.
-core::BodyState sphere(const std::string& id, double mass, double radius, const Vector3d& position,
-                       const Vector3d& v, const Vector3d& w = Vector3d::Zero()) {
-  core::BodyState body;
-  body.id = id;
-  body.mass = mass;
-  body.inertia = Matrix3d::Identity() * (0.4 * mass * radius * radius);
-  body.position = position;
-  body.linear_velocity = v;
-  body.angular_velocity = w;
-  return body;
-}
-
-core::Contact contact(const std::string& a, const std::string& b, const Vector3d& point,
-                      const Vector3d& normal, double e, double mu_s, double mu_d) {
-  core::Contact c;
-  c.body_a = a;
-  c.body_b = b;
-  c.point = point;
-  c.normal = normal;
-  c.restitution = e;
-  c.static_friction = mu_s;
-  c.dynamic_friction = mu_d;
-  return c;
-}
+using collision_response::testing::contact;
+using collision_response::testing::ground;
+using collision_response::testing::sphere;
 
 /// Closed form for one central contact between spheres (or a sphere and the immovable ground),
 /// computed here independently of the library. K = k_n n n^T + k_t (I - n n^T) with
@@ -284,24 +257,9 @@ Velocities stackClosedForm(const core::Scene& scene) {
   return out;
 }
 
-/// The rod of PHYSICS.md: 1 kg, 1 m, 50 degrees to the floor, tip striking, centre of mass at
-/// 1 m/s 20 degrees off vertical, e = 0.9, mu_s = 0.8 and mu_d = `mu_d`.
+/// The rod of PHYSICS.md (test/scenes.h): e = 0.9, mu_s = 0.8 and mu_d = `mu_d`.
 core::Scene rodTip(double mu_d) {
-  const double pi = std::acos(-1.0);
-  const double tilt = 50.0 * pi / 180.0, off_vertical = 20.0 * pi / 180.0;
-  core::BodyState rod;
-  rod.id = "rod";
-  rod.mass = 1.0;
-  const double radius = 0.01;  // thin cylinder along body x
-  const double across = (3.0 * radius * radius + 1.0) / 12.0, along = 0.5 * radius * radius;
-  rod.inertia = Vector3d(along, across, across).asDiagonal();
-  rod.orientation = Quaterniond(Eigen::AngleAxisd(-tilt, Vector3d::UnitY()));
-  rod.position = 0.5 * Vector3d(std::cos(tilt), 0.0, std::sin(tilt));
-  rod.linear_velocity = Vector3d(std::sin(off_vertical), 0.0, -std::cos(off_vertical));
-  core::Scene s;
-  s.bodies = {ground(), rod};
-  s.contacts = {contact("ground", "rod", Vector3d::Zero(), Vector3d::UnitZ(), 0.9, 0.8, mu_d)};
-  return s;
+  return collision_response::testing::rodScene(0.9, 0.8, mu_d);
 }
 
 /// Random box-like body (mass 0.5..2 kg, diagonal body inertia obeying the triangle inequality).

@@ -23,12 +23,6 @@ cr::Shape floorPlane() {
   return primitive(cr::Shape::Type::kPlane, {0.0, 0.0, 1.0, 0.0});
 }
 
-cr::BodyState ground() {
-  cr::BodyState g;
-  g.id = "ground";  // mass 0: immovable
-  return g;
-}
-
 /// A uniform cube of side 1 m and mass 1 kg: I = m s^2 / 6.
 cr::BodyState cube(const Vector3d& position, const Quaterniond& q, const Vector3d& v) {
   cr::BodyState b;

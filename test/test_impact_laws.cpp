@@ -15,14 +15,9 @@
 
 namespace core = collision_response::core;
 using collision_response::testing::contact;
+using collision_response::testing::ground;
 
 namespace {
-
-core::BodyState ground() {
-  core::BodyState body;
-  body.id = "ground";
-  return body;
-}
 
 core::SolverOptions options(core::ImpactLaw law,
                             core::SolverMethod method = core::SolverMethod::kAuto) {
@@ -103,28 +98,10 @@ TEST(ImpactLaws, NewtonsCradleGivesTheSimultaneousAnswer) {
   }
 }
 
-// The rod of PHYSICS.md: uniform, 1 kg, 1 m, 50 degrees to a rough floor (mu 0.8), lower tip
-// striking, centre of mass velocity 1 m/s at 20 degrees off vertical, no spin. Newton gains energy
-// (ratio about 1.056 at e = 0.9, 1.172 at e = 1); Stronge never does and the tip separates.
+// The rod of PHYSICS.md (scenes.h) on a rough floor, mu 0.8. Newton gains energy (ratio about
+// 1.056 at e = 0.9, 1.172 at e = 1); Stronge never does and the tip separates.
 core::Scene rodScene(double e) {
-  const double pi = std::acos(-1.0);
-  const double tilt = 50.0 * pi / 180.0, off_vertical = 20.0 * pi / 180.0;
-  core::BodyState rod;
-  rod.id = "rod";
-  rod.mass = 1.0;
-  const double radius = 0.01;  // thin cylinder along body x
-  const double across = (3.0 * radius * radius + 1.0) / 12.0, along = 0.5 * radius * radius;
-  rod.inertia = Eigen::Vector3d(along, across, across).asDiagonal();
-  // Rod axis in the x-z plane at 50 degrees to the floor, lower tip at the origin.
-  rod.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(-tilt, Eigen::Vector3d::UnitY()));
-  rod.position = 0.5 * Eigen::Vector3d(std::cos(tilt), 0.0, std::sin(tilt));
-  // Moving down and away from the tip side (towards +x), 20 degrees off vertical.
-  rod.linear_velocity = Eigen::Vector3d(std::sin(off_vertical), 0.0, -std::cos(off_vertical));
-  core::Scene scene;
-  scene.bodies = {ground(), rod};
-  scene.contacts = {
-      contact("ground", "rod", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), e, 0.8, 0.8)};
-  return scene;
+  return collision_response::testing::rodScene(e, 0.8, 0.8);
 }
 
 TEST(ImpactLaws, RodOnRoughFloorGainsEnergyUnderNewtonButNotStronge) {

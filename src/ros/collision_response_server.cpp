@@ -394,11 +394,6 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
   return true;
 }
 
-double CollisionResponseServer::contactTolerance() const {
-  std::lock_guard<std::mutex> lock(options_mutex_);
-  return contact_tolerance_;
-}
-
 CollisionResponseServer::Defaults CollisionResponseServer::defaults() const {
   std::lock_guard<std::mutex> lock(options_mutex_);
   return {default_options_, contact_tolerance_};

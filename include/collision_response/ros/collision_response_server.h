@@ -74,9 +74,6 @@ class CollisionResponseServer {
   /// ~responses or ~markers. Always answers (returns true).
   bool computeBatch(ComputeBatch::Request& request, ComputeBatch::Response& response);
 
-  /// [m] the contact tolerance for contact detection (parameter / dynamic_reconfigure).
-  double contactTolerance() const;
-
   ~CollisionResponseServer();
 
  private:
