@@ -1,5 +1,7 @@
 #include "collision_response/collision_solver.h"
 
+#include <cstdio>
+
 #include "collision_response/contact_row.h"
 #include "collision_response/island_solver.h"
 #include "collision_response/islands.h"
@@ -19,6 +21,42 @@ bool anyApproaching(const std::vector<ContactImpulse>& impulses, const Island& i
     if (impulses[c].normal_velocity_before < 0.0) return true;
   }
   return false;
+}
+
+std::string formatNumber(const char* format, double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, format, value);
+  return text;
+}
+
+// Valid input that is usually a mistake (CollisionResult::warnings), found from the scene and the
+// answer; costs a pass over bodies and contacts, no allocation unless something is found.
+void addWarnings(const Scene& scene, const SolverOptions& options, CollisionResult& result) {
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const BodyState& body = scene.bodies[i];
+    if (!body.immovable()) continue;
+    const bool moving = !body.linear_velocity.isZero(0.0) || !body.angular_velocity.isZero(0.0);
+    const bool has_inertia = !body.inertia.isZero(0.0);
+    if (!moving && !has_inertia) continue;  // a fixed floor or wall: immovable by intent
+    std::string reason = "mass 0, treated as immovable (";
+    reason += has_inertia ? "an inertia tensor is given but no mass"
+                          : "it moves at " + formatNumber("%.3g", body.linear_velocity.norm()) +
+                                " m/s and " + formatNumber("%.3g", body.angular_velocity.norm()) +
+                                " rad/s but has no mass";
+    reason += ": set inertia.m for a movable body)";
+    result.warnings.push_back({"bodies[" + std::to_string(i) + "].inertia", std::move(reason)});
+  }
+  for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
+    const ContactImpulse& impulse = result.impulses[c];
+    if (!(impulse.normal_velocity_before > options.resting_velocity)) continue;
+    if (impulse.normal_impulse != 0.0 || !impulse.friction_impulse.isZero(0.0)) continue;
+    const Contact& contact = scene.contacts[c];
+    result.warnings.push_back({"contacts[" + std::to_string(c) + "]",
+                               "separating at " +
+                                   formatNumber("%+.3g", impulse.normal_velocity_before) +
+                                   " m/s, no impulse (the normal must point from body_a '" +
+                                   contact.body_a + "' towards body_b '" + contact.body_b + "')"});
+  }
 }
 
 }  // namespace
@@ -79,6 +117,7 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& request
   for (std::size_t c = 0; c < rows.size(); ++c) {
     result.impulses[c].normal_velocity_after = normalVelocity(bodies, rows[c]);
   }
+  addWarnings(scene, options, result);
   return result;
 }
 

@@ -1,4 +1,5 @@
-// Routh's method for one frictional contact (PHYSICS.md, "Frictional impact in impulse space").
+// Routh's method for one frictional contact (docs/physics.md, "Frictional impact in impulse
+// space").
 //
 // Symbols, in the contact basis (t1, t2, n) of tangentBasis():
 //   K = [A b; b^T c]   contact-space inverse mass matrix: A = K_tt (2x2), b = K_tn, c = K_nn
@@ -445,6 +446,7 @@ ContactImpulse integrateSingleContact(const RigidBody& a, const RigidBody& b, co
     P -= K.inverse() * (u + K * P);
     impulse.sticking = true;
   }
+  if (row.frictionless()) impulse.sticking = false;  // nothing holds it (contact_impulse.h)
   st_out.compression_impulse = st.p_c;
   st_out.compression_work = st.W_c;
   impulse.normal_impulse = P.dot(n);

@@ -1,5 +1,6 @@
 // Integration test: the launch file's node, called through its service like a user would.
 #include <collision_response/CollisionResponse.h>
+#include <collision_response/ComputeBatch.h>
 #include <collision_response/ComputeResponse.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -147,6 +148,113 @@ TEST_F(NodeTest, TransformsBodiesIntoTheRequestFrame) {
   EXPECT_NEAR(ball.pose.position.y, 2.0, kTolerance);
   EXPECT_NEAR(ball.twist.linear.x, 0.0, kTolerance);
   EXPECT_NEAR(ball.twist.linear.y, -1.0, kTolerance);
+  // Frictionless: nothing holds the contact, through tf as in the request frame (round-off in the
+  // rotated velocity once made this flip).
+  EXPECT_FALSE(response.impulses[0].sticking);
+  cr::ComputeResponse direct = srv;
+  direct.request.bodies[0].frame_id = "odom";
+  direct.request.bodies[0].pose = pose(1.0, 2.0, 0.0);
+  direct.request.bodies[0].twist.linear.x = 0.0;
+  direct.request.bodies[0].twist.linear.y = 1.0;
+  const auto direct_response = call(direct);
+  ASSERT_TRUE(direct_response.success) << direct_response.message;
+  EXPECT_NEAR(direct_response.bodies[0].twist.linear.y, -1.0, kTolerance);
+  EXPECT_FALSE(direct_response.impulses[0].sticking);
+}
+
+// Mistakes that are valid requests: answered as the contract says, with a warning naming the field.
+bool hasWarning(const std::vector<std::string>& warnings, const std::string& start) {
+  for (const std::string& warning : warnings)
+    if (warning.rfind(start, 0) == 0) return true;
+  return false;
+}
+
+TEST_F(NodeTest, CleanRequestHasNoWarnings) {
+  EXPECT_TRUE(call(headOnSpheres()).warnings.empty());
+  // An immovable floor at rest is immovable by intent.
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  srv.request.bodies = {ground(), sphere("ball", 1.0, 0.1, pose(0, 0, 0.1))};
+  srv.request.bodies[1].twist.linear.z = -2.0;
+  srv.request.contacts = {contact("ground", "ball", 0, 0, 0, 0, 0, 1, 0.5)};
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_TRUE(response.warnings.empty()) << response.warnings[0];
+}
+
+// The right sphere sent without inertia (every field 0) is immovable, as the contract says: the
+// left one bounces off a wall moving at -1 m/s. u_n = -1 - 2 = -3, after +1.5: v_left' = -2.5.
+TEST_F(NodeTest, MovingBodyWithoutMassWarns) {
+  cr::ComputeResponse srv = headOnSpheres();
+  srv.request.bodies[1].inertia = geometry_msgs::Inertia();
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_NEAR(response.bodies[0].twist.linear.x, -2.5, kTolerance);
+  EXPECT_NEAR(response.bodies[1].twist.linear.x, -1.0, kTolerance);
+  ASSERT_EQ(response.warnings.size(), 1u);
+  EXPECT_TRUE(hasWarning(response.warnings, "bodies[1].inertia: mass 0, treated as immovable"))
+      << response.warnings[0];
+  // An inertia tensor without a mass is the same mistake, at rest too.
+  srv.request.bodies[1].inertia.ixx = srv.request.bodies[1].inertia.iyy =
+      srv.request.bodies[1].inertia.izz = 0.008;
+  srv.request.bodies[1].twist.linear.x = 0.0;
+  const auto at_rest = call(srv);
+  ASSERT_TRUE(at_rest.success) << at_rest.message;
+  EXPECT_TRUE(hasWarning(at_rest.warnings, "bodies[1].inertia: mass 0, treated as immovable"));
+}
+
+// The normal pointing from b to a: the approaching spheres see a separating contact, get no
+// impulse and keep their velocities.
+TEST_F(NodeTest, FlippedNormalWarns) {
+  cr::ComputeResponse srv = headOnSpheres();
+  srv.request.contacts[0].normal.x = -1.0;
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_NEAR(response.bodies[0].twist.linear.x, 2.0, kTolerance);
+  EXPECT_NEAR(response.bodies[1].twist.linear.x, -1.0, kTolerance);
+  EXPECT_EQ(response.impulses[0].normal_impulse, 0.0);
+  ASSERT_EQ(response.warnings.size(), 1u);
+  EXPECT_TRUE(hasWarning(response.warnings, "contacts[0]: separating at +3 m/s, no impulse"))
+      << response.warnings[0];
+}
+
+// An empty request frame takes ~default_frame ("world"): the answer, the published message and
+// the markers carry it.
+TEST_F(NodeTest, EmptyFrameTakesTheDefaultFrameAndWarns) {
+  const ResponsesListener listener(node_);
+  ASSERT_TRUE(listener.waitForPublisher(10.0));
+  cr::ComputeResponse srv = headOnSpheres();
+  srv.request.header.frame_id = "";
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_NEAR(response.bodies[1].twist.linear.x, 0.5, kTolerance);
+  EXPECT_EQ(response.bodies[0].frame_id, "world");
+  ASSERT_EQ(response.warnings.size(), 1u);
+  EXPECT_EQ(response.warnings[0], "header.frame_id: empty, taken as ~default_frame 'world'");
+  const cr::CollisionResponse::ConstPtr received = listener.waitForMessage(10.0);
+  ASSERT_TRUE(received);
+  EXPECT_EQ(received->header.frame_id, "world");
+}
+
+TEST_F(NodeTest, BatchScenesCarryTheirWarnings) {
+  ros::ServiceClient batch_client =
+      node_.serviceClient<cr::ComputeBatch>("/collision_response/compute_batch");
+  cr::ComputeBatch batch;
+  batch.request.header.frame_id = "world";
+  const cr::ComputeResponse clean = headOnSpheres();
+  cr::ComputeResponse flipped_srv = headOnSpheres();
+  flipped_srv.request.contacts[0].normal.x = -1.0;
+  const cr::ComputeResponse& flipped = flipped_srv;
+  for (const auto* srv : {&clean.request, &flipped.request}) {
+    cr::Scene scene;
+    scene.bodies = srv->bodies;
+    scene.contacts = srv->contacts;
+    batch.request.scenes.push_back(scene);
+  }
+  ASSERT_TRUE(batch_client.call(batch));
+  ASSERT_EQ(batch.response.results.size(), 2u);
+  EXPECT_TRUE(batch.response.results[0].warnings.empty());
+  EXPECT_TRUE(hasWarning(batch.response.results[1].warnings, "contacts[0]: separating at +3 m/s"));
 }
 
 // Unit cube (1 kg, I = 1/6 I3) falling flat at 1 m/s onto the ground, 4 corner contacts, e = 0.5,
@@ -182,9 +290,9 @@ TEST_F(NodeTest, CubeLandingFlatBouncesWithoutSpin) {
   }
 }
 
-// The rod of PHYSICS.md (1 kg, 1 m, 50 degrees to a floor with mu 0.8, tip striking, centre of mass
-// at 1 m/s 20 degrees off vertical away from the tip): the coupled Newton law creates energy; the
-// default (Stronge) law does not, and the tip separates.
+// The rod of docs/physics.md, "Worked examples" (1 kg, 1 m, 50 degrees to a floor with mu 0.8,
+// tip striking, centre of mass at 1 m/s 20 degrees off vertical away from the tip): the coupled
+// Newton law creates energy; the default (Stronge) law does not, and the tip separates.
 TEST_F(NodeTest, RodOnRoughFloorGainsNoEnergyUnderTheDefaultLaw) {
   const double tilt = 50.0 * M_PI / 180.0, off_vertical = 20.0 * M_PI / 180.0;
   cr::BodyState rod =

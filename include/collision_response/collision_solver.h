@@ -6,6 +6,7 @@
 #include "collision_response/contact_impulse.h"
 #include "collision_response/scene.h"
 #include "collision_response/solver_options.h"
+#include "collision_response/warning.h"
 
 namespace collision_response::core {
 
@@ -26,6 +27,11 @@ struct CollisionResult {
   double kinetic_energy_before = 0.0;    ///< of the movable bodies [J]
   double kinetic_energy_after = 0.0;     ///< [J]
   std::vector<IslandReport> islands;
+  /// Valid input that is usually a mistake, answered as given (see warning.h): a movable-looking
+  /// body with mass 0 (a velocity or an inertia tensor but no mass: it is treated as immovable),
+  /// and a contact separating faster than options.resting_velocity that gets no impulse (a normal
+  /// that points from b to a leaves approaching bodies untouched). In request order of the fields.
+  std::vector<Warning> warnings;
 };
 
 /// Validates the scene (throws InvalidInput naming the field) and computes the post-impact states.

@@ -8,7 +8,9 @@ namespace collision_response::core {
 struct ContactImpulse {
   double normal_impulse = 0.0;                                 ///< j_r >= 0 [N s], along the normal
   Eigen::Vector3d friction_impulse = Eigen::Vector3d::Zero();  ///< tangential [N s]
-  bool sticking = false;                ///< no tangential slip at the end of the impact
+  /// Friction holds the contact: no tangential slip at the end of the impact. Always false for a
+  /// frictionless contact (nothing holds it, whatever its tangential velocity).
+  bool sticking = false;
   double normal_velocity_before = 0.0;  ///< u_n before [m/s], negative when approaching
   double normal_velocity_after = 0.0;   ///< u_n after [m/s]
   /// Resting contacts (force-based Coulomb model, no impulse): the contact forces that hold the

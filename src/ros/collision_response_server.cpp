@@ -77,16 +77,24 @@ core::MaterialTable readMaterials(const ros::NodeHandle& node) {
 }
 
 // The core numbers the request's contacts and the detected ones together: a field
-// "contacts[k]..." with k past the request's own contacts names detected_contacts[k - given].
-std::string detectedContactField(const core::InvalidInput& error, std::size_t given,
-                                 std::size_t detected) {
-  const std::string& field = error.field();
+// "contacts[k]..." with k past the request's `given` contacts names detected_contacts[k - given].
+// The index k of such a field, or npos for any other field.
+std::size_t contactIndex(const std::string& field) {
+  if (field.rfind("contacts[", 0) != 0) return std::string::npos;
+  return std::stoul(field.substr(9, field.find(']') - 9));
+}
+
+bool isDetectedContact(const std::string& field, std::size_t given) {
+  const std::size_t k = contactIndex(field);
+  return k != std::string::npos && k >= given;
+}
+
+std::string detectedContactField(const core::InvalidInput& error, std::size_t given) {
   const std::string message = error.what();
-  if (detected == 0 || field.rfind("contacts[", 0) != 0) return message;
-  const std::size_t close = field.find(']');
-  const std::size_t k = std::stoul(field.substr(9, close - 9));
-  if (k < given) return message;
-  return "detected_contacts[" + std::to_string(k - given) + "]" + message.substr(close + 1);
+  if (!isDetectedContact(error.field(), given)) return message;
+  const std::size_t close = error.field().find(']');
+  return "detected_contacts[" + std::to_string(contactIndex(error.field()) - given) + "]" +
+         message.substr(close + 1);
 }
 
 }  // namespace
@@ -151,6 +159,9 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
   materials_ = readMaterials(private_node);
 
   max_batch_scenes_ = positiveSize(private_node, "max_batch_scenes", 10000);
+  // Frame of requests whose header.frame_id is empty (answers, published messages, markers, tf).
+  default_frame_ = readParam<std::string>(private_node, "default_frame", default_frame_);
+  if (default_frame_.empty()) throw std::invalid_argument("~default_frame must not be empty");
   marker_scales_.impulse = readParam(private_node, "marker_impulse_scale", marker_scales_.impulse);
   marker_scales_.velocity =
       readParam(private_node, "marker_velocity_scale", marker_scales_.velocity);
@@ -179,11 +190,6 @@ core::Scene CollisionResponseServer::toScene(const ComputeResponse::Request& req
     core::BodyState state = fromMsg(msg);
     if (!msg.frame_id.empty() && msg.frame_id != request_frame) {
       const std::string field = "bodies[" + std::to_string(i) + "].frame_id";
-      if (request_frame.empty()) {
-        throw core::InvalidInput(
-            field,
-            "is '" + msg.frame_id + "' but header.frame_id is empty: name the request frame");
-      }
       geometry_msgs::TransformStamped transform;
       try {
         transform = tf_buffer_.lookupTransform(request_frame, msg.frame_id, request.header.stamp,
@@ -285,10 +291,16 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
   return true;
 }
 
-void CollisionResponseServer::solve(const ComputeResponse::Request& request,
+void CollisionResponseServer::solve(ComputeResponse::Request& request,
                                     ComputeResponse::Response& response) {
   response.success = false;
   const auto begin = std::chrono::steady_clock::now();  // a timeout reports the time to it
+  if (request.header.frame_id.empty()) {
+    // The answer, the published message and the markers need a frame RViz and tf can place.
+    request.header.frame_id = default_frame_;
+    response.warnings.push_back("header.frame_id: empty, taken as ~default_frame '" +
+                                default_frame_ + "'");
+  }
   try {
     core::Scene scene = toScene(request);
     const Defaults defaults_now = defaults();
@@ -319,10 +331,15 @@ void CollisionResponseServer::solve(const ComputeResponse::Request& request,
       response.islands.push_back(toMsg(island));
     response.kinetic_energy_before = result.kinetic_energy_before;
     response.kinetic_energy_after = result.kinetic_energy_after;
+    for (const core::Warning& warning : result.warnings) {
+      // Detected contacts that separate are ordinary (neighbours moving apart); a given one that
+      // separates may have its normal flipped.
+      if (isDetectedContact(warning.field, request.contacts.size())) continue;
+      response.warnings.push_back(warning.text());
+    }
     response.success = true;
   } catch (const core::InvalidInput& e) {
-    response.message =
-        detectedContactField(e, request.contacts.size(), response.detected_contacts.size());
+    response.message = detectedContactField(e, request.contacts.size());
     ROS_DEBUG("collision_response: rejected request: %s", response.message.c_str());
   } catch (const core::SolverTimeout& e) {
     response.message = e.what();
@@ -339,6 +356,7 @@ void CollisionResponseServer::solve(const ComputeResponse::Request& request,
     response.islands.clear();
     response.detected_contacts.clear();
     response.detected_depths.clear();
+    response.warnings.clear();
   }
 }
 
@@ -385,6 +403,7 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
     result.islands = std::move(answer.islands);
     result.detected_contacts = std::move(answer.detected_contacts);
     result.detected_depths = std::move(answer.detected_depths);
+    result.warnings = std::move(answer.warnings);
     result.solve_time = answer.solve_time;
     response.solve_time += answer.solve_time;
     max_solve_time = std::max(max_solve_time, answer.solve_time);

@@ -52,6 +52,7 @@ class SolverConfig;  // generated from cfg/Solver.cfg
 ///   ~materials       list of {a, b, restitution, static_friction, dynamic_friction}: the
 ///                    coefficients of detected contacts between bodies of materials a and b
 ///   ~max_batch_scenes   larger ~compute_batch requests are rejected as a whole
+///   ~default_frame   frame of requests whose header.frame_id is empty ("world")
 ///   ~marker_impulse_scale   [m per N s] length of the impulse arrows on ~markers
 ///   ~marker_velocity_scale  [m per m/s] length of the velocity arrows on ~markers
 /// law, solver, tolerance, max_iterations, integration_tolerance and contact_tolerance can be
@@ -78,7 +79,8 @@ class CollisionResponseServer {
 
  private:
   /// One scene: fills `response` (success false with a message on bad input); publishes nothing.
-  void solve(const ComputeResponse::Request& request, ComputeResponse::Response& response);
+  /// An empty request.header.frame_id is set to ~default_frame (with a warning in the response).
+  void solve(ComputeResponse::Request& request, ComputeResponse::Response& response);
   /// The request defaults (parameters, dynamic_reconfigure), read together under the mutex so that
   /// a reconfigure cannot land between them.
   struct Defaults {
@@ -110,6 +112,7 @@ class CollisionResponseServer {
   core::SolverOptions default_options_;
   double contact_tolerance_ = 1e-3;
   std::size_t max_batch_scenes_ = 10000;
+  std::string default_frame_ = "world";
   MarkerScales marker_scales_;
   core::RequestLimits limits_;
   ros::Duration tf_timeout_;
