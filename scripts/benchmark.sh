@@ -14,8 +14,8 @@ fresh=$([ -d "${BUILD_DIR:-build}" ] && echo no || echo yes)
 scripts/install_packages.sh libbenchmark-dev libbullet-dev libode-dev pkg-config python3-matplotlib
 CMAKE_ARGS="-DCOLLISION_RESPONSE_BENCHMARKS=ON ${CMAKE_ARGS:-}" scripts/setup.sh
 build_s=$(($(date +%s) - start))
-build_dir=${BUILD_DIR:-build}
-bin=$build_dir/devel/lib/collision_response
+source scripts/build_dirs.sh
+bin=$devel_dir/lib/collision_response
 out=benchmark
 
 echo "benchmark: micro figures (Google Benchmark) -> $out/micro.json"

@@ -2,7 +2,9 @@
 # directory, so nothing here touches a ROS system already running on the machine.
 set +u  # catkin's setup scripts read unset variables
 # shellcheck disable=SC1091
-source "${BUILD_DIR:-build}/devel/setup.bash"
+source scripts/build_dirs.sh
+# shellcheck disable=SC1091
+source "$devel_dir/setup.bash"
 set -u
 free_port() { /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
 export ROS_HOSTNAME=127.0.0.1

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages the package needs (only those missing) and builds it into build/.
-# Environment: BUILD_DIR (default build), BUILD_TYPE (default Release), CMAKE_ARGS (extra).
+# Installs the Debian 12 packages the package needs (only those missing) and builds it into build/,
+# with the devel space (source devel/setup.bash) in devel/ (scripts/build_dirs.sh says why).
+# Environment: BUILD_DIR (default build), DEVEL_DIR, BUILD_TYPE (default Release), CMAKE_ARGS (extra).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -14,6 +15,7 @@ packages=(
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure libdiagnostic-updater-dev
   libdiagnostic-msgs-dev libvisualization-msgs-dev python3-visualization-msgs librosbag-dev
   librosbag-storage-dev python3-rosbag python3-rospkg
+  python3-diagnostic-msgs tf2-tools python3-tf2-msgs
 )
 scripts/install_packages.sh "${packages[@]}"
 
@@ -24,9 +26,10 @@ if ! getent hosts localhost >/dev/null; then
   if [ "$(id -u)" -eq 0 ]; then echo "127.0.0.1 localhost" >>/etc/hosts; else echo "127.0.0.1 localhost" | sudo tee -a /etc/hosts >/dev/null; fi
 fi
 
-build_dir=${BUILD_DIR:-build}
+source scripts/build_dirs.sh
 # /usr/bin/python3: catkin needs Debian's python (with catkin_pkg), not one first on PATH.
 cmake -S . -B "$build_dir" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
+  -DCATKIN_DEVEL_PREFIX="$(realpath -m "$devel_dir")" \
   -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" ${CMAKE_ARGS:-} >/dev/null
 log="$build_dir/build.log"
 echo "setup: building in $build_dir (log: $log)"
@@ -39,6 +42,7 @@ make -C "$build_dir" -j"$(nproc)" --no-print-directory all "$@" >"$log" 2>&1 || 
 # directories that exist then: on a first configure the devel space's Python path (the generated
 # messages) and library path are missing, so the Python nodes and clients of the rostests could not
 # import them. One configure more, now that they exist, fixes the snapshot.
-if ! grep -q "devel/lib/python3/dist-packages" "$build_dir/catkin_generated/setup_cached.sh"; then
+if ! grep -q "$(realpath -m "$devel_dir")/lib/python3/dist-packages" \
+  "$build_dir/catkin_generated/setup_cached.sh"; then
   cmake "$build_dir" >/dev/null
 fi

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Builds test/downstream (a catkin package that does find_package(catkin REQUIRED COMPONENTS
 # collision_response)) against a build's devel space and runs its gtest.
-# Usage: scripts/test_downstream.sh BUILD_DIR RESULT_XML
+# Usage: scripts/test_downstream.sh BUILD_DIR DEVEL_DIR RESULT_XML
 # Writes the gtest JUnit XML to RESULT_XML; if configuring or building fails, a failing one.
 set -uo pipefail
 source_dir=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=$(cd "$1" && pwd)
-result=$2
+devel_dir=$(cd "$2" && pwd)
+result=$3
 out=$build_dir/downstream
 mkdir -p "$out" "$(dirname "$result")"
 log=$out/build.log
@@ -29,7 +30,7 @@ XML
 
 set +u  # catkin's setup scripts read unset variables
 # shellcheck disable=SC1091
-source "$build_dir/devel/setup.bash"
+source "$devel_dir/setup.bash"
 set -u
 rm -f "$result"
 cmake -S "$source_dir/test/downstream" -B "$out" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
