@@ -182,7 +182,8 @@ std::vector<OurMethod> ourMethods() {
   for (int k = 1; k <= 256; k *= 2)
     out.push_back({"newton_iterative", "it=" + std::to_string(k), "newton_lcp", false,
                    island(L::kNewton, core::SolverMethod::kIterative, k)});
-  // Several contacts: the two-phase Poisson / Stronge schemes and the seed's sequential pass.
+  // Several contacts: the two-phase Poisson / Stronge schemes and the one-pass law's sequential
+  // pass.
   out.push_back(
       {"poisson_exact", "", "poisson", false, island(L::kPoisson, core::SolverMethod::kExact, 1)});
   out.push_back(

@@ -1,5 +1,5 @@
 // Cost of contact detection from shapes (Google Benchmark), Release build:
-//   build/devel/lib/collision_response/bench_detection
+//   devel/lib/collision_response/bench_detection
 // Per pair of shapes (one touching pair per scene, FCL objects cached across calls as in the node),
 // and a scene of 200 bodies (boxes, spheres, cylinders on a floor, neighbours touching), both with
 // the cache warm (poses change, shapes do not) and cold (every object rebuilt), and detect + solve.

@@ -257,7 +257,8 @@ Velocities stackClosedForm(const core::Scene& scene) {
   return out;
 }
 
-/// The rod of PHYSICS.md (test/scenes.h): e = 0.9, mu_s = 0.8 and mu_d = `mu_d`.
+/// The rod of docs/physics.md, "Worked examples" (test/scenes.h): e = 0.9, mu_s = 0.8 and mu_d =
+/// `mu_d`.
 core::Scene rodTip(double mu_d) {
   return collision_response::testing::rodScene(0.9, 0.8, mu_d);
 }

@@ -1,5 +1,5 @@
 // Per-contact cost of each impact law and solver (Google Benchmark).
-//   build/devel/lib/collision_response/bench_solvers            (Release build)
+//   devel/lib/collision_response/bench_solvers            (Release build)
 // Closed forms are timed in a batch loop over pre-built contacts (what a caller embedding the core
 // pays per contact); the multi-contact scenes go through computeResponse() (validation included).
 #include <benchmark/benchmark.h>

@@ -19,8 +19,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-# Our methods that solve the peers' law (Newton restitution + Coulomb friction); the seed's
-# one-pass procedure is left out (kept only to measure its error).
+# Our methods that solve the peers' law (Newton restitution + Coulomb friction); the textbook
+# two-pass procedure (seed_one_pass) is left out (kept only to measure its error).
 OURS_NEWTON = ("newton_closed_form", "newton_exact", "newton_iterative")
 TOL = 1e-6  # "within 1e-6 of the answer"
 
@@ -360,9 +360,10 @@ def main():
            and r["param"] in ("", "tol=1e-12")}
     if rod:
         w("## Cross-check of the references\n")
-        w("The rod of `PHYSICS.md` (1 kg, 1 m, 50 degrees, mu 0.8, e 0.9): kinetic energy after / "
-          "before; PHYSICS.md gives Newton 1.056 (two independent scripts) and, from an approximate "
-          "integration, Poisson about 0.88 and Stronge about 0.90.\n")
+        w("The rod of `docs/physics.md` (\"Worked examples\"; 1 kg, 1 m, 50 degrees, mu 0.8, "
+          "e 0.9): kinetic energy after / before; docs/physics.md gives Newton 1.056 (closed form, "
+          "checked by hand) and, from an independent planar computation with closed-form "
+          "segments, Poisson 0.883 and Stronge 0.896.\n")
         w("| law | KE'/KE here |\n| --- | --- |")
         for name in ("newton_closed_form", "poisson_integrator", "stronge_integrator"):
             if name in rod:

@@ -6,8 +6,9 @@
 namespace collision_response::core {
 namespace {
 
-// Seed text, equations (5) then (7)-(10): the normal impulse alone, then friction from the
-// pre-impact tangential velocity with the effective mass along the tangent, 1 / (t^T K t).
+// The textbook two-pass procedure (docs/physics.md, "The textbook two-pass procedure and its
+// pitfalls"): the frictionless impulse formula alone, then friction from the pre-impact
+// tangential velocity with the effective mass along the tangent, 1 / (t^T K t).
 Eigen::Vector3d seedOnePass(const ContactRow& row, const Eigen::Vector3d& u, double u_n,
                             bool& sticking) {
   const Eigen::Vector3d& n = row.normal;
@@ -87,8 +88,8 @@ ContactImpulse solveSingleContact(const RigidBody& a, const RigidBody& b, const 
                                 : coupledNewton(row, u, u_n, impulse.sticking);
   impulse.normal_impulse = P.dot(row.normal);
   impulse.friction_impulse = P - impulse.normal_impulse * row.normal;
-  // The coupled law meets u'_n = -e u_n by construction (every branch); the seed's second pass
-  // changes it, so it is measured.
+  // The coupled law meets u'_n = -e u_n by construction (every branch); the two-pass
+  // procedure's second pass changes it, so it is measured.
   impulse.normal_velocity_after = law == ImpactLaw::kSeedOnePass
                                       ? u_n + row.normal.dot(row.space.K * P)
                                       : -row.restitution * u_n;

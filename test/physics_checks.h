@@ -119,7 +119,7 @@ bool painleveCase(const core::Scene& scene, const std::map<std::string, int>& in
 //    momentum is conserved;
 //  - in islands the solver reports converged, where something approached (an impact island):
 //    P_n >= 0, |P_t| <= mu_s P_n, and no contact left approaching: u'_n >= 0 (Poisson, Stronge) or
-//    u'_n >= -e u_n (Newton; 0 for contacts that were not approaching). The seed's one-pass law is
+//    u'_n >= -e u_n (Newton; 0 for contacts that were not approaching). The one-pass law is
 //    documented to break the restitution law off-centre, so only its cone is checked;
 //  - under Stronge, with immovable bodies at rest, kinetic energy does not increase.
 CheckResult checkPhysics(const core::Scene& scene, const core::SolverOptions& o,

@@ -115,9 +115,9 @@ struct RandomSource {
   }
 };
 
-/// The rod of PHYSICS.md: uniform, 1 kg, 1 m, 50 degrees to the floor (z up), lower tip striking at
-/// the origin, centre of mass velocity 1 m/s at 20 degrees off vertical, no spin; restitution e,
-/// friction mu_s and mu_d.
+/// The rod of docs/physics.md, "Worked examples": uniform, 1 kg, 1 m, 50 degrees to the floor (z
+/// up), lower tip striking at the origin, centre of mass velocity 1 m/s at 20 degrees off
+/// vertical, no spin; restitution e, friction mu_s and mu_d.
 inline cr::Scene rodScene(double e, double mu_s, double mu_d) {
   const double pi = std::acos(-1.0);
   const double tilt = 50.0 * pi / 180.0, off_vertical = 20.0 * pi / 180.0;

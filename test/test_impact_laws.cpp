@@ -1,5 +1,6 @@
 // Impact laws on whole scenes through computeResponse(): the cube landing flat, Newton's cradle,
-// the rod of PHYSICS.md, and randomized property tests for every law and solver.
+// the rod of docs/physics.md ("Worked examples"), and randomized property tests for every law and
+// solver.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -98,8 +99,8 @@ TEST(ImpactLaws, NewtonsCradleGivesTheSimultaneousAnswer) {
   }
 }
 
-// The rod of PHYSICS.md (scenes.h) on a rough floor, mu 0.8. Newton gains energy (ratio about
-// 1.056 at e = 0.9, 1.172 at e = 1); Stronge never does and the tip separates.
+// The rod of docs/physics.md, "Worked examples" (scenes.h) on a rough floor, mu 0.8. Newton gains
+// energy (ratio about 1.056 at e = 0.9, 1.172 at e = 1); Stronge never does and the tip separates.
 core::Scene rodScene(double e) {
   return collision_response::testing::rodScene(e, 0.8, 0.8);
 }

@@ -1,7 +1,7 @@
 // Tests of the impulse-space (Routh) integrator for the Poisson and Stronge laws: the rod of
-// PHYSICS.md against an independent fixed-step integration written here, closed-form central and
-// frictionless cases, invariants on thousands of random 3D impacts, and convergence with the
-// tolerance.
+// docs/physics.md ("Worked examples") against an independent fixed-step integration written here,
+// closed-form central and frictionless cases, invariants on thousands of random 3D impacts, and
+// convergence with the tolerance.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -69,14 +69,14 @@ double energyRatio(const SimBody& a, const SimBody& b, const cr::ContactRow& row
 }
 
 // ---------------------------------------------------------------------------------------------
-// The rod of PHYSICS.md: uniform, 1 kg, 1 m, inclined 50 degrees to an immovable floor z = 0
-// (body a, normal +z), lower tip striking. The rod lies in the x-z plane, its lower tip on the -x
-// side of the centre of mass; the centre of mass moves at 1 m/s, 20 degrees off the downward
-// vertical towards +x (away from the side of the striking tip, so the tip slides towards +x at
-// first), no spin. This side reproduces PHYSICS.md's Newton ratios 1.056 / 1.172 (the other side
-// gives 0.58 / 0.70). Motion stays in the x-z
-// plane. The transverse moment of inertia is m L^2 / 12; the axial one is never excited (r is
-// along the axis), and is set to the same value.
+// The rod of docs/physics.md, "Worked examples": uniform, 1 kg, 1 m, inclined 50 degrees to an
+// immovable floor z = 0 (body a, normal +z), lower tip striking. The rod lies in the x-z plane, its
+// lower tip on the -x side of the centre of mass; the centre of mass moves at 1 m/s, 20 degrees off
+// the downward vertical towards +x (away from the side of the striking tip, so the tip slides
+// towards +x at first), no spin. This side reproduces the Newton ratios 1.056 / 1.172 of
+// docs/physics.md (the other side gives 0.58 / 0.70). Motion stays in the x-z plane. The
+// transverse moment of inertia is m L^2 / 12; the axial one is never excited (r is along the
+// axis), and is set to the same value.
 struct Rod {
   SimBody floor = immovable(Vector3d(0, 0, -1));
   SimBody rod;

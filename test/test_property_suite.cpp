@@ -4,8 +4,8 @@
 // same checks as test_stress.cpp: finite; impulse-momentum consistency per body (and momentum
 // conservation without immovable bodies); in islands reported converged: P_n >= 0, friction in
 // the static cone, no contact left approaching (u'_n >= -e u_n for Newton, >= 0 for Poisson and
-// Stronge; not checked for the seed's one-pass law, documented to break it); no kinetic energy
-// gain under Stronge. Islands not converged are counted; their share must stay small.
+// Stronge; not checked for the two-pass seed_one_pass law, documented to break it); no kinetic
+// energy gain under Stronge. Islands not converged are counted; their share must stay small.
 //
 // Reproducible: scene i is drawn from std::mt19937 seeded with seed_seq{seed, i}; a failure
 // prints the seed, the index, law, method and the whole scene at full precision. Replay one

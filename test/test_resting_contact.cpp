@@ -1,4 +1,5 @@
-// The force-based Coulomb model (seed equations 6-8) for resting contacts, against closed forms.
+// The force-based Coulomb model (docs/physics.md, "Resting contacts") for resting contacts,
+// against closed forms.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -72,8 +73,8 @@ TEST(RestingContact, StaticLimitSeparatesStickFromSlide) {
   EXPECT_NEAR(slide.friction_force.norm(), 0.4 * kG, 1e-12);
 }
 
-// Already sliding (v = 1 m/s along y, no spin): the seed's f_f = -f_d t against the slip, whatever
-// the push: f = -mu_d m g y.
+// Already sliding (v = 1 m/s along y, no spin): dynamic friction -mu_d N against the slip
+// (docs/physics.md, "Resting contacts"), whatever the push: f = -mu_d m g y.
 TEST(RestingContact, SlidingBallGetsDynamicFrictionAgainstItsSlip) {
   core::Scene scene = ballOnFloor(1.0, 0.5, 0.4);
   scene.bodies[1].linear_velocity = {0.0, 1.0, 0.0};

@@ -47,7 +47,8 @@ double energy(const cr::BodyState& b) {
   return 0.5 * b.mass * b.linear_velocity.squaredNorm() +
          0.5 * b.angular_velocity.dot(worldInertia(b) * b.angular_velocity);
 }
-// Contact-space inverse mass matrix written out from PHYSICS.md, independent of ContactSpace.
+// Contact-space inverse mass matrix written out from docs/physics.md ("Symbols and conventions"),
+// independent of ContactSpace.
 Matrix3d skew(const Vector3d& r) {
   Matrix3d s;
   s << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;

@@ -6,10 +6,10 @@
 
 namespace collision_response::core {
 
-/// The geometry of one contact between bodies a and b, with the symbols of PHYSICS.md:
-/// r_i = p - c_i, u = v_b(p) - v_a(p) the relative velocity at the contact point, and
-/// K = sum over movable i of (I3 / m_i - [r_i]x Iw_i^-1 [r_i]x), the contact-space inverse mass
-/// matrix: an impulse P applied +P on b and -P on a changes u by K P.
+/// The geometry of one contact between bodies a and b, with the symbols of docs/physics.md,
+/// "Symbols and conventions": r_i = p - c_i, u = v_b(p) - v_a(p) the relative velocity at the
+/// contact point, and K = sum over movable i of (I3 / m_i - [r_i]x Iw_i^-1 [r_i]x), the
+/// contact-space inverse mass matrix: an impulse P applied +P on b and -P on a changes u by K P.
 struct ContactSpace {
   Eigen::Vector3d r_a;
   Eigen::Vector3d r_b;

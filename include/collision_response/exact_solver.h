@@ -32,8 +32,9 @@ struct ExactStats {
 /// Newton law for simultaneous contacts, solved exactly by Lemke's method (lcp.h), over the rows
 /// listed in `island`. Same contract as solveIterative(), so either can be used.
 ///
-/// Symbols (PHYSICS.md): u the pre-impact relative velocity of a contact, u_n = u.n, u' after;
-/// the target normal velocity is -e u_n for an approaching contact (u_n < 0), 0 otherwise. J maps
+/// Symbols (docs/physics.md, "Symbols and conventions" and "Several simultaneous contacts"):
+/// u the pre-impact relative velocity of a contact, u_n = u.n, u' after; the target normal
+/// velocity is -e u_n for an approaching contact (u_n < 0), 0 otherwise. J maps
 /// the bodies' velocities to the contact velocities along n (and d_1..d_D), W = diag(I3 / m,
 /// Iw^-1) over the movable bodies, and the Delassus matrix A = J W J^T changes u' = u + A P (its
 /// 3x3 diagonal blocks are the contacts' K; shared bodies give the cross terms).

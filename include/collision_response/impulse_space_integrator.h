@@ -23,11 +23,11 @@ struct IntegrationStats {
 };
 
 /// Impulse for one isolated contact under the Poisson or Stronge restitution law with Coulomb
-/// friction, integrated along the impact in impulse space (Routh's method, PHYSICS.md). Same
-/// output contract as solveSingleContact(): total impulse P = normal_impulse n + friction_impulse,
-/// +P on b and -P on a; u_n' = u_n + n^T K P; a separating or resting contact (u_n >= 0) gets zero
-/// impulse; the bodies are not changed. Laws other than kPoisson and kStronge are forwarded to
-/// solveSingleContact().
+/// friction, integrated along the impact in impulse space (Routh's method, docs/physics.md,
+/// "Frictional impact in impulse space"). Same output contract as solveSingleContact(): total
+/// impulse P = normal_impulse n + friction_impulse, +P on b and -P on a; u_n' = u_n + n^T K P; a
+/// separating or resting contact (u_n >= 0) gets zero impulse; the bodies are not changed. Laws
+/// other than kPoisson and kStronge are forwarded to solveSingleContact().
 ///
 /// The normal impulse p = P_n is the time-like variable, u(p) the relative contact velocity,
 /// s = u_t / |u_t| the slip direction:

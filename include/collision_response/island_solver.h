@@ -47,7 +47,8 @@ struct IslandStats {
 /// phases 1 and 3 dissipate, so with Stronge kinetic energy never increases; for frictionless
 /// contacts with a common e phase 2 needs no scaling and Poisson and Stronge coincide. The answer
 /// of simultaneous laws is not unique in general (Newton's cradle): this is the simultaneous one.
-/// The seed's one-pass law takes its contacts one at a time, in request order.
+/// The one-pass law (the textbook two-pass procedure, docs/physics.md, "The textbook two-pass
+/// procedure and its pitfalls") takes its contacts one at a time, in request order.
 IslandStats solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
                         const std::vector<int>& island, const SolverOptions& options,
                         std::vector<ContactImpulse>& impulses);

@@ -17,7 +17,8 @@ namespace collision_response::core {
 ///           P_n = -(1 + e) u_n / (n^T K (n + mu_d d)) so that u'_n = -e u_n still holds.
 /// If that denominator is not positive (friction would drive the contact deeper: a Painleve-like
 /// configuration), the sticking impulse is returned, flagged sticking, outside the cone.
-/// Frictionless contacts take the seed's equation (5) directly: P = -(1 + e) u_n / (n^T K n) n.
+/// Frictionless contacts take the frictionless impulse formula (docs/physics.md, "The frictionless
+/// impulse formula") directly: P = -(1 + e) u_n / (n^T K n) n.
 ContactImpulse solveSingleContact(const RigidBody& a, const RigidBody& b, const ContactRow& row,
                                   ImpactLaw law);
 

@@ -14,11 +14,12 @@ enum class ImpactLaw {
   /// P_n,
   /// otherwise it slides with |P_t| = mu_d P_n, and u'_n = -e u_n holds in both cases.
   kNewton,
-  /// The seed text's procedure, kept so its error can be measured: the frictionless normal impulse
-  /// of
-  /// equation (5), then a friction impulse from the pre-impact tangential velocity (equations 7-10,
-  /// with the effective mass 1/(t^T K t) along the tangent) applied in a second pass. For
-  /// off-centre contacts the second pass changes the normal velocity and breaks u'_n = -e u_n.
+  /// The textbook two-pass procedure (docs/physics.md, "The textbook two-pass procedure and its
+  /// pitfalls"), kept so its error can be measured: the frictionless impulse formula
+  /// (docs/physics.md, "The frictionless impulse formula"), then a friction impulse from the
+  /// pre-impact tangential velocity (with the effective mass 1/(t^T K t) along the tangent) applied
+  /// in a second pass. For off-centre contacts the second pass changes the normal velocity and
+  /// breaks u'_n = -e u_n.
   kSeedOnePass,
   /// Poisson (kinetic) restitution: the normal impulse of restitution is e times that of
   /// compression,
