@@ -19,11 +19,11 @@
 
 #include "bench_metrics.h"
 #include "bench_scenes.h"
-#include "collision_response/contact_row.h"
-#include "collision_response/impulse_space_integrator.h"
-#include "collision_response/island_solver.h"
-#include "collision_response/rigid_body.h"
-#include "collision_response/single_contact.h"
+#include "collision_response/core/contact_row.h"
+#include "collision_response/core/impulse_space_integrator.h"
+#include "collision_response/core/island_solver.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/single_contact.h"
 #ifdef HAVE_BULLET
 #include "peer_bullet.h"
 #endif

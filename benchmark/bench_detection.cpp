@@ -9,11 +9,12 @@
 #include <cmath>
 #include <vector>
 
-#include "../test/shape_builders.h"
-#include "collision_response/collision_solver.h"
-#include "collision_response/detected_contacts.h"
+#include "../test/support/shape_builders.h"
+#include "collision_response/core/compute_response.h"
+#include "collision_response/detection/detect_contacts.h"
 
 namespace core = collision_response::core;
+namespace detection = collision_response::detection;
 using collision_response::testing::boxMesh;
 using collision_response::testing::primitive;
 
@@ -33,19 +34,19 @@ core::BodyState body(const char* id, double mass, const Eigen::Vector3d& positio
 
 struct PairScene {
   std::vector<core::BodyState> bodies;
-  core::DetectionInput input;
+  detection::DetectionInput input;
 };
 
 // One touching pair of shapes; `kind` picks the pair.
 PairScene pairScene(int kind) {
-  const core::Shape floor = primitive(core::Shape::Type::kPlane, {0, 0, 1, 0});
-  const core::Shape box = primitive(core::Shape::Type::kBox, {1, 1, 1});
+  const detection::Shape floor = primitive(detection::Shape::Type::kPlane, {0, 0, 1, 0});
+  const detection::Shape box = primitive(detection::Shape::Type::kBox, {1, 1, 1});
   PairScene s;
   s.input.defaults = {0.5, 0.3, 0.3};
   switch (kind) {
     case 0:  // sphere on a plane: one point
       s.bodies = {body("floor", 0, {0, 0, 0}), body("ball", 1, {0, 0, 0.1})};
-      s.input.geometry = {{{floor}}, {{primitive(core::Shape::Type::kSphere, {0.1})}}};
+      s.input.geometry = {{{floor}}, {{primitive(detection::Shape::Type::kSphere, {0.1})}}};
       break;
     case 1:  // box flat on a plane: 4 corners
       s.bodies = {body("floor", 0, {0, 0, 0}), body("box", 1, {0, 0, 0.5})};
@@ -62,7 +63,7 @@ PairScene pairScene(int kind) {
       s.input.geometry = {{{floor}}, {{boxMesh()}}};
       break;
     default: {  // cylinder on its side on a box: the contact line's ends
-      core::Shape cylinder = primitive(core::Shape::Type::kCylinder, {1.0, 0.1});
+      detection::Shape cylinder = primitive(detection::Shape::Type::kCylinder, {1.0, 0.1});
       cylinder.pose.rotate(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY()));
       s.bodies = {body("table", 0, {0, 0, -0.5}), body("cylinder", 1, {0, 0, 0.1})};
       s.input.geometry = {{{box}}, {{cylinder}}};
@@ -73,12 +74,12 @@ PairScene pairScene(int kind) {
 
 void BM_DetectPair(benchmark::State& state) {
   PairScene s = pairScene(static_cast<int>(state.range(0)));
-  core::ContactDetector detector;
-  const core::MaterialTable materials;
+  detection::ContactDetector detector;
+  const detection::MaterialTable materials;
   std::size_t contacts = 0;
   for (auto _ : state) {
-    const core::DetectedContacts found =
-        core::detectContacts(detector, s.bodies, s.input, materials);
+    const detection::DetectedContacts found =
+        detection::detectContacts(detector, s.bodies, s.input, materials);
     contacts = found.contacts.size();
     benchmark::DoNotOptimize(found.contacts.data());
   }
@@ -93,14 +94,14 @@ BENCHMARK(BM_DetectPair)->DenseRange(0, 4);
 // neighbours along x; 3 of every 4 falling at 1 m/s.
 struct BigScene {
   std::vector<core::BodyState> bodies;
-  core::DetectionInput input;
+  detection::DetectionInput input;
 };
 
 BigScene bigScene() {
   BigScene s;
   s.input.defaults = {0.5, 0.3, 0.3};
   s.bodies.push_back(body("floor", 0, {0, 0, 0}));
-  s.input.geometry.push_back({{primitive(core::Shape::Type::kPlane, {0, 0, 1, 0})}});
+  s.input.geometry.push_back({{primitive(detection::Shape::Type::kPlane, {0, 0, 1, 0})}});
   static std::vector<std::string> ids;
   ids.clear();
   for (int i = 0; i < 200; ++i) ids.push_back("b" + std::to_string(i));
@@ -111,9 +112,9 @@ BigScene bigScene() {
     if (i % 4 == 3) b.linear_velocity.setZero();
     s.bodies.push_back(b);
     s.input.geometry.push_back(
-        {{kind == 0   ? primitive(core::Shape::Type::kBox, {1, 1, 1})
-          : kind == 1 ? primitive(core::Shape::Type::kSphere, {0.5})
-                      : primitive(core::Shape::Type::kCylinder, {1.0, 0.5})}});
+        {{kind == 0   ? primitive(detection::Shape::Type::kBox, {1, 1, 1})
+          : kind == 1 ? primitive(detection::Shape::Type::kSphere, {0.5})
+                      : primitive(detection::Shape::Type::kCylinder, {1.0, 0.5})}});
   }
   return s;
 }
@@ -121,16 +122,16 @@ BigScene bigScene() {
 void BM_Detect200Bodies(benchmark::State& state) {
   BigScene s = bigScene();
   const bool cold = state.range(0) != 0;
-  const core::MaterialTable materials;
-  core::ContactDetector warm_detector;
+  const detection::MaterialTable materials;
+  detection::ContactDetector warm_detector;
   std::size_t contacts = 0, narrowphase = 0;
   for (auto _ : state) {
-    core::ContactDetector cold_detector;
-    core::ContactDetector& detector = cold ? cold_detector : warm_detector;
+    detection::ContactDetector cold_detector;
+    detection::ContactDetector& detector = cold ? cold_detector : warm_detector;
     // Poses change every call (shapes do not): the warm cache updates transforms only.
     for (std::size_t i = 1; i < s.bodies.size(); ++i) s.bodies[i].position.z() += 1e-12;
-    const core::DetectedContacts found =
-        core::detectContacts(detector, s.bodies, s.input, materials);
+    const detection::DetectedContacts found =
+        detection::detectContacts(detector, s.bodies, s.input, materials);
     contacts = found.contacts.size();
     narrowphase = detector.lastStats().narrowphase_pairs;
     benchmark::DoNotOptimize(found.contacts.data());
@@ -143,13 +144,13 @@ BENCHMARK(BM_Detect200Bodies)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 void BM_DetectAndSolve200Bodies(benchmark::State& state) {
   BigScene s = bigScene();
-  const core::MaterialTable materials;
-  core::ContactDetector detector;
+  const detection::MaterialTable materials;
+  detection::ContactDetector detector;
   std::size_t contacts = 0;
   for (auto _ : state) {
     core::Scene scene;
     scene.bodies = s.bodies;
-    scene.contacts = core::detectContacts(detector, s.bodies, s.input, materials).contacts;
+    scene.contacts = detection::detectContacts(detector, s.bodies, s.input, materials).contacts;
     contacts = scene.contacts.size();
     const core::CollisionResult result = core::computeResponse(scene);
     benchmark::DoNotOptimize(result.bodies.data());

@@ -6,11 +6,11 @@
 #include <random>
 #include <stdexcept>
 
-#include "collision_response/contact_row.h"
-#include "collision_response/impulse_space_integrator.h"
-#include "collision_response/island_solver.h"
-#include "collision_response/rigid_body.h"
-#include "collision_response/single_contact.h"
+#include "collision_response/core/contact_row.h"
+#include "collision_response/core/impulse_space_integrator.h"
+#include "collision_response/core/island_solver.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/single_contact.h"
 #include "scenes.h"
 
 namespace collision_response::bench {

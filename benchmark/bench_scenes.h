@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "collision_response/scene.h"
-#include "collision_response/solver_options.h"
+#include "collision_response/core/scene.h"
+#include "collision_response/core/solver_options.h"
 
 namespace collision_response::bench {
 

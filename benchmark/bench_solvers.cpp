@@ -8,11 +8,11 @@
 #include <random>
 #include <vector>
 
-#include "collision_response/collision_solver.h"
-#include "collision_response/contact_row.h"
-#include "collision_response/impulse_space_integrator.h"
-#include "collision_response/rigid_body.h"
-#include "collision_response/single_contact.h"
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/contact_row.h"
+#include "collision_response/core/impulse_space_integrator.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/single_contact.h"
 
 namespace core = collision_response::core;
 

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # The benchmark of the README, end to end: installs what it needs, builds (Release, portable flags)
 # into build/ (or $BUILD_DIR) with the benchmark targets, then runs
-#   1. Google Benchmark micro figures (bench_solvers)          -> benchmark/micro.json
-#   2. the accuracy sweep, ours and the peers Bullet and ODE     -> benchmark/results.csv
-#   3. the service load (private ROS master on a free port)     -> benchmark/service_load.csv
-#      and the soak: the load rostest at 10x                    -> benchmark/service_soak.txt
+#   1. Google Benchmark micro figures (bench_solvers)          -> benchmark/data/micro.json
+#   2. the accuracy sweep, ours and the peers Bullet and ODE     -> benchmark/data/results.csv
+#   3. the service load (private ROS master on a free port)     -> benchmark/data/service_load.csv
+#      and the soak: the load rostest at 10x                    -> benchmark/data/service_soak.txt
 #   4. benchmark/report.py                                      -> benchmark/RESULTS.md, pareto.png
 # Environment: BUILD_DIR (default build), SWEEP_REPS (default 31), LOAD_CALLS (default 2000).
 set -euo pipefail
@@ -16,7 +16,8 @@ CMAKE_ARGS="-DCOLLISION_RESPONSE_BENCHMARKS=ON ${CMAKE_ARGS:-}" scripts/setup.sh
 build_s=$(($(date +%s) - start))
 source scripts/build_dirs.sh
 bin=$devel_dir/lib/collision_response
-out=benchmark
+out=benchmark/data  # generated inputs of the report (not committed)
+mkdir -p "$out"
 
 echo "benchmark: micro figures (Google Benchmark) -> $out/micro.json"
 "$bin/bench_solvers" --benchmark_repetitions=9 --benchmark_min_time=0.1 \
@@ -47,8 +48,8 @@ CR_LOAD_SCALE=10 rostest --text collision_response load.test >"$build_dir/soak.l
 grep -E "^load: " "$build_dir/soak.log" >"$out/service_soak.txt"
 
 elapsed=$(($(date +%s) - start))
-echo "benchmark: report -> $out/RESULTS.md, $out/pareto.png"
-/usr/bin/python3 benchmark/report.py --dir "$out" \
+echo "benchmark: report -> benchmark/RESULTS.md, benchmark/pareto.png"
+/usr/bin/python3 benchmark/report.py --dir benchmark --data "$out" \
   --command "${BUILD_DIR:+BUILD_DIR=$BUILD_DIR }scripts/benchmark.sh (fresh build dir: ${fresh})" \
   --elapsed "$elapsed" --build-seconds "$build_s"
 echo "benchmark: done in $(($(date +%s) - start)) s"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Fuzzes the core's request path (core::computeResponse) with libFuzzer, AddressSanitizer and
 # UndefinedBehaviorSanitizer: builds test/fuzz/fuzz_compute_response.cpp with the core sources
-# (src/*.cpp, no ROS, no catkin) using clang-14, seeds a corpus with valid scenes that the target
+# (src/core and src/detection, no ROS, no catkin) using clang-14, seeds a corpus with valid scenes that the target
 # writes itself, and fuzzes for a bounded time. Exits non-zero if libFuzzer finds a crash, a
 # sanitizer report, an unexpected exception or a non-finite answer (test/fuzz/scene_decoder.h).
 #
@@ -32,18 +32,16 @@ elif [ $# -gt 0 ]; then
 fi
 
 packages=(clang-14 libclang-rt-14-dev libeigen3-dev)
-# Core sources that use FCL (contact detection) need it at link time, though the target does not.
-link_libs=()
-if grep -qE '#include <fcl/' src/*.cpp include/collision_response/*.h; then
-  packages+=(libfcl-dev)
-  link_libs=(-lfcl -lccd)
-fi
+# The target links the detection library's sources too (the request path can detect contacts),
+# and with them FCL.
+packages+=(libfcl-dev)
+link_libs=(-lfcl -lccd)
 scripts/install_packages.sh "${packages[@]}"
 
 build_dir=${BUILD_DIR:-build-fuzz}
 mkdir -p "$build_dir"
 target="$build_dir/fuzz_compute_response"
-sources=(src/*.cpp test/fuzz/fuzz_compute_response.cpp)
+sources=(src/core/*.cpp src/detection/*.cpp test/fuzz/fuzz_compute_response.cpp)
 # Rebuild when any source or header is newer than the binary.
 if [ ! -x "$target" ] || [ -n "$(find src include test/fuzz -newer "$target" -type f -print -quit)" ]; then
   echo "fuzz: building $target"

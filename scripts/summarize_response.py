@@ -32,9 +32,11 @@ def main():
         name = "contact %d" % i
         if contact:
             name += " (%s on %s)" % (contact["body_b"], contact["body_a"])
+        frictionless = contact and not contact.get("static_friction") and not contact.get(
+            "dynamic_friction")
+        state = "sticking" if impulse["sticking"] else "frictionless" if frictionless else "sliding"
         print("%s: normal impulse %.4f N s, friction impulse %s N s, %s"
-              % (name, impulse["normal_impulse"], vec(impulse["friction_impulse"]),
-                 "sticking" if impulse["sticking"] else "sliding or frictionless"))
+              % (name, impulse["normal_impulse"], vec(impulse["friction_impulse"]), state))
         restitution = " (e = %g)" % contact["restitution"] if "restitution" in contact else ""
         print("  normal velocity at the point: %+.4f m/s before, %+.4f m/s after%s"
               % (impulse["normal_velocity_before"], impulse["normal_velocity_after"], restitution))

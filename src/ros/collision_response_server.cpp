@@ -10,10 +10,10 @@
 #include <chrono>
 #include <stdexcept>
 
-#include "collision_response/collision_solver.h"
-#include "collision_response/errors.h"
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/validation.h"
 #include "collision_response/ros/message_conversion.h"
-#include "collision_response/validation.h"
 
 namespace collision_response {
 namespace {
@@ -38,8 +38,8 @@ double numberParam(const XmlRpc::XmlRpcValue& value, const std::string& field) {
 }
 
 // ~materials: a list of {a, b, restitution, static_friction, dynamic_friction}.
-core::MaterialTable readMaterials(const ros::NodeHandle& node) {
-  core::MaterialTable table;
+detection::MaterialTable readMaterials(const ros::NodeHandle& node) {
+  detection::MaterialTable table;
   XmlRpc::XmlRpcValue list;
   if (!node.getParam("materials", list)) return table;
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
@@ -59,7 +59,7 @@ core::MaterialTable readMaterials(const ros::NodeHandle& node) {
                                     "' (a, b, restitution, static_friction, dynamic_friction)");
       }
     }
-    core::ContactMaterial material;
+    detection::ContactMaterial material;
     const auto member = [&](const char* name, double& out) {
       if (entry.hasMember(name)) out = numberParam(entry[name], field + "." + name);
     };
@@ -224,29 +224,30 @@ bool CollisionResponseServer::wantsDetection(const ComputeResponse::Request& req
   }
 }
 
-std::unique_ptr<core::ContactDetector> CollisionResponseServer::acquireDetector() {
+std::unique_ptr<detection::ContactDetector> CollisionResponseServer::acquireDetector() {
   const std::lock_guard<std::mutex> lock(detectors_mutex_);
-  if (idle_detectors_.empty()) return std::make_unique<core::ContactDetector>();
-  std::unique_ptr<core::ContactDetector> detector = std::move(idle_detectors_.back());
+  if (idle_detectors_.empty()) return std::make_unique<detection::ContactDetector>();
+  std::unique_ptr<detection::ContactDetector> detector = std::move(idle_detectors_.back());
   idle_detectors_.pop_back();
   return detector;
 }
 
-void CollisionResponseServer::releaseDetector(std::unique_ptr<core::ContactDetector> detector) {
+void CollisionResponseServer::releaseDetector(
+    std::unique_ptr<detection::ContactDetector> detector) {
   const std::lock_guard<std::mutex> lock(detectors_mutex_);
   idle_detectors_.push_back(std::move(detector));
 }
 
-core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Request& request,
-                                                       const core::Scene& scene,
-                                                       const core::SolverOptions& options,
-                                                       double contact_tolerance) {
+detection::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Request& request,
+                                                            const core::Scene& scene,
+                                                            const core::SolverOptions& options,
+                                                            double contact_tolerance) {
   // Limits first, from the messages, so an oversized mesh costs no conversion.
   std::size_t shapes = 0, vertices = 0, triangles = 0;
   for (const BodyState& body : request.bodies) countGeometry(body, shapes, vertices, triangles);
   core::checkGeometrySize(shapes, vertices, triangles, limits_);
 
-  core::DetectionInput input;
+  detection::DetectionInput input;
   input.options = fromMsg(request.detection, contact_tolerance);
   input.options.max_contacts_per_pair = max_contacts_per_pair_;
   // What the solver would accept, within the request's time budget.
@@ -262,10 +263,10 @@ core::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Re
         geometryFromMsg(request.bodies[i], "bodies[" + std::to_string(i) + "]"));
     input.materials.push_back(request.bodies[i].material);
   }
-  std::unique_ptr<core::ContactDetector> detector = acquireDetector();
+  std::unique_ptr<detection::ContactDetector> detector = acquireDetector();
   // Back to the pool after a detection; one that threw (its cache half rebuilt) is dropped.
-  core::DetectedContacts found =
-      core::detectContacts(*detector, scene.bodies, input, materials_, limits_);
+  detection::DetectedContacts found =
+      detection::detectContacts(*detector, scene.bodies, input, materials_, limits_);
   releaseDetector(std::move(detector));
   return found;
 }
@@ -307,7 +308,7 @@ void CollisionResponseServer::solve(ComputeResponse::Request& request,
     const core::SolverOptions options = fromMsg(request.options, defaults_now.options);
     if (wantsDetection(request)) {
       core::validate(scene, options, limits_);  // detection needs valid poses
-      const core::DetectedContacts detected =
+      const detection::DetectedContacts detected =
           detect(request, scene, options, defaults_now.contact_tolerance);
       response.detected_contacts.reserve(detected.contacts.size());
       for (const core::Contact& contact : detected.contacts)

@@ -2,8 +2,8 @@
 
 #include <cmath>
 
-#include "collision_response/errors.h"
-#include "collision_response/validation.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/validation.h"
 
 namespace collision_response {
 
@@ -112,7 +112,7 @@ void countGeometry(const BodyState& msg, std::size_t& shapes, std::size_t& verti
   }
 }
 
-core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& field) {
+detection::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& field) {
   const auto checkCount = [&](std::size_t shapes, std::size_t poses, const char* name) {
     if (shapes != poses) {
       throw core::InvalidInput(field + "." + name, "has " + std::to_string(poses) +
@@ -142,24 +142,24 @@ core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& fiel
     return out;
   };
 
-  core::BodyGeometry geometry;
+  detection::BodyGeometry geometry;
   geometry.shapes.reserve(msg.primitives.size() + msg.meshes.size() + msg.planes.size());
   for (std::size_t i = 0; i < msg.primitives.size(); ++i) {
     const shape_msgs::SolidPrimitive& primitive = msg.primitives[i];
     const std::string index = "[" + std::to_string(i) + "]";
-    core::Shape shape;
+    detection::Shape shape;
     switch (primitive.type) {
       case shape_msgs::SolidPrimitive::BOX:
-        shape.type = core::Shape::Type::kBox;
+        shape.type = detection::Shape::Type::kBox;
         break;
       case shape_msgs::SolidPrimitive::SPHERE:
-        shape.type = core::Shape::Type::kSphere;
+        shape.type = detection::Shape::Type::kSphere;
         break;
       case shape_msgs::SolidPrimitive::CYLINDER:
-        shape.type = core::Shape::Type::kCylinder;
+        shape.type = detection::Shape::Type::kCylinder;
         break;
       case shape_msgs::SolidPrimitive::CONE:
-        shape.type = core::Shape::Type::kCone;
+        shape.type = detection::Shape::Type::kCone;
         break;
       default:
         throw core::InvalidInput(field + ".primitives" + index + ".type",
@@ -173,8 +173,8 @@ core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& fiel
   for (std::size_t i = 0; i < msg.meshes.size(); ++i) {
     const shape_msgs::Mesh& mesh = msg.meshes[i];
     const std::string index = "[" + std::to_string(i) + "]";
-    core::Shape shape;
-    shape.type = core::Shape::Type::kMesh;
+    detection::Shape shape;
+    shape.type = detection::Shape::Type::kMesh;
     shape.vertices.reserve(mesh.vertices.size());
     for (const geometry_msgs::Point& v : mesh.vertices) shape.vertices.push_back(toEigen(v));
     shape.triangles.reserve(mesh.triangles.size());
@@ -196,8 +196,8 @@ core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& fiel
     geometry.shapes.push_back(std::move(shape));
   }
   for (std::size_t i = 0; i < msg.planes.size(); ++i) {
-    core::Shape shape;
-    shape.type = core::Shape::Type::kPlane;
+    detection::Shape shape;
+    shape.type = detection::Shape::Type::kPlane;
     shape.dimensions.assign(msg.planes[i].coef.begin(), msg.planes[i].coef.end());
     shape.pose = pose(msg.plane_poses[i], field + ".plane_poses[" + std::to_string(i) + "]");
     geometry.shapes.push_back(std::move(shape));
@@ -205,8 +205,8 @@ core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& fiel
   return geometry;
 }
 
-core::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance) {
-  core::DetectionOptions options;
+detection::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance) {
+  detection::DetectionOptions options;
   options.contact_tolerance =
       msg.contact_tolerance != 0.0 ? msg.contact_tolerance : default_tolerance;
   return options;

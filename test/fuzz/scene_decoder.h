@@ -27,10 +27,10 @@
 #include <string>
 #include <vector>
 
-#include "collision_response/collision_solver.h"
-#include "collision_response/errors.h"
-#include "collision_response/scene.h"
-#include "collision_response/solver_options.h"
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/scene.h"
+#include "collision_response/core/solver_options.h"
 
 namespace collision_response::fuzz {
 

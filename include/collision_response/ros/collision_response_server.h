@@ -11,12 +11,12 @@
 #include <mutex>
 #include <vector>
 
-#include "collision_response/contact_detection.h"
-#include "collision_response/detected_contacts.h"
-#include "collision_response/materials.h"
+#include "collision_response/core/scene.h"
+#include "collision_response/core/solver_options.h"
+#include "collision_response/detection/contact_detector.h"
+#include "collision_response/detection/detect_contacts.h"
+#include "collision_response/detection/materials.h"
 #include "collision_response/ros/response_markers.h"
-#include "collision_response/scene.h"
-#include "collision_response/solver_options.h"
 
 namespace diagnostic_updater {
 class DiagnosticStatusWrapper;
@@ -101,12 +101,13 @@ class CollisionResponseServer {
   static bool wantsDetection(const ComputeResponse::Request& request);
   /// Contacts from the bodies' shapes in `scene` (validated, request frame), with a detector of
   /// the pool, within the contact limit and options.time_budget.
-  core::DetectedContacts detect(const ComputeResponse::Request& request, const core::Scene& scene,
-                                const core::SolverOptions& options, double contact_tolerance);
+  detection::DetectedContacts detect(const ComputeResponse::Request& request,
+                                     const core::Scene& scene, const core::SolverOptions& options,
+                                     double contact_tolerance);
 
   /// Detectors keep FCL objects between calls but are not thread-safe: each request borrows one.
-  std::unique_ptr<core::ContactDetector> acquireDetector();
-  void releaseDetector(std::unique_ptr<core::ContactDetector> detector);
+  std::unique_ptr<detection::ContactDetector> acquireDetector();
+  void releaseDetector(std::unique_ptr<detection::ContactDetector> detector);
 
   mutable std::mutex options_mutex_;  // guards default_options_ and contact_tolerance_
   core::SolverOptions default_options_;
@@ -117,9 +118,9 @@ class CollisionResponseServer {
   core::RequestLimits limits_;
   ros::Duration tf_timeout_;
   std::size_t max_contacts_per_pair_ = 8;
-  core::MaterialTable materials_;
+  detection::MaterialTable materials_;
   std::mutex detectors_mutex_;
-  std::vector<std::unique_ptr<core::ContactDetector>> idle_detectors_;
+  std::vector<std::unique_ptr<detection::ContactDetector>> idle_detectors_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Publisher responses_;

@@ -10,12 +10,12 @@
 #include <collision_response/IslandReport.h>
 #include <collision_response/SolverOptions.h>
 
-#include "collision_response/body_state.h"
-#include "collision_response/collision_solver.h"
-#include "collision_response/contact.h"
-#include "collision_response/contact_impulse.h"
-#include "collision_response/detected_contacts.h"
-#include "collision_response/solver_options.h"
+#include "collision_response/core/body_state.h"
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/contact.h"
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/solver_options.h"
+#include "collision_response/detection/detect_contacts.h"
 
 namespace collision_response {
 
@@ -42,11 +42,11 @@ void countGeometry(const BodyState& msg, std::size_t& shapes, std::size_t& verti
 /// the field under `field` (e.g. "bodies[2]"): "bodies[2].primitive_poses" when its count differs
 /// from the primitives' (likewise mesh_poses, plane_poses), "bodies[2].primitives[0].type" for an
 /// unknown type, "bodies[2].primitive_poses[0].orientation" for a zero or non-unit quaternion, an
-/// out-of-range mesh vertex index. Sizes and values are checked by core::detectContacts().
-core::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& field);
+/// out-of-range mesh vertex index. Sizes and values are checked by detection::detectContacts().
+detection::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string& field);
 
 /// Detection settings of a request; a zero contact_tolerance takes `default_tolerance`.
-core::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance);
+detection::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance);
 ContactImpulse toMsg(const core::ContactImpulse& impulse);
 IslandReport toMsg(const core::IslandReport& report);
 

@@ -1,6 +1,6 @@
 // A downstream package calls collision_response's core library through its catkin export.
-#include <collision_response/collision_solver.h>
-#include <collision_response/errors.h>
+#include <collision_response/core/compute_response.h>
+#include <collision_response/core/errors.h>
 #include <gtest/gtest.h>
 
 namespace core = collision_response::core;

@@ -1,0 +1,44 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/scene.h"
+#include "collision_response/core/solver_options.h"
+#include "collision_response/core/warning.h"
+
+namespace collision_response::core {
+
+/// How one island was solved.
+struct IslandReport {
+  std::vector<int> contacts;  ///< indices into Scene::contacts
+  /// "none" (nothing approaching or resting), an impact method of IslandStats, or for islands where
+  /// nothing approaches "resting_closed_form" / "resting_iterative" (resting-contact forces).
+  std::string method;
+  std::size_t iterations = 0;
+  double residual = 0.0;
+  bool converged = true;
+};
+
+struct CollisionResult {
+  std::vector<BodyState> bodies;         ///< post-impact states, same order as Scene::bodies
+  std::vector<ContactImpulse> impulses;  ///< one per contact, same order as Scene::contacts
+  double kinetic_energy_before = 0.0;    ///< of the movable bodies [J]
+  double kinetic_energy_after = 0.0;     ///< [J]
+  std::vector<IslandReport> islands;
+  /// Valid input that is usually a mistake, answered as given (see warning.h): a movable-looking
+  /// body with mass 0 (a velocity or an inertia tensor but no mass: it is treated as immovable),
+  /// and a contact separating faster than options.resting_velocity that gets no impulse (a normal
+  /// that points from b to a leaves approaching bodies untouched). In request order of the fields.
+  std::vector<Warning> warnings;
+};
+
+/// Validates the scene (throws InvalidInput naming the field) and computes the post-impact states.
+/// Islands of coupled contacts are solved separately (solveIsland() says how); an island with no
+/// approaching contact gets no impulse, and its resting contacts get the forces of the
+/// force-based Coulomb model (solveRestingIsland()); one without either costs nothing.
+CollisionResult computeResponse(const Scene& scene, const SolverOptions& options = {},
+                                const RequestLimits& limits = {});
+
+}  // namespace collision_response::core

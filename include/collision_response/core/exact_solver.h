@@ -1,0 +1,85 @@
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/contact_row.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/solver_options.h"
+
+namespace collision_response::core {
+
+/// Number D of tangent directions of the friction pyramid: d_k = cos(2 pi k / D) t1 +
+/// sin(2 pi k / D) t2, k = 0..D-1, with (t1, t2) from tangentBasis(n).
+constexpr int kPyramidDirections = 8;
+
+/// The pyramid is inscribed in the Coulomb cone: every friction impulse it allows has
+/// |P_t| <= mu P_n, and a saturated (sliding) one has |P_t| >= cos(pi / D) mu P_n (0.924 for D =
+/// 8), equality along a direction d_k.
+double pyramidFactor();
+
+struct ExactStats {
+  std::size_t pivots = 0;  ///< Lemke pivots, summed over the solves
+  /// Largest violation of the complementarity conditions below, from the final velocities, in
+  /// velocity units (impulses scaled by n^T K n), relative to the largest pre-impact |u|.
+  double residual = 0.0;
+  /// Every LCP was solved and its answer accepted (false: ray termination, pivot cap, or an answer
+  /// refused for its residual).
+  bool converged = false;
+};
+
+/// Newton law for simultaneous contacts, solved exactly by Lemke's method (lcp.h), over the rows
+/// listed in `island`. Same contract as solveIterative(), so either can be used.
+///
+/// Symbols (docs/physics.md, "Symbols and conventions" and "Several simultaneous contacts"):
+/// u the pre-impact relative velocity of a contact, u_n = u.n, u' after; the target normal
+/// velocity is -e u_n for an approaching contact (u_n < 0), 0 otherwise. J maps
+/// the bodies' velocities to the contact velocities along n (and d_1..d_D), W = diag(I3 / m,
+/// Iw^-1) over the movable bodies, and the Delassus matrix A = J W J^T changes u' = u + A P (its
+/// 3x3 diagonal blocks are the contacts' K; shared bodies give the cross terms).
+///
+/// Frictionless rows: the normal LCP
+///   P_n >= 0,  u'_n + e u_n >= 0,  complementary,
+/// with A built from the normals only. A is positive semi-definite, so Lemke finds a solution
+/// whenever one exists (it may not with e > 0: a body wedged between two walls cannot bounce off
+/// one of them); singular A (redundant contacts, e.g. 8 points on a face) is handled by the
+/// lexicographic pivoting. P need not be unique then, but u' is.
+///
+/// Frictional rows (Stewart and Trinkle 1996, Anitescu and Potra 1997), with the pyramid above:
+/// variables P_n, beta_1..D >= 0 (friction impulse P_t = sum_k beta_k d_k) and lambda >= 0 (the
+/// slip speed), with
+///   P_n    complementary to  u'_n + e u_n            >= 0
+///   beta_k complementary to  lambda + d_k . u'_t      >= 0
+///   lambda complementary to  mu P_n - sum_k beta_k    >= 0.
+/// This matrix is copositive but not positive semi-definite. For copositive M, Lemke's method
+/// ends on a ray only if some z >= 0 with M z >= 0, z^T M z = 0 has q^T z < 0 (Cottle, Pang and
+/// Stone, sec. 4.4; the argument of Anitescu and Potra); here that needs impulses inside the
+/// pyramids with zero net effect on every body (bodies jammed against each other) loading a
+/// contact with a restitution target (none occurred in 5000 random scenes of 2-5 bodies and up to
+/// 13 contacts tried during development).
+/// Static and dynamic friction: all contacts start with mu_s; every contact that comes out sliding
+/// (|u'_t| > 0, equivalently lambda > 0) switches to mu_d and the problem is solved again, until no
+/// contact still on mu_s slides (at most one more solve per contact, usually one). `sticking` is
+/// set for a frictional contact with P_n > 0 that ends without slip.
+///
+/// First, one linear solve: if the impulses that give every contact its target normal velocity
+/// without slip (least-norm, A being singular for redundant contacts; solved in the bodies'
+/// velocity unknowns when the contacts outnumber them) are compressive and inside the static
+/// Coulomb cones, they are the answer (every contact active and sticking; the cone, not the
+/// pyramid, bounds them), with no pivot: a box landing flat, a row of touching bodies struck at
+/// one end. Otherwise Lemke. Where Coulomb friction admits several answers, this sticking one is
+/// the one given.
+///
+/// On success the impulses are applied to `bodies` and each listed row's normal_impulse,
+/// friction_impulse and sticking are written (normal velocities are left to the caller). If an
+/// LCP is not solved, or its answer violates the conditions above by more than 1e-3 of the
+/// island's largest pre-impact |u| (round-off of extreme mass ratios stays below 2e-5), zero
+/// impulses are written and applied, and converged is false.
+/// `options` is not used (the law is Newton's; the pivot cap is lcp.h's default, 50 (n + 1) for n
+/// unknowns: 1 per frictionless contact, D + 2 per frictional one).
+ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+                      const std::vector<int>& island, const SolverOptions& options,
+                      std::vector<ContactImpulse>& impulses);
+
+}  // namespace collision_response::core

@@ -1,0 +1,56 @@
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/contact_row.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/solver_options.h"
+
+namespace collision_response::core {
+
+/// Largest island that SolverMethod::kAuto sends to the exact (pivoting) solver; larger ones
+/// iterate.
+constexpr std::size_t kExactSolverMaxContacts = 12;
+/// Largest island the exact solver takes when asked for explicitly (its dense tableau grows as the
+/// square of the contacts); larger ones are an InvalidInput on "options.solver".
+constexpr std::size_t kExactSolverContactLimit = 128;
+
+/// How one island was solved.
+struct IslandStats {
+  /// "closed_form", "impulse_space", "sequential", "exact", "iterative", "exact_then_iterative"
+  /// (automatic choice, the exact solver found no solution), "two_phase_exact" or
+  /// "two_phase_iterative".
+  const char* method = "none";
+  std::size_t iterations = 0;  ///< pivots, iterations or integration steps (1 for closed forms)
+  double residual = 0.0;       ///< the method's own measure of its error (0 for closed forms)
+  bool converged = true;
+};
+
+/// Solves one island (rows listed by index in `island`) under options.law, applying the impulses to
+/// `bodies` and writing each listed row's impulse, normal and friction parts and sticking flag
+/// (normal_velocity_before/after are the caller's).
+///
+/// One contact (SolverMethod::kAuto): Newton in closed form; Poisson and Stronge by impulse-space
+/// integration. Several contacts: Newton by the exact or the iterative solver; Poisson and Stronge
+/// by a two-phase scheme built on the same solvers:
+///   1. compression: the plastic problem (e = 0) with Coulomb friction: no contact approaches and
+///      friction opposes the final slip, so kinetic energy drops by D_c >= 0;
+///   2. restitution: normal impulses R_i = e_i P_c,i at every contact (Poisson). For Stronge they
+///      are scaled down together, if needed, so that the energy they release is at most
+///      e_max^2 D_c. Friction acts through this phase too: with the R_i fixed, the tangential
+///      impulses T_i stick each contact where that needs |T_i| <= mu_s R_i, else slide with
+///      mu_d R_i (solveIterative() with fixed normal impulses: least energy over the cones);
+///   3. a second plastic solve, so that no contact ends approaching, with friction.
+/// Phase 2's normal impulses release 1/2 R^T A R (R.u_c = 0 by complementarity), its friction and
+/// phases 1 and 3 dissipate, so with Stronge kinetic energy never increases; for frictionless
+/// contacts with a common e phase 2 needs no scaling and Poisson and Stronge coincide. The answer
+/// of simultaneous laws is not unique in general (Newton's cradle): this is the simultaneous one.
+/// The one-pass law (the textbook two-pass procedure, docs/physics.md, "The textbook two-pass
+/// procedure and its pitfalls") takes its contacts one at a time, in request order.
+IslandStats solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+                        const std::vector<int>& island, const SolverOptions& options,
+                        std::vector<ContactImpulse>& impulses);
+
+}  // namespace collision_response::core

@@ -1,0 +1,78 @@
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "collision_response/core/deadline.h"
+
+namespace collision_response::core {
+
+/// Impact law relating post- to pre-impact velocities at a contact.
+enum class ImpactLaw {
+  /// Newton restitution u'_n = -e u_n with Coulomb friction, normal and tangential impulses solved
+  /// together: the contact sticks if the sticking impulse lies in the static cone |P_t| <= mu_s
+  /// P_n,
+  /// otherwise it slides with |P_t| = mu_d P_n, and u'_n = -e u_n holds in both cases.
+  kNewton,
+  /// The textbook two-pass procedure (docs/physics.md, "The textbook two-pass procedure and its
+  /// pitfalls"), kept so its error can be measured: the frictionless impulse formula
+  /// (docs/physics.md, "The frictionless impulse formula"), then a friction impulse from the
+  /// pre-impact tangential velocity (with the effective mass 1/(t^T K t) along the tangent) applied
+  /// in a second pass. For off-centre contacts the second pass changes the normal velocity and
+  /// breaks u'_n = -e u_n.
+  kSeedOnePass,
+  /// Poisson (kinetic) restitution: the normal impulse of restitution is e times that of
+  /// compression,
+  /// P_n = (1 + e) P_c, with Coulomb friction integrated along the impact in impulse space (Routh's
+  /// method: slip, stick and slip reversal tracked as they happen).
+  kPoisson,
+  /// Stronge (energetic) restitution: the work of the normal impulse during restitution is -e^2
+  /// times
+  /// its work during compression, with friction integrated as for kPoisson. Kinetic energy never
+  /// increases and the contact separates.
+  kStronge,
+};
+
+/// How a group of coupled contacts (an island) is solved.
+enum class SolverMethod {
+  kAuto,       ///< closed form for an island with one contact, otherwise iterative
+  kIterative,  ///< projected Gauss-Seidel on accumulated impulses, for any number of contacts
+  kExact,      ///< pivoting (Lemke) solve of the linear complementarity problem, for few contacts
+};
+
+struct SolverOptions {
+  ImpactLaw law = ImpactLaw::kStronge;  ///< physically possible by default
+  SolverMethod method = SolverMethod::kAuto;
+  /// Iterative solver: stop when the largest impulse change of an iteration is at most tolerance
+  /// times the largest accumulated impulse (relative, dimensionless).
+  double tolerance = 1e-12;
+  /// Iterative solver: iteration cap; an island that reaches it is reported as not converged.
+  std::size_t max_iterations = 10000;
+  /// Impulse-space integration (kPoisson, kStronge): relative error tolerance on the impulse.
+  double integration_tolerance = 1e-10;
+  /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
+  /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.
+  double resting_velocity = 1e-6;
+  /// Wall time one computeResponse() may spend solving [s], in (0, 3600]; past it, it throws
+  /// SolverTimeout.
+  double time_budget = 1.0;
+  /// Set by computeResponse() from time_budget; callers of the low-level solvers may set it.
+  Deadline deadline;
+};
+
+/// Largest request accepted; larger ones are rejected before any work is done.
+struct RequestLimits {
+  std::size_t max_bodies = 1000;
+  std::size_t max_contacts = 10000;
+  std::size_t max_shapes = 10000;            ///< collision shapes over all bodies
+  std::size_t max_mesh_vertices = 1000000;   ///< mesh vertices over all bodies
+  std::size_t max_mesh_triangles = 1000000;  ///< mesh triangles over all bodies
+};
+
+const char* toString(ImpactLaw law);
+const char* toString(SolverMethod method);
+/// Parse the names toString() gives; false if `name` is none of them.
+bool fromString(const std::string& name, ImpactLaw& law);
+bool fromString(const std::string& name, SolverMethod& method);
+
+}  // namespace collision_response::core

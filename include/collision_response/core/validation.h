@@ -1,0 +1,55 @@
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "collision_response/core/scene.h"
+#include "collision_response/core/solver_options.h"
+
+namespace collision_response::core {
+
+/// Tolerance on |q| - 1 for orientations and on |n| - 1 for contact normals; within it the value is
+/// normalised, beyond it the request is rejected.
+constexpr double kUnitTolerance = 1e-3;
+
+/// Accepted magnitudes; beyond them a request is rejected, naming the field. Physical scenes stay
+/// many orders of magnitude inside (1 g against 1000 t, 1e4 m/s, 1e5 m from the origin), and every
+/// product the solvers form (r^2 / I in K and its 3x3 determinant, m v^2) stays far from overflow.
+struct MagnitudeLimits {
+  static constexpr double kMass[2] = {1e-15, 1e15};     ///< [kg], movable bodies (0 = immovable)
+  static constexpr double kInertia[2] = {1e-30, 1e30};  ///< [kg m^2], principal moments
+  static constexpr double kLength = 1e7;                ///< [m], |position|, |com|, |point|
+  static constexpr double kSpeed = 1e7;                 ///< [m/s] and [rad/s]
+  static constexpr double kForce = 1e18;                ///< [N] and [N m]
+  /// Largest lever arm of a contact over the smallest radius of gyration of its body, |r| / k_min
+  /// with k_min^2 = I_min / m. The contact-space matrix K holds terms up to |r|^2 / I_min next to
+  /// 1 / m: past (1e6)^2 its round-off exceeds 1 / m and n^T K n loses even its sign.
+  static constexpr double kLeverOverGyration = 1e6;
+};
+
+/// Checks a contact's (or a material's) coefficients: finite, e in [0, 1], 0 <= mu_d <= mu_s.
+/// Throws InvalidInput naming `field` + ".restitution", ".static_friction" or ".dynamic_friction".
+void validateCoefficients(double restitution, double static_friction, double dynamic_friction,
+                          const std::string& field);
+
+/// Throws InvalidInput ("bodies" or "contacts") if a request of this size exceeds the limits;
+/// cheap, so a server can call it before converting anything.
+void checkSize(std::size_t body_count, std::size_t contact_count, const RequestLimits& limits);
+
+/// Throws InvalidInput ("bodies") if the request's collision geometry (counted over all bodies)
+/// exceeds the limits; cheap, so a server can call it before converting any shape.
+void checkGeometrySize(std::size_t shapes, std::size_t mesh_vertices, std::size_t mesh_triangles,
+                       const RequestLimits& limits);
+
+/// Checks everything the solvers rely on and throws InvalidInput naming the first offending field:
+/// sizes within limits; finite numbers everywhere; non-empty, unique ids; mass >= 0; for movable
+/// bodies an inertia that is positive definite and satisfies the triangle inequality of principal
+/// moments (an immovable body's inertia is ignored); a non-zero, unit orientation; contacts naming
+/// two different known bodies, not both immovable; a non-zero, unit normal; e in [0, 1];
+/// 0 <= mu_d <= mu_s; solver options in range. Returns, per contact, the indices of body_a and
+/// body_b in scene.bodies.
+std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,
+                                          const RequestLimits& limits);
+
+}  // namespace collision_response::core

@@ -1,0 +1,458 @@
+// Routh's method for one frictional contact (docs/physics.md, "Frictional impact in impulse
+// space").
+//
+// Symbols, in the contact basis (t1, t2, n) of tangentBasis():
+//   K = [A b; b^T c]   contact-space inverse mass matrix: A = K_tt (2x2), b = K_tn, c = K_nn
+//   p = P_n            normal impulse, the time-like variable [N s]
+//   P_t                tangential (friction) impulse [N s]
+//   u_t = u0_t + A P_t + b p,  u_n = u0_n + b.P_t + c p      relative contact velocity [m/s]
+//   sigma = |u_t|, s = u_t / sigma                           slip speed and direction
+//   g(s) = b - mu_d A s                                      du_t/dp while sliding
+//   sigma' = s.g(s)                                          d sigma/dp while sliding
+//   W(p) = integral_0^p u_n dp                               work of the normal impulse [J]
+//   p_c, W_c                                                 values at maximum compression (u_n =
+//   0) end: Poisson p = (1 + e) p_c; Stronge W = (1 - e^2) W_c
+//
+// Rotating slip is integrated in xi with dp/dxi = sigma, which removes the 1/sigma singularity of
+// ds/dp at stick: dP_t/dxi = -mu_d u_t, dW/dxi = sigma u_n are Lipschitz, and stick becomes an
+// equilibrium approached exponentially. The last piece into stick is taken in closed form
+// (approachStick) once the slip direction has settled near an attracting direction.
+// Fallback: a segment or step budget overrun, or a segment that can never end (impossible for
+// positive definite K, where u_n falling during compression forces the slip to slow), finishes
+// the impact with the perfectly plastic sticking impulse -K^-1 u (u' = 0, no energy gain).
+#include "collision_response/core/impulse_space_integrator.h"
+
+#include <Eigen/Core>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "collision_response/core/single_contact.h"
+
+namespace collision_response::core {
+namespace {
+
+using Vec2 = Eigen::Vector2d;
+using Mat2 = Eigen::Matrix2d;
+using Vec4 = Eigen::Vector4d;  // integrated state (p, P_t1, P_t2, W)
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::size_t kMaxSegments = 16;
+constexpr std::size_t kMaxSteps = 20000;
+/// Slip speeds below this fraction of |u0| count as u_t = 0.
+constexpr double kStickSpeed = 1e-14;
+/// |s x g| below this fraction of |b| + mu_d |A| counts as a constant slip direction.
+constexpr double kParallel = 1e-12;
+
+double cross2(const Vec2& x, const Vec2& y) {
+  return x.x() * y.y() - x.y() * y.x();
+}
+
+struct Problem {
+  Mat2 A;
+  Vec2 b;
+  double c;
+  Vec2 u0_t;
+  double u0_n;
+  double e;
+  double mu_s;
+  double mu_d;
+  bool stronge;
+  double J;    ///< impulse scale |u0| / c [N s]
+  double V;    ///< velocity scale |u0| [m/s]
+  double tol;  ///< relative error tolerance
+
+  Vec2 slip(double p, const Vec2& P_t) const { return u0_t + A * P_t + b * p; }
+  double normal(double p, const Vec2& P_t) const { return u0_n + b.dot(P_t) + c * p; }
+};
+
+struct State {
+  double p = 0.0;
+  Vec2 P_t = Vec2::Zero();
+  double W = 0.0;
+  bool restitution = false;
+  bool done = false;
+  double p_c = 0.0;
+  double W_c = 0.0;
+  double p_end = kInf;
+  double W_end = kInf;
+
+  Vec4 vec() const { return Vec4(p, P_t.x(), P_t.y(), W); }
+  void set(const Vec4& y) {
+    p = y[0];
+    P_t = y.segment<2>(1);
+    W = y[3];
+  }
+};
+
+/// Maximum compression reached: fix the law's end condition, and end at once if it already holds.
+void beginRestitution(const Problem& pr, State& st) {
+  st.restitution = true;
+  st.p_c = st.p;
+  st.W_c = st.W;
+  st.p_end = (1.0 + pr.e) * st.p_c;
+  st.W_end = (1.0 - pr.e * pr.e) * st.W_c;
+  st.done = pr.stronge ? st.W >= st.W_end : st.p >= st.p_end;
+}
+
+/// Smallest x >= 0 with D = u_n x + h x^2 / 2 (the Stronge end on a linear segment), or kInf.
+double strongeDistance(double D, double u_n, double h) {
+  if (D <= 0.0) return 0.0;
+  const double disc = u_n * u_n + 2.0 * h * D;
+  if (disc < 0.0) return kInf;
+  if (u_n >= 0.0) {
+    const double den = u_n + std::sqrt(disc);
+    return den > 0.0 ? 2.0 * D / den : kInf;
+  }
+  return h > 0.0 ? (std::sqrt(disc) - u_n) / h : kInf;
+}
+
+/// Closed-form segment: constant rates dP_t/dp = r, du_n/dp = h = c + b.r, for at most x_max in
+/// p, stopping early at maximum compression (then continuing) and at the end of the impact.
+/// Returns false if the segment is unbounded and never ends (a jam).
+bool advanceLinear(const Problem& pr, State& st, const Vec2& r, double x_max) {
+  const double h = pr.c + pr.b.dot(r);
+  while (!st.done) {
+    const double u_n = pr.normal(st.p, st.P_t);
+    double x;
+    if (!st.restitution) {
+      x = u_n >= 0.0 ? 0.0 : (h > 0.0 ? -u_n / h : kInf);
+    } else if (pr.stronge) {
+      x = strongeDistance(st.W_end - st.W, u_n, h);
+    } else {
+      x = std::max(0.0, st.p_end - st.p);
+    }
+    const bool event = x <= x_max;
+    if (!event) {
+      if (x_max == kInf) return false;
+      x = x_max;
+    }
+    st.p += x;
+    st.P_t += r * x;
+    st.W += (u_n + 0.5 * h * x) * x;
+    if (!event) return true;
+    x_max -= x;
+    if (!st.restitution) {
+      beginRestitution(pr, st);
+    } else {
+      if (!pr.stronge) st.p = st.p_end;
+      st.done = true;
+    }
+  }
+  return true;
+}
+
+/// Slip direction on leaving stick: (lambda I + mu_d A) s = b, |s| = 1, lambda > 0, so that
+/// du_t/dp = lambda s and friction -mu_d s opposes the growing slip. Requires
+/// |A^-1 b| > mu_d. Safeguarded Newton on 1 - 1/|s(lambda)| (nearly linear in lambda).
+Vec2 resumeDirection(const Problem& pr) {
+  const Mat2 M = pr.mu_d * pr.A;
+  const double mean = 0.5 * M.trace();
+  const double half = std::hypot(0.5 * (M(0, 0) - M(1, 1)), M(0, 1));
+  const double b_norm = pr.b.norm();
+  double lo = std::max(0.0, b_norm - (mean + half));
+  double hi = std::max(lo, b_norm - (mean - half));
+  auto solve = [&](double lambda) {
+    Mat2 L = M;
+    L.diagonal().array() += lambda;
+    return Vec2(L.inverse() * pr.b);
+  };
+  double lambda = 0.5 * (lo + hi);
+  for (int i = 0; i < 60 && hi - lo > 1e-15 * hi; ++i) {
+    Mat2 L = M;
+    L.diagonal().array() += lambda;
+    const Mat2 Li = L.inverse();
+    const Vec2 s = Li * pr.b;
+    const double norm = s.norm();
+    const double phi = 1.0 - 1.0 / norm;  // decreasing in lambda
+    if (phi > 0.0)
+      lo = lambda;
+    else
+      hi = lambda;
+    const double dphi = -s.dot(Li * s) / (norm * norm * norm);
+    double next = dphi < 0.0 ? lambda - phi / dphi : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - lambda) <= 1e-15 * lambda) {
+      lambda = next;
+      break;
+    }
+    lambda = next;
+  }
+  return solve(lambda).normalized();
+}
+
+/// u_t = 0: stick while the sticking rate tau = -A^-1 b lies in the static cone, otherwise slip
+/// resumes along resumeDirection(). Both are final segments. Returns false on a jam.
+bool stickOrResume(const Problem& pr, State& st, bool& sticking) {
+  const Vec2 tau = -(pr.A.inverse() * pr.b);
+  if (tau.norm() <= std::max(pr.mu_s, pr.mu_d)) {
+    sticking = true;
+    return advanceLinear(pr, st, tau, kInf);
+  }
+  return advanceLinear(pr, st, -pr.mu_d * resumeDirection(pr), kInf);
+}
+
+// Dormand-Prince 5(4) tableau.
+constexpr double a21 = 1.0 / 5;
+constexpr double a31 = 3.0 / 40, a32 = 9.0 / 40;
+constexpr double a41 = 44.0 / 45, a42 = -56.0 / 15, a43 = 32.0 / 9;
+constexpr double a51 = 19372.0 / 6561, a52 = -25360.0 / 2187, a53 = 64448.0 / 6561,
+                 a54 = -212.0 / 729;
+constexpr double a61 = 9017.0 / 3168, a62 = -355.0 / 33, a63 = 46732.0 / 5247, a64 = 49.0 / 176,
+                 a65 = -5103.0 / 18656;
+constexpr double b1 = 35.0 / 384, b3 = 500.0 / 1113, b4 = 125.0 / 192, b5 = -2187.0 / 6784,
+                 b6 = 11.0 / 84;
+constexpr double e1 = 71.0 / 57600, e3 = -71.0 / 16695, e4 = 71.0 / 1920, e5 = -17253.0 / 339200,
+                 e6 = 22.0 / 525, e7 = -1.0 / 40;
+
+/// d(p, P_t, W)/dxi while sliding, with dp/dxi = sigma.
+inline Vec4 slipField(const Problem& pr, const Vec4& y) {
+  const double p = y[0], P1 = y[1], P2 = y[2];
+  const double u1 = pr.u0_t.x() + pr.A(0, 0) * P1 + pr.A(0, 1) * P2 + pr.b.x() * p;
+  const double u2 = pr.u0_t.y() + pr.A(1, 0) * P1 + pr.A(1, 1) * P2 + pr.b.y() * p;
+  const double u_n = pr.u0_n + pr.b.x() * P1 + pr.b.y() * P2 + pr.c * p;
+  const double sigma = std::sqrt(u1 * u1 + u2 * u2);
+  return Vec4(sigma, -pr.mu_d * u1, -pr.mu_d * u2, sigma * u_n);
+}
+
+/// One Dormand-Prince step of size h from (y, f = F(y)); returns y1, f1 = F(y1) and the error
+/// estimate (max norm, scaled by the impulse scale J and the work scale V J).
+double dopriStep(const Problem& pr, const Vec4& y, const Vec4& f, double h, Vec4& y1, Vec4& f1) {
+  const Vec4& k1 = f;
+  const Vec4 k2 = slipField(pr, y + h * (a21 * k1));
+  const Vec4 k3 = slipField(pr, y + h * (a31 * k1 + a32 * k2));
+  const Vec4 k4 = slipField(pr, y + h * (a41 * k1 + a42 * k2 + a43 * k3));
+  const Vec4 k5 = slipField(pr, y + h * (a51 * k1 + a52 * k2 + a53 * k3 + a54 * k4));
+  const Vec4 k6 = slipField(pr, y + h * (a61 * k1 + a62 * k2 + a63 * k3 + a64 * k4 + a65 * k5));
+  y1 = y + h * (b1 * k1 + b3 * k3 + b4 * k4 + b5 * k5 + b6 * k6);
+  f1 = slipField(pr, y1);
+  Vec4 err = h * (e1 * k1 + e3 * k3 + e4 * k4 + e5 * k5 + e6 * k6 + e7 * f1);
+  err.head<3>() /= pr.J;
+  err[3] /= pr.J * pr.V;
+  return err.cwiseAbs().maxCoeff();
+}
+
+/// The event of the current phase as a linear function grad.y + offset of the state: u_n during
+/// compression, then p - p_end (Poisson) or W - W_end (Stronge).
+void phaseEvent(const Problem& pr, const State& st, Vec4& grad, double& offset) {
+  if (!st.restitution) {
+    grad << pr.c, pr.b.x(), pr.b.y(), 0.0;
+    offset = pr.u0_n;
+  } else if (pr.stronge) {
+    grad << 0.0, 0.0, 0.0, 1.0;
+    offset = -st.W_end;
+  } else {
+    grad << 1.0, 0.0, 0.0, 0.0;
+    offset = -st.p_end;
+  }
+}
+
+/// Root in (0, 1] of the cubic Hermite interpolant of an event value over a step, e0 < 0 <= e1,
+/// with slopes d0, d1 per unit theta.
+double hermiteRoot(double e0, double d0, double e1, double d1) {
+  double lo = 0.0, hi = 1.0, t = e0 / (e0 - e1);
+  for (int i = 0; i < 30; ++i) {
+    const double t2 = t * t, t3 = t2 * t;
+    const double v = (2 * t3 - 3 * t2 + 1) * e0 + (t3 - 2 * t2 + t) * d0 + (3 * t2 - 2 * t3) * e1 +
+                     (t3 - t2) * d1;
+    const double dv =
+        (6 * t2 - 6 * t) * (e0 - e1) + (3 * t2 - 4 * t + 1) * d0 + (3 * t2 - 2 * t) * d1;
+    if (v < 0.0)
+      lo = t;
+    else
+      hi = t;
+    double next = dv != 0.0 ? t - v / dv : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - t) <= 1e-14) return next;
+    t = next;
+  }
+  return t;
+}
+
+/// Near stick, slip is self-similar: with theta the angle of s, dtheta/dln(sigma) = R(theta) =
+/// (s x g) / (s.g), and sigma' = s.g < 0. About an attracting direction theta* (R = 0, k = R' > 0)
+/// the angle error delta = theta - theta* = R / k decays as sigma^k, so the remaining piece, of
+/// length sigma / -sigma' in p, equals to O(delta^2) the linear one with s taken at the weighted
+/// mean angle theta - R / (1 + k). Takes that piece (closed form) and returns true once its error
+/// (1 + mu_d) (sigma / -sigma') delta^2 is below the tolerance, or once the piece itself is.
+bool approachStick(const Problem& pr, State& st) {
+  const Vec2 u_t = pr.slip(st.p, st.P_t);
+  const double sigma = u_t.norm();
+  const Vec2 s = u_t / sigma;
+  const Vec2 g = pr.b - pr.mu_d * (pr.A * s);
+  const double rate = s.dot(g);  // sigma'
+  if (sigma <= kStickSpeed * pr.V) return advanceLinear(pr, st, -pr.mu_d * s, 0.0);
+  if (!(rate < 0.0)) return false;
+  const double remaining = sigma / -rate;
+  const double budget = 0.1 * pr.tol * pr.J;
+  if (remaining <= budget) return advanceLinear(pr, st, -pr.mu_d * s, remaining);
+  const Vec2 s_perp(-s.y(), s.x());
+  const Vec2 g_theta = -pr.mu_d * (pr.A * s_perp);
+  const double cross = cross2(s, g);
+  const double R = cross / rate;
+  const double k =
+      ((cross2(s_perp, g) + cross2(s, g_theta)) * rate - cross * (s_perp.dot(g) + s.dot(g_theta))) /
+      (rate * rate);
+  if (!(k > 0.0)) return false;
+  const double delta = R / k;
+  if (std::abs(delta) > 0.1 || (1.0 + pr.mu_d) * remaining * delta * delta > budget) return false;
+  const double phi = -R / (1.0 + k);
+  const Vec2 s_mean = std::cos(phi) * s + std::sin(phi) * s_perp;
+  const double rate_mean = s_mean.dot(pr.b - pr.mu_d * (pr.A * s_mean));
+  if (!(rate_mean < 0.0)) return false;
+  return advanceLinear(pr, st, -pr.mu_d * s_mean, sigma / -rate_mean);
+}
+
+/// Rotating slip: integrates until the impact ends or slip stops (returns with `stuck` set after
+/// the closed-form last piece). Returns false if the step budget is exhausted.
+bool integrateSlip(const Problem& pr, State& st, bool& stuck, IntegrationStats& stats) {
+  const double rate = pr.b.norm() + pr.mu_d * pr.A.norm();  // bounds |d u_t/dxi| / sigma
+  const double h_max = 2.0 / rate;                          // inside DP5's stability region
+  Vec4 y = st.vec();
+  Vec4 f = slipField(pr, y);
+  double h = std::min(h_max, 0.05 * pr.J / std::max(f[0], kStickSpeed * pr.V));
+  const double order = 0.2;
+  while (true) {
+    if (approachStick(pr, st)) {
+      stuck = true;
+      return true;
+    }
+    if (stats.steps >= kMaxSteps) return false;
+    ++stats.steps;
+    Vec4 y1, f1;
+    h = std::min(h, h_max);
+    const double err = dopriStep(pr, y, f, h, y1, f1) / pr.tol;
+    if (!(err <= 1.0)) {
+      h *= std::isfinite(err) ? std::max(0.2, 0.9 * std::pow(err, -order)) : 0.2;
+      continue;
+    }
+    stats.error_estimate += err * pr.tol;
+    Vec4 grad;
+    double offset;
+    phaseEvent(pr, st, grad, offset);
+    const double ev1 = grad.dot(y1) + offset;
+    if (ev1 >= 0.0) {
+      // Locate the event, retake the step to it, polish with one Euler step on the event value.
+      const double ev0 = grad.dot(y) + offset;
+      const double theta =
+          ev0 < 0.0 ? hermiteRoot(ev0, h * grad.dot(f), ev1, h * grad.dot(f1)) : 0.0;
+      if (theta > 0.0) {
+        ++stats.steps;
+        dopriStep(pr, y, f, theta * h, y1, f1);
+      } else {
+        y1 = y;
+        f1 = f;
+      }
+      const double slope = grad.dot(f1);
+      if (slope > 0.0) y1 -= ((grad.dot(y1) + offset) / slope) * f1;
+      st.set(y1);
+      if (!st.restitution) {
+        beginRestitution(pr, st);
+      } else {
+        if (pr.stronge)
+          st.W = st.W_end;
+        else
+          st.p = st.p_end;
+        st.done = true;
+      }
+      if (st.done) return true;
+      y = st.vec();
+      f = slipField(pr, y);
+      continue;
+    }
+    y = y1;
+    f = f1;
+    st.set(y);
+    h *= std::min(5.0, 0.9 * std::pow(std::max(err, 1e-10), -order));
+  }
+}
+
+}  // namespace
+
+ContactImpulse integrateSingleContact(const RigidBody& a, const RigidBody& b, const ContactRow& row,
+                                      ImpactLaw law, double tolerance, IntegrationStats* stats) {
+  if (law != ImpactLaw::kPoisson && law != ImpactLaw::kStronge) {
+    return solveSingleContact(a, b, row, law);
+  }
+  IntegrationStats local;
+  IntegrationStats& st_out = stats ? *stats : local;
+  st_out = IntegrationStats();
+
+  ContactImpulse impulse;
+  const Eigen::Vector3d& n = row.normal;
+  const Eigen::Matrix3d& K = row.space.K;
+  const Eigen::Vector3d u = row.space.relativeVelocity(a, b);
+  const double u_n = u.dot(n);
+  impulse.normal_velocity_before = u_n;
+  impulse.normal_velocity_after = u_n;
+  const double K_nn = n.dot(K * n);
+  if (u_n >= 0.0 || !(K_nn > 0.0)) return impulse;
+
+  // Contact basis: B = [t1 t2 n], K' = B^T K B.
+  Eigen::Vector3d t1, t2;
+  tangentBasis(n, t1, t2);
+  Eigen::Matrix3d B;
+  B << t1, t2, n;
+  const Eigen::Matrix3d Kc = B.transpose() * K * B;
+  Problem pr;
+  pr.A = Kc.topLeftCorner<2, 2>();
+  pr.b = Kc.topRightCorner<2, 1>();
+  pr.c = Kc(2, 2);
+  pr.u0_t = Vec2(t1.dot(u), t2.dot(u));
+  pr.u0_n = u_n;
+  pr.e = row.restitution;
+  pr.mu_s = row.static_friction;
+  pr.mu_d = row.dynamic_friction;
+  pr.stronge = law == ImpactLaw::kStronge;
+  pr.V = u.norm();
+  pr.J = pr.V / pr.c;
+  pr.tol = std::max(tolerance, 1e-15);
+
+  State st;
+  bool stuck = false;
+  bool ok = true;
+  while (!st.done && ok) {
+    if (++st_out.segments > kMaxSegments) {
+      ok = false;
+      break;
+    }
+    const Vec2 u_t = pr.slip(st.p, st.P_t);
+    const double sigma = u_t.norm();
+    if (stuck || sigma <= kStickSpeed * pr.V) {
+      ok = stickOrResume(pr, st, impulse.sticking);
+      break;
+    }
+    const Vec2 s = u_t / sigma;
+    const Vec2 g = pr.b - pr.mu_d * (pr.A * s);
+    const bool parallel =
+        std::abs(cross2(s, g)) <= kParallel * (pr.b.norm() + pr.mu_d * pr.A.norm());
+    if (parallel || pr.mu_d == 0.0) {
+      // Constant slip direction: u is linear in p until slip stops at sigma / -sigma'.
+      const double sigma_rate = s.dot(g);
+      const double x_stop = parallel && sigma_rate < 0.0 ? sigma / -sigma_rate : kInf;
+      ok = advanceLinear(pr, st, -pr.mu_d * s, x_stop);
+      stuck = true;
+    } else {
+      ok = integrateSlip(pr, st, stuck, st_out);
+    }
+  }
+
+  Eigen::Vector3d P = st.p * n + st.P_t.x() * t1 + st.P_t.y() * t2;
+  if (!ok) {
+    // Fallback: finish with the perfectly plastic sticking impulse from the current state,
+    // u' = 0, which never adds kinetic energy (it removes u^T K^-1 u / 2).
+    st_out.fallback = true;
+    P -= K.inverse() * (u + K * P);
+    impulse.sticking = true;
+  }
+  if (row.frictionless()) impulse.sticking = false;  // nothing holds it (contact_impulse.h)
+  st_out.compression_impulse = st.p_c;
+  st_out.compression_work = st.W_c;
+  impulse.normal_impulse = P.dot(n);
+  impulse.friction_impulse = P - impulse.normal_impulse * n;
+  impulse.normal_velocity_after = u_n + n.dot(K * P);
+  return impulse;
+}
+
+}  // namespace collision_response::core

@@ -1,0 +1,258 @@
+#include "collision_response/core/validation.h"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+#include "collision_response/core/errors.h"
+
+namespace collision_response::core {
+namespace {
+
+std::string indexed(const char* array, std::size_t i) {
+  return std::string(array) + "[" + std::to_string(i) + "]";
+}
+
+std::string describe(double value) {
+  std::ostringstream out;
+  out.precision(17);
+  out << value;
+  return out.str();
+}
+
+// The checks take the field's name in pieces (base + suffix + detail) and join them only to
+// report a failure: a valid request builds no strings (validation runs on every call).
+void requireFinite(double value, const std::string& base, const char* suffix,
+                   const char* detail = "") {
+  if (!std::isfinite(value)) {
+    throw InvalidInput(base + suffix + detail, "is not a finite number (" + describe(value) + ")");
+  }
+}
+
+void requireFinite(const Eigen::Vector3d& v, const std::string& base, const char* suffix) {
+  static const char* const kAxes[] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i) requireFinite(v[i], base, suffix, kAxes[i]);
+}
+
+void requireAtMost(const Eigen::Vector3d& v, double limit, const char* unit,
+                   const std::string& base, const char* suffix) {
+  if (v.norm() > limit) {
+    throw InvalidInput(base + suffix, "magnitude " + describe(v.norm()) + " " + unit +
+                                          " exceeds the accepted " + describe(limit) + " " + unit);
+  }
+}
+
+// Returns the smallest principal moment [kg m^2].
+double validateInertia(const Eigen::Matrix3d& inertia, const std::string& body_field) {
+  const auto field = [&] { return body_field + ".inertia"; };
+  if (!inertia.isApprox(inertia.transpose(), 1e-12))
+    throw InvalidInput(field(), "is not symmetric");
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d moments = solver.eigenvalues();  // ascending
+  const double scale = moments.cwiseAbs().maxCoeff();
+  if (!(moments[0] > 1e-12 * scale) || scale == 0.0) {
+    throw InvalidInput(field(), "is not positive definite (principal moments " +
+                                    describe(moments[0]) + ", " + describe(moments[1]) + ", " +
+                                    describe(moments[2]) + ")");
+  }
+  if (moments[0] < MagnitudeLimits::kInertia[0] || moments[2] > MagnitudeLimits::kInertia[1]) {
+    throw InvalidInput(field(), "principal moments " + describe(moments[0]) + " .. " +
+                                    describe(moments[2]) + " kg m^2 leave the accepted range [" +
+                                    describe(MagnitudeLimits::kInertia[0]) + ", " +
+                                    describe(MagnitudeLimits::kInertia[1]) + "]");
+  }
+  if (moments[0] + moments[1] < moments[2] * (1.0 - 1e-9)) {
+    throw InvalidInput(field(), "violates the triangle inequality of principal moments (" +
+                                    describe(moments[0]) + " + " + describe(moments[1]) + " < " +
+                                    describe(moments[2]) + ")");
+  }
+  return moments[0];
+}
+
+// Returns the smallest principal moment [kg m^2] of a movable body, 0 for an immovable one.
+double validateBody(const BodyState& body, const std::string& field) {
+  if (body.id.empty()) throw InvalidInput(field + ".id", "is empty");
+  requireFinite(body.mass, field, ".inertia.m");
+  requireFinite(body.com, field, ".inertia.com");
+  static const char* const kInertia[3][3] = {
+      {"ixx", "ixy", "ixz"}, {"ixy", "iyy", "iyz"}, {"ixz", "iyz", "izz"}};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = r; c < 3; ++c)
+      requireFinite(body.inertia(r, c), field, ".inertia.", kInertia[r][c]);
+  }
+  requireFinite(body.position, field, ".pose.position");
+  const Eigen::Vector4d q = body.orientation.coeffs();
+  static const char* const kQuaternion[] = {".x", ".y", ".z", ".w"};
+  for (int i = 0; i < 4; ++i) requireFinite(q[i], field, ".pose.orientation", kQuaternion[i]);
+  requireFinite(body.linear_velocity, field, ".twist.linear");
+  requireFinite(body.angular_velocity, field, ".twist.angular");
+  requireFinite(body.force, field, ".wrench.force");
+  requireFinite(body.torque, field, ".wrench.torque");
+
+  if (body.mass < 0.0)
+    throw InvalidInput(field + ".inertia.m", "is negative (" + describe(body.mass) + " kg)");
+  if (body.mass != 0.0 &&
+      (body.mass < MagnitudeLimits::kMass[0] || body.mass > MagnitudeLimits::kMass[1])) {
+    throw InvalidInput(field + ".inertia.m",
+                       describe(body.mass) + " kg leaves the accepted range [" +
+                           describe(MagnitudeLimits::kMass[0]) + ", " +
+                           describe(MagnitudeLimits::kMass[1]) + "] (0 = immovable)");
+  }
+  requireAtMost(body.com, MagnitudeLimits::kLength, "m", field, ".inertia.com");
+  requireAtMost(body.position, MagnitudeLimits::kLength, "m", field, ".pose.position");
+  requireAtMost(body.linear_velocity, MagnitudeLimits::kSpeed, "m/s", field, ".twist.linear");
+  requireAtMost(body.angular_velocity, MagnitudeLimits::kSpeed, "rad/s", field, ".twist.angular");
+  requireAtMost(body.force, MagnitudeLimits::kForce, "N", field, ".wrench.force");
+  requireAtMost(body.torque, MagnitudeLimits::kForce, "N m", field, ".wrench.torque");
+  const double q_norm = q.norm();
+  if (q_norm == 0.0) throw InvalidInput(field + ".pose.orientation", "is a zero quaternion");
+  if (std::abs(q_norm - 1.0) > kUnitTolerance) {
+    throw InvalidInput(field + ".pose.orientation",
+                       "is not a unit quaternion (norm " + describe(q_norm) + ")");
+  }
+  return body.immovable() ? 0.0 : validateInertia(body.inertia, field);
+}
+
+// Rejects a contact whose lever arm on a movable body is beyond MagnitudeLimits::kLeverOverGyration
+// times the body's smallest radius of gyration.
+void checkLeverArm(const BodyState& body, std::size_t body_index, double smallest_moment,
+                   const Eigen::Vector3d& point, const std::string& contact_field) {
+  if (body.immovable()) return;
+  const double lever = (point - body.worldCom()).norm();
+  const double gyration = std::sqrt(smallest_moment / body.mass);
+  if (lever > MagnitudeLimits::kLeverOverGyration * gyration) {
+    throw InvalidInput(contact_field + ".point",
+                       "lies " + describe(lever) + " m from the centre of mass of " +
+                           indexed("bodies", body_index) + " ('" + body.id + "'), more than " +
+                           describe(MagnitudeLimits::kLeverOverGyration) +
+                           " times its smallest radius of gyration (" + describe(gyration) +
+                           " m): the impact would be computed without precision");
+  }
+}
+
+}  // namespace
+
+void validateCoefficients(double restitution, double static_friction, double dynamic_friction,
+                          const std::string& field) {
+  requireFinite(restitution, field, ".restitution");
+  requireFinite(static_friction, field, ".static_friction");
+  requireFinite(dynamic_friction, field, ".dynamic_friction");
+  if (restitution < 0.0 || restitution > 1.0) {
+    throw InvalidInput(field + ".restitution",
+                       "must lie in [0, 1] (" + describe(restitution) + ")");
+  }
+  if (static_friction < 0.0) {
+    throw InvalidInput(field + ".static_friction",
+                       "is negative (" + describe(static_friction) + ")");
+  }
+  if (dynamic_friction < 0.0) {
+    throw InvalidInput(field + ".dynamic_friction",
+                       "is negative (" + describe(dynamic_friction) + ")");
+  }
+  if (dynamic_friction > static_friction) {
+    throw InvalidInput(field + ".dynamic_friction", "exceeds static_friction (" +
+                                                        describe(dynamic_friction) + " > " +
+                                                        describe(static_friction) + ")");
+  }
+}
+
+void checkSize(std::size_t body_count, std::size_t contact_count, const RequestLimits& limits) {
+  if (body_count > limits.max_bodies) {
+    throw InvalidInput("bodies", std::to_string(body_count) + " bodies exceed the limit of " +
+                                     std::to_string(limits.max_bodies));
+  }
+  if (contact_count > limits.max_contacts) {
+    throw InvalidInput("contacts", std::to_string(contact_count) +
+                                       " contacts exceed the limit of " +
+                                       std::to_string(limits.max_contacts));
+  }
+}
+
+void checkGeometrySize(std::size_t shapes, std::size_t mesh_vertices, std::size_t mesh_triangles,
+                       const RequestLimits& limits) {
+  const auto check = [](std::size_t count, std::size_t limit, const char* what) {
+    if (count > limit) {
+      throw InvalidInput("bodies", std::to_string(count) + " " + what + " exceed the limit of " +
+                                       std::to_string(limit));
+    }
+  };
+  check(shapes, limits.max_shapes, "collision shapes");
+  check(mesh_vertices, limits.max_mesh_vertices, "mesh vertices");
+  check(mesh_triangles, limits.max_mesh_triangles, "mesh triangles");
+}
+
+std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,
+                                          const RequestLimits& limits) {
+  checkSize(scene.bodies.size(), scene.contacts.size(), limits);
+  if (!(options.tolerance >= 0.0) || !std::isfinite(options.tolerance)) {
+    throw InvalidInput("options.tolerance",
+                       "must be a finite number >= 0 (" + describe(options.tolerance) + ")");
+  }
+  if (!(options.integration_tolerance > 0.0) || !std::isfinite(options.integration_tolerance)) {
+    throw InvalidInput(
+        "options.integration_tolerance",
+        "must be a finite number > 0 (" + describe(options.integration_tolerance) + ")");
+  }
+  if (!(options.resting_velocity >= 0.0) || !std::isfinite(options.resting_velocity)) {
+    throw InvalidInput("options.resting_velocity",
+                       "must be a finite number >= 0 (" + describe(options.resting_velocity) + ")");
+  }
+  if (!(options.time_budget > 0.0) || !(options.time_budget <= 3600.0)) {
+    throw InvalidInput("options.time_budget",
+                       "must lie in (0, 3600] s (" + describe(options.time_budget) + ")");
+  }
+  if (options.max_iterations == 0)
+    throw InvalidInput("options.max_iterations", "must be at least 1");
+
+  std::unordered_map<std::string, int> index_of;
+  index_of.reserve(scene.bodies.size());
+  std::vector<double> smallest_moments(scene.bodies.size());
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const std::string field = indexed("bodies", i);
+    smallest_moments[i] = validateBody(scene.bodies[i], field);
+    const auto [it, inserted] = index_of.emplace(scene.bodies[i].id, static_cast<int>(i));
+    if (!inserted) {
+      throw InvalidInput(field + ".id", "'" + scene.bodies[i].id + "' duplicates bodies[" +
+                                            std::to_string(it->second) + "].id");
+    }
+  }
+
+  std::vector<std::pair<int, int>> contact_bodies;
+  contact_bodies.reserve(scene.contacts.size());
+  for (std::size_t i = 0; i < scene.contacts.size(); ++i) {
+    const Contact& contact = scene.contacts[i];
+    const std::string field = indexed("contacts", i);
+    const auto find = [&](const std::string& id, const char* name) {
+      const auto it = index_of.find(id);
+      if (it == index_of.end())
+        throw InvalidInput(field + "." + name, "names unknown body id '" + id + "'");
+      return it->second;
+    };
+    const int a = find(contact.body_a, "body_a");
+    const int b = find(contact.body_b, "body_b");
+    if (a == b)
+      throw InvalidInput(field + ".body_b",
+                         "is the same body as body_a ('" + contact.body_a + "')");
+    if (scene.bodies[a].immovable() && scene.bodies[b].immovable()) {
+      throw InvalidInput(
+          field, "both bodies ('" + contact.body_a + "', '" + contact.body_b + "') are immovable");
+    }
+    requireFinite(contact.point, field, ".point");
+    requireFinite(contact.normal, field, ".normal");
+    requireAtMost(contact.point, MagnitudeLimits::kLength, "m", field, ".point");
+    const double n_norm = contact.normal.norm();
+    if (n_norm == 0.0) throw InvalidInput(field + ".normal", "is a zero vector");
+    if (std::abs(n_norm - 1.0) > kUnitTolerance) {
+      throw InvalidInput(field + ".normal", "is not a unit vector (norm " + describe(n_norm) + ")");
+    }
+    validateCoefficients(contact.restitution, contact.static_friction, contact.dynamic_friction,
+                         field);
+    checkLeverArm(scene.bodies[a], a, smallest_moments[a], contact.point, field);
+    checkLeverArm(scene.bodies[b], b, smallest_moments[b], contact.point, field);
+    contact_bodies.emplace_back(a, b);
+  }
+  return contact_bodies;
+}
+
+}  // namespace collision_response::core

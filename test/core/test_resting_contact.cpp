@@ -1,0 +1,161 @@
+// The force-based Coulomb model (docs/physics.md, "Resting contacts") for resting contacts,
+// against closed forms.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "collision_response/core/compute_response.h"
+
+namespace core = collision_response::core;
+
+namespace {
+
+constexpr double kG = 9.81;
+
+// Solid ball (m = 1 kg, R = 0.1 m, I = 2/5 m R^2) resting on an immovable floor, contact below
+// the centre (normal +z), gravity -m g z and a horizontal push F x through the centre.
+core::Scene ballOnFloor(double push, double mu_s, double mu_d) {
+  core::BodyState floor;
+  floor.id = "floor";
+  core::BodyState ball;
+  ball.id = "ball";
+  ball.mass = 1.0;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.4 * 0.01;
+  ball.position = {0.0, 0.0, 0.1};
+  ball.force = {push, 0.0, -kG};
+  core::Contact contact;
+  contact.body_a = "floor";
+  contact.body_b = "ball";
+  contact.normal = Eigen::Vector3d::UnitZ();
+  contact.static_friction = mu_s;
+  contact.dynamic_friction = mu_d;
+  core::Scene scene;
+  scene.bodies = {floor, ball};
+  scene.contacts = {contact};
+  return scene;
+}
+
+// Sticking: the contact point must not accelerate. Along z: N = m g. Along x: the ball's centre
+// accelerates at (F + f)/m and the contact point at (F + f)/m + R alpha_y... with alpha = R f / I
+// (the friction f at the bottom spins it), rolling needs (F + f)/m = -R^2 f / I, so
+// f = -F / (1 + m R^2 / I) = -F / 3.5 = -2F/7. It sticks while 2F/7 <= mu_s m g.
+TEST(RestingContact, PushedBallRollsWithTwoSeventhsFriction) {
+  const core::CollisionResult result = core::computeResponse(ballOnFloor(1.0, 0.5, 0.4));
+  const core::ContactImpulse& contact = result.impulses[0];
+  EXPECT_TRUE(contact.resting);
+  EXPECT_NEAR(contact.normal_force, kG, 1e-12);
+  EXPECT_NEAR(contact.friction_force.x(), -2.0 / 7.0, 1e-12);
+  EXPECT_NEAR(contact.friction_force.y(), 0.0, 1e-12);
+  EXPECT_TRUE(contact.sticking);
+  EXPECT_EQ(contact.normal_impulse, 0.0);  // no impact
+  EXPECT_EQ(result.islands[0].method, "resting_closed_form");
+  // Velocities are not changed by a resting analysis.
+  EXPECT_EQ(result.bodies[1].linear_velocity, Eigen::Vector3d::Zero());
+}
+
+// Above the static limit (2 * 30 / 7 = 8.57 N > 0.5 * 9.81 N) it slides: |f| = mu_d m g = 3.924 N,
+// against the push.
+TEST(RestingContact, HardPushedBallSlidesWithDynamicFriction) {
+  const core::ContactImpulse contact =
+      core::computeResponse(ballOnFloor(30.0, 0.5, 0.4)).impulses[0];
+  EXPECT_TRUE(contact.resting);
+  EXPECT_FALSE(contact.sticking);
+  EXPECT_NEAR(contact.normal_force, kG, 1e-12);
+  EXPECT_NEAR(contact.friction_force.x(), -0.4 * kG, 1e-12);
+}
+
+// Just below and just above the static limit F = 3.5 mu_s m g.
+TEST(RestingContact, StaticLimitSeparatesStickFromSlide) {
+  const double limit = 3.5 * 0.5 * kG;
+  EXPECT_TRUE(core::computeResponse(ballOnFloor(0.999 * limit, 0.5, 0.4)).impulses[0].sticking);
+  const auto slide = core::computeResponse(ballOnFloor(1.001 * limit, 0.5, 0.4)).impulses[0];
+  EXPECT_FALSE(slide.sticking);
+  EXPECT_NEAR(slide.friction_force.norm(), 0.4 * kG, 1e-12);
+}
+
+// Already sliding (v = 1 m/s along y, no spin): dynamic friction -mu_d N against the slip
+// (docs/physics.md, "Resting contacts"), whatever the push: f = -mu_d m g y.
+TEST(RestingContact, SlidingBallGetsDynamicFrictionAgainstItsSlip) {
+  core::Scene scene = ballOnFloor(1.0, 0.5, 0.4);
+  scene.bodies[1].linear_velocity = {0.0, 1.0, 0.0};
+  const core::ContactImpulse contact = core::computeResponse(scene).impulses[0];
+  EXPECT_TRUE(contact.resting);
+  EXPECT_FALSE(contact.sticking);
+  EXPECT_NEAR(contact.normal_force, kG, 1e-12);
+  EXPECT_NEAR(contact.friction_force.x(), 0.0, 1e-12);
+  EXPECT_NEAR(contact.friction_force.y(), -0.4 * kG, 1e-12);
+}
+
+// Pulled up harder than gravity: the contact unloads, no force, nothing holds it.
+TEST(RestingContact, LiftedBallGetsNoContactForce) {
+  core::Scene scene = ballOnFloor(1.0, 0.5, 0.4);
+  scene.bodies[1].force.z() = 2.0 * kG;
+  const core::ContactImpulse contact = core::computeResponse(scene).impulses[0];
+  EXPECT_TRUE(contact.resting);
+  EXPECT_EQ(contact.normal_force, 0.0);
+  EXPECT_EQ(contact.friction_force.norm(), 0.0);
+  EXPECT_FALSE(contact.sticking);
+}
+
+// A wheel (the ball) rolling without slip at v = w R along x: the contact point is at rest but
+// accelerates towards the centre at w^2 R (centripetal). Under gravity the floor only has to supply
+// N = m (g - w^2 R); the friction needed is zero.
+TEST(RestingContact, RollingWheelLoadIsReducedByCentripetalAcceleration) {
+  core::Scene scene = ballOnFloor(0.0, 0.5, 0.4);
+  const double R = 0.1, w = 5.0;  // w^2 R = 2.5 m/s^2 < g
+  scene.bodies[1].linear_velocity = {w * R, 0.0, 0.0};
+  scene.bodies[1].angular_velocity = {0.0, w, 0.0};  // w x (0, 0, -R) = (-w R, 0, 0): rolling
+  const core::ContactImpulse contact = core::computeResponse(scene).impulses[0];
+  EXPECT_TRUE(contact.resting);
+  EXPECT_NEAR(contact.normal_force, kG - w * w * R, 1e-12);
+  EXPECT_NEAR(contact.friction_force.norm(), 0.0, 1e-12);
+}
+
+// A box (1 x 0.2 x 1 m, 2 kg) resting flat on four corners, gravity and a push F x through the
+// centre of mass below the static limit. The split between corners is not unique (4 contacts, 3
+// equations), but the totals are: sum N = m g, sum f = -F, and every corner sticks.
+TEST(RestingContact, BoxOnFourCornersHoldsGravityAndPush) {
+  core::BodyState floor;
+  floor.id = "floor";
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 2.0;
+  box.inertia =
+      Eigen::Vector3d(2.0 * (0.04 + 1.0) / 12.0, 2.0 * 2.0 / 12.0, 2.0 * (1.0 + 0.04) / 12.0)
+          .asDiagonal();
+  box.position = {0.0, 0.0, 0.1};
+  box.force = {1.5, 0.0, -2.0 * kG};
+  core::Scene scene;
+  scene.bodies = {floor, box};
+  for (const double x : {-0.5, 0.5}) {
+    for (const double y : {-0.5, 0.5}) {
+      core::Contact contact;
+      contact.body_a = "floor";
+      contact.body_b = "box";
+      contact.point = {x, y, 0.0};
+      contact.normal = Eigen::Vector3d::UnitZ();
+      contact.static_friction = 0.6;
+      contact.dynamic_friction = 0.6;
+      scene.contacts.push_back(contact);
+    }
+  }
+  core::SolverOptions options;
+  options.tolerance = 1e-14;
+  const core::CollisionResult result = core::computeResponse(scene, options);
+  ASSERT_TRUE(result.islands[0].converged);
+  EXPECT_EQ(result.islands[0].method, "resting_iterative");
+  double normal = 0.0;
+  Eigen::Vector3d friction = Eigen::Vector3d::Zero();
+  for (const auto& contact : result.impulses) {
+    EXPECT_TRUE(contact.resting);
+    EXPECT_GE(contact.normal_force, 0.0);
+    EXPECT_LE(contact.friction_force.norm(), 0.6 * contact.normal_force + 1e-9);
+    normal += contact.normal_force;
+    friction += contact.friction_force;
+  }
+  EXPECT_NEAR(normal, 2.0 * kG, 1e-8);
+  EXPECT_NEAR(friction.x(), -1.5, 1e-8);
+  EXPECT_NEAR(friction.y(), 0.0, 1e-8);
+}
+
+}  // namespace
