@@ -182,28 +182,28 @@ void checkGeometrySize(std::size_t shapes, std::size_t mesh_vertices, std::size_
   check(mesh_triangles, limits.max_mesh_triangles, "mesh triangles");
 }
 
+std::string OptionRange::text() const {
+  return (min_exclusive ? "(" : "[") + describe(min) + ", " + describe(max) + "]";
+}
+
+void requireInRange(double value, const OptionRange& range, const std::string& field,
+                    const char* unit) {
+  if (std::isfinite(value) && range.contains(value)) return;
+  const std::string units = *unit ? std::string(" ") + unit : std::string();
+  throw InvalidInput(field, "must lie in " + range.text() + units + " (" + describe(value) + ")");
+}
+
 std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,
                                           const RequestLimits& limits) {
   checkSize(scene.bodies.size(), scene.contacts.size(), limits);
-  if (!(options.tolerance >= 0.0) || !std::isfinite(options.tolerance)) {
-    throw InvalidInput("options.tolerance",
-                       "must be a finite number >= 0 (" + describe(options.tolerance) + ")");
-  }
-  if (!(options.integration_tolerance > 0.0) || !std::isfinite(options.integration_tolerance)) {
-    throw InvalidInput(
-        "options.integration_tolerance",
-        "must be a finite number > 0 (" + describe(options.integration_tolerance) + ")");
-  }
-  if (!(options.resting_velocity >= 0.0) || !std::isfinite(options.resting_velocity)) {
-    throw InvalidInput("options.resting_velocity",
-                       "must be a finite number >= 0 (" + describe(options.resting_velocity) + ")");
-  }
-  if (!(options.time_budget > 0.0) || !(options.time_budget <= 3600.0)) {
-    throw InvalidInput("options.time_budget",
-                       "must lie in (0, 3600] s (" + describe(options.time_budget) + ")");
-  }
-  if (options.max_iterations == 0)
-    throw InvalidInput("options.max_iterations", "must be at least 1");
+  requireInRange(options.tolerance, option_ranges::kTolerance, "options.tolerance");
+  requireInRange(options.integration_tolerance, option_ranges::kIntegrationTolerance,
+                 "options.integration_tolerance");
+  requireInRange(options.resting_velocity, option_ranges::kRestingVelocity,
+                 "options.resting_velocity", "m/s");
+  requireInRange(options.time_budget, option_ranges::kTimeBudget, "options.time_budget", "s");
+  requireInRange(static_cast<double>(options.max_iterations), option_ranges::kMaxIterations,
+                 "options.max_iterations");
 
   std::unordered_map<std::string, int> index_of;
   index_of.reserve(scene.bodies.size());

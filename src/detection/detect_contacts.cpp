@@ -11,12 +11,8 @@ DetectedContacts detectContacts(ContactDetector& detector,
                                 const std::vector<core::BodyState>& bodies,
                                 const DetectionInput& input, const MaterialTable& materials,
                                 const core::RequestLimits& limits) {
-  const double tolerance = input.options.contact_tolerance;
-  if (!std::isfinite(tolerance) || tolerance < 0.0 || tolerance > kMaxContactTolerance) {
-    throw core::InvalidInput(
-        "detection.contact_tolerance",
-        "must be a finite length in [0, 1] m (" + std::to_string(tolerance) + ")");
-  }
+  core::requireInRange(input.options.contact_tolerance, core::option_ranges::kContactTolerance,
+                       "detection.contact_tolerance", "m");
   core::validateCoefficients(input.defaults.restitution, input.defaults.static_friction,
                              input.defaults.dynamic_friction, "detection");
   if (!input.materials.empty() && input.materials.size() != bodies.size()) {

@@ -7,10 +7,8 @@ int main(int argc, char** argv) {
   try {
     const ros::NodeHandle private_node("~");
     collision_response::CollisionResponseServer server(ros::NodeHandle(), private_node);
-    // Threads serving requests concurrently (the server is thread-safe).
-    const int threads = private_node.param("threads", 2);
-    if (threads < 1) throw std::invalid_argument("~threads must be at least 1");
-    ros::MultiThreadedSpinner(static_cast<uint32_t>(threads)).spin();
+    // ~threads serve requests concurrently (the server is thread-safe).
+    ros::MultiThreadedSpinner(static_cast<uint32_t>(server.parameters().threads)).spin();
   } catch (const std::exception& e) {
     ROS_FATAL("collision_response: %s", e.what());
     return 1;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <stdexcept>
 
 #include "collision_response/core/compute_response.h"
@@ -18,156 +19,41 @@
 namespace collision_response {
 namespace {
 
-template <typename T>
-T readParam(const ros::NodeHandle& node, const std::string& name, T value) {
-  node.param(name, value, value);
-  return value;
+// The core numbers the request's contacts and the detected ones together: a path starting
+// "contacts[k]" with k past the request's `given` contacts names detected_contacts[k - given].
+// The index k of such a first segment, or npos for any other.
+std::size_t contactIndex(const std::string& first_segment) {
+  if (first_segment.rfind("contacts[", 0) != 0) return std::string::npos;
+  return std::stoul(first_segment.substr(9, first_segment.find(']') - 9));
 }
 
-std::size_t positiveSize(const ros::NodeHandle& node, const std::string& name, int fallback) {
-  const int value = readParam(node, name, fallback);
-  if (value <= 0)
-    throw std::invalid_argument("~" + name + " must be positive, got " + std::to_string(value));
-  return static_cast<std::size_t>(value);
-}
-
-double numberParam(const XmlRpc::XmlRpcValue& value, const std::string& field) {
-  if (value.getType() == XmlRpc::XmlRpcValue::TypeDouble) return static_cast<double>(value);
-  if (value.getType() == XmlRpc::XmlRpcValue::TypeInt) return static_cast<int>(value);
-  throw std::invalid_argument(field + " must be a number");
-}
-
-// ~materials: a list of {a, b, restitution, static_friction, dynamic_friction}.
-detection::MaterialTable readMaterials(const ros::NodeHandle& node) {
-  detection::MaterialTable table;
-  XmlRpc::XmlRpcValue list;
-  if (!node.getParam("materials", list)) return table;
-  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
-    throw std::invalid_argument("~materials must be a list of {a, b, restitution, ...}");
-  for (int i = 0; i < list.size(); ++i) {
-    const std::string field = "~materials[" + std::to_string(i) + "]";
-    XmlRpc::XmlRpcValue& entry = list[i];
-    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct || !entry.hasMember("a") ||
-        !entry.hasMember("b") || entry["a"].getType() != XmlRpc::XmlRpcValue::TypeString ||
-        entry["b"].getType() != XmlRpc::XmlRpcValue::TypeString) {
-      throw std::invalid_argument(field + " must have string members a and b");
-    }
-    for (const auto& [name, value] : entry) {
-      if (name != "a" && name != "b" && name != "restitution" && name != "static_friction" &&
-          name != "dynamic_friction") {
-        throw std::invalid_argument(field + " has an unknown member '" + name +
-                                    "' (a, b, restitution, static_friction, dynamic_friction)");
-      }
-    }
-    detection::ContactMaterial material;
-    const auto member = [&](const char* name, double& out) {
-      if (entry.hasMember(name)) out = numberParam(entry[name], field + "." + name);
-    };
-    member("restitution", material.restitution);
-    member("static_friction", material.static_friction);
-    member("dynamic_friction", material.dynamic_friction);
-    try {
-      table.set(static_cast<std::string>(entry["a"]), static_cast<std::string>(entry["b"]),
-                material, field);
-    } catch (const core::InvalidInput& e) {
-      throw std::invalid_argument(e.what());
-    }
-  }
-  return table;
-}
-
-// The core numbers the request's contacts and the detected ones together: a field
-// "contacts[k]..." with k past the request's `given` contacts names detected_contacts[k - given].
-// The index k of such a field, or npos for any other field.
-std::size_t contactIndex(const std::string& field) {
-  if (field.rfind("contacts[", 0) != 0) return std::string::npos;
-  return std::stoul(field.substr(9, field.find(']') - 9));
-}
-
-bool isDetectedContact(const std::string& field, std::size_t given) {
-  const std::size_t k = contactIndex(field);
+bool isDetectedContact(const std::string& first_segment, std::size_t given) {
+  const std::size_t k = contactIndex(first_segment);
   return k != std::string::npos && k >= given;
 }
 
-std::string detectedContactField(const core::InvalidInput& error, std::size_t given) {
-  const std::string message = error.what();
-  if (!isDetectedContact(error.field(), given)) return message;
-  const std::size_t close = error.field().find(']');
-  return "detected_contacts[" + std::to_string(contactIndex(error.field()) - given) + "]" +
-         message.substr(close + 1);
+// The error as the request names the value: detected contacts as detected_contacts[i].
+core::InvalidInput inRequestTerms(const core::InvalidInput& error, std::size_t given) {
+  const std::string& first = error.path().front();
+  if (!isDetectedContact(first, given)) return error;
+  return error.withFirstSegment("detected_contacts[" + std::to_string(contactIndex(first) - given) +
+                                "]");
 }
 
 }  // namespace
 
+ServerParameters CollisionResponseServer::readParameters(const ros::NodeHandle& private_node) {
+  XmlRpc::XmlRpcValue values;  // the whole private namespace; none at all: the defaults
+  private_node.getParam(private_node.getNamespace(), values);
+  return loadServerParameters(values);
+}
+
 CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::NodeHandle private_node)
-    : tf_listener_(tf_buffer_, node) {
-  const core::SolverOptions built_in;
-  // Default impact law for requests whose options.law is 0.
-  const std::string law = readParam<std::string>(private_node, "law", core::toString(built_in.law));
-  if (!core::fromString(law, default_options_.law)) {
-    throw std::invalid_argument(
-        "~law must be 'stronge', 'poisson', 'newton' or 'seed_one_pass', got '" + law + "'");
-  }
-  // Default method for islands of several contacts.
-  const std::string solver =
-      readParam<std::string>(private_node, "solver", core::toString(built_in.method));
-  if (!core::fromString(solver, default_options_.method)) {
-    throw std::invalid_argument("~solver must be 'auto', 'exact' or 'iterative', got '" + solver +
-                                "'");
-  }
-  // Relative tolerance and iteration cap of the iterative solver.
-  default_options_.tolerance = readParam(private_node, "tolerance", built_in.tolerance);
-  // Ranges as in cfg/Solver.cfg, so that dynamic_reconfigure never clamps a start-up value.
-  if (!(default_options_.tolerance >= 0.0 && default_options_.tolerance <= 1.0))
-    throw std::invalid_argument("~tolerance must lie in [0, 1]");
-  default_options_.integration_tolerance =
-      readParam(private_node, "integration_tolerance", built_in.integration_tolerance);
-  if (!(default_options_.integration_tolerance >= 1e-15 &&
-        default_options_.integration_tolerance <= 1.0)) {
-    throw std::invalid_argument("~integration_tolerance must lie in [1e-15, 1]");
-  }
-  default_options_.max_iterations =
-      positiveSize(private_node, "max_iterations", static_cast<int>(built_in.max_iterations));
-  if (default_options_.max_iterations > 100000000)
-    throw std::invalid_argument("~max_iterations must be at most 100000000");
-  // Wall time one request may spend solving [s].
-  default_options_.time_budget = readParam(private_node, "time_budget", built_in.time_budget);
-  if (!(default_options_.time_budget > 0.0))
-    throw std::invalid_argument("~time_budget must be > 0");
-  // Request size limits: larger requests are rejected before any work.
-  limits_.max_bodies =
-      positiveSize(private_node, "max_bodies", static_cast<int>(limits_.max_bodies));
-  limits_.max_contacts =
-      positiveSize(private_node, "max_contacts", static_cast<int>(limits_.max_contacts));
-  // How long a request may wait for a transform [s].
-  const double tf_timeout = readParam(private_node, "tf_timeout", 0.1);
-  if (!(tf_timeout >= 0.0)) throw std::invalid_argument("~tf_timeout must be >= 0");
-  tf_timeout_ = ros::Duration(tf_timeout);
-  // Contacts from shapes: default tolerance [m], points per pair of shapes, geometry limits.
-  contact_tolerance_ = readParam(private_node, "contact_tolerance", contact_tolerance_);
-  if (!(contact_tolerance_ >= 0.0) || !(contact_tolerance_ <= 1.0))
-    throw std::invalid_argument("~contact_tolerance must lie in [0, 1] m");
-  max_contacts_per_pair_ =
-      positiveSize(private_node, "max_contacts_per_pair", static_cast<int>(max_contacts_per_pair_));
-  limits_.max_shapes =
-      positiveSize(private_node, "max_shapes", static_cast<int>(limits_.max_shapes));
-  limits_.max_mesh_vertices =
-      positiveSize(private_node, "max_mesh_vertices", static_cast<int>(limits_.max_mesh_vertices));
-  limits_.max_mesh_triangles = positiveSize(private_node, "max_mesh_triangles",
-                                            static_cast<int>(limits_.max_mesh_triangles));
-  // Coefficients of detected contacts per pair of materials.
-  materials_ = readMaterials(private_node);
-
-  max_batch_scenes_ = positiveSize(private_node, "max_batch_scenes", 10000);
-  // Frame of requests whose header.frame_id is empty (answers, published messages, markers, tf).
-  default_frame_ = readParam<std::string>(private_node, "default_frame", default_frame_);
-  if (default_frame_.empty()) throw std::invalid_argument("~default_frame must not be empty");
-  marker_scales_.impulse = readParam(private_node, "marker_impulse_scale", marker_scales_.impulse);
-  marker_scales_.velocity =
-      readParam(private_node, "marker_velocity_scale", marker_scales_.velocity);
-  if (!(marker_scales_.impulse > 0.0) || !(marker_scales_.velocity > 0.0))
-    throw std::invalid_argument("~marker_impulse_scale and ~marker_velocity_scale must be > 0");
-
+    : parameters_(readParameters(private_node)),
+      default_options_(parameters_.solver),
+      contact_tolerance_(parameters_.contact_tolerance),
+      tf_timeout_(parameters_.tf_timeout),
+      tf_listener_(tf_buffer_, node) {
   responses_ = private_node.advertise<CollisionResponse>("responses", 10);
   markers_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   setUpMonitoring(node, private_node);
@@ -183,7 +69,7 @@ core::Scene CollisionResponseServer::toScene(const ComputeResponse::Request& req
   const std::string& request_frame = request.header.frame_id;
   core::Scene scene;
   // Size first, so an oversized request costs no conversion.
-  core::checkSize(request.bodies.size(), request.contacts.size(), limits_);
+  core::checkSize(request.bodies.size(), request.contacts.size(), parameters_.limits);
   scene.bodies.reserve(request.bodies.size());
   for (std::size_t i = 0; i < request.bodies.size(); ++i) {
     const BodyState& msg = request.bodies[i];
@@ -245,14 +131,14 @@ detection::DetectedContacts CollisionResponseServer::detect(const ComputeRespons
   // Limits first, from the messages, so an oversized mesh costs no conversion.
   std::size_t shapes = 0, vertices = 0, triangles = 0;
   for (const BodyState& body : request.bodies) countGeometry(body, shapes, vertices, triangles);
-  core::checkGeometrySize(shapes, vertices, triangles, limits_);
+  core::checkGeometrySize(shapes, vertices, triangles, parameters_.limits);
 
   detection::DetectionInput input;
   input.options = fromMsg(request.detection, contact_tolerance);
-  input.options.max_contacts_per_pair = max_contacts_per_pair_;
+  input.options.max_contacts_per_pair = parameters_.max_contacts_per_pair;
   // What the solver would accept, within the request's time budget.
-  input.options.max_contacts =
-      limits_.max_contacts - std::min(limits_.max_contacts, request.contacts.size());
+  input.options.max_contacts = parameters_.limits.max_contacts -
+                               std::min(parameters_.limits.max_contacts, request.contacts.size());
   input.options.deadline = core::Deadline::in(options.time_budget);
   input.defaults = {request.detection.restitution, request.detection.static_friction,
                     request.detection.dynamic_friction};
@@ -265,8 +151,8 @@ detection::DetectedContacts CollisionResponseServer::detect(const ComputeRespons
   }
   std::unique_ptr<detection::ContactDetector> detector = acquireDetector();
   // Back to the pool after a detection; one that threw (its cache half rebuilt) is dropped.
-  detection::DetectedContacts found =
-      detection::detectContacts(*detector, scene.bodies, input, materials_, limits_);
+  detection::DetectedContacts found = detection::detectContacts(
+      *detector, scene.bodies, input, parameters_.materials, parameters_.limits);
   releaseDetector(std::move(detector));
   return found;
 }
@@ -288,26 +174,27 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
   responses_.publish(published);
   // Markers only when someone looks: the hot path does not pay for them.
   if (markers_.getNumSubscribers() > 0)
-    markers_.publish(makeMarkers(request, response, marker_scales_));
+    markers_.publish(makeMarkers(request, response, parameters_.marker_scales));
   return true;
 }
 
-void CollisionResponseServer::solve(ComputeResponse::Request& request,
-                                    ComputeResponse::Response& response) {
+std::optional<core::InvalidInput> CollisionResponseServer::solve(
+    ComputeResponse::Request& request, ComputeResponse::Response& response) {
+  std::optional<core::InvalidInput> field_error;
   response.success = false;
   const auto begin = std::chrono::steady_clock::now();  // a timeout reports the time to it
   if (request.header.frame_id.empty()) {
     // The answer, the published message and the markers need a frame RViz and tf can place.
-    request.header.frame_id = default_frame_;
+    request.header.frame_id = parameters_.default_frame;
     response.warnings.push_back("header.frame_id: empty, taken as ~default_frame '" +
-                                default_frame_ + "'");
+                                parameters_.default_frame + "'");
   }
   try {
     core::Scene scene = toScene(request);
     const Defaults defaults_now = defaults();
     const core::SolverOptions options = fromMsg(request.options, defaults_now.options);
     if (wantsDetection(request)) {
-      core::validate(scene, options, limits_);  // detection needs valid poses
+      core::validate(scene, options, parameters_.limits);  // detection needs valid poses
       const detection::DetectedContacts detected =
           detect(request, scene, options, defaults_now.contact_tolerance);
       response.detected_contacts.reserve(detected.contacts.size());
@@ -318,7 +205,7 @@ void CollisionResponseServer::solve(ComputeResponse::Request& request,
                             detected.contacts.end());
     }
     const auto start = std::chrono::steady_clock::now();
-    const core::CollisionResult result = core::computeResponse(scene, options, limits_);
+    const core::CollisionResult result = core::computeResponse(scene, options, parameters_.limits);
     response.solve_time =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -335,12 +222,15 @@ void CollisionResponseServer::solve(ComputeResponse::Request& request,
     for (const core::Warning& warning : result.warnings) {
       // Detected contacts that separate are ordinary (neighbours moving apart); a given one that
       // separates may have its normal flipped.
-      if (isDetectedContact(warning.field, request.contacts.size())) continue;
+      if (isDetectedContact(warning.field.substr(0, warning.field.find('.')),
+                            request.contacts.size()))
+        continue;
       response.warnings.push_back(warning.text());
     }
     response.success = true;
   } catch (const core::InvalidInput& e) {
-    response.message = detectedContactField(e, request.contacts.size());
+    field_error = inRequestTerms(e, request.contacts.size());
+    response.message = field_error->what();
     ROS_DEBUG("collision_response: rejected request: %s", response.message.c_str());
   } catch (const core::SolverTimeout& e) {
     response.message = e.what();
@@ -359,16 +249,17 @@ void CollisionResponseServer::solve(ComputeResponse::Request& request,
     response.detected_depths.clear();
     response.warnings.clear();
   }
+  return field_error;
 }
 
 bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
                                            ComputeBatch::Response& response) {
   response.success = false;
   response.solve_time = 0.0;
-  if (request.scenes.size() > max_batch_scenes_) {
+  if (request.scenes.size() > parameters_.max_batch_scenes) {
     response.message = "scenes: " + std::to_string(request.scenes.size()) +
-                       " scenes exceed ~max_batch_scenes (" + std::to_string(max_batch_scenes_) +
-                       ")";
+                       " scenes exceed ~max_batch_scenes (" +
+                       std::to_string(parameters_.max_batch_scenes) + ")";
     recordCalls(1, 0, 0, 0.0, 0.0);
     return true;
   }
@@ -385,16 +276,14 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
     single.options = scene.options;
     single.detection = scene.detection;
     answer = ComputeResponse::Response();
-    solve(single, answer);
+    const std::optional<core::InvalidInput> field_error = solve(single, answer);
     SceneResult& result = response.results[i];
     result.success = answer.success;
     if (!answer.success) {
-      // A field error reads "scenes[i].bodies[1].inertia.m: ...", anything else "scenes[i]: ...".
-      const std::size_t colon = answer.message.find(": ");
-      const bool field_error = colon != std::string::npos && colon > 0 &&
-                               answer.message.substr(0, colon).find(' ') == std::string::npos;
-      result.message =
-          "scenes[" + std::to_string(i) + "]" + (field_error ? "." : ": ") + answer.message;
+      // "scenes[i].bodies[1].inertia.m: ..." for a field, "scenes[i]: ..." for anything else.
+      const std::string scene_field = "scenes[" + std::to_string(i) + "]";
+      result.message = field_error ? field_error->prefixed(scene_field).what()
+                                   : scene_field + ": " + answer.message;
       ++failures;
     }
     result.bodies = std::move(answer.bodies);

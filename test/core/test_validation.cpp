@@ -454,3 +454,20 @@ TEST(Validation, MagnitudesOutsideThePhysicalRangeAreRejected) {
 }
 
 }  // namespace
+
+// InvalidInput names the value by its path in the request, as segments, so that a caller can name
+// it in something larger (a batch, a request with detected contacts) without editing strings.
+TEST(InvalidInput, PathSegmentsPrefixAndRename) {
+  const cr::InvalidInput error("bodies[1].inertia.m", "is negative (-1 kg)");
+  EXPECT_EQ(error.path(), (std::vector<std::string>{"bodies[1]", "inertia", "m"}));
+  EXPECT_EQ(error.field(), "bodies[1].inertia.m");
+  EXPECT_EQ(error.reason(), "is negative (-1 kg)");
+  EXPECT_STREQ(error.what(), "bodies[1].inertia.m: is negative (-1 kg)");
+  const cr::InvalidInput in_batch = error.prefixed("scenes[3]");
+  EXPECT_STREQ(in_batch.what(), "scenes[3].bodies[1].inertia.m: is negative (-1 kg)");
+  EXPECT_EQ(in_batch.path().size(), 4u);
+  const cr::InvalidInput renamed =
+      cr::InvalidInput("contacts[5].normal", "is a zero vector").withFirstSegment(
+          "detected_contacts[2]");
+  EXPECT_STREQ(renamed.what(), "detected_contacts[2].normal: is a zero vector");
+}

@@ -4,6 +4,7 @@
 #include <utility>
 #include <vector>
 
+#include "collision_response/core/option_ranges.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
 
@@ -27,6 +28,11 @@ struct MagnitudeLimits {
   /// 1 / m: past (1e6)^2 its round-off exceeds 1 / m and n^T K n loses even its sign.
   static constexpr double kLeverOverGyration = 1e6;
 };
+
+/// Throws InvalidInput naming `field` unless `value` is finite and inside `range`
+/// (option_ranges.h); `unit` (e.g. "m", "s") is named in the message.
+void requireInRange(double value, const OptionRange& range, const std::string& field,
+                    const char* unit = "");
 
 /// Checks a contact's (or a material's) coefficients: finite, e in [0, 1], 0 <= mu_d <= mu_s.
 /// Throws InvalidInput naming `field` + ".restitution", ".static_friction" or ".dynamic_friction".

@@ -12,9 +12,6 @@
 
 namespace collision_response::detection {
 
-/// Largest contact tolerance accepted [m] (as ~contact_tolerance's range).
-constexpr double kMaxContactTolerance = 1.0;
-
 /// What contact detection needs of a scene besides the bodies' states.
 struct DetectionInput {
   std::vector<BodyGeometry> geometry;  ///< empty (no geometry) or one entry per body

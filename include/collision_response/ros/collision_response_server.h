@@ -9,14 +9,17 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <vector>
 
+#include "collision_response/core/errors.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
 #include "collision_response/detection/contact_detector.h"
 #include "collision_response/detection/detect_contacts.h"
 #include "collision_response/detection/materials.h"
 #include "collision_response/ros/response_markers.h"
+#include "collision_response/ros/server_parameters.h"
 
 namespace diagnostic_updater {
 class DiagnosticStatusWrapper;
@@ -36,25 +39,7 @@ class SolverConfig;  // generated from cfg/Solver.cfg
 /// given in other frames into the request frame with tf2. Used by collision_response_node and by
 /// the nodelet collision_response/CollisionResponseNodelet.
 ///
-/// Parameters (private namespace, read once here):
-///   ~law             "stronge" | "poisson" | "newton" | "seed_one_pass": default impact law
-///   ~solver          "auto" | "exact" | "iterative": default method for islands of contacts
-///   ~tolerance       relative tolerance of the iterative solver
-///   ~max_iterations  iteration cap of the iterative solver
-///   ~integration_tolerance  relative error of the impulse-space integration
-///   ~max_bodies      larger requests are rejected
-///   ~max_contacts    larger requests are rejected
-///   ~time_budget     [s] wall time one request may spend solving; past it the call fails
-///   ~tf_timeout      [s] how long to wait for a transform
-///   ~contact_tolerance      [m] default of DetectionOptions.contact_tolerance
-///   ~max_contacts_per_pair  contact points kept per pair of shapes
-///   ~max_shapes, ~max_mesh_vertices, ~max_mesh_triangles  geometry limits of a request
-///   ~materials       list of {a, b, restitution, static_friction, dynamic_friction}: the
-///                    coefficients of detected contacts between bodies of materials a and b
-///   ~max_batch_scenes   larger ~compute_batch requests are rejected as a whole
-///   ~default_frame   frame of requests whose header.frame_id is empty ("world")
-///   ~marker_impulse_scale   [m per N s] length of the impulse arrows on ~markers
-///   ~marker_velocity_scale  [m per m/s] length of the velocity arrows on ~markers
+/// Parameters (private namespace, read once here): ServerParameters (server_parameters.h).
 /// law, solver, tolerance, max_iterations, integration_tolerance and contact_tolerance can be
 /// changed at run time with dynamic_reconfigure (cfg/Solver.cfg); diagnostics (call rate,
 /// failures, solver time) go to /diagnostics at 1 Hz.
@@ -63,8 +48,11 @@ class SolverConfig;  // generated from cfg/Solver.cfg
 /// node handles).
 class CollisionResponseServer {
  public:
-  /// Throws std::invalid_argument for a bad parameter value.
+  /// Reads the parameters (loadServerParameters()); throws core::InvalidInput naming a bad one.
   CollisionResponseServer(ros::NodeHandle node, ros::NodeHandle private_node);
+
+  /// The parameters as read at start-up (dynamic_reconfigure changes the solver defaults later).
+  const ServerParameters& parameters() const { return parameters_; }
 
   /// The service callback: always answers (returns true); failures are success = false with a
   /// message naming the field.
@@ -80,7 +68,10 @@ class CollisionResponseServer {
  private:
   /// One scene: fills `response` (success false with a message on bad input); publishes nothing.
   /// An empty request.header.frame_id is set to ~default_frame (with a warning in the response).
-  void solve(ComputeResponse::Request& request, ComputeResponse::Response& response);
+  /// Returns the error of a request rejected for one of its values (named as in the request), so
+  /// that a batch can name it in the batch.
+  std::optional<core::InvalidInput> solve(ComputeResponse::Request& request,
+                                          ComputeResponse::Response& response);
   /// The request defaults (parameters, dynamic_reconfigure), read together under the mutex so that
   /// a reconfigure cannot land between them.
   struct Defaults {
@@ -88,6 +79,7 @@ class CollisionResponseServer {
     double contact_tolerance;  ///< [m]
   };
   Defaults defaults() const;
+  static ServerParameters readParameters(const ros::NodeHandle& private_node);
   /// dynamic_reconfigure and diagnostics, at the end of construction.
   void setUpMonitoring(const ros::NodeHandle& node, const ros::NodeHandle& private_node);
   void reconfigure(SolverConfig& config, uint32_t level);
@@ -109,16 +101,13 @@ class CollisionResponseServer {
   std::unique_ptr<detection::ContactDetector> acquireDetector();
   void releaseDetector(std::unique_ptr<detection::ContactDetector> detector);
 
+  /// Read once at construction; default_options_ and contact_tolerance_ start from them and follow
+  /// dynamic_reconfigure.
+  const ServerParameters parameters_;
   mutable std::mutex options_mutex_;  // guards default_options_ and contact_tolerance_
   core::SolverOptions default_options_;
-  double contact_tolerance_ = 1e-3;
-  std::size_t max_batch_scenes_ = 10000;
-  std::string default_frame_ = "world";
-  MarkerScales marker_scales_;
-  core::RequestLimits limits_;
+  double contact_tolerance_;  ///< [m]
   ros::Duration tf_timeout_;
-  std::size_t max_contacts_per_pair_ = 8;
-  detection::MaterialTable materials_;
   std::mutex detectors_mutex_;
   std::vector<std::unique_ptr<detection::ContactDetector>> idle_detectors_;
   tf2_ros::Buffer tf_buffer_;

@@ -1,0 +1,150 @@
+#include "collision_response/ros/server_parameters.h"
+
+#include <string>
+
+#include "collision_response/core/errors.h"
+#include "collision_response/core/option_ranges.h"
+#include "collision_response/core/validation.h"
+
+namespace collision_response {
+namespace {
+
+using XmlRpc::XmlRpcValue;
+
+bool has(const XmlRpcValue& values, const std::string& name) {
+  return values.getType() == XmlRpcValue::TypeStruct && values.hasMember(name);
+}
+
+// XmlRpcValue's accessors are not const.
+XmlRpcValue member(const XmlRpcValue& values, const std::string& name) {
+  return const_cast<XmlRpcValue&>(values)[name];
+}
+
+double number(XmlRpcValue value, const std::string& field) {
+  if (value.getType() == XmlRpcValue::TypeDouble) return static_cast<double>(value);
+  if (value.getType() == XmlRpcValue::TypeInt) return static_cast<int>(value);
+  throw core::InvalidInput(field, "must be a number");
+}
+
+double readNumber(const XmlRpcValue& values, const std::string& name, double value) {
+  return has(values, name) ? number(member(values, name), "~" + name) : value;
+}
+
+// A whole number >= 1.
+std::size_t readCount(const XmlRpcValue& values, const std::string& name, std::size_t value) {
+  if (!has(values, name)) return value;
+  XmlRpcValue v = member(values, name);
+  if (v.getType() != XmlRpcValue::TypeInt)
+    throw core::InvalidInput("~" + name, "must be a whole number");
+  const int count = static_cast<int>(v);
+  if (count < 1)
+    throw core::InvalidInput("~" + name, "must be at least 1 (" + std::to_string(count) + ")");
+  return static_cast<std::size_t>(count);
+}
+
+std::string readString(const XmlRpcValue& values, const std::string& name, std::string value) {
+  if (!has(values, name)) return value;
+  XmlRpcValue v = member(values, name);
+  if (v.getType() != XmlRpcValue::TypeString)
+    throw core::InvalidInput("~" + name, "must be a string");
+  return static_cast<std::string>(v);
+}
+
+double readInRange(const XmlRpcValue& values, const std::string& name, double value,
+                   const core::OptionRange& range, const char* unit = "") {
+  value = readNumber(values, name, value);
+  core::requireInRange(value, range, "~" + name, unit);
+  return value;
+}
+
+double readPositive(const XmlRpcValue& values, const std::string& name, double value) {
+  value = readNumber(values, name, value);
+  if (!(value > 0.0) || !std::isfinite(value))
+    throw core::InvalidInput("~" + name, "must be a finite number > 0");
+  return value;
+}
+
+// ~materials: a list of {a, b, restitution, static_friction, dynamic_friction}.
+detection::MaterialTable readMaterials(const XmlRpcValue& values) {
+  detection::MaterialTable table;
+  if (!has(values, "materials")) return table;
+  XmlRpcValue list = member(values, "materials");
+  if (list.getType() != XmlRpcValue::TypeArray)
+    throw core::InvalidInput("~materials", "must be a list of {a, b, restitution, ...}");
+  for (int i = 0; i < list.size(); ++i) {
+    const std::string field = "~materials[" + std::to_string(i) + "]";
+    XmlRpcValue& entry = list[i];
+    if (entry.getType() != XmlRpcValue::TypeStruct || !entry.hasMember("a") ||
+        !entry.hasMember("b") || entry["a"].getType() != XmlRpcValue::TypeString ||
+        entry["b"].getType() != XmlRpcValue::TypeString) {
+      throw core::InvalidInput(field, "must have string members a and b");
+    }
+    for (const auto& [name, value] : entry) {
+      if (name != "a" && name != "b" && name != "restitution" && name != "static_friction" &&
+          name != "dynamic_friction") {
+        throw core::InvalidInput(field, "has an unknown member '" + name +
+                                            "' (a, b, restitution, static_friction, "
+                                            "dynamic_friction)");
+      }
+    }
+    detection::ContactMaterial material;
+    const auto coefficient = [&](const char* name, double& out) {
+      if (entry.hasMember(name)) out = number(entry[name], field + "." + name);
+    };
+    coefficient("restitution", material.restitution);
+    coefficient("static_friction", material.static_friction);
+    coefficient("dynamic_friction", material.dynamic_friction);
+    table.set(static_cast<std::string>(entry["a"]), static_cast<std::string>(entry["b"]), material,
+              field);
+  }
+  return table;
+}
+
+}  // namespace
+
+ServerParameters loadServerParameters(const XmlRpc::XmlRpcValue& values) {
+  namespace ranges = core::option_ranges;
+  ServerParameters p;
+  core::SolverOptions& solver = p.solver;
+  const std::string law = readString(values, "law", core::toString(solver.law));
+  if (!core::fromString(law, solver.law)) {
+    throw core::InvalidInput(
+        "~law", "must be 'stronge', 'poisson', 'newton' or 'seed_one_pass' (" + law + ")");
+  }
+  const std::string method = readString(values, "solver", core::toString(solver.method));
+  if (!core::fromString(method, solver.method))
+    throw core::InvalidInput("~solver", "must be 'auto', 'exact' or 'iterative' (" + method + ")");
+  solver.tolerance = readInRange(values, "tolerance", solver.tolerance, ranges::kTolerance);
+  solver.max_iterations = readCount(values, "max_iterations", solver.max_iterations);
+  core::requireInRange(static_cast<double>(solver.max_iterations), ranges::kMaxIterations,
+                       "~max_iterations");
+  solver.integration_tolerance = readInRange(
+      values, "integration_tolerance", solver.integration_tolerance, ranges::kIntegrationTolerance);
+  solver.time_budget =
+      readInRange(values, "time_budget", solver.time_budget, ranges::kTimeBudget, "s");
+
+  p.limits.max_bodies = readCount(values, "max_bodies", p.limits.max_bodies);
+  p.limits.max_contacts = readCount(values, "max_contacts", p.limits.max_contacts);
+  p.limits.max_shapes = readCount(values, "max_shapes", p.limits.max_shapes);
+  p.limits.max_mesh_vertices = readCount(values, "max_mesh_vertices", p.limits.max_mesh_vertices);
+  p.limits.max_mesh_triangles =
+      readCount(values, "max_mesh_triangles", p.limits.max_mesh_triangles);
+
+  p.tf_timeout = readNumber(values, "tf_timeout", p.tf_timeout);
+  if (!(p.tf_timeout >= 0.0) || !std::isfinite(p.tf_timeout))
+    throw core::InvalidInput("~tf_timeout", "must be a finite number >= 0 s");
+  p.contact_tolerance =
+      readInRange(values, "contact_tolerance", p.contact_tolerance, ranges::kContactTolerance, "m");
+  p.max_contacts_per_pair = readCount(values, "max_contacts_per_pair", p.max_contacts_per_pair);
+  p.materials = readMaterials(values);
+  p.max_batch_scenes = readCount(values, "max_batch_scenes", p.max_batch_scenes);
+  p.marker_scales.impulse = readPositive(values, "marker_impulse_scale", p.marker_scales.impulse);
+  p.marker_scales.velocity =
+      readPositive(values, "marker_velocity_scale", p.marker_scales.velocity);
+  p.default_frame = readString(values, "default_frame", p.default_frame);
+  if (p.default_frame.empty()) throw core::InvalidInput("~default_frame", "must not be empty");
+  p.threads = static_cast<int>(readCount(values, "threads", static_cast<std::size_t>(p.threads)));
+  return p;
+}
+
+}  // namespace collision_response
