@@ -514,11 +514,31 @@ bool collectPair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* dat
 // ContactDetector
 // ------------------------------------------------------------------------------------------------
 
+using ShapePair = std::pair<ShapeData*, ShapeData*>;
+
+/// The detector's state between calls, and its phases: place the shapes (cached), broadphase,
+/// the pairs to test, the narrowphase.
 struct ContactDetector::Impl {
   std::vector<BodyCache> bodies;
   fcl::DynamicAABBTreeCollisionManagerd manager;
   std::vector<fcl::CollisionObjectd*> registered;
   Stats stats;
+
+  /// Places every body's shapes in the world, rebuilding a body's FCL objects only when its
+  /// shapes changed; boxes inflated by `margin`.
+  void placeShapes(const std::vector<core::BodyState>& states,
+                   const std::vector<BodyGeometry>& geometry, double margin);
+  /// Shape pairs whose inflated boxes overlap (FCL's dynamic AABB tree; planes tested against
+  /// every other shape's box).
+  std::vector<ShapePair> broadphase();
+  /// The candidates between two different bodies, not both immovable, ordered by body pair and
+  /// shape index (body_a < body_b).
+  std::vector<ShapePair> pairsToTest(const std::vector<ShapePair>& candidates,
+                                     const std::vector<core::BodyState>& states);
+  /// The contacts of every pair, within options.max_contacts and options.deadline.
+  static std::vector<DetectedContact> narrowphasePairs(const std::vector<ShapePair>& pairs,
+                                                       const PairContext& ctx,
+                                                       const DetectionOptions& options);
 };
 
 ContactDetector::ContactDetector() : impl_(std::make_unique<Impl>()) {}
@@ -530,32 +550,16 @@ const ContactDetector::Stats& ContactDetector::lastStats() const {
   return impl_->stats;
 }
 
-std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::BodyState>& bodies,
-                                                     const std::vector<BodyGeometry>& geometry,
-                                                     const DetectionOptions& options) {
-  if (!std::isfinite(options.contact_tolerance) || options.contact_tolerance < 0.0) {
-    throw core::InvalidInput("options.contact_tolerance", "must be finite and >= 0");
-  }
-  if (options.max_contacts_per_pair < 1) {
-    throw core::InvalidInput("options.max_contacts_per_pair", "must be >= 1");
-  }
-  validateGeometry(geometry, bodies.size());
-  Impl& im = *impl_;
-  im.stats = Stats{};
-  PairContext ctx;
-  ctx.tol = options.contact_tolerance;
-  ctx.delta = std::max(1e-4 * ctx.tol, 1e-10);
-  ctx.max_contacts = options.max_contacts_per_pair;
-
-  // Cache: rebuild a body's objects only when its shapes changed.
-  const std::size_t count = geometry.empty() ? 0 : bodies.size();
-  im.bodies.resize(count);
+void ContactDetector::Impl::placeShapes(const std::vector<core::BodyState>& states,
+                                        const std::vector<BodyGeometry>& geometry, double margin) {
+  const std::size_t count = geometry.empty() ? 0 : states.size();
+  bodies.resize(count);
   for (std::size_t i = 0; i < count; ++i) {
-    BodyCache& cache = im.bodies[i];
+    BodyCache& cache = bodies[i];
     const std::vector<Shape>& shapes = geometry[i].shapes;
     const std::size_t hash = hashShapes(shapes);
     if (cache.valid && cache.hash == hash && sameShapes(cache.shapes, shapes)) {
-      im.stats.cached_objects_reused += cache.items.size();
+      stats.cached_objects_reused += cache.items.size();
     } else {
       cache.items.clear();
       for (std::size_t k = 0; k < shapes.size(); ++k) {
@@ -564,19 +568,20 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
       cache.shapes = shapes;
       cache.hash = hash;
       cache.valid = true;
-      im.stats.objects_built += cache.items.size();
+      stats.objects_built += cache.items.size();
     }
     Eigen::Isometry3d body_pose = Eigen::Isometry3d::Identity();
-    body_pose.translate(bodies[i].position);
-    body_pose.rotate(bodies[i].orientation.normalized().toRotationMatrix());
+    body_pose.translate(states[i].position);
+    body_pose.rotate(states[i].orientation.normalized().toRotationMatrix());
     for (std::size_t k = 0; k < shapes.size(); ++k) {
-      placeShape(*cache.items[k], body_pose * shapes[k].pose, ctx.tol);
+      placeShape(*cache.items[k], body_pose * shapes[k].pose, margin);
     }
   }
+}
 
-  // Broadphase: FCL's dynamic AABB tree over every shape but the planes.
+std::vector<ShapePair> ContactDetector::Impl::broadphase() {
   std::vector<ShapeData*> planes, solids;
-  for (BodyCache& cache : im.bodies) {
+  for (BodyCache& cache : bodies) {
     for (auto& item : cache.items) {
       (item->kind == Kind::kHalfspace ? planes : solids).push_back(item.get());
     }
@@ -584,13 +589,13 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
   // The tree is built anew each call (a balanced top-down build over the moved boxes): FCL's
   // update(), which re-inserts every moved leaf, measured slower for scenes where everything moves
   // (benchmark/bench_detection.cpp). The FCL geometry objects themselves stay cached.
-  im.manager.clear();
-  im.registered.clear();
-  for (ShapeData* s : solids) im.registered.push_back(s->object.get());
-  im.manager.registerObjects(im.registered);
-  im.manager.setup();
-  std::vector<std::pair<ShapeData*, ShapeData*>> candidates;
-  if (!im.registered.empty()) im.manager.collide(&candidates, collectPair);
+  manager.clear();
+  registered.clear();
+  for (ShapeData* s : solids) registered.push_back(s->object.get());
+  manager.registerObjects(registered);
+  manager.setup();
+  std::vector<ShapePair> candidates;
+  if (!registered.empty()) manager.collide(&candidates, collectPair);
   // Planes against every shape's inflated box.
   for (ShapeData* p : planes) {
     for (ShapeData* s : solids) {
@@ -600,12 +605,16 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
       if (lowest <= p->world_offset) candidates.emplace_back(p, s);
     }
   }
-  im.stats.broadphase_pairs = candidates.size();
+  stats.broadphase_pairs = candidates.size();
+  return candidates;
+}
 
-  std::vector<std::pair<ShapeData*, ShapeData*>> pairs;
+std::vector<ShapePair> ContactDetector::Impl::pairsToTest(
+    const std::vector<ShapePair>& candidates, const std::vector<core::BodyState>& states) {
+  std::vector<ShapePair> pairs;
   for (auto [s1, s2] : candidates) {
     if (s1->body == s2->body) continue;
-    if (bodies[s1->body].immovable() && bodies[s2->body].immovable()) continue;
+    if (states[s1->body].immovable() && states[s2->body].immovable()) continue;
     if (s1->body > s2->body) std::swap(s1, s2);
     pairs.emplace_back(s1, s2);
   }
@@ -613,8 +622,12 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
     return std::make_tuple(x.first->body, x.second->body, x.first->index, x.second->index) <
            std::make_tuple(y.first->body, y.second->body, y.first->index, y.second->index);
   });
-  im.stats.narrowphase_pairs = pairs.size();
+  stats.narrowphase_pairs = pairs.size();
+  return pairs;
+}
 
+std::vector<DetectedContact> ContactDetector::Impl::narrowphasePairs(
+    const std::vector<ShapePair>& pairs, const PairContext& ctx, const DetectionOptions& options) {
   std::vector<DetectedContact> contacts;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     if (k % 64 == 63) options.deadline.check("contact detection");
@@ -630,6 +643,28 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
     }
   }
   return contacts;
+}
+
+std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::BodyState>& bodies,
+                                                     const std::vector<BodyGeometry>& geometry,
+                                                     const DetectionOptions& options) {
+  if (!std::isfinite(options.contact_tolerance) || options.contact_tolerance < 0.0) {
+    throw core::InvalidInput("options.contact_tolerance", "must be finite and >= 0");
+  }
+  if (options.max_contacts_per_pair < 1) {
+    throw core::InvalidInput("options.max_contacts_per_pair", "must be >= 1");
+  }
+  validateGeometry(geometry, bodies.size());
+  PairContext ctx;
+  ctx.tol = options.contact_tolerance;
+  ctx.delta = std::max(1e-4 * ctx.tol, 1e-10);
+  ctx.max_contacts = options.max_contacts_per_pair;
+
+  Impl& im = *impl_;
+  im.stats = Stats{};
+  im.placeShapes(bodies, geometry, ctx.tol);
+  const std::vector<ShapePair> pairs = im.pairsToTest(im.broadphase(), bodies);
+  return Impl::narrowphasePairs(pairs, ctx, options);
 }
 
 }  // namespace collision_response::detection

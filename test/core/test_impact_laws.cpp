@@ -9,9 +9,9 @@
 #include <random>
 
 #include "collision_response/core/compute_response.h"
-#include "collision_response/core/option_ranges.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/island_solver.h"
+#include "collision_response/core/option_ranges.h"
 
 #include "scene_builders.h"
 

@@ -32,9 +32,9 @@ struct BodyState {
 /// kinetic energy is left out of every total).
 double kineticEnergy(const BodyState& body);
 
-/// The same state expressed in another frame: world_T_frame maps coordinates of the frame the body
-/// is given in to the new one. Velocities are rotated only (the frames must not move relative to
-/// each other).
+/// The same state expressed in another frame: new_T_old maps coordinates of the frame the body is
+/// given in (old) to the new one (pose composed, velocities and wrench rotated). Velocities are
+/// rotated only: the frames must not move relative to each other.
 BodyState transformed(const BodyState& body, const Eigen::Isometry3d& new_T_old);
 
 }  // namespace collision_response::core

@@ -64,7 +64,6 @@ struct BodyGeometry {
 ///  - "bodies[i].meshes[j].vertices[k]": non-finite; "bodies[i].meshes[j].triangles": empty;
 ///    "bodies[i].meshes[j].triangles[k]": an index out of range or a repeated index;
 ///  - "bodies[i].planes[j]": not 4 coefficients, non-finite, or a zero normal (a, b, c).
-/// Defined in contact_detector.cpp.
 void validateGeometry(const std::vector<BodyGeometry>& geometry, std::size_t body_count);
 
 }  // namespace collision_response::detection
