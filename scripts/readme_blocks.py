@@ -10,6 +10,9 @@ it. A session passes when its shell exits 0 within the time limit, its output ho
 TEXT, and none of the failure texts below. The blocks are taken from the README itself: there is no
 second copy to drift.
 
+Without SESSION arguments it also checks that every relative link of README.md and docs/*.md names
+a file of the repository.
+
 Usage: scripts/readme_blocks.py [--devel DIR] [--junit FILE] [--list] [SESSION...]
   --devel DIR   the devel space the blocks' `source devel/setup.bash` means (default: devel)
   --junit FILE  also write the results as JUnit XML (one test case per session)
@@ -56,6 +59,25 @@ def extract(readme):
             i = end
         i += 1
     return sessions
+
+
+LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
+
+
+def broken_links():
+    """Relative links of README.md and docs/*.md whose target does not exist in the repository."""
+    pages = ["README.md"] + sorted(os.path.join("docs", name) for name in
+                                   os.listdir(os.path.join(REPO, "docs")) if name.endswith(".md"))
+    broken = []
+    for page in pages:
+        text = open(os.path.join(REPO, page), encoding="utf-8").read()
+        for target in LINK.findall(text):
+            if "://" in target:
+                continue
+            path = os.path.normpath(os.path.join(REPO, os.path.dirname(page), target))
+            if not os.path.exists(path):
+                broken.append("%s: %s" % (page, target))
+    return broken
 
 
 def free_port():
@@ -129,6 +151,13 @@ def main():
     if unknown:
         sys.exit("readme_blocks: no such session in README.md: %s" % ", ".join(unknown))
     cases = []
+    if not args.sessions:  # every link of the README and docs/ names a file of the repository
+        start = time.time()
+        broken = broken_links()
+        print("readme: links: %s" % ("FAILED" if broken else "ok"))
+        for link in broken:
+            print("  no such file: " + link)
+        cases.append(("links", time.time() - start, ["no such file: " + b for b in broken], ""))
     for name in names:
         problems, seconds, output = run_session(name, sessions[name], devel)
         print("readme: %s: %s in %.1f s" % (name, "FAILED" if problems else "ok", seconds))
