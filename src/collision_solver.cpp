@@ -4,7 +4,6 @@
 
 #include "collision_response/contact_point.h"
 #include "collision_response/contact_problem.h"
-#include "collision_response/contact_space.h"
 #include "collision_response/island_solver.h"
 #include "collision_response/islands.h"
 #include "collision_response/resting_contact.h"
@@ -17,7 +16,8 @@ namespace {
 double normalVelocity(const std::vector<RigidBody>& bodies, const ContactPoint& contact) {
   const RigidBody& a = bodies[contact.body_a];
   const RigidBody& b = bodies[contact.body_b];
-  return contact.normal.dot(ContactSpace(a, b, contact.point).relativeVelocity(a, b));
+  return contact.normal.dot(b.pointVelocity(contact.point - b.com) -
+                            a.pointVelocity(contact.point - a.com));
 }
 
 bool anyApproaching(const std::vector<ContactImpulse>& impulses, const Island& island) {
@@ -89,8 +89,10 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& request
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     result.impulses[c].normal_velocity_before = normalVelocity(bodies, contacts[c]);
   }
-  ContactProblem problem;  // one per island, its storage reused
-  std::vector<ContactImpulse> answer;
+  // One problem per island, its storage reused across islands and calls on this thread (a
+  // single-contact call then allocates nothing for it).
+  thread_local ContactProblem problem;
+  thread_local std::vector<ContactImpulse> answer;
   for (const Island& island : findIslands(bodies, contact_bodies)) {
     SolveReport report;
     if (anyApproaching(result.impulses, island)) {

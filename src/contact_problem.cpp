@@ -86,6 +86,7 @@ int ContactProblem::addGeneralBody(int index, const BodyModel& body, std::vector
 void ContactProblem::finish() {
   Eigen::Index offset = 0;
   for (ProblemBody& body : bodies_) {
+    local_of_[body.index] = -1;  // ready for the next build
     body.offset = offset;
     offset += body.unknowns;
   }
@@ -110,7 +111,8 @@ void ContactProblem::buildImpact(const std::vector<RigidBody>& bodies,
                                  const std::vector<int>& island) {
   clear(ProblemLevel::kVelocity);
   contacts_.reserve(island.size());
-  std::vector<int> local_of(bodies.size(), -1);
+  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
+  std::vector<int>& local_of = local_of_;
   for (const int c : island) {
     const ContactPoint& point = contacts[c];
     const RigidBody& a = bodies[point.body_a];
@@ -129,7 +131,8 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
                                  const std::vector<int>& island) {
   clear(ProblemLevel::kVelocity);
   contacts_.reserve(island.size());
-  std::vector<int> local_of(bodies.size(), -1);
+  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
+  std::vector<int>& local_of = local_of_;
   bool general = false;
   for (const int c : island) {
     const ContactPoint& point = contacts[c];
@@ -169,7 +172,8 @@ void ContactProblem::buildResting(const std::vector<BodyState>& states,
                                   const std::vector<ContactPoint>& contacts,
                                   const std::vector<int>& island, double resting_velocity) {
   clear(ProblemLevel::kAcceleration);
-  std::vector<int> local_of(bodies.size(), -1);
+  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
+  std::vector<int>& local_of = local_of_;
   for (const int c : island) {
     const ContactPoint& point = contacts[c];
     const RigidBody& a = bodies[point.body_a];

@@ -58,7 +58,7 @@ bool slidingImpulse(const ProblemContact& contact, double u_n, const Eigen::Vect
 
 // Newton with friction for a singular K (the rare path of solveSingleContact()'s documentation).
 // Sets reached_target false when the impulse cannot give u'_n = -e u_n (n^T K n = 0).
-Eigen::Vector3d singularNewton(const ProblemContact& contact, const Eigen::Vector3d& u, double u_n,
+[[gnu::cold, gnu::noinline]] Eigen::Vector3d singularNewton(const ProblemContact& contact, const Eigen::Vector3d& u, double u_n,
                                bool& sticking, bool& reached_target) {
   const Eigen::Vector3d& n = contact.normal;
   const Eigen::Matrix3d& K = contact.delassus;

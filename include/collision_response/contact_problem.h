@@ -168,6 +168,7 @@ class ContactProblem {
   std::vector<GeneralSide> general_sides_;  // 2 i + side; empty if every body is rigid
   Eigen::VectorXd velocity_changes_;
   std::vector<Eigen::Vector3d> applied_impulses_;
+  std::vector<int> local_of_;  // body list index -> bodies_ index, -1 (kept all -1 between builds)
   mutable std::vector<std::pair<int, int>> couplings_;
   mutable bool couplings_built_ = false;
 };

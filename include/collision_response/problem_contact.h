@@ -8,6 +8,11 @@ namespace collision_response::core {
 /// Symbols of docs/physics.md, "Symbols and conventions" and "The contact problem"; world frame.
 /// The impulse P at the contact acts +P on body b and -P on body a.
 struct ProblemContact {
+  /// K = W_ii = J_i M^-1 J_i^T, the diagonal 3x3 block of the Delassus operator: the change of
+  /// the relative velocity per unit impulse at this contact [1/kg] (first: read by every solver).
+  /// Symmetric, positive semi-definite; singular when the bodies have fewer freedoms than the
+  /// contact has directions.
+  Eigen::Matrix3d delassus = Eigen::Matrix3d::Zero();
   int source = -1;  ///< index of the ContactPoint in the list the problem was built from
   int body_a = -1;  ///< index of body a in the body list the problem was built from
   int body_b = -1;  ///< index of body b
@@ -40,10 +45,6 @@ struct ProblemContact {
   /// Resting problems: the unit direction of a slip that already exists (|u_t| above the resting
   /// velocity), friction being -mu_d F_n along it; zero for a contact without slip.
   Eigen::Vector3d slip_direction = Eigen::Vector3d::Zero();
-  /// K = W_ii = J_i M^-1 J_i^T, the diagonal 3x3 block of the Delassus operator: the change of
-  /// the relative velocity per unit impulse at this contact [1/kg]. Symmetric, positive
-  /// semi-definite; singular when the bodies have fewer freedoms than the contact has directions.
-  Eigen::Matrix3d delassus = Eigen::Matrix3d::Zero();
 
   bool frictionless() const { return static_friction == 0.0 && dynamic_friction == 0.0; }
   /// K_nn = n^T K n [1/kg]: 1 / K_nn is the effective mass along the normal (0: the bodies cannot
