@@ -19,7 +19,8 @@
 
 #include "bench_metrics.h"
 #include "bench_scenes.h"
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_space.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/island_solver.h"
 #include "collision_response/core/rigid_body.h"
@@ -46,7 +47,7 @@ inline void keep(const T& value) {
 /// One scene instance prepared for the low-level solvers (outside the timed region).
 struct Prepared {
   std::vector<core::RigidBody> bodies;
-  std::vector<core::ContactRow> rows;
+  std::vector<core::ContactPoint> rows;
   std::vector<int> island;
 };
 
@@ -60,8 +61,8 @@ Prepared prepare(const core::Scene& scene) {
   };
   for (const auto& c : scene.contacts) {
     const int a = index(c.body_a), b = index(c.body_b);
-    p.rows.emplace_back(a, b, p.bodies[a], p.bodies[b], c.point, c.normal, c.restitution,
-                        c.static_friction, c.dynamic_friction);
+    p.rows.emplace_back(a, b, c.point, c.normal, c.restitution, c.static_friction,
+                        c.dynamic_friction);
     p.island.push_back(static_cast<int>(p.island.size()));
   }
   return p;
@@ -85,7 +86,7 @@ struct OurMethod {
                      std::vector<core::ContactImpulse>& impulses)>
       solve;
   /// Optional: work counts of one run on an instance (integrator: Runge-Kutta steps, segments).
-  std::function<core::IntegrationStats(const Prepared&)> stats = nullptr;
+  std::function<core::ImpulseSpaceDetail(const Prepared&)> stats = nullptr;
 };
 
 Answer answerOf(const OurMethod& m, const Prepared& p) {
@@ -132,37 +133,38 @@ std::vector<OurMethod> ourMethods() {
   for (const auto& [name, law] : {std::pair<const char*, L>{"newton_closed_form", L::kNewton},
                                   std::pair<const char*, L>{"seed_one_pass", L::kSeedOnePass}}) {
     const L l = law;
-    out.push_back({name, "", "newton", true,
-                   [l](const Prepared& p, std::vector<core::RigidBody>& work,
-                       std::vector<core::ContactImpulse>& impulses) {
-                     const auto& row = p.rows[0];
-                     impulses[0] =
-                         core::solveSingleContact(work[row.body_a], work[row.body_b], row, l);
-                     row.space.applyImpulse(work[row.body_a], work[row.body_b],
-                                            impulses[0].total(row.normal));
-                   }});
+    out.push_back(
+        {name, "", "newton", true,
+         [l](const Prepared& p, std::vector<core::RigidBody>& work,
+             std::vector<core::ContactImpulse>& impulses) {
+           const auto& row = p.rows[0];
+           impulses[0] = core::solveSingleContact(work[row.body_a], work[row.body_b], row, l);
+           core::ContactSpace(work[row.body_a], work[row.body_b], row.point)
+               .applyImpulse(work[row.body_a], work[row.body_b], impulses[0].total(row.normal));
+         }});
   }
   for (const auto& [name, law] : {std::pair<const char*, L>{"poisson_integrator", L::kPoisson},
                                   std::pair<const char*, L>{"stronge_integrator", L::kStronge}}) {
     for (const int digits : {3, 6, 9, 12}) {
       const L l = law;
       const double tol = std::pow(10.0, -digits);
-      out.push_back({name, "tol=1e-" + std::to_string(digits), core::toString(l), true,
-                     [l, tol](const Prepared& p, std::vector<core::RigidBody>& work,
-                              std::vector<core::ContactImpulse>& impulses) {
-                       const auto& row = p.rows[0];
-                       impulses[0] = core::integrateSingleContact(work[row.body_a],
-                                                                  work[row.body_b], row, l, tol);
-                       row.space.applyImpulse(work[row.body_a], work[row.body_b],
-                                              impulses[0].total(row.normal));
-                     },
-                     [l, tol](const Prepared& p) {
-                       core::IntegrationStats stats;
-                       const auto& row = p.rows[0];
-                       core::integrateSingleContact(p.bodies[row.body_a], p.bodies[row.body_b], row,
-                                                    l, tol, &stats);
-                       return stats;
-                     }});
+      out.push_back(
+          {name, "tol=1e-" + std::to_string(digits), core::toString(l), true,
+           [l, tol](const Prepared& p, std::vector<core::RigidBody>& work,
+                    std::vector<core::ContactImpulse>& impulses) {
+             const auto& row = p.rows[0];
+             impulses[0] =
+                 core::integrateSingleContact(work[row.body_a], work[row.body_b], row, l, tol);
+             core::ContactSpace(work[row.body_a], work[row.body_b], row.point)
+                 .applyImpulse(work[row.body_a], work[row.body_b], impulses[0].total(row.normal));
+           },
+           [l, tol](const Prepared& p) {
+             core::ImpulseSpaceDetail stats;
+             const auto& row = p.rows[0];
+             core::integrateSingleContact(p.bodies[row.body_a], p.bodies[row.body_b], row, l, tol,
+                                          &stats);
+             return stats;
+           }});
     }
   }
   auto island = [](L law, core::SolverMethod method, std::size_t iterations) {
@@ -259,7 +261,7 @@ int main(int argc, char** argv) {
         bench::accumulate(total_lcp, bench::measure(s.instances[i], a.after, a.impulses, lcp[i]));
         ns += timePerCall(m, prepared[i], reps) / s.instances.size();
         if (m.stats) {
-          const core::IntegrationStats st = m.stats(prepared[i]);
+          const core::ImpulseSpaceDetail st = m.stats(prepared[i]);
           steps += static_cast<double>(st.steps) / s.instances.size();
           segments += static_cast<double>(st.segments) / s.instances.size();
         }

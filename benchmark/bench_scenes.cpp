@@ -6,7 +6,8 @@
 #include <random>
 #include <stdexcept>
 
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_space.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/island_solver.h"
 #include "collision_response/core/rigid_body.h"
@@ -89,7 +90,7 @@ Velocities centralSpheres(const core::Scene& scene) {
 Velocities fineSolve(const core::Scene& scene, core::ImpactLaw law, bool lcp) {
   std::vector<core::RigidBody> bodies;
   for (const auto& b : scene.bodies) bodies.push_back(core::makeRigidBody(b));
-  std::vector<core::ContactRow> rows;
+  std::vector<core::ContactPoint> rows;
   auto index = [&](const std::string& id) {
     for (std::size_t i = 0; i < scene.bodies.size(); ++i)
       if (scene.bodies[i].id == id) return static_cast<int>(i);
@@ -97,8 +98,8 @@ Velocities fineSolve(const core::Scene& scene, core::ImpactLaw law, bool lcp) {
   };
   for (const auto& c : scene.contacts) {
     const int a = index(c.body_a), b = index(c.body_b);
-    rows.emplace_back(a, b, bodies[a], bodies[b], c.point, c.normal, c.restitution,
-                      c.static_friction, c.dynamic_friction);
+    rows.emplace_back(a, b, c.point, c.normal, c.restitution, c.static_friction,
+                      c.dynamic_friction);
   }
   if (rows.size() == 1 && !lcp) {
     const auto& row = rows[0];
@@ -106,7 +107,8 @@ Velocities fineSolve(const core::Scene& scene, core::ImpactLaw law, bool lcp) {
         law == kNewton
             ? core::solveSingleContact(bodies[row.body_a], bodies[row.body_b], row, law)
             : core::integrateSingleContact(bodies[row.body_a], bodies[row.body_b], row, law, 1e-14);
-    row.space.applyImpulse(bodies[row.body_a], bodies[row.body_b], impulse.total(row.normal));
+    core::ContactSpace(bodies[row.body_a], bodies[row.body_b], row.point)
+        .applyImpulse(bodies[row.body_a], bodies[row.body_b], impulse.total(row.normal));
   } else {
     core::SolverOptions options;
     options.law = law;

@@ -1,7 +1,8 @@
 // Per-contact cost of each impact law and solver (Google Benchmark).
 //   devel/lib/collision_response/bench_solvers            (Release build)
-// Closed forms are timed in a batch loop over pre-built contacts (what a caller embedding the core
-// pays per contact); the multi-contact scenes go through computeResponse() (validation included).
+// Closed forms are timed in a batch loop over pre-built contact-problem entries (K, frame and u of
+// each contact computed once, as a caller embedding the core would keep them); the multi-contact
+// scenes go through computeResponse() (validation and building the contact problem included).
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
@@ -9,7 +10,8 @@
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_problem.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/single_contact.h"
@@ -21,7 +23,7 @@ namespace {
 // Random off-centre contacts between two free bodies (or a body and the immovable ground).
 struct ContactBatch {
   std::vector<core::RigidBody> a, b;
-  std::vector<core::ContactRow> rows;
+  std::vector<core::ProblemContact> rows;
 };
 
 core::BodyState randomBody(std::mt19937& rng, bool immovable) {
@@ -59,8 +61,9 @@ ContactBatch makeBatch(std::size_t count, double mu, bool planar, unsigned seed 
     normal.normalize();
     batch.a.push_back(core::makeRigidBody(ground));
     batch.b.push_back(core::makeRigidBody(body));
-    core::ContactRow row(0, 1, batch.a.back(), batch.b.back(), point, normal, 0.5, mu, 0.8 * mu);
-    if (row.normal.dot(row.space.relativeVelocity(batch.a.back(), batch.b.back())) >= 0.0) {
+    const core::ProblemContact row = core::ContactProblem::rigidImpactContact(
+        batch.a.back(), batch.b.back(), core::ContactPoint(0, 1, point, normal, 0.5, mu, 0.8 * mu));
+    if (row.normal.dot(row.free_velocity) >= 0.0) {
       batch.a.pop_back();
       batch.b.pop_back();
       continue;  // keep approaching contacts only
@@ -70,12 +73,19 @@ ContactBatch makeBatch(std::size_t count, double mu, bool planar, unsigned seed 
   return batch;
 }
 
+// u = v_b(p) - v_a(p) from the bodies' current velocities (the entry's K and lever arms are kept;
+// the velocities are what changes from one impact to the next), as the solvers read it before.
+Eigen::Vector3d relativeVelocity(const ContactBatch& batch, std::size_t i) {
+  const core::ProblemContact& row = batch.rows[i];
+  return batch.b[i].pointVelocity(row.lever_arm_b) - batch.a[i].pointVelocity(row.lever_arm_a);
+}
+
 void closedForm(benchmark::State& state, double mu, core::ImpactLaw law) {
   const ContactBatch batch = makeBatch(1024, mu, false);
   for (auto _ : state) {
     for (std::size_t i = 0; i < batch.rows.size(); ++i) {
       benchmark::DoNotOptimize(
-          core::solveSingleContact(batch.a[i], batch.b[i], batch.rows[i], law));
+          core::solveSingleContact(batch.rows[i], relativeVelocity(batch, i), law));
     }
   }
   state.SetItemsProcessed(state.iterations() * batch.rows.size());
@@ -97,7 +107,7 @@ void impulseSpace(benchmark::State& state, core::ImpactLaw law, bool planar) {
   for (auto _ : state) {
     for (std::size_t i = 0; i < batch.rows.size(); ++i) {
       benchmark::DoNotOptimize(
-          core::integrateSingleContact(batch.a[i], batch.b[i], batch.rows[i], law, tolerance));
+          core::integrateSingleContact(batch.rows[i], relativeVelocity(batch, i), law, tolerance));
     }
   }
   state.SetItemsProcessed(state.iterations() * batch.rows.size());

@@ -2,7 +2,8 @@
 
 #include <cstdio>
 
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_problem.h"
 #include "collision_response/core/island_solver.h"
 #include "collision_response/core/islands.h"
 #include "collision_response/core/resting_contact.h"
@@ -12,8 +13,11 @@
 namespace collision_response::core {
 namespace {
 
-double normalVelocity(const std::vector<RigidBody>& bodies, const ContactRow& row) {
-  return row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
+double normalVelocity(const std::vector<RigidBody>& bodies, const ContactPoint& contact) {
+  const RigidBody& a = bodies[contact.body_a];
+  const RigidBody& b = bodies[contact.body_b];
+  return contact.normal.dot(b.pointVelocity(contact.point - b.com) -
+                            a.pointVelocity(contact.point - a.com));
 }
 
 bool anyApproaching(const std::vector<ContactImpulse>& impulses, const Island& island) {
@@ -71,38 +75,49 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& request
   bodies.reserve(scene.bodies.size());
   for (const BodyState& state : scene.bodies) bodies.push_back(makeRigidBody(state));
 
-  std::vector<ContactRow> rows;
-  rows.reserve(scene.contacts.size());
+  std::vector<ContactPoint> contacts;
+  contacts.reserve(scene.contacts.size());
   for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
     const Contact& contact = scene.contacts[c];
     const auto [a, b] = contact_bodies[c];
-    rows.emplace_back(a, b, bodies[a], bodies[b], contact.point, contact.normal.normalized(),
-                      contact.restitution, contact.static_friction, contact.dynamic_friction);
+    contacts.emplace_back(a, b, contact.point, contact.normal.normalized(), contact.restitution,
+                          contact.static_friction, contact.dynamic_friction);
   }
 
   CollisionResult result;
-  result.impulses.resize(rows.size());
-  for (std::size_t c = 0; c < rows.size(); ++c) {
-    result.impulses[c].normal_velocity_before = normalVelocity(bodies, rows[c]);
+  result.impulses.resize(contacts.size());
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    result.impulses[c].normal_velocity_before = normalVelocity(bodies, contacts[c]);
   }
+  // One problem per island, its storage reused across islands and calls on this thread (a
+  // single-contact call then allocates nothing for it).
+  thread_local ContactProblem problem;
+  thread_local std::vector<ContactImpulse> answer;
   for (const Island& island : findIslands(bodies, contact_bodies)) {
-    IslandReport report;
-    report.contacts = island.contacts;
+    SolveReport report;
     if (anyApproaching(result.impulses, island)) {
-      const IslandStats stats =
-          solveIsland(bodies, rows, island.contacts, options, result.impulses);
-      report.method = stats.method;
-      report.iterations = stats.iterations;
-      report.residual = stats.residual;
-      report.converged = stats.converged;
+      problem.buildImpact(bodies, contacts, island.contacts);
+      report = solveIsland(problem, options, answer);
+      problem.addVelocityChangesTo(bodies);
+      for (std::size_t i = 0; i < problem.size(); ++i) {
+        ContactImpulse& out = result.impulses[problem.contact(i).source];
+        out.normal_impulse = answer[i].normal_impulse;
+        out.friction_impulse = answer[i].friction_impulse;
+        out.sticking = answer[i].sticking;
+      }
     } else {
-      const IslandStats stats =
-          solveRestingIsland(scene.bodies, bodies, rows, island.contacts, options, result.impulses);
-      report.method = stats.method;
-      report.iterations = stats.iterations;
-      report.residual = stats.residual;
-      report.converged = stats.converged;
+      problem.buildResting(scene.bodies, bodies, contacts, island.contacts,
+                           options.resting_velocity);
+      report = solveRestingIsland(problem, options, answer);
+      for (std::size_t i = 0; i < problem.size(); ++i) {
+        ContactImpulse& out = result.impulses[problem.contact(i).source];
+        out.resting = true;
+        out.normal_force = answer[i].normal_force;
+        out.friction_force = answer[i].friction_force;
+        out.sticking = answer[i].sticking;
+      }
     }
+    report.contacts = island.contacts;
     result.islands.push_back(std::move(report));
   }
 
@@ -114,8 +129,8 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& request
     result.kinetic_energy_before += kineticEnergy(scene.bodies[i]);
     result.kinetic_energy_after += kineticEnergy(result.bodies[i]);
   }
-  for (std::size_t c = 0; c < rows.size(); ++c) {
-    result.impulses[c].normal_velocity_after = normalVelocity(bodies, rows[c]);
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    result.impulses[c].normal_velocity_after = normalVelocity(bodies, contacts[c]);
   }
   addWarnings(scene, options, result);
   return result;

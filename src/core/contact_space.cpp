@@ -5,13 +5,7 @@
 namespace collision_response::core {
 namespace {
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& r) {
-  Eigen::Matrix3d s;
-  s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
-  return s;
-}
-
-// Contribution I3 / m - [r]x Iw^-1 [r]x of one movable body to K.
+// Adds the contribution I3 / m - [r]x Iw^-1 [r]x of one movable body to K.
 void addBody(const RigidBody& body, const Eigen::Vector3d& r, Eigen::Matrix3d& K) {
   if (!body.movable()) return;
   const Eigen::Matrix3d rx = skew(r);
@@ -25,6 +19,12 @@ ContactSpace::ContactSpace(const RigidBody& a, const RigidBody& b, const Eigen::
     : r_a(point - a.com), r_b(point - b.com), K(Eigen::Matrix3d::Zero()) {
   addBody(a, r_a, K);
   addBody(b, r_b, K);
+}
+
+Eigen::Matrix3d rigidContactBlock(const RigidBody& body, const Eigen::Vector3d& r) {
+  Eigen::Matrix3d K = Eigen::Matrix3d::Zero();
+  addBody(body, r, K);
+  return K;
 }
 
 void tangentBasis(const Eigen::Vector3d& n, Eigen::Vector3d& t1, Eigen::Vector3d& t2) {

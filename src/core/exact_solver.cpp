@@ -1,12 +1,13 @@
 // Exact multi-contact Newton restitution: the contact LCP of exact_solver.h, solved by lcp.h.
 //
-// Symbols: contact i has normal n_i, pyramid directions d_ik, pre-impact relative velocity u_i and
-// target normal velocity -e_i u_n,i (approaching) or 0. For a movable body touched on side s (-1
-// for a, +1 for b) at offset r, the contact's columns of J^T are s [dir; r x dir] for dir in
-// (n_i, d_i1..d_iD), and W = diag(I3 / m, Iw^-1). The LCP unknowns of contact i are contiguous,
+// Everything is read from the contact problem (contact_problem.h). Symbols: contact i has normal
+// n_i, pyramid directions d_ik, pre-impact relative velocity u_i and target normal velocity
+// (ProblemContact::target_normal_velocity). With D_i = [n_i d_i1 .. d_iD] the contact's directions
+// and W_ij the problem's Delassus blocks, A_ij = D_i^T W_ij D_j. The LCP unknowns of contact i are
+// contiguous,
 //   z = [..., P_n,i, beta_i1..beta_iD, lambda_i, ...]   (frictionless contacts: P_n,i only),
 // and the LCP is
-//   M = [ A         0 ]    A = J W J^T over the (P_n, beta) unknowns (summed body by body),
+//   M = [ A         0 ]    A over the (P_n, beta) unknowns (blocks of W, diagonal and coupled),
 //       [           E ]    E_i = column of ones coupling beta_ik to lambda_i,
 //       [ mu  -E^T  0 ]
 //   q = [u_n,i + e_i u_n,i (or u_n,i);  d_ik . u_i;  0].
@@ -48,13 +49,15 @@ constexpr double kSlipTolerance = 1e-9;
 /// miss by orders of magnitude (270x the speed in the property suite's find).
 constexpr double kAcceptedResidual = 1e-3;
 
-struct Contact {
-  const ContactRow* row = nullptr;
+// One contact of the problem as the LCP sees it (named so as not to shadow core::Contact).
+struct LcpContact {
+  const ProblemContact* entry = nullptr;
+  int index = 0;  // in the problem
   // n, then d_1..d_D: only n is set for a frictionless contact, whose other columns are unused.
   Eigen::Matrix<double, 3, kD + 1> directions;
   Index columns = 1;                            // unknowns with a column of J^T: 1 or 1 + D
   Index offset = 0;                             // first LCP unknown (P_n)
-  int local[2] = {-1, -1};                      // island-local index of body a, b (-1: immovable)
+  int local[2] = {-1, -1};                      // problem body of a, b (-1: no unknowns)
   Eigen::Vector3d u = Eigen::Vector3d::Zero();  // pre-impact relative velocity [m/s]
   double target_u_n = 0.0;                      // [m/s]
   bool frictional = false;
@@ -64,14 +67,16 @@ struct Contact {
   Eigen::Matrix<double, kD, 1> beta = Eigen::Matrix<double, kD, 1>::Zero();
   Eigen::Vector3d P_t = Eigen::Vector3d::Zero();
 
-  double mu() const { return dynamic ? row->dynamic_friction : row->static_friction; }
+  double mu() const { return dynamic ? entry->dynamic_friction : entry->static_friction; }
   Index lambda() const { return offset + columns; }
-  Eigen::Vector3d impulse() const { return P_n * row->normal + P_t; }
-  const Eigen::Vector3d& r(int side) const { return side == 0 ? row->space.r_a : row->space.r_b; }
+  Eigen::Vector3d impulse() const { return P_n * entry->normal + P_t; }
+  const Eigen::Vector3d& r(int side) const {
+    return side == 0 ? entry->lever_arm_a : entry->lever_arm_b;
+  }
 };
 
 /// Directions of the all-sticking unknowns: n, t1 = d_1 and t2 = d_(1 + D/4) of the pyramid.
-Eigen::Matrix3d stickingDirections(const Contact& c) {
+Eigen::Matrix3d stickingDirections(const LcpContact& c) {
   Eigen::Matrix3d D;
   if (c.frictional) {
     D << c.directions.col(0), c.directions.col(1), c.directions.col(1 + kD / 4);
@@ -84,76 +89,76 @@ Eigen::Matrix3d stickingDirections(const Contact& c) {
 /// An LDL^T whose smallest pivot is below this fraction of the largest is treated as singular.
 constexpr double kRegularPivot = 1e-10;
 
-// A movable body touched by a contact, and the contact's block of columns in J^T and W J^T.
-struct Incidence {
-  int body = 0;  // index into `bodies`
-  int contact = 0;
-  int side = 0;  // 0: body a, 1: body b
-  Index column = 0;
-};
-
-// The LCP of one island and what is needed to read its solution.
+// The LCP of one island's contact problem and what is needed to read its solution.
 class IslandLcp {
  public:
-  IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
-            const std::vector<int>& island);
+  /// Step 1 of the construction: directions, targets and the LCP layout of every contact.
+  explicit IslandLcp(const ContactProblem& problem);
 
   /// Largest pre-impact |u| [m/s].
   double speed() const { return u_reference_; }
-  std::vector<Contact>& contacts() { return contacts_; }
+  std::vector<LcpContact>& contacts() { return contacts_; }
 
   /// The all-sticking guess: the impulses that give every contact its target normal velocity
   /// (-e u_n approaching, 0 touching or separating) and no slip (the least-norm ones, the Delassus
-  /// matrix being singular for redundant contacts) are compressive and inside the static Coulomb
-  /// cones. Then they solve the problem (complementarity holds with every contact active and
-  /// sticking) and are read; false otherwise (nothing changed). One linear solve instead of
-  /// Lemke's pivots: a box landing flat, a row of touching bodies struck at one end.
+  /// matrix being singular for redundant contacts or bodies with few freedoms) are compressive and
+  /// inside the static Coulomb cones, and reach the targets. Then they solve the problem
+  /// (complementarity holds with every contact active and sticking) and are read; false otherwise
+  /// (nothing changed). One linear solve instead of Lemke's pivots: a box landing flat, a row of
+  /// touching bodies struck at one end.
   bool solveAllSticking();
   /// Solves the LCP with the current coefficients and reads the impulses; false if not solved.
   bool solve(std::size_t& pivots, const Deadline& deadline);
   /// Moves the contacts still on mu_s that slide after the current impulses to mu_d. True if any.
   bool switchSlidingToDynamic();
   /// Change of the relative velocity at contact c that the current impulses make [m/s].
-  Eigen::Vector3d velocityChangeAt(const Contact& c) const;
+  Eigen::Vector3d velocityChangeAt(const LcpContact& c) const {
+    return problem_.motionChange(c.index, velocity_changes_);
+  }
 
  private:
-  /// The all-sticking impulses from the Delassus matrix A = J W J^T (least-norm if singular).
+  /// The all-sticking impulses from the Delassus matrix (least-norm if singular).
   Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
                                      const Eigen::VectorXd& rhs) const;
-  void assemble();
+  /// Step 2, only when Lemke runs: the rest of each friction pyramid.
+  void completePyramids();
+  /// Step 3: M's A part from the problem's Delassus blocks, A_ij = D_i^T W_ij D_j.
+  void assembleDelassus();
+  /// Step 4: q and the friction coupling rows (E, mu, -E^T).
+  void assembleFrictionRows();
+  /// The bodies' velocity changes from the current impulses.
   void velocityChanges();
 
-  const std::vector<RigidBody>& bodies_;
-  std::vector<Contact> contacts_;
-  std::vector<Incidence> incidences_;  // sorted by body
-  Eigen::Matrix<double, 6, Eigen::Dynamic> JT_, WJT_;
+  const ContactProblem& problem_;
+  std::vector<LcpContact> contacts_;
   Eigen::MatrixXd M_;
   Eigen::VectorXd q_;
-  std::vector<Eigen::Vector3d> dv_, dw_;  // velocity changes of the island-local bodies
-  std::vector<const RigidBody*> local_body_;
+  Eigen::VectorXd velocity_changes_;  // of the problem's unknowns
   double u_reference_ = 0.0;
-  Index unknowns_ = 0;          // LCP size
-  Index jacobian_columns_ = 0;  // columns of J^T
+  Index unknowns_ = 0;  // LCP size
   bool assembled_ = false;
 };
 
-/// The least-norm all-sticking impulses P (A P = rhs, A = J W J^T) solved in body space: the
-/// velocity changes D of the island's bodies that reach the targets, J D = rhs (least squares,
-/// exact when consistent), then P = J y with J^T J y = M D, M = diag(m_b, I_b). Needs J of full
-/// column rank, every body pinned by its contacts: false if one keeps a free direction. Each
-/// body's moment columns are scaled by its largest lever arm L_b, for conditioning. `Columns`: 6
-/// for one body (fixed-size), Eigen::Dynamic for several.
+/// The least-norm all-sticking impulses P (A P = rhs) solved in body space, for free rigid bodies:
+/// the velocity changes D of the island's bodies that reach the targets, J D = rhs (least
+/// squares, exact when consistent), then P = J y with J^T J y = M D, M = diag(m_b, I_b). Needs J
+/// of full column rank, every body pinned by its contacts: false if one keeps a free direction,
+/// or if a body is not a free rigid body. Each body's moment columns are scaled by its largest
+/// lever arm L_b, for conditioning. `Columns`: 6 for one body (fixed-size), Eigen::Dynamic for
+/// several.
 template <int Columns>
-bool stickingInBodySpace(const std::vector<Contact>& contacts,
-                         const std::vector<const RigidBody*>& bodies,
-                         const std::vector<Index>& first, const Eigen::VectorXd& rhs,
-                         Eigen::VectorXd& P) {
+bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
+                         const std::vector<ProblemBody>& bodies, const std::vector<Index>& first,
+                         const Eigen::VectorXd& rhs, Eigen::VectorXd& P) {
   using MatrixJ = Eigen::Matrix<double, Eigen::Dynamic, Columns>;
   using MatrixG = Eigen::Matrix<double, Columns, Columns>;
   using VectorG = Eigen::Matrix<double, Columns, 1>;
   const Index count = static_cast<Index>(bodies.size());
+  for (const ProblemBody& body : bodies) {
+    if (!body.rigid()) return false;
+  }
   std::vector<double> L(bodies.size(), 0.0);
-  for (const Contact& c : contacts) {
+  for (const LcpContact& c : contacts) {
     for (int side = 0; side < 2; ++side) {
       if (c.local[side] >= 0) L[c.local[side]] = std::max(L[c.local[side]], c.r(side).norm());
     }
@@ -164,7 +169,7 @@ bool stickingInBodySpace(const std::vector<Contact>& contacts,
   // Rows s [d^T, (r x d)^T / L_b] for each body b a contact touches (side s = -1 for a, +1 for b).
   MatrixJ J = MatrixJ::Zero(rhs.size(), 6 * count);
   for (std::size_t i = 0; i < contacts.size(); ++i) {
-    const Contact& c = contacts[i];
+    const LcpContact& c = contacts[i];
     const Eigen::Matrix3d D = stickingDirections(c);
     for (int side = 0; side < 2; ++side) {
       const int b = c.local[side];
@@ -189,7 +194,7 @@ bool stickingInBodySpace(const std::vector<Contact>& contacts,
   const VectorG change = ldlt.solve(J.transpose() * rhs);  // [dv_b; L_b dw_b]
   VectorG momentum = VectorG::Zero(6 * count);             // S M S [dv_b; L_b dw_b]
   for (Index b = 0; b < count; ++b) {
-    const RigidBody& body = *bodies[b];
+    const ProblemBody& body = bodies[b];
     momentum.template segment<3>(6 * b) = change.template segment<3>(6 * b) / body.inverse_mass;
     momentum.template segment<3>(6 * b + 3) =
         body.inverse_inertia.llt().solve(change.template segment<3>(6 * b + 3)) / (L[b] * L[b]);
@@ -198,66 +203,36 @@ bool stickingInBodySpace(const std::vector<Contact>& contacts,
   return true;
 }
 
-IslandLcp::IslandLcp(const std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
-                     const std::vector<int>& island)
-    : bodies_(bodies), contacts_(island.size()) {
-  // Contacts: directions, targets, LCP layout, incidences.
+IslandLcp::IslandLcp(const ContactProblem& problem) : problem_(problem), contacts_(problem.size()) {
   Index unknowns = 0;
-  Index jacobian_columns = 0;
-  incidences_.reserve(2 * island.size());
-  for (std::size_t i = 0; i < island.size(); ++i) {
-    Contact& c = contacts_[i];
-    c.row = &rows[island[i]];
-    const ContactRow& row = *c.row;
-    c.u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
-    const double u_n = c.u.dot(row.normal);
-    c.target_u_n = u_n < 0.0 ? -row.restitution * u_n : 0.0;
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    LcpContact& c = contacts_[i];
+    const ProblemContact& entry = problem.contact(i);
+    c.entry = &entry;
+    c.index = static_cast<int>(i);
+    c.local[0] = entry.local_a;
+    c.local[1] = entry.local_b;
+    c.u = problem.relativeMotion(i);
+    c.target_u_n = problem.targetNormal(i);
     u_reference_ = std::max(u_reference_, c.u.norm());
-    c.frictional = !row.frictionless();
-    c.directions.col(0) = row.normal;
+    c.frictional = !entry.frictionless();
+    c.directions.col(0) = entry.normal;
     if (c.frictional) {  // t1 = d_1 and t2 = d_(1 + D/4) now, the rest of the pyramid for Lemke
-      Eigen::Vector3d t1, t2;
-      tangentBasis(row.normal, t1, t2);
-      c.directions.col(1) = t1;
-      c.directions.col(1 + kD / 4) = t2;
+      c.directions.col(1) = entry.tangent1;
+      c.directions.col(1 + kD / 4) = entry.tangent2;
       c.columns = 1 + kD;
     }
     c.offset = unknowns;
     unknowns += c.frictional ? c.columns + 1 : 1;
-    const int body_index[2] = {row.body_a, row.body_b};
-    for (int side = 0; side < 2; ++side) {
-      if (!bodies[body_index[side]].movable()) continue;
-      incidences_.push_back({body_index[side], static_cast<int>(i), side, jacobian_columns});
-      jacobian_columns += c.columns;
-    }
   }
-
-  // Island-local body indices, in body order.
-  std::sort(incidences_.begin(), incidences_.end(), [](const Incidence& x, const Incidence& y) {
-    return x.body < y.body || (x.body == y.body && x.contact < y.contact);
-  });
-  for (std::size_t g = 0; g < incidences_.size(); ++g) {
-    if (g == 0 || incidences_[g].body != incidences_[g - 1].body) {
-      local_body_.push_back(&bodies[incidences_[g].body]);
-    }
-    contacts_[incidences_[g].contact].local[incidences_[g].side] =
-        static_cast<int>(local_body_.size()) - 1;
-  }
-  dv_.resize(local_body_.size());
-  dw_.resize(local_body_.size());
-
   unknowns_ = unknowns;
-  jacobian_columns_ = jacobian_columns;
+  velocity_changes_.setZero(problem.unknowns());
 }
 
-void IslandLcp::assemble() {
-  JT_.resize(6, jacobian_columns_);
-  WJT_.resize(6, jacobian_columns_);
-  M_.setZero(unknowns_, unknowns_);
-  q_.setZero(unknowns_);
-  // The friction pyramids: d_k = cos(2 pi k / D) t1 + sin(2 pi k / D) t2.
+void IslandLcp::completePyramids() {
+  // d_k = cos(2 pi k / D) t1 + sin(2 pi k / D) t2.
   const std::array<Eigen::Vector2d, kD>& angles = pyramidAngles();
-  for (Contact& c : contacts_) {
+  for (LcpContact& c : contacts_) {
     if (!c.frictional) continue;
     const Eigen::Vector3d t1 = c.directions.col(1), t2 = c.directions.col(1 + kD / 4);
     for (int k = 0; k < kD; ++k) {
@@ -266,34 +241,30 @@ void IslandLcp::assemble() {
     c.directions.col(1 + kD / 2) = -t1;
     c.directions.col(1 + 3 * kD / 4) = -t2;
   }
-  // J^T and W J^T, one 6 x columns block per incidence.
-  for (const Incidence& inc : incidences_) {
-    const Contact& c = contacts_[inc.contact];
-    const RigidBody& body = bodies_[inc.body];
-    const double sign = inc.side == 0 ? -1.0 : 1.0;
-    for (Index j = 0; j < c.columns; ++j) {
-      const Eigen::Vector3d dir = sign * c.directions.col(j);
-      const Eigen::Vector3d moment = c.r(inc.side).cross(dir);
-      JT_.col(inc.column + j) << dir, moment;
-      WJT_.col(inc.column + j) << body.inverse_mass * dir, body.inverse_inertia * moment;
-    }
-  }
+}
 
-  // A = J W J^T: contacts couple through each body they share (including a contact with itself).
-  for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
-    end = begin + 1;
-    while (end < incidences_.size() && incidences_[end].body == incidences_[begin].body) ++end;
-    for (std::size_t x = begin; x < end; ++x) {
-      const Contact& cx = contacts_[incidences_[x].contact];
-      for (std::size_t y = begin; y < end; ++y) {
-        const Contact& cy = contacts_[incidences_[y].contact];
-        M_.block(cx.offset, cy.offset, cx.columns, cy.columns).noalias() +=
-            JT_.middleCols(incidences_[x].column, cx.columns).transpose() *
-            WJT_.middleCols(incidences_[y].column, cy.columns);
-      }
-    }
+void IslandLcp::assembleDelassus() {
+  M_.setZero(unknowns_, unknowns_);
+  for (const LcpContact& c : contacts_) {
+    const auto D = c.directions.leftCols(c.columns);
+    M_.block(c.offset, c.offset, c.columns, c.columns).noalias() =
+        D.transpose() * c.entry->delassus * D;
   }
-  for (const Contact& c : contacts_) {
+  for (const auto& [i, j] : problem_.couplings()) {
+    const LcpContact& ci = contacts_[i];
+    const LcpContact& cj = contacts_[j];
+    const Eigen::Matrix3d W_ij = problem_.delassusBlock(i, j);
+    const auto Di = ci.directions.leftCols(ci.columns);
+    const auto Dj = cj.directions.leftCols(cj.columns);
+    M_.block(ci.offset, cj.offset, ci.columns, cj.columns).noalias() = Di.transpose() * W_ij * Dj;
+    M_.block(cj.offset, ci.offset, cj.columns, ci.columns) =
+        M_.block(ci.offset, cj.offset, ci.columns, cj.columns).transpose();
+  }
+}
+
+void IslandLcp::assembleFrictionRows() {
+  q_.setZero(unknowns_);
+  for (const LcpContact& c : contacts_) {
     q_.segment(c.offset, c.columns) = c.directions.leftCols(c.columns).transpose() * c.u;
     q_(c.offset) -= c.target_u_n;
     if (!c.frictional) continue;
@@ -313,7 +284,7 @@ bool IslandLcp::solveAllSticking() {
   }
   Eigen::VectorXd rhs(unknowns);
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const Contact& c = contacts_[i];
+    const LcpContact& c = contacts_[i];
     const Eigen::Vector3d change = stickingDirections(c).transpose() * -c.u;  // to u' = 0 ...
     rhs.segment(first[i], c.frictional ? 3 : 1) = change.head(c.frictional ? 3 : 1);
     rhs(first[i]) += c.target_u_n;  // ... but u'_n = -e u_n
@@ -322,23 +293,23 @@ bool IslandLcp::solveAllSticking() {
   // in body space; otherwise, or if a body keeps a free direction, with the Delassus matrix.
   Eigen::VectorXd P;
   const bool in_body_space =
-      unknowns > 6 * static_cast<Index>(local_body_.size()) &&
-      (local_body_.size() == 1
-           ? stickingInBodySpace<6>(contacts_, local_body_, first, rhs, P)
-           : stickingInBodySpace<Eigen::Dynamic>(contacts_, local_body_, first, rhs, P));
+      unknowns > problem_.unknowns() &&
+      (problem_.bodies().size() == 1
+           ? stickingInBodySpace<6>(contacts_, problem_.bodies(), first, rhs, P)
+           : stickingInBodySpace<Eigen::Dynamic>(contacts_, problem_.bodies(), first, rhs, P));
   if (!in_body_space) P = stickingByDelassus(first, rhs);
   if (!P.allFinite()) return false;
 
   // Admissible: compressive and inside the static cones.
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const Contact& c = contacts_[i];
+    const LcpContact& c = contacts_[i];
     const double P_n = P(first[i]);
     if (!(P_n >= 0.0)) return false;
-    if (c.frictional && P.segment<2>(first[i] + 1).norm() > c.row->static_friction * P_n)
+    if (c.frictional && P.segment<2>(first[i] + 1).norm() > c.entry->static_friction * P_n)
       return false;
   }
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    Contact& c = contacts_[i];
+    LcpContact& c = contacts_[i];
     c.P_n = P(first[i]);
     c.beta.setZero();
     c.P_t = c.frictional
@@ -350,11 +321,11 @@ bool IslandLcp::solveAllSticking() {
   // round-off of the island's scale. Otherwise the targets are not reachable together.
   const double tolerance = 1e-10 * std::max(u_reference_, rhs.cwiseAbs().maxCoeff());
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const Contact& c = contacts_[i];
+    const LcpContact& c = contacts_[i];
     const Index k = c.frictional ? 3 : 1;
     const Eigen::Vector3d change = stickingDirections(c).transpose() * velocityChangeAt(c);
     if ((change.head(k) - rhs.segment(first[i], k)).cwiseAbs().maxCoeff() > tolerance) {
-      for (Contact& reset : contacts_) reset.P_n = 0.0, reset.P_t.setZero();
+      for (LcpContact& reset : contacts_) reset.P_n = 0.0, reset.P_t.setZero();
       return false;
     }
   }
@@ -363,49 +334,28 @@ bool IslandLcp::solveAllSticking() {
 
 Eigen::VectorXd IslandLcp::stickingByDelassus(const std::vector<Index>& first,
                                               const Eigen::VectorXd& rhs) const {
-  // Columns [d; r x d] of J^T and of W J^T for each incidence, computed once.
-  struct Columns {
-    Eigen::Matrix<double, 6, 3> J, WJ;
-    Index first, count;
-  };
-  std::vector<Columns> columns(incidences_.size());
-  for (std::size_t g = 0; g < incidences_.size(); ++g) {
-    const Incidence& inc = incidences_[g];
-    const Contact& c = contacts_[inc.contact];
-    const RigidBody& body = bodies_[inc.body];
-    const Eigen::Matrix3d D = stickingDirections(c) * (inc.side == 0 ? -1.0 : 1.0);
-    Columns& out = columns[g];
-    out.first = first[inc.contact];
-    out.count = c.frictional ? 3 : 1;
-    for (Index j = 0; j < out.count; ++j) {
-      const Eigen::Vector3d moment = c.r(inc.side).cross(D.col(j));
-      out.J.col(j) << D.col(j), moment;
-      out.WJ.col(j) << body.inverse_mass * D.col(j), body.inverse_inertia * moment;
-    }
-  }
-  // A = J W J^T over the sticking unknowns: contacts couple through each body they share.
+  // A = S^T W S over the sticking unknowns (S_i = n_i, or [n_i t1_i t2_i]), from the problem's
+  // Delassus blocks: the contact's own and those of the contacts it shares a body with.
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rhs.size(), rhs.size());
-  for (std::size_t begin = 0, end = 0; begin < incidences_.size(); begin = end) {
-    end = begin + 1;
-    while (end < incidences_.size() && incidences_[end].body == incidences_[begin].body) ++end;
-    for (std::size_t x = begin; x < end; ++x) {
-      const Columns& cx = columns[x];
-      for (std::size_t y = begin; y < end; ++y) {
-        const Columns& cy = columns[y];
-        if (cx.count == 3 && cy.count == 3) {
-          A.block<3, 3>(cx.first, cy.first).noalias() += cx.WJ.transpose() * cy.J;
-        } else {
-          for (Index i = 0; i < cx.count; ++i) {
-            for (Index j = 0; j < cy.count; ++j) {
-              A(cx.first + i, cy.first + j) += cx.WJ.col(i).dot(cy.J.col(j));
-            }
-          }
-        }
-      }
-    }
+  const auto count = [](const LcpContact& c) -> Index { return c.frictional ? 3 : 1; };
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const LcpContact& c = contacts_[i];
+    const Eigen::Matrix3d S = stickingDirections(c);
+    const Eigen::Matrix3d block = S.transpose() * c.entry->delassus * S;
+    A.block(first[i], first[i], count(c), count(c)) = block.topLeftCorner(count(c), count(c));
   }
-  // Independent contacts: A is positive definite and LDL^T solves it. Redundant ones (a singular
-  // A): the least-norm solution, by a complete orthogonal decomposition.
+  for (const auto& [i, j] : problem_.couplings()) {
+    const LcpContact& ci = contacts_[i];
+    const LcpContact& cj = contacts_[j];
+    const Eigen::Matrix3d block =
+        stickingDirections(ci).transpose() * problem_.delassusBlock(i, j) * stickingDirections(cj);
+    A.block(first[i], first[j], count(ci), count(cj)) = block.topLeftCorner(count(ci), count(cj));
+    A.block(first[j], first[i], count(cj), count(ci)) =
+        block.topLeftCorner(count(ci), count(cj)).transpose();
+  }
+  // Independent contacts: A is positive definite and LDL^T solves it. Redundant ones, or bodies
+  // with few freedoms (a singular A): the least-norm solution, by a complete orthogonal
+  // decomposition.
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(A);
   if (ldlt.info() == Eigen::Success && ldlt.isPositive()) {
     const Eigen::VectorXd d = ldlt.vectorD();
@@ -414,19 +364,11 @@ Eigen::VectorXd IslandLcp::stickingByDelassus(const std::vector<Index>& first,
   return A.completeOrthogonalDecomposition().solve(rhs);
 }
 
-Eigen::Vector3d IslandLcp::velocityChangeAt(const Contact& c) const {
-  Eigen::Vector3d du = Eigen::Vector3d::Zero();  // change of v_b(p) - v_a(p)
-  for (int side = 0; side < 2; ++side) {
-    if (c.local[side] < 0) continue;
-    const Eigen::Vector3d change = dv_[c.local[side]] + dw_[c.local[side]].cross(c.r(side));
-    du += side == 0 ? Eigen::Vector3d(-change) : change;
-  }
-  return du;
-}
-
 bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
   if (!assembled_) {  // only when the all-sticking guess did not answer
-    assemble();
+    completePyramids();
+    assembleDelassus();
+    assembleFrictionRows();
     assembled_ = true;
   }
   LcpOptions lcp_options;
@@ -434,7 +376,7 @@ bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
   const LcpResult lcp = solveLcp(M_, q_, lcp_options);
   pivots += lcp.pivots;
   if (lcp.status != LcpStatus::kSolved) return false;
-  for (Contact& c : contacts_) {
+  for (LcpContact& c : contacts_) {
     c.P_n = lcp.z(c.offset);
     if (!c.frictional) continue;
     c.beta = lcp.z.segment<kD>(c.offset + 1);
@@ -448,25 +390,19 @@ bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
 }
 
 void IslandLcp::velocityChanges() {
-  std::fill(dv_.begin(), dv_.end(), Eigen::Vector3d::Zero());
-  std::fill(dw_.begin(), dw_.end(), Eigen::Vector3d::Zero());
-  for (const Contact& c : contacts_) {
-    for (int side = 0; side < 2; ++side) {
-      if (c.local[side] < 0) continue;
-      const RigidBody& body = *local_body_[c.local[side]];
-      const Eigen::Vector3d p = (side == 0 ? -1.0 : 1.0) * c.impulse();
-      dv_[c.local[side]] += body.inverse_mass * p;
-      dw_[c.local[side]] += body.inverse_inertia * c.r(side).cross(p);
-    }
+  velocity_changes_.setZero();
+  for (const LcpContact& c : contacts_) {
+    problem_.addImpulse(c.index, c.impulse(), velocity_changes_);
   }
 }
 
 bool IslandLcp::switchSlidingToDynamic() {
   bool changed = false;
-  for (Contact& c : contacts_) {
-    if (!c.frictional || c.dynamic || c.row->dynamic_friction == c.row->static_friction) continue;
+  for (LcpContact& c : contacts_) {
+    const ProblemContact& entry = *c.entry;
+    if (!c.frictional || c.dynamic || entry.dynamic_friction == entry.static_friction) continue;
     const Eigen::Vector3d u = c.u + velocityChangeAt(c);
-    const Eigen::Vector3d u_t = u - u.dot(c.row->normal) * c.row->normal;
+    const Eigen::Vector3d u_t = u - u.dot(entry.normal) * entry.normal;
     if (u_t.norm() > kSlipTolerance * u_reference_) {
       c.dynamic = true;
       M_(c.lambda(), c.offset) = c.mu();
@@ -482,42 +418,46 @@ double pyramidFactor() {
   return std::cos(kPi / kD);
 }
 
-ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
-                      const std::vector<int>& island, const SolverOptions& options,
-                      std::vector<ContactImpulse>& impulses) {
-  ExactStats stats;
-  IslandLcp lcp(bodies, rows, island);
+namespace {
+
+// Complementarity violation of contact c at post-impact relative velocity u [m/s]:
+// |min(velocity, k_nn impulse)| is 0 iff both are >= 0 and one of them is 0.
+double violation(const LcpContact& c, const Eigen::Vector3d& u, bool all_sticking) {
+  const ProblemContact& entry = *c.entry;
+  const double u_n = u.dot(entry.normal);
+  const double k_nn = entry.normalDelassus();
+  const auto pair = [k_nn](double velocity, double impulse) {
+    return std::abs(std::min(velocity, k_nn * impulse));
+  };
+  double worst = pair(u_n - c.target_u_n, c.P_n);
+  if (c.frictional && all_sticking) {
+    // No pyramid (beta = 0): its terms are min(lambda, k_nn mu P_n) <= min(|u_t|, k_nn mu P_n).
+    worst = std::max(worst, pair((u - u_n * entry.normal).norm(), c.mu() * c.P_n));
+  } else if (c.frictional) {
+    const Eigen::Matrix<double, kD, 1> slip =
+        c.directions.rightCols<kD>().transpose() * (u - u_n * entry.normal);
+    const double lambda = std::max(0.0, -slip.minCoeff());
+    for (int k = 0; k < kD; ++k) worst = std::max(worst, pair(lambda + slip(k), c.beta(k)));
+    worst = std::max(worst, pair(lambda, c.mu() * c.P_n - c.beta.sum()));
+  }
+  return worst;
+}
+
+}  // namespace
+
+SolveReport solveExact(ContactProblem& problem, const SolverOptions& options,
+                       std::vector<ContactImpulse>& impulses) {
+  SolveReport report;
+  report.method = SolveMethod::kExact;
+  IslandLcp lcp(problem);
   const bool all_sticking = lcp.solveAllSticking();  // checked against its targets already
   bool solved = all_sticking;
-  while (!solved && lcp.solve(stats.pivots, options.deadline)) {
+  while (!solved && lcp.solve(report.iterations, options.deadline)) {
     if (!lcp.switchSlidingToDynamic()) {
       solved = true;
       break;
     }
   }
-
-  // Complementarity violation of contact c at post-impact relative velocity u [m/s]:
-  // |min(velocity, k_nn impulse)| is 0 iff both are >= 0 and one of them is 0.
-  const auto violation = [all_sticking](const Contact& c, const Eigen::Vector3d& u) {
-    const ContactRow& row = *c.row;
-    const double u_n = u.dot(row.normal);
-    const double k_nn = row.normal.dot(row.space.K * row.normal);
-    const auto pair = [k_nn](double velocity, double impulse) {
-      return std::abs(std::min(velocity, k_nn * impulse));
-    };
-    double worst = pair(u_n - c.target_u_n, c.P_n);
-    if (c.frictional && all_sticking) {
-      // No pyramid (beta = 0): its terms are min(lambda, k_nn mu P_n) <= min(|u_t|, k_nn mu P_n).
-      worst = std::max(worst, pair((u - u_n * row.normal).norm(), c.mu() * c.P_n));
-    } else if (c.frictional) {
-      const Eigen::Matrix<double, kD, 1> slip =
-          c.directions.rightCols<kD>().transpose() * (u - u_n * row.normal);
-      const double lambda = std::max(0.0, -slip.minCoeff());
-      for (int k = 0; k < kD; ++k) worst = std::max(worst, pair(lambda + slip(k), c.beta(k)));
-      worst = std::max(worst, pair(lambda, c.mu() * c.P_n - c.beta.sum()));
-    }
-    return worst;
-  };
   const auto relative = [&lcp](double worst) {
     return lcp.speed() > 0.0 ? worst / lcp.speed() : worst;
   };
@@ -525,35 +465,53 @@ ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactR
   // Trust the answer, not the pivots: an LCP solution accepted against the scale of huge,
   // cancelling impulses can still leave contacts approaching. It is refused here, from the
   // velocities it would give, and nothing is applied.
-  std::vector<Contact>& contacts = lcp.contacts();
+  std::vector<LcpContact>& contacts = lcp.contacts();
   if (solved && !all_sticking) {
     double worst = 0.0;
-    for (const Contact& c : contacts) {
-      worst = std::max(worst, violation(c, c.u + lcp.velocityChangeAt(c)));
+    for (const LcpContact& c : contacts) {
+      worst = std::max(worst, violation(c, c.u + lcp.velocityChangeAt(c), false));
     }
     solved = relative(worst) <= kAcceptedResidual;
   }
 
   // Apply (nothing if unsolved), report, and measure the residual from the final velocities.
-  for (Contact& c : contacts) {
+  for (LcpContact& c : contacts) {
     if (!solved) c.P_n = 0.0, c.beta.setZero(), c.P_t.setZero();
-    c.row->space.applyImpulse(bodies[c.row->body_a], bodies[c.row->body_b], c.impulse());
+    problem.applyImpulse(c.index, c.impulse());
   }
+  impulses.resize(problem.size());
   double worst = 0.0;
   for (std::size_t i = 0; i < contacts.size(); ++i) {
-    const Contact& c = contacts[i];
-    const ContactRow& row = *c.row;
-    const Eigen::Vector3d u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
-    worst = std::max(worst, violation(c, u));
-    const Eigen::Vector3d u_t = u - u.dot(row.normal) * row.normal;
-    ContactImpulse& out = impulses[island[i]];
+    const LcpContact& c = contacts[i];
+    const Eigen::Vector3d& n = c.entry->normal;
+    const Eigen::Vector3d u = problem.relativeMotion(i);
+    worst = std::max(worst, violation(c, u, all_sticking));
+    const Eigen::Vector3d u_t = u - u.dot(n) * n;
+    ContactImpulse& out = impulses[i];
     out.normal_impulse = c.P_n;
     out.friction_impulse = c.P_t;
     out.sticking = c.frictional && c.P_n > 0.0 && u_t.norm() <= kSlipTolerance * lcp.speed();
   }
-  stats.residual = relative(worst);
-  stats.converged = solved;
-  return stats;
+  report.residual = relative(worst);
+  report.converged = solved;
+  return report;
+}
+
+SolveReport solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
+                       const std::vector<int>& island, const SolverOptions& options,
+                       std::vector<ContactImpulse>& impulses) {
+  ContactProblem problem;
+  problem.buildImpact(bodies, contacts, island);
+  std::vector<ContactImpulse> local;
+  SolveReport report = solveExact(problem, options, local);
+  problem.addVelocityChangesTo(bodies);
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    impulses[island[i]].normal_impulse = local[i].normal_impulse;
+    impulses[island[i]].friction_impulse = local[i].friction_impulse;
+    impulses[island[i]].sticking = local[i].sticking;
+  }
+  report.contacts = island;
+  return report;
 }
 
 }  // namespace collision_response::core

@@ -20,6 +20,9 @@
 // Fallback: a segment or step budget overrun, or a segment that can never end (impossible for
 // positive definite K, where u_n falling during compression forces the slip to slow), finishes
 // the impact with the perfectly plastic sticking impulse -K^-1 u (u' = 0, no energy gain).
+// Singular K (bodies with fewer freedoms): K_nn = 0 gives no impulse; a singular K_tt (A) is
+// handled in stickOrResume() (least-norm sticking rate, or slip resumes); sliding friction is
+// Coulomb's, mu_d p against the slip, along whatever direction the slip takes.
 #include "collision_response/core/impulse_space_integrator.h"
 
 #include <Eigen/Core>
@@ -28,6 +31,7 @@
 #include <cmath>
 #include <limits>
 
+#include "collision_response/core/least_norm.h"
 #include "collision_response/core/single_contact.h"
 
 namespace collision_response::core {
@@ -184,9 +188,15 @@ Vec2 resumeDirection(const Problem& pr) {
 
 /// u_t = 0: stick while the sticking rate tau = -A^-1 b lies in the static cone, otherwise slip
 /// resumes along resumeDirection(). Both are final segments. Returns false on a jam.
+/// Singular A (K_tt; bodies with fewer freedoms): tau = -A^+ b, the least-norm friction rate, and
+/// stick only if it holds the slip (A tau = -b, i.e. b in the range of A); otherwise no friction
+/// can hold it and slip resumes.
 bool stickOrResume(const Problem& pr, State& st, bool& sticking) {
-  const Vec2 tau = -(pr.A.inverse() * pr.b);
-  if (tau.norm() <= std::max(pr.mu_s, pr.mu_d)) {
+  const Vec2 tau = -(symmetricPseudoInverse(pr.A) * pr.b);
+  const double trace = pr.A.trace();
+  const bool regular = pr.A.determinant() > kSingularRelative * trace * trace;
+  const bool holds = regular || (pr.A * tau + pr.b).norm() <= 1e-9 * (pr.b.norm() + pr.c);
+  if (holds && tau.norm() <= std::max(pr.mu_s, pr.mu_d)) {
     sticking = true;
     return advanceLinear(pr, st, tau, kInf);
   }
@@ -306,7 +316,7 @@ bool approachStick(const Problem& pr, State& st) {
 
 /// Rotating slip: integrates until the impact ends or slip stops (returns with `stuck` set after
 /// the closed-form last piece). Returns false if the step budget is exhausted.
-bool integrateSlip(const Problem& pr, State& st, bool& stuck, IntegrationStats& stats) {
+bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail& stats) {
   const double rate = pr.b.norm() + pr.mu_d * pr.A.norm();  // bounds |d u_t/dxi| / sigma
   const double h_max = 2.0 / rate;                          // inside DP5's stability region
   Vec4 y = st.vec();
@@ -370,28 +380,28 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, IntegrationStats& 
 
 }  // namespace
 
-ContactImpulse integrateSingleContact(const RigidBody& a, const RigidBody& b, const ContactRow& row,
-                                      ImpactLaw law, double tolerance, IntegrationStats* stats) {
+ContactImpulse integrateSingleContact(const ProblemContact& contact, const Eigen::Vector3d& u,
+                                      ImpactLaw law, double tolerance, ImpulseSpaceDetail* detail) {
   if (law != ImpactLaw::kPoisson && law != ImpactLaw::kStronge) {
-    return solveSingleContact(a, b, row, law);
+    return solveSingleContact(contact, u, law);
   }
-  IntegrationStats local;
-  IntegrationStats& st_out = stats ? *stats : local;
-  st_out = IntegrationStats();
+  ImpulseSpaceDetail local;
+  ImpulseSpaceDetail& st_out = detail ? *detail : local;
+  st_out = ImpulseSpaceDetail();
 
   ContactImpulse impulse;
-  const Eigen::Vector3d& n = row.normal;
-  const Eigen::Matrix3d& K = row.space.K;
-  const Eigen::Vector3d u = row.space.relativeVelocity(a, b);
+  const Eigen::Vector3d& n = contact.normal;
+  const Eigen::Matrix3d& K = contact.delassus;
   const double u_n = u.dot(n);
   impulse.normal_velocity_before = u_n;
   impulse.normal_velocity_after = u_n;
   const double K_nn = n.dot(K * n);
-  if (u_n >= 0.0 || !(K_nn > 0.0)) return impulse;
+  // K_nn = 0: no impulse moves the contact along n (singular W): zero impulse.
+  if (u_n >= 0.0 || !(K_nn > kSingularRelative * K.trace())) return impulse;
 
   // Contact basis: B = [t1 t2 n], K' = B^T K B.
-  Eigen::Vector3d t1, t2;
-  tangentBasis(n, t1, t2);
+  const Eigen::Vector3d& t1 = contact.tangent1;
+  const Eigen::Vector3d& t2 = contact.tangent2;
   Eigen::Matrix3d B;
   B << t1, t2, n;
   const Eigen::Matrix3d Kc = B.transpose() * K * B;
@@ -401,9 +411,9 @@ ContactImpulse integrateSingleContact(const RigidBody& a, const RigidBody& b, co
   pr.c = Kc(2, 2);
   pr.u0_t = Vec2(t1.dot(u), t2.dot(u));
   pr.u0_n = u_n;
-  pr.e = row.restitution;
-  pr.mu_s = row.static_friction;
-  pr.mu_d = row.dynamic_friction;
+  pr.e = contact.restitution;
+  pr.mu_s = contact.static_friction;
+  pr.mu_d = contact.dynamic_friction;
   pr.stronge = law == ImpactLaw::kStronge;
   pr.V = u.norm();
   pr.J = pr.V / pr.c;
@@ -441,12 +451,13 @@ ContactImpulse integrateSingleContact(const RigidBody& a, const RigidBody& b, co
   Eigen::Vector3d P = st.p * n + st.P_t.x() * t1 + st.P_t.y() * t2;
   if (!ok) {
     // Fallback: finish with the perfectly plastic sticking impulse from the current state,
-    // u' = 0, which never adds kinetic energy (it removes u^T K^-1 u / 2).
+    // u' = 0, which never adds kinetic energy (it removes u^T K^-1 u / 2); least-norm (K^+) if K
+    // is singular.
     st_out.fallback = true;
-    P -= K.inverse() * (u + K * P);
+    P -= symmetricPseudoInverse(K) * (u + K * P);
     impulse.sticking = true;
   }
-  if (row.frictionless()) impulse.sticking = false;  // nothing holds it (contact_impulse.h)
+  if (contact.frictionless()) impulse.sticking = false;  // nothing holds it (contact_impulse.h)
   st_out.compression_impulse = st.p_c;
   st_out.compression_work = st.W_c;
   impulse.normal_impulse = P.dot(n);

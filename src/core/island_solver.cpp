@@ -1,6 +1,5 @@
 #include "collision_response/core/island_solver.h"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 
@@ -13,227 +12,240 @@
 namespace collision_response::core {
 namespace {
 
-double kineticEnergy(const RigidBody& body) {
-  if (!body.movable()) return 0.0;
-  const Eigen::Vector3d& w = body.angular_velocity;
-  return 0.5 * body.linear_velocity.squaredNorm() / body.inverse_mass +
-         0.5 * w.dot(body.inverse_inertia.ldlt().solve(w));
-}
-
-double kineticEnergy(const std::vector<RigidBody>& bodies, const std::vector<int>& indices) {
-  double energy = 0.0;
-  for (const int i : indices) energy += kineticEnergy(bodies[i]);
-  return energy;
-}
-
 // True if a contact approaches faster than round-off of the largest contact speed.
-bool approachingBeyondRoundOff(const std::vector<RigidBody>& bodies,
-                               const std::vector<ContactRow>& rows) {
+bool approachingBeyondRoundOff(const ContactProblem& problem) {
   double speed = 0.0, slowest = 0.0;
-  for (const ContactRow& row : rows) {
-    const Eigen::Vector3d u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    const Eigen::Vector3d u = problem.relativeMotion(i);
     speed = std::max(speed, u.norm());
-    slowest = std::min(slowest, u.dot(row.normal));
+    slowest = std::min(slowest, u.dot(problem.contact(i).normal));
   }
   return slowest < -1e-12 * speed;
 }
 
-// Newton law on the listed rows with the exact or the iterative solver.
-IslandStats solveNewton(SolverMethod method, std::vector<RigidBody>& bodies,
-                        const std::vector<ContactRow>& rows, const std::vector<int>& island,
-                        const SolverOptions& options, std::vector<ContactImpulse>& impulses) {
-  IslandStats stats;
-  if (method == SolverMethod::kExact) {
-    const ExactStats exact = solveExact(bodies, rows, island, options, impulses);
-    stats.method = "exact";
-    stats.iterations = exact.pivots;
-    stats.residual = exact.residual;
-    stats.converged = exact.converged;
-    if (!exact.converged && options.method == SolverMethod::kAuto) {
-      // No complementarity solution (a jammed island; the exact solver applied nothing): under the
-      // automatic choice the iterative solver gives its best effort, reported as not converged.
-      stats = solveNewton(SolverMethod::kIterative, bodies, rows, island, options, impulses);
-      stats.method = "exact_then_iterative";
+// One contact at a time, in order, each at its current relative velocity: the closed form, the
+// impulse-space integration, or (several contacts, one-pass law) the sequential law.
+SolveReport solveContactByContact(ContactProblem& problem, const SolverOptions& options,
+                                  std::vector<ContactImpulse>& impulses) {
+  const bool energetic = options.law == ImpactLaw::kPoisson || options.law == ImpactLaw::kStronge;
+  SolveReport report;
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    if (energetic) {
+      ImpulseSpaceDetail detail;
+      impulses[i] =
+          integrateSingleContact(problem, i, options.law, options.integration_tolerance, &detail);
+      report.method = SolveMethod::kImpulseSpace;
+      report.iterations = detail.steps + detail.segments;
+      report.residual = detail.error_estimate;
+      report.impulse_space = detail;
+    } else {
+      impulses[i] = solveSingleContact(problem, i, options.law);
+      report.method = problem.size() == 1 ? SolveMethod::kClosedForm : SolveMethod::kSequential;
+      report.iterations = problem.size();
     }
-  } else {
-    const IterativeStats iterative = solveIterative(bodies, rows, island, options, impulses);
-    stats.method = "iterative";
-    stats.iterations = iterative.iterations;
-    stats.residual = iterative.residual;
-    stats.converged = iterative.converged;
+    problem.applyImpulse(i, impulses[i].total(problem.contact(i).normal));
   }
-  return stats;
+  return report;
 }
 
-// The two-phase Poisson / energetic scheme of solveIsland()'s documentation.
-IslandStats solveTwoPhase(SolverMethod method, std::vector<RigidBody>& bodies,
-                          const std::vector<ContactRow>& rows, const std::vector<int>& island,
-                          const SolverOptions& options, std::vector<ContactImpulse>& impulses) {
-  // The island's rows with e = 0, indexed locally; its movable bodies.
-  std::vector<ContactRow> plastic;
-  plastic.reserve(island.size());
-  std::vector<int> local(island.size());
-  std::vector<int> island_bodies;
-  double e_max = 0.0;
-  for (std::size_t i = 0; i < island.size(); ++i) {
-    plastic.push_back(rows[island[i]]);
-    plastic.back().restitution = 0.0;
-    local[i] = static_cast<int>(i);
-    e_max = std::max(e_max, rows[island[i]].restitution);
-    for (const int body : {plastic.back().body_a, plastic.back().body_b}) {
-      if (bodies[body].movable()) island_bodies.push_back(body);
-    }
+// Newton law on the problem with the exact or the iterative solver.
+SolveReport solveNewton(SolverMethod method, ContactProblem& problem, const SolverOptions& options,
+                        std::vector<ContactImpulse>& impulses) {
+  if (method != SolverMethod::kExact) return solveIterative(problem, options, impulses);
+  SolveReport report = solveExact(problem, options, impulses);
+  if (!report.converged && options.method == SolverMethod::kAuto) {
+    // No complementarity solution (a jammed island; the exact solver applied nothing): under the
+    // automatic choice the iterative solver gives its best effort, reported as not converged.
+    report = solveIterative(problem, options, impulses);
+    report.method = SolveMethod::kExactThenIterative;
   }
-  std::sort(island_bodies.begin(), island_bodies.end());
-  island_bodies.erase(std::unique(island_bodies.begin(), island_bodies.end()), island_bodies.end());
+  return report;
+}
 
-  // 1. Compression.
-  const double energy_before = kineticEnergy(bodies, island_bodies);
-  std::vector<ContactImpulse> compression(island.size());
-  const IslandStats first = solveNewton(method, bodies, plastic, local, options, compression);
-  const double dissipated = std::max(energy_before - kineticEnergy(bodies, island_bodies), 0.0);
-
-  // 2. Restitution: normal impulses R_i = s e_i P_c,i, and friction through the phase: with the
-  // R_i fixed, each contact sticks if that needs |T_i| <= mu_s R_i, else slides with mu_d R_i
-  // (Coulomb integrated over the phase; solveIterative() with fixed normal impulses).
-  double linear = 0.0;  // R.u_c at s = 1
-  for (std::size_t i = 0; i < island.size(); ++i) {
-    const ContactRow& row = plastic[i];
-    const double u_n =
-        row.normal.dot(row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]));
-    linear += rows[island[i]].restitution * compression[i].normal_impulse * u_n;
-  }
-  std::vector<std::pair<int, RigidBody>> compressed;  // to undo the phase
-  for (const int body : island_bodies) compressed.emplace_back(body, bodies[body]);
-  const double energy_compressed = kineticEnergy(bodies, island_bodies);
-  std::vector<double> restitution_normal(island.size());
-  std::vector<ContactImpulse> restitution(island.size());
-  const auto applyNormal = [&](double scale) {
-    for (std::size_t i = 0; i < island.size(); ++i) {
-      const ContactRow& row = plastic[i];
-      restitution_normal[i] = scale * rows[island[i]].restitution * compression[i].normal_impulse;
-      row.space.applyImpulse(bodies[row.body_a], bodies[row.body_b],
-                             restitution_normal[i] * row.normal);
+// The two-phase Poisson / energetic scheme of solveIsland()'s documentation, in three phases on
+// one plastic problem. Kinetic energies are changes since the start of the solve
+// (ContactProblem::kineticEnergyChange()).
+class TwoPhase {
+ public:
+  TwoPhase(SolverMethod method, ContactProblem& problem, const SolverOptions& options)
+      : method_(method), problem_(problem), options_(options), restitution_(problem.size()) {
+    for (std::size_t i = 0; i < problem.size(); ++i) {
+      restitution_[i] = problem.contact(i).restitution;
+      e_max_ = std::max(e_max_, restitution_[i]);
     }
-  };
-  const auto restitutionPhase = [&](double scale) {
-    applyNormal(scale);
-    IterativeStats friction;
-    friction.converged = true;
-    std::fill(restitution.begin(), restitution.end(), ContactImpulse{});
-    for (std::size_t i = 0; i < island.size(); ++i) {
-      if (!plastic[i].frictionless() && restitution_normal[i] > 0.0) {
-        friction =
-            solveIterative(bodies, plastic, local, options, restitution, &restitution_normal);
-        break;
+    problem_.makePlastic();
+  }
+
+  /// 1. Compression: the plastic problem with friction; D_c the energy it dissipates.
+  SolveReport compression() {
+    const SolveReport report = solveNewton(method_, problem_, options_, compression_);
+    dissipated_ = std::max(-problem_.kineticEnergyChange(), 0.0);
+    return report;
+  }
+
+  /// 2. Restitution: normal impulses R_i = s e_i P_c,i, and friction through the phase: with the
+  /// R_i fixed, each contact sticks if that needs |T_i| <= mu_s R_i, else slides with mu_d R_i
+  /// (Coulomb integrated over the phase; solveIterative() with fixed normal impulses). Stronge: s
+  /// is lowered from 1 if the phase would release more than e_max^2 D_c.
+  SolveReport restitution() {
+    double linear = 0.0;  // R.u_c at s = 1
+    for (std::size_t i = 0; i < problem_.size(); ++i) {
+      const double u_n = problem_.contact(i).normal.dot(problem_.relativeMotion(i));
+      linear += restitution_[i] * compression_[i].normal_impulse * u_n;
+    }
+    compressed_ = problem_.state();
+    const double energy_compressed = problem_.kineticEnergyChange();
+    SolveReport friction = restitutionPhase(1.0);
+    if (options_.law == ImpactLaw::kStronge) {
+      // Stronge: the phase may release at most e_max^2 D_c. If it releases more at s = 1 (friction
+      // included), the R_i are scaled down together: alone they release s linear + s^2 q, so the
+      // largest s within the bound is taken from that, and friction (least energy over its cones,
+      // T = 0 being feasible) can only lower it further.
+      const double allowed = e_max_ * e_max_ * dissipated_;
+      if (problem_.kineticEnergyChange() - energy_compressed > allowed) {
+        problem_.restore(compressed_);
+        applyNormal(1.0);
+        const double q = problem_.kineticEnergyChange() - energy_compressed - linear;
+        problem_.restore(compressed_);
+        scale_ =
+            q > 0.0 ? (-linear + std::sqrt(linear * linear + 4.0 * q * allowed)) / (2.0 * q) : 0.0;
+        scale_ = std::clamp(scale_, 0.0, 1.0);
+        friction = restitutionPhase(scale_);
       }
     }
     return friction;
-  };
-  const auto undo = [&] {
-    for (const auto& [index, body] : compressed) bodies[index] = body;
-  };
-  double scale = 1.0;
-  IterativeStats friction = restitutionPhase(scale);
-  if (options.law == ImpactLaw::kStronge) {
-    // Stronge: the phase may release at most e_max^2 D_c. If it releases more at s = 1 (friction
-    // included), the R_i are scaled down together: alone they release s linear + s^2 q, so the
-    // largest s within the bound is taken from that, and friction (least energy over its cones,
-    // T = 0 being feasible) can only lower it further.
-    const double allowed = e_max * e_max * dissipated;
-    if (kineticEnergy(bodies, island_bodies) - energy_compressed > allowed) {
-      undo();
-      applyNormal(1.0);
-      const double q = kineticEnergy(bodies, island_bodies) - energy_compressed - linear;
-      undo();
-      scale =
-          q > 0.0 ? (-linear + std::sqrt(linear * linear + 4.0 * q * allowed)) / (2.0 * q) : 0.0;
-      scale = std::clamp(scale, 0.0, 1.0);
-      friction = restitutionPhase(scale);
+  }
+
+  /// 3. Clean-up: no contact may end approaching.
+  SolveReport cleanUp() {
+    SolveReport report = solveNewton(method_, problem_, options_, cleanup_);
+    // Unequal e_i on coupled contacts can leave the restitution phase with contact velocities far
+    // above the final ones, and the clean-up's round-off is relative to them. One more plastic
+    // solve from its result removes what is left approaching, relative to the final velocities.
+    if (report.converged && approachingBeyondRoundOff(problem_)) {
+      std::vector<ContactImpulse> polish;
+      const SolveReport again = solveNewton(method_, problem_, options_, polish);
+      for (std::size_t i = 0; i < problem_.size(); ++i) {
+        cleanup_[i].normal_impulse += polish[i].normal_impulse;
+        cleanup_[i].friction_impulse += polish[i].friction_impulse;
+      }
+      report.iterations += again.iterations;
+      report.residual = again.residual;
+      report.converged = again.converged;
+    }
+    return report;
+  }
+
+  /// The total impulse of each contact over the phases, and whether it ends without slip.
+  void writeImpulses(std::vector<ContactImpulse>& impulses) const {
+    impulses.resize(problem_.size());
+    for (std::size_t i = 0; i < problem_.size(); ++i) {
+      const ProblemContact& c = problem_.contact(i);
+      ContactImpulse& impulse = impulses[i];
+      impulse.normal_impulse = (1.0 + scale_ * restitution_[i]) * compression_[i].normal_impulse +
+                               cleanup_[i].normal_impulse;
+      impulse.friction_impulse = compression_[i].friction_impulse +
+                                 restitution_phase_[i].friction_impulse +
+                                 cleanup_[i].friction_impulse;
+      // Sticking: no slip left at the end.
+      const Eigen::Vector3d u = problem_.relativeMotion(i);
+      const double slip = (u - u.dot(c.normal) * c.normal).norm();
+      impulse.sticking = !c.frictionless() && impulse.normal_impulse > 0.0 &&
+                         slip <= 1e-9 * std::max(u.norm(), 1e-300);
     }
   }
 
-  // 3. No contact may end approaching.
-  std::vector<ContactImpulse> cleanup(island.size());
-  IslandStats third = solveNewton(method, bodies, plastic, local, options, cleanup);
-  // Unequal e_i on coupled contacts can leave the restitution phase with contact velocities far
-  // above the final ones, and the clean-up's round-off is relative to them. One more plastic
-  // solve from its result removes what is left approaching, relative to the final velocities.
-  if (third.converged && approachingBeyondRoundOff(bodies, plastic)) {
-    std::vector<ContactImpulse> polish(island.size());
-    const IslandStats again = solveNewton(method, bodies, plastic, local, options, polish);
-    for (std::size_t i = 0; i < island.size(); ++i) {
-      cleanup[i].normal_impulse += polish[i].normal_impulse;
-      cleanup[i].friction_impulse += polish[i].friction_impulse;
+ private:
+  void applyNormal(double scale) {
+    for (std::size_t i = 0; i < problem_.size(); ++i) {
+      restitution_normal_[i] = scale * restitution_[i] * compression_[i].normal_impulse;
+      problem_.applyImpulse(i, restitution_normal_[i] * problem_.contact(i).normal);
     }
-    third.iterations += again.iterations;
-    third.residual = again.residual;
-    third.converged = again.converged;
   }
 
-  for (std::size_t i = 0; i < island.size(); ++i) {
-    ContactImpulse& impulse = impulses[island[i]];
-    impulse.normal_impulse =
-        (1.0 + scale * rows[island[i]].restitution) * compression[i].normal_impulse +
-        cleanup[i].normal_impulse;
-    impulse.friction_impulse = compression[i].friction_impulse + restitution[i].friction_impulse +
-                               cleanup[i].friction_impulse;
-    // Sticking: no slip left at the end.
-    const ContactRow& row = plastic[i];
-    const Eigen::Vector3d u = row.space.relativeVelocity(bodies[row.body_a], bodies[row.body_b]);
-    const double slip = (u - u.dot(row.normal) * row.normal).norm();
-    impulse.sticking = !row.frictionless() && impulse.normal_impulse > 0.0 &&
-                       slip <= 1e-9 * std::max(u.norm(), 1e-300);
+  SolveReport restitutionPhase(double scale) {
+    restitution_normal_.assign(problem_.size(), 0.0);
+    applyNormal(scale);
+    restitution_phase_.assign(problem_.size(), ContactImpulse{});
+    for (std::size_t i = 0; i < problem_.size(); ++i) {
+      if (!problem_.contact(i).frictionless() && restitution_normal_[i] > 0.0) {
+        return solveIterative(problem_, options_, restitution_phase_, &restitution_normal_);
+      }
+    }
+    SolveReport none;
+    none.iterations = 0;
+    return none;
   }
-  IslandStats stats;
-  stats.method = method == SolverMethod::kExact ? "two_phase_exact" : "two_phase_iterative";
-  stats.iterations = first.iterations + friction.iterations + third.iterations;
-  stats.residual = std::max({first.residual, friction.residual, third.residual});
-  stats.converged = first.converged && friction.converged && third.converged;
-  return stats;
+
+  SolverMethod method_;
+  ContactProblem& problem_;
+  const SolverOptions& options_;
+  std::vector<double> restitution_;  // e_i, read before the problem was made plastic
+  double e_max_ = 0.0;
+  double dissipated_ = 0.0;  // D_c [J]
+  double scale_ = 1.0;       // s
+  ContactProblem::State compressed_;
+  std::vector<double> restitution_normal_;
+  std::vector<ContactImpulse> compression_, restitution_phase_, cleanup_;
+};
+
+SolveReport solveTwoPhase(SolverMethod method, ContactProblem& problem,
+                          const SolverOptions& options, std::vector<ContactImpulse>& impulses) {
+  TwoPhase scheme(method, problem, options);
+  const SolveReport first = scheme.compression();
+  const SolveReport friction = scheme.restitution();
+  const SolveReport third = scheme.cleanUp();
+  scheme.writeImpulses(impulses);
+  SolveReport report;
+  report.method = method == SolverMethod::kExact ? SolveMethod::kTwoPhaseExact
+                                                 : SolveMethod::kTwoPhaseIterative;
+  report.iterations = first.iterations + friction.iterations + third.iterations;
+  report.residual = std::max({first.residual, friction.residual, third.residual});
+  report.converged = first.converged && friction.converged && third.converged;
+  return report;
 }
 
 }  // namespace
 
-IslandStats solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
-                        const std::vector<int>& island, const SolverOptions& options,
+SolveReport solveIsland(ContactProblem& problem, const SolverOptions& options,
                         std::vector<ContactImpulse>& impulses) {
-  IslandStats stats;
+  impulses.resize(problem.size());
   const bool energetic = options.law == ImpactLaw::kPoisson || options.law == ImpactLaw::kStronge;
   if (options.law == ImpactLaw::kSeedOnePass ||
-      (island.size() == 1 && options.method == SolverMethod::kAuto)) {
-    for (const int c : island) {
-      const ContactRow& row = rows[c];
-      RigidBody& a = bodies[row.body_a];
-      RigidBody& b = bodies[row.body_b];
-      if (energetic) {
-        IntegrationStats integration;
-        impulses[c] = integrateSingleContact(a, b, row, options.law, options.integration_tolerance,
-                                             &integration);
-        stats.method = "impulse_space";
-        stats.iterations = integration.steps + integration.segments;
-        stats.residual = integration.error_estimate;
-      } else {
-        impulses[c] = solveSingleContact(a, b, row, options.law);
-        stats.method = island.size() == 1 ? "closed_form" : "sequential";
-        stats.iterations = island.size();
-      }
-      row.space.applyImpulse(a, b, impulses[c].total(row.normal));
-    }
-    return stats;
+      (problem.size() == 1 && options.method == SolverMethod::kAuto)) {
+    return solveContactByContact(problem, options, impulses);
   }
-  if (options.method == SolverMethod::kExact && island.size() > kExactSolverContactLimit) {
+  if (options.method == SolverMethod::kExact && problem.size() > kExactSolverContactLimit) {
     throw InvalidInput("options.solver", "the exact solver takes islands of at most " +
                                              std::to_string(kExactSolverContactLimit) +
                                              " contacts; this one has " +
-                                             std::to_string(island.size()) +
+                                             std::to_string(problem.size()) +
                                              ": use the iterative or the automatic solver");
   }
-  const SolverMethod method = options.method != SolverMethod::kAuto      ? options.method
-                              : island.size() <= kExactSolverMaxContacts ? SolverMethod::kExact
-                                                                         : SolverMethod::kIterative;
-  return energetic ? solveTwoPhase(method, bodies, rows, island, options, impulses)
-                   : solveNewton(method, bodies, rows, island, options, impulses);
+  const SolverMethod method = options.method != SolverMethod::kAuto ? options.method
+                              : problem.size() <= kExactSolverMaxContacts
+                                  ? SolverMethod::kExact
+                                  : SolverMethod::kIterative;
+  return energetic ? solveTwoPhase(method, problem, options, impulses)
+                   : solveNewton(method, problem, options, impulses);
+}
+
+SolveReport solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
+                        const std::vector<int>& island, const SolverOptions& options,
+                        std::vector<ContactImpulse>& impulses) {
+  ContactProblem problem;
+  problem.buildImpact(bodies, contacts, island);
+  std::vector<ContactImpulse> local;
+  SolveReport report = solveIsland(problem, options, local);
+  problem.addVelocityChangesTo(bodies);
+  for (std::size_t i = 0; i < island.size(); ++i) {
+    ContactImpulse& out = impulses[island[i]];
+    out.normal_impulse = local[i].normal_impulse;
+    out.friction_impulse = local[i].friction_impulse;
+    out.sticking = local[i].sticking;
+  }
+  report.contacts = island;
+  return report;
 }
 
 }  // namespace collision_response::core

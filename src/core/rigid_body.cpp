@@ -4,6 +4,12 @@
 
 namespace collision_response::core {
 
+Eigen::Matrix3d skew(const Eigen::Vector3d& r) {
+  Eigen::Matrix3d s;
+  s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
+  return s;
+}
+
 RigidBody makeRigidBody(const BodyState& state) {
   RigidBody body;
   body.com = state.worldCom();
@@ -17,6 +23,34 @@ RigidBody makeRigidBody(const BodyState& state) {
     body.inverse_inertia = 0.5 * (body.inverse_inertia + body.inverse_inertia.transpose()).eval();
   }
   return body;
+}
+
+Eigen::VectorXd RigidBody::velocity() const {
+  Eigen::VectorXd v(velocityCount());
+  if (movable()) v << linear_velocity, angular_velocity;
+  return v;
+}
+
+Eigen::Matrix<double, 3, Eigen::Dynamic> RigidBody::pointJacobian(
+    const Eigen::Vector3d& point) const {
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, velocityCount());
+  if (movable()) J << Eigen::Matrix3d::Identity(), -skew(point - com);  // v + w x r
+  return J;
+}
+
+Eigen::Matrix<double, Eigen::Dynamic, 3> RigidBody::inverseMassJacobianTranspose(
+    const Eigen::Vector3d& point) const {
+  Eigen::Matrix<double, Eigen::Dynamic, 3> out(velocityCount(), 3);
+  if (movable()) {
+    out << inverse_mass * Eigen::Matrix3d::Identity(), inverse_inertia * skew(point - com);
+  }
+  return out;
+}
+
+void RigidBody::addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) {
+  if (!movable()) return;
+  linear_velocity += change.head<3>();
+  angular_velocity += change.tail<3>();
 }
 
 }  // namespace collision_response::core

@@ -215,7 +215,7 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     response.impulses.reserve(result.impulses.size());
     for (const core::ContactImpulse& impulse : result.impulses)
       response.impulses.push_back(toMsg(impulse));
-    for (const core::IslandReport& island : result.islands)
+    for (const core::SolveReport& island : result.islands)
       response.islands.push_back(toMsg(island));
     response.kinetic_energy_before = result.kinetic_energy_before;
     response.kinetic_energy_after = result.kinetic_energy_after;

@@ -225,10 +225,10 @@ ContactImpulse toMsg(const core::ContactImpulse& impulse) {
   return msg;
 }
 
-IslandReport toMsg(const core::IslandReport& report) {
+IslandReport toMsg(const core::SolveReport& report) {
   IslandReport msg;
   msg.contact_indices.assign(report.contacts.begin(), report.contacts.end());
-  msg.method = report.method;
+  msg.method = core::toString(report.method);
   msg.iterations = static_cast<uint32_t>(report.iterations);
   msg.residual = report.residual;
   msg.converged = report.converged;

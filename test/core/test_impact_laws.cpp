@@ -117,7 +117,7 @@ TEST(ImpactLaws, RodOnRoughFloorGainsEnergyUnderNewtonButNotStronge) {
     const double stronge_ratio = stronge.kinetic_energy_after / stronge.kinetic_energy_before;
     EXPECT_LE(stronge_ratio, 1.0 + 1e-12);
     EXPECT_GE(stronge.impulses[0].normal_velocity_after, 0.0);
-    EXPECT_EQ(stronge.islands[0].method, "impulse_space");
+    EXPECT_EQ(stronge.islands[0].methodName(), "impulse_space");
     const auto poisson = core::computeResponse(scene, options(core::ImpactLaw::kPoisson));
     const double poisson_ratio = poisson.kinetic_energy_after / poisson.kinetic_energy_before;
     std::printf("rod e = %.1f: kinetic energy ratio Newton %.6f, Poisson %.6f, Stronge %.6f\n", e,
@@ -279,7 +279,7 @@ TEST(SolverLimits, ExactSolverRefusesOversizedIslands) {
   core::SolverOptions automatic = options(core::ImpactLaw::kNewton);
   automatic.time_budget = 600.0;  // not a speed test (sanitizer builds are slow)
   const auto result = core::computeResponse(scene, automatic);
-  EXPECT_EQ(result.islands[0].method, "iterative");
+  EXPECT_EQ(result.islands[0].methodName(), "iterative");
 }
 
 }  // namespace

@@ -12,7 +12,7 @@
 
 #include "collision_response/core/body_state.h"
 #include "collision_response/core/compute_response.h"
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
 #include "collision_response/core/islands.h"
 #include "collision_response/core/iterative_solver.h"
 #include "collision_response/core/rigid_body.h"
@@ -21,7 +21,11 @@
 
 #include "scene_builders.h"
 
+#include "rigid_contact.h"
+
 namespace cr = collision_response::core;
+using collision_response::testing::spaceOf;
+using collision_response::testing::velocityAt;
 using namespace collision_response::testing;  // NOLINT: shared builders
 
 namespace {
@@ -122,9 +126,9 @@ TEST(Islands, ComputeResponseReportsIslandsAndSkipsOnesWithNothingApproaching) {
   const auto r = solve(s);
   ASSERT_EQ(r.islands.size(), 2u);
   EXPECT_EQ(r.islands[0].contacts, std::vector<int>({0}));
-  EXPECT_EQ(r.islands[0].method, "closed_form");
+  EXPECT_EQ(r.islands[0].methodName(), "closed_form");
   EXPECT_EQ(r.islands[1].contacts, std::vector<int>({1}));
-  EXPECT_EQ(r.islands[1].method, "none");
+  EXPECT_EQ(r.islands[1].methodName(), "none");
   EXPECT_EQ(r.impulses[1].normal_impulse, 0.0);
   EXPECT_EQ(r.impulses[1].friction_impulse, Vector3d::Zero());
   EXPECT_EQ(r.bodies[2].linear_velocity, s.bodies[2].linear_velocity);
@@ -144,7 +148,7 @@ TEST(Islands, MultiContactIslandWithNothingApproachingHasZeroImpulses) {
   ASSERT_EQ(r.islands.size(), 1u);
   // No impulse; the floor contact (u_n = 0) is analysed as resting, and with no wrench on the
   // bodies it carries no force. The separating contact is not resting.
-  EXPECT_EQ(r.islands[0].method, "resting_closed_form");
+  EXPECT_EQ(r.islands[0].methodName(), "resting_closed_form");
   EXPECT_TRUE(r.impulses[0].resting);
   EXPECT_FALSE(r.impulses[1].resting);
   for (const auto& imp : r.impulses) {
@@ -173,7 +177,7 @@ TEST(IterativeSolver, SingleStickingContactMatchesClosedForm) {
   s.contacts = {contact("ground", "ball", Vector3d::Zero(), Vector3d::UnitY(), e, 2.0, 1.5)};
   const auto r = solve(s, cr::SolverMethod::kIterative);
   ASSERT_EQ(r.islands.size(), 1u);
-  EXPECT_EQ(r.islands[0].method, "iterative");
+  EXPECT_EQ(r.islands[0].methodName(), "iterative");
   EXPECT_TRUE(r.islands[0].converged);
   const double vxp = (5 * vx - 2 * wz * R) / 7.0;
   expectVecNear(r.bodies[1].linear_velocity, Vector3d(vxp, -e * vy, 0), kTol);
@@ -238,8 +242,8 @@ TEST(IterativeSolver, AgreesWithClosedFormOnRandomFrictionlessContacts) {
     }
     const auto closed = solve(s, cr::SolverMethod::kAuto);
     const auto iter = solve(s, cr::SolverMethod::kIterative);
-    EXPECT_EQ(closed.islands[0].method, "closed_form");
-    EXPECT_EQ(iter.islands[0].method, "iterative");
+    EXPECT_EQ(closed.islands[0].methodName(), "closed_form");
+    EXPECT_EQ(iter.islands[0].methodName(), "iterative");
     for (int i = 0; i < 2; ++i) {
       expectVecNear(iter.bodies[i].linear_velocity, closed.bodies[i].linear_velocity, kTol);
       expectVecNear(iter.bodies[i].angular_velocity, closed.bodies[i].angular_velocity, kTol);
@@ -267,7 +271,7 @@ TEST(VGroove, SymmetricFrictionlessBallBouncesStraightUp) {
     const auto r = solve(s, method);
     ASSERT_EQ(r.islands.size(), 1u);
     if (method == cr::SolverMethod::kIterative) {
-      EXPECT_EQ(r.islands[0].method, "iterative");
+      EXPECT_EQ(r.islands[0].methodName(), "iterative");
     }
     EXPECT_TRUE(r.islands[0].converged);
     expectVecNear(r.bodies[2].linear_velocity, Vector3d(0, e * V, vz), kTol);
@@ -308,7 +312,7 @@ TEST(CubeLanding, FlatFourCornerImpactBouncesWithoutSpin) {
     const auto r = solve(s, method);
     ASSERT_EQ(r.islands.size(), 1u);
     if (method == cr::SolverMethod::kIterative) {
-      EXPECT_EQ(r.islands[0].method, "iterative");
+      EXPECT_EQ(r.islands[0].methodName(), "iterative");
     }
     EXPECT_TRUE(r.islands[0].converged);
     expectVecNear(r.bodies[1].linear_velocity, Vector3d(0, 0.5, 0), 1e-8);
@@ -425,7 +429,7 @@ TEST(Chains, FreeBodiesConserveLinearAndAngularMomentum) {
     o.max_iterations = 500;
     const auto r = cr::computeResponse(s, o);
     ASSERT_EQ(r.islands.size(), 1u);
-    EXPECT_NE(r.islands[0].method, "none");
+    EXPECT_NE(r.islands[0].methodName(), "none");
     const Vector3d p0 = linearMomentum(s.bodies);
     double scale = 1.0;
     for (const auto& imp : r.impulses)
@@ -543,7 +547,7 @@ TEST(Chains, SolvedContactsDoNotApproachAndImpulsesLieInTheirCones) {
     for (auto& c : s.contacts) c.dynamic_friction = c.static_friction;
     const auto r = solve(s, cr::SolverMethod::kIterative);
     ASSERT_EQ(r.islands.size(), 1u);
-    if (r.islands[0].method == "none") continue;
+    if (r.islands[0].methodName() == "none") continue;
     ++solved;
     EXPECT_TRUE(r.islands[0].converged) << "case " << k;
     checkContactConditions(s, r, k);
@@ -562,7 +566,7 @@ TEST(Chains, WithStaticAboveDynamicFrictionConvergedIslandsSatisfyConditions) {
     cr::SolverOptions o = newton(cr::SolverMethod::kIterative);
     o.max_iterations = 2000;
     const auto r = cr::computeResponse(s, o);
-    if (r.islands[0].method == "none") continue;
+    if (r.islands[0].methodName() == "none") continue;
     ++solved;
     if (!r.islands[0].converged) {
       EXPECT_GT(r.islands[0].residual, o.tolerance);
@@ -585,10 +589,10 @@ TEST(IterativeSolver, LowLevelApiAppliesImpulsesAndReportsConvergence) {
   std::vector<cr::RigidBody> bodies = {
       cr::makeRigidBody(sphere("a", 1.0, 0.5, Vector3d::Zero(), Vector3d(V, 0, 0))),
       cr::makeRigidBody(sphere("b", 1.0, 0.5, Vector3d(1, 0, 0), Vector3d::Zero()))};
-  const std::vector<cr::ContactRow> rows = {
-      cr::ContactRow(0, 1, bodies[0], bodies[1], Vector3d(0.5, 0, 0), Vector3d::UnitX(), e, 0, 0)};
+  const std::vector<cr::ContactPoint> rows = {
+      cr::ContactPoint(0, 1, Vector3d(0.5, 0, 0), Vector3d::UnitX(), e, 0, 0)};
   std::vector<cr::ContactImpulse> impulses(1);
-  const cr::IterativeStats stats = cr::solveIterative(bodies, rows, {0}, newton(), impulses);
+  const cr::SolveReport stats = cr::solveIterative(bodies, rows, {0}, newton(), impulses);
   EXPECT_TRUE(stats.converged);
   EXPECT_GE(stats.iterations, 1u);
   EXPECT_LE(stats.residual, 1e-12);

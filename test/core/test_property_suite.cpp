@@ -151,7 +151,7 @@ void runSuite(long default_count, long minimum_scenes) {
     for (const auto& island : result.islands) {
       if (!isImpactIsland(result, island)) continue;
       ++impact_islands;
-      if (!island.converged) ++not_converged_by_method[island.method];
+      if (!island.converged) ++not_converged_by_method[island.methodName()];
     }
     if (!check.ok()) {
       ++failures;

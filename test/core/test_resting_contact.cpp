@@ -48,7 +48,7 @@ TEST(RestingContact, PushedBallRollsWithTwoSeventhsFriction) {
   EXPECT_NEAR(contact.friction_force.y(), 0.0, 1e-12);
   EXPECT_TRUE(contact.sticking);
   EXPECT_EQ(contact.normal_impulse, 0.0);  // no impact
-  EXPECT_EQ(result.islands[0].method, "resting_closed_form");
+  EXPECT_EQ(result.islands[0].methodName(), "resting_closed_form");
   // Velocities are not changed by a resting analysis.
   EXPECT_EQ(result.bodies[1].linear_velocity, Eigen::Vector3d::Zero());
 }
@@ -143,7 +143,7 @@ TEST(RestingContact, BoxOnFourCornersHoldsGravityAndPush) {
   options.tolerance = 1e-14;
   const core::CollisionResult result = core::computeResponse(scene, options);
   ASSERT_TRUE(result.islands[0].converged);
-  EXPECT_EQ(result.islands[0].method, "resting_iterative");
+  EXPECT_EQ(result.islands[0].methodName(), "resting_iterative");
   double normal = 0.0;
   Eigen::Vector3d friction = Eigen::Vector3d::Zero();
   for (const auto& contact : result.impulses) {

@@ -13,7 +13,7 @@
 
 #include "collision_response/core/body_state.h"
 #include "collision_response/core/compute_response.h"
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/scene.h"
@@ -22,7 +22,11 @@
 
 #include "scene_builders.h"
 
+#include "rigid_contact.h"
+
 namespace cr = collision_response::core;
+using collision_response::testing::spaceOf;
+using collision_response::testing::velocityAt;
 using namespace collision_response::testing;  // NOLINT: shared builders
 
 namespace {
@@ -138,7 +142,7 @@ void checkHeadOn(double m1, double m2, double v1, double v2, double e, double r1
   EXPECT_NEAR(r.impulses[0].normal_velocity_before, v2 - v1, kTol);
   EXPECT_NEAR(r.impulses[0].normal_velocity_after, -e * (v2 - v1), kTol);
   ASSERT_EQ(r.islands.size(), 1u);
-  EXPECT_EQ(r.islands[0].method, "closed_form");
+  EXPECT_EQ(r.islands[0].methodName(), "closed_form");
 }
 
 TEST(HeadOnSpheres, EqualMassesElasticExchangeVelocities) {
@@ -371,7 +375,7 @@ TEST(ObliqueBallWithFriction, SolveSingleContactDirectMatchesClosedForm) {
   const cr::Scene s = b.scene(2.0, 1.0);
   const cr::RigidBody ga = cr::makeRigidBody(s.bodies[0]);
   const cr::RigidBody ball = cr::makeRigidBody(s.bodies[1]);
-  const cr::ContactRow row(0, 1, ga, ball, Vector3d::Zero(), Vector3d::UnitY(), b.e, 2.0, 1.0);
+  const cr::ContactPoint row(0, 1, Vector3d::Zero(), Vector3d::UnitY(), b.e, 2.0, 1.0);
   const cr::ContactImpulse imp = cr::solveSingleContact(ga, ball, row, cr::ImpactLaw::kNewton);
   EXPECT_TRUE(imp.sticking);
   EXPECT_NEAR(imp.normal_impulse, b.normalImpulse(), kTol);
@@ -570,7 +574,7 @@ TEST(NonApproachingContact, SeparatingContactGetsZeroImpulse) {
   EXPECT_EQ(r.bodies[1].linear_velocity, s.bodies[1].linear_velocity);
   EXPECT_EQ(r.bodies[1].angular_velocity, s.bodies[1].angular_velocity);
   ASSERT_EQ(r.islands.size(), 1u);
-  EXPECT_EQ(r.islands[0].method, "none");
+  EXPECT_EQ(r.islands[0].methodName(), "none");
 }
 
 TEST(NonApproachingContact, RestingSlidingContactGetsZeroImpulse) {
@@ -585,7 +589,7 @@ TEST(NonApproachingContact, RestingSlidingContactGetsZeroImpulse) {
   EXPECT_EQ(r.bodies[1].angular_velocity, s.bodies[1].angular_velocity);
 
   const cr::RigidBody ga = cr::makeRigidBody(s.bodies[0]), ball = cr::makeRigidBody(s.bodies[1]);
-  const cr::ContactRow row(0, 1, ga, ball, Vector3d::Zero(), Vector3d::UnitY(), 0.5, 1.0, 1.0);
+  const cr::ContactPoint row(0, 1, Vector3d::Zero(), Vector3d::UnitY(), 0.5, 1.0, 1.0);
   for (const cr::ImpactLaw law : {cr::ImpactLaw::kNewton, cr::ImpactLaw::kSeedOnePass}) {
     const cr::ContactImpulse imp = cr::solveSingleContact(ga, ball, row, law);
     EXPECT_EQ(imp.normal_impulse, 0.0);

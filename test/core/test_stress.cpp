@@ -618,15 +618,15 @@ void manyContacts(const std::vector<int>& counts, bool friction,
         }
         const core::CollisionResult r = solveAndCheck(scene, law, method, tol);
         ASSERT_EQ(r.islands.size(), 1u);
-        const core::IslandReport& island = r.islands[0];
+        const core::SolveReport& island = r.islands[0];
         if (method == core::SolverMethod::kAuto && law != core::ImpactLaw::kSeedOnePass) {
           const bool exact = points <= int(core::kExactSolverMaxContacts);
-          EXPECT_NE(island.method.find(exact ? "exact" : "iterative"), std::string::npos)
-              << island.method;
+          EXPECT_NE(island.methodName().find(exact ? "exact" : "iterative"), std::string::npos)
+              << island.methodName();
         }
         std::printf("%4d points friction %d %-14s %-9s: %-20s %6zu iterations residual %.2e%s\n",
                     points, int(friction), core::toString(law), core::toString(method),
-                    island.method.c_str(), island.iterations, island.residual,
+                    island.methodName().c_str(), island.iterations, island.residual,
                     island.converged ? "" : " NOT CONVERGED");
         if (law == core::ImpactLaw::kSeedOnePass) continue;  // sequential: not the flat answer
         if (!(friction && pgs)) {
@@ -693,11 +693,12 @@ TEST(Stress, BallSqueezedBetweenTwoWalls) {
                        name(law, method));
           const core::CollisionResult r = solveAndCheck(scene, law, method);
           ASSERT_EQ(r.islands.size(), 1u);
-          const core::IslandReport& island = r.islands[0];
+          const core::SolveReport& island = r.islands[0];
           std::printf("squeeze e %.1f mu %.1f %-14s %-9s: %-20s %5zu it, vx' %+.3e vy' %+.6f %s\n",
-                      e, mu, core::toString(law), core::toString(method), island.method.c_str(),
-                      island.iterations, r.bodies[1].linear_velocity.x(),
-                      r.bodies[1].linear_velocity.y(), island.converged ? "" : "NOT CONVERGED");
+                      e, mu, core::toString(law), core::toString(method),
+                      island.methodName().c_str(), island.iterations,
+                      r.bodies[1].linear_velocity.x(), r.bodies[1].linear_velocity.y(),
+                      island.converged ? "" : "NOT CONVERGED");
           if (law == core::ImpactLaw::kSeedOnePass) continue;  // sequential: no joint property
           const bool infeasible = e > 0.0 && law == core::ImpactLaw::kNewton;
           if (infeasible) {

@@ -89,7 +89,7 @@ struct CheckResult {
   }
 };
 
-bool isImpactIsland(const core::CollisionResult& r, const core::IslandReport& island) {
+bool isImpactIsland(const core::CollisionResult& r, const core::SolveReport& island) {
   for (const int c : island.contacts) {
     if (r.impulses[c].normal_velocity_before < 0.0) return true;
   }
@@ -235,7 +235,7 @@ CheckResult checkPhysics(const core::Scene& scene, const core::SolverOptions& o,
       P_max = std::max(
           P_max, std::hypot(r.impulses[c].normal_impulse, r.impulses[c].friction_impulse.norm()));
     }
-    const bool pgs = island.method.find("iterative") != std::string::npos;
+    const bool pgs = island.methodName().find("iterative") != std::string::npos;
     for (const int c : island.contacts) {
       const core::Contact& contact = scene.contacts[c];
       const core::ContactImpulse& p = r.impulses[c];
@@ -243,12 +243,13 @@ CheckResult checkPhysics(const core::Scene& scene, const core::SolverOptions& o,
       const double P = std::hypot(p.normal_impulse, p.friction_impulse.norm());
       std::ostringstream where;
       where.precision(17);
-      where << "contact " << c << " (island method " << island.method << "): ";
+      where << "contact " << c << " (island method " << island.methodName() << "): ";
       if (std::abs(p.friction_impulse.dot(n)) > 1e-9 * P) {
         fail(where.str() + "friction impulse not tangential");
       }
-      const bool painleve = o.law == core::ImpactLaw::kNewton && island.method == "closed_form" &&
-                            p.sticking && painleveCase(scene, index, contact);
+      const bool painleve = o.law == core::ImpactLaw::kNewton &&
+                            island.methodName() == "closed_form" && p.sticking &&
+                            painleveCase(scene, index, contact);
       if (!painleve) {
         if (!(p.normal_impulse >= -tol.cone * P)) {
           where << "normal impulse " << p.normal_impulse << " < 0";

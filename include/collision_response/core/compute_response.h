@@ -5,28 +5,21 @@
 
 #include "collision_response/core/contact_impulse.h"
 #include "collision_response/core/scene.h"
+#include "collision_response/core/solve_report.h"
 #include "collision_response/core/solver_options.h"
 #include "collision_response/core/warning.h"
 
 namespace collision_response::core {
-
-/// How one island was solved.
-struct IslandReport {
-  std::vector<int> contacts;  ///< indices into Scene::contacts
-  /// "none" (nothing approaching or resting), an impact method of IslandStats, or for islands where
-  /// nothing approaches "resting_closed_form" / "resting_iterative" (resting-contact forces).
-  std::string method;
-  std::size_t iterations = 0;
-  double residual = 0.0;
-  bool converged = true;
-};
 
 struct CollisionResult {
   std::vector<BodyState> bodies;         ///< post-impact states, same order as Scene::bodies
   std::vector<ContactImpulse> impulses;  ///< one per contact, same order as Scene::contacts
   double kinetic_energy_before = 0.0;    ///< of the movable bodies [J]
   double kinetic_energy_after = 0.0;     ///< [J]
-  std::vector<IslandReport> islands;
+  /// How each island was solved: its contacts (indices into Scene::contacts), the method
+  /// (SolveMethod::kNone if nothing approaches and nothing rests; resting islands
+  /// kRestingClosedForm / kRestingIterative), iterations, residual, convergence.
+  std::vector<SolveReport> islands;
   /// Valid input that is usually a mistake, answered as given (see warning.h): a movable-looking
   /// body with mass 0 (a velocity or an inertia tensor but no mass: it is treated as immovable),
   /// and a contact separating faster than options.resting_velocity that gets no impulse (a normal

@@ -4,8 +4,10 @@
 #include <vector>
 
 #include "collision_response/core/contact_impulse.h"
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_problem.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/core/solve_report.h"
 #include "collision_response/core/solver_options.h"
 
 namespace collision_response::core {
@@ -19,18 +21,11 @@ constexpr int kPyramidDirections = 8;
 /// 8), equality along a direction d_k.
 double pyramidFactor();
 
-struct ExactStats {
-  std::size_t pivots = 0;  ///< Lemke pivots, summed over the solves
-  /// Largest violation of the complementarity conditions below, from the final velocities, in
-  /// velocity units (impulses scaled by n^T K n), relative to the largest pre-impact |u|.
-  double residual = 0.0;
-  /// Every LCP was solved and its answer accepted (false: ray termination, pivot cap, or an answer
-  /// refused for its residual).
-  bool converged = false;
-};
-
-/// Newton law for simultaneous contacts, solved exactly by Lemke's method (lcp.h), over the rows
-/// listed in `island`. Same contract as solveIterative(), so either can be used.
+/// Newton law for simultaneous contacts, solved exactly by Lemke's method (lcp.h), on the contact
+/// problem alone (contact_problem.h): its contacts' frames, coefficients, free velocities and
+/// targets, and the full Delassus operator of the island from its blocks (diagonal W_ii and the
+/// coupled W_ij); the body-space all-sticking variant reads the problem's per-body data (free
+/// rigid bodies). Same contract as solveIterative(), so either can be used.
 ///
 /// Symbols (docs/physics.md, "Symbols and conventions" and "Several simultaneous contacts"):
 /// u the pre-impact relative velocity of a contact, u_n = u.n, u' after; the target normal
@@ -71,15 +66,31 @@ struct ExactStats {
 /// one end. Otherwise Lemke. Where Coulomb friction admits several answers, this sticking one is
 /// the one given.
 ///
-/// On success the impulses are applied to `bodies` and each listed row's normal_impulse,
-/// friction_impulse and sticking are written (normal velocities are left to the caller). If an
-/// LCP is not solved, or its answer violates the conditions above by more than 1e-3 of the
-/// island's largest pre-impact |u| (round-off of extreme mass ratios stays below 2e-5), zero
-/// impulses are written and applied, and converged is false.
-/// `options` is not used (the law is Newton's; the pivot cap is lcp.h's default, 50 (n + 1) for n
-/// unknowns: 1 per frictionless contact, D + 2 per frictional one).
-ExactStats solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
-                      const std::vector<int>& island, const SolverOptions& options,
-                      std::vector<ContactImpulse>& impulses);
+/// On success the impulses are applied to the problem (ContactProblem::applyImpulse()) and
+/// impulses[i] (normal_impulse, friction_impulse, sticking) is written for problem contact i
+/// (resized to the problem; normal velocities are left to the caller). If an LCP is not solved,
+/// or its answer violates the conditions above by more than 1e-3 of the island's largest
+/// pre-impact |u| (round-off of extreme mass ratios stays below 2e-5), zero impulses are written
+/// and applied, and the report is not converged. Report: method kExact, iterations = Lemke pivots
+/// summed over the solves (0 for the all-sticking answer), residual = the largest complementarity
+/// violation from the final velocities, relative to the largest pre-impact |u|.
+/// Of `options` only the deadline is used (the law is Newton's, the restitution is in the
+/// problem's targets; the pivot cap is lcp.h's default, 50 (n + 1) for n unknowns: 1 per
+/// frictionless contact, D + 2 per frictional one).
+///
+/// Singular W (redundant contacts, or bodies with fewer freedoms than their contacts' directions):
+/// the all-sticking answer is the least-norm one (complete orthogonal decomposition of the
+/// Delassus matrix, or the body-space solve, whose P = J y lies in the range of J), taken only if
+/// it reaches every target; Lemke's lexicographic pivoting does not cycle on a singular A, and its
+/// answer is one LCP solution among the impulses giving the same velocities, not necessarily the
+/// least-norm one. No division by a pivot of W is made outside these decompositions.
+SolveReport solveExact(ContactProblem& problem, const SolverOptions& options,
+                       std::vector<ContactImpulse>& impulses);
+
+/// Convenience for free rigid bodies: builds the impact problem of the contacts listed in
+/// `island`, solves it, adds the velocity changes to `bodies` and writes impulses[island[i]].
+SolveReport solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
+                       const std::vector<int>& island, const SolverOptions& options,
+                       std::vector<ContactImpulse>& impulses);
 
 }  // namespace collision_response::core

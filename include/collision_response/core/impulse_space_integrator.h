@@ -1,33 +1,27 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstddef>
 
 #include "collision_response/core/contact_impulse.h"
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_problem.h"
+#include "collision_response/core/problem_contact.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/core/solve_report.h"
 #include "collision_response/core/solver_options.h"
 
 namespace collision_response::core {
 
-/// Work done by one call of integrateSingleContact().
-struct IntegrationStats {
-  std::size_t steps = 0;     ///< Runge-Kutta steps attempted (accepted and rejected)
-  std::size_t segments = 0;  ///< pieces of constant contact mode (slip, stick, resumed slip)
-  /// Sum of the accepted local error estimates, relative to the impulse scale |u| / (n^T K n).
-  double error_estimate = 0.0;
-  double compression_impulse = 0.0;  ///< p_c, the normal impulse at maximum compression [N s]
-  double compression_work = 0.0;     ///< W_c = integral of u_n dp over [0, p_c] [J], <= 0
-  /// The integration hit its segment or step budget (or a contact that cannot end compression):
-  /// the rest of the impact was replaced by the perfectly plastic sticking impulse -K^-1 u.
-  bool fallback = false;
-};
-
 /// Impulse for one isolated contact under the Poisson or Stronge restitution law with Coulomb
 /// friction, integrated along the impact in impulse space (Routh's method, docs/physics.md,
-/// "Frictional impact in impulse space"). Same output contract as solveSingleContact(): total
-/// impulse P = normal_impulse n + friction_impulse, +P on b and -P on a; u_n' = u_n + n^T K P; a
-/// separating or resting contact (u_n >= 0) gets zero impulse; the bodies are not changed. Laws
-/// other than kPoisson and kStronge are forwarded to solveSingleContact().
+/// "Frictional impact in impulse space"), from the problem's entry of the contact
+/// (K = contact.delassus, frame t1, t2, n, coefficients) and its relative velocity u before the
+/// impact [m/s]. Same output contract as solveSingleContact(): total impulse
+/// P = normal_impulse n + friction_impulse, +P on b and -P on a; u_n' = u_n + n^T K P; a
+/// separating or resting contact (u_n >= 0) gets zero impulse; nothing is applied. Laws other
+/// than kPoisson and kStronge are forwarded to solveSingleContact(). `detail`, if given, receives
+/// the integration's steps, segments, error estimate, p_c, W_c and fallback flag.
 ///
 /// The normal impulse p = P_n is the time-like variable, u(p) the relative contact velocity,
 /// s = u_t / |u_t| the slip direction:
@@ -39,8 +33,33 @@ struct IntegrationStats {
 /// after a stop) are solved in closed form; a rotating 3D slip direction is integrated with an
 /// adaptive Dormand-Prince 5(4) method to `tolerance` (local error relative to the impulse scale).
 /// Under kStronge the kinetic energy never increases and the contact separates (u_n' >= 0).
-ContactImpulse integrateSingleContact(const RigidBody& a, const RigidBody& b, const ContactRow& row,
+///
+/// Singular K (least_norm.h's threshold): n^T K n = 0 gives a zero impulse (u_n' = u_n: nothing
+/// can push the contact). A singular K_tt: the sticking rate is the least-norm -K_tt^+ K_tn, and
+/// the contact sticks only if that holds the slip at zero (K_tn in the range of K_tt) and lies in
+/// the static cone, otherwise slip resumes along the direction of resumeDirection() (well defined
+/// for singular K_tt). While sliding, friction is Coulomb's, mu_d p against the slip, also along
+/// directions in which the bodies cannot move (an immovable guide takes it; the law fixes it).
+/// The fallback's plastic impulse is the least-norm -K^+ u.
+ContactImpulse integrateSingleContact(const ProblemContact& contact, const Eigen::Vector3d& u,
                                       ImpactLaw law, double tolerance,
-                                      IntegrationStats* stats = nullptr);
+                                      ImpulseSpaceDetail* detail = nullptr);
+
+/// Contact i of the problem at its current relative velocity.
+inline ContactImpulse integrateSingleContact(const ContactProblem& problem, std::size_t i,
+                                             ImpactLaw law, double tolerance,
+                                             ImpulseSpaceDetail* detail = nullptr) {
+  return integrateSingleContact(problem.contact(i), problem.relativeMotion(i), law, tolerance,
+                                detail);
+}
+
+/// Two free rigid bodies a and b: the problem entry of the contact alone, integrated as above.
+inline ContactImpulse integrateSingleContact(const RigidBody& a, const RigidBody& b,
+                                             const ContactPoint& contact, ImpactLaw law,
+                                             double tolerance,
+                                             ImpulseSpaceDetail* detail = nullptr) {
+  const ProblemContact entry = ContactProblem::rigidImpactContact(a, b, contact);
+  return integrateSingleContact(entry, entry.free_velocity, law, tolerance, detail);
+}
 
 }  // namespace collision_response::core

@@ -4,8 +4,10 @@
 #include <vector>
 
 #include "collision_response/core/contact_impulse.h"
-#include "collision_response/core/contact_row.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_problem.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/core/solve_report.h"
 #include "collision_response/core/solver_options.h"
 
 namespace collision_response::core {
@@ -17,20 +19,12 @@ constexpr std::size_t kExactSolverMaxContacts = 12;
 /// square of the contacts); larger ones are an InvalidInput on "options.solver".
 constexpr std::size_t kExactSolverContactLimit = 128;
 
-/// How one island was solved.
-struct IslandStats {
-  /// "closed_form", "impulse_space", "sequential", "exact", "iterative", "exact_then_iterative"
-  /// (automatic choice, the exact solver found no solution), "two_phase_exact" or
-  /// "two_phase_iterative".
-  const char* method = "none";
-  std::size_t iterations = 0;  ///< pivots, iterations or integration steps (1 for closed forms)
-  double residual = 0.0;       ///< the method's own measure of its error (0 for closed forms)
-  bool converged = true;
-};
-
-/// Solves one island (rows listed by index in `island`) under options.law, applying the impulses to
-/// `bodies` and writing each listed row's impulse, normal and friction parts and sticking flag
-/// (normal_velocity_before/after are the caller's).
+/// Solves one island's impact problem (contact_problem.h, built once by the caller) under
+/// options.law, applying the impulses to the problem (ContactProblem::applyImpulse(); the caller
+/// adds its velocity changes to the bodies) and writing impulses[i]'s normal and friction parts
+/// and sticking flag for problem contact i (resized to the problem; normal_velocity_before/after
+/// are the caller's). The report's method is one of kClosedForm, kImpulseSpace, kSequential,
+/// kExact, kIterative, kExactThenIterative, kTwoPhaseExact, kTwoPhaseIterative.
 ///
 /// One contact (SolverMethod::kAuto): Newton in closed form; Poisson and Stronge by impulse-space
 /// integration. Several contacts: Newton by the exact or the iterative solver; Poisson and Stronge
@@ -48,8 +42,17 @@ struct IslandStats {
 /// contacts with a common e phase 2 needs no scaling and Poisson and Stronge coincide. The answer
 /// of simultaneous laws is not unique in general (Newton's cradle): this is the simultaneous one.
 /// The one-pass law (the textbook two-pass procedure, docs/physics.md, "The textbook two-pass
-/// procedure and its pitfalls") takes its contacts one at a time, in request order.
-IslandStats solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactRow>& rows,
+/// procedure and its pitfalls") takes its contacts one at a time, in request order. The two-phase
+/// scheme makes the problem plastic (ContactProblem::makePlastic()) after reading its e_i.
+/// Singular W: each solver's rule (single_contact.h, impulse_space_integrator.h, exact_solver.h,
+/// iterative_solver.h); the two-phase scheme adds nothing that divides by W.
+SolveReport solveIsland(ContactProblem& problem, const SolverOptions& options,
+                        std::vector<ContactImpulse>& impulses);
+
+/// Convenience for free rigid bodies: builds the impact problem of the contacts listed in
+/// `island`, solves it, adds the velocity changes to `bodies` and writes impulses[island[i]]
+/// (normal and friction parts, sticking). report.contacts = island.
+SolveReport solveIsland(std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
                         const std::vector<int>& island, const SolverOptions& options,
                         std::vector<ContactImpulse>& impulses);
 

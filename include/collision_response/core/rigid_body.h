@@ -2,14 +2,17 @@
 
 #include <Eigen/Core>
 
+#include "collision_response/core/body_model.h"
 #include "collision_response/core/body_state.h"
 
 namespace collision_response::core {
 
-/// A body prepared for the solvers: world-frame inverse mass properties and velocities of the
-/// centre of mass. An immovable body has inverse_mass 0 and a zero inverse inertia, and is never
-/// changed.
-struct RigidBody {
+/// A free rigid body prepared for the solvers: world-frame inverse mass properties and velocities
+/// of the centre of mass. As a BodyModel its 6 velocity unknowns are (v, w), world, with
+/// M = diag(m I3, Iw) and J(p) = [I3, -[r]x], r = p - c (docs/physics.md, "Symbols and
+/// conventions"). An immovable body has inverse_mass 0 and a zero inverse inertia, no unknowns,
+/// and is never changed (its velocity is prescribed).
+struct RigidBody final : BodyModel {
   double inverse_mass = 0.0;                                   ///< [1/kg]
   Eigen::Matrix3d inverse_inertia = Eigen::Matrix3d::Zero();   ///< R I^-1 R^T, world [1/(kg m^2)]
   Eigen::Vector3d com = Eigen::Vector3d::Zero();               ///< centre of mass, world [m]
@@ -29,9 +32,25 @@ struct RigidBody {
     linear_velocity += inverse_mass * p;
     angular_velocity += inverse_inertia * r.cross(p);
   }
+
+  // BodyModel (world points; the solvers use the closed forms above through asRigidBody()).
+  int velocityCount() const override { return movable() ? 6 : 0; }
+  Eigen::VectorXd velocity() const override;
+  Eigen::Vector3d materialPointVelocity(const Eigen::Vector3d& point) const override {
+    return pointVelocity(point - com);
+  }
+  Eigen::Matrix<double, 3, Eigen::Dynamic> pointJacobian(
+      const Eigen::Vector3d& point) const override;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> inverseMassJacobianTranspose(
+      const Eigen::Vector3d& point) const override;
+  void addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) override;
+  const RigidBody* asRigidBody() const override { return this; }
 };
 
 /// Builds the solver's view of a validated body state.
 RigidBody makeRigidBody(const BodyState& state);
+
+/// [r]x, the matrix with [r]x y = r x y.
+Eigen::Matrix3d skew(const Eigen::Vector3d& r);
 
 }  // namespace collision_response::core

@@ -35,7 +35,10 @@ enum class ImpactLaw {
 
 /// How a group of coupled contacts (an island) is solved.
 enum class SolverMethod {
-  kAuto,       ///< closed form for an island with one contact, otherwise iterative
+  /// Per island: one contact in closed form (Newton) or by impulse-space integration (Poisson,
+  /// Stronge); up to kExactSolverMaxContacts (12) contacts the exact solver, falling back to the
+  /// iterative one if it finds no solution; more contacts the iterative solver.
+  kAuto,
   kIterative,  ///< projected Gauss-Seidel on accumulated impulses, for any number of contacts
   kExact,      ///< pivoting (Lemke) solve of the linear complementarity problem, for few contacts
 };

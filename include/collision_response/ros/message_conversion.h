@@ -48,7 +48,7 @@ detection::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string&
 /// Detection settings of a request; a zero contact_tolerance takes `default_tolerance`.
 detection::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance);
 ContactImpulse toMsg(const core::ContactImpulse& impulse);
-IslandReport toMsg(const core::IslandReport& report);
+IslandReport toMsg(const core::SolveReport& report);
 
 /// Options of a request; zero fields take the value of `defaults`. Throws core::InvalidInput
 /// ("options.law", "options.solver") for an unknown enumeration value.

@@ -1,0 +1,50 @@
+#pragma once
+
+#include <Eigen/Core>
+
+namespace collision_response::core {
+
+struct RigidBody;
+
+/// A body as the contact problem sees it (docs/physics.md, "The contact problem"): n velocity
+/// unknowns v (6 for a free rigid body: the velocity of its centre of mass [m/s] and its angular
+/// velocity [rad/s], world; 0 for an immovable body; for an articulated robot its n joint
+/// velocities), a symmetric positive definite mass matrix M(q) in those unknowns, and for every
+/// material point p the 3 x n Jacobian J(p) that gives the point's world velocity, J(p) v [m/s].
+/// An impulse P [N s] applied at p changes v by M^-1 J(p)^T P, and an impulse P at p moves the
+/// velocity of a point p' by J(p') M^-1 J(p)^T P: the blocks of the Delassus operator.
+///
+/// The contact problem (contact_problem.h) asks a body for these once, when it is built, and
+/// gives the solvers no body: a new kind of body (a robot with M(q) from CRBA and a Cholesky
+/// factor of it) implements this interface and needs no change in any solver. A free rigid body
+/// (RigidBody) says so through asRigidBody(), and the problem then uses its closed forms (lever
+/// arms, 3x3 blocks; no n x 3 matrices and no virtual call per operation).
+class BodyModel {
+ public:
+  virtual ~BodyModel() = default;
+
+  /// n, the number of velocity unknowns; 0 for a body whose motion is prescribed (immovable).
+  virtual int velocityCount() const = 0;
+  /// v, the n velocity unknowns (units per unknown: m/s for translations, rad/s for rotations).
+  virtual Eigen::VectorXd velocity() const = 0;
+  /// World velocity of the material point of the body that sits at the world point p [m/s]
+  /// (including prescribed motion: an immovable body may move).
+  virtual Eigen::Vector3d materialPointVelocity(const Eigen::Vector3d& point) const = 0;
+  /// J(p), 3 x n: the velocity of the material point at world p per unit of each unknown.
+  virtual Eigen::Matrix<double, 3, Eigen::Dynamic> pointJacobian(
+      const Eigen::Vector3d& point) const = 0;
+  /// M^-1 J(p)^T, n x 3: the change of v per unit impulse [N s] applied at world p.
+  virtual Eigen::Matrix<double, Eigen::Dynamic, 3> inverseMassJacobianTranspose(
+      const Eigen::Vector3d& point) const = 0;
+  /// v += change (n entries). Does nothing for a body without unknowns.
+  virtual void addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) = 0;
+  /// The free rigid body behind this model (the solvers' closed-form fast path), or nullptr.
+  virtual const RigidBody* asRigidBody() const { return nullptr; }
+
+  /// Applies the impulse P [N s] at world p: v += M^-1 J(p)^T P.
+  void applyImpulseAt(const Eigen::Vector3d& point, const Eigen::Vector3d& impulse) {
+    if (velocityCount() > 0) addVelocityChange(inverseMassJacobianTranspose(point) * impulse);
+  }
+};
+
+}  // namespace collision_response::core

@@ -1,0 +1,340 @@
+#include "collision_response/core/contact_problem.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "collision_response/core/contact_space.h"
+
+namespace collision_response::core {
+namespace {
+
+constexpr double kSideSign[2] = {-1.0, 1.0};  // body a receives -P, body b +P
+
+// Acceleration (a [m/s^2], alpha [rad/s^2]) of a free rigid body under its wrench alone:
+// a = F / m, alpha = Iw^-1 (tau - w x Iw w) (zero for an immovable body).
+std::pair<Eigen::Vector3d, Eigen::Vector3d> wrenchAcceleration(const BodyState& state,
+                                                               const RigidBody& body) {
+  if (!body.movable()) return {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  const Eigen::Vector3d& w = body.angular_velocity;
+  // Iw w from the body-frame tensor (not by inverting Iw^-1, which loses the small moments).
+  const Eigen::Matrix3d R = state.orientation.normalized().toRotationMatrix();
+  const Eigen::Vector3d Iw_w = R * (state.inertia * (R.transpose() * w));
+  return {body.inverse_mass * state.force, body.inverse_inertia * (state.torque - w.cross(Iw_w))};
+}
+
+Eigen::Vector3d centripetal(const RigidBody& body, const Eigen::Vector3d& r) {
+  return body.angular_velocity.cross(body.angular_velocity.cross(r));
+}
+
+// The frame, coefficients and index fields of a problem entry.
+ProblemContact entryFor(int source, const ContactPoint& contact) {
+  ProblemContact out;
+  out.source = source;
+  out.body_a = contact.body_a;
+  out.body_b = contact.body_b;
+  out.normal = contact.normal;
+  tangentBasis(out.normal, out.tangent1, out.tangent2);
+  out.restitution = contact.restitution;
+  out.static_friction = contact.static_friction;
+  out.dynamic_friction = contact.dynamic_friction;
+  return out;
+}
+
+void setTarget(ProblemContact& c) {
+  const double u_n = c.free_velocity.dot(c.normal);
+  c.target_normal_velocity = u_n < 0.0 ? -c.restitution * u_n : 0.0;
+}
+
+}  // namespace
+
+void ContactProblem::clear(ProblemLevel level) {
+  level_ = level;
+  bodies_.clear();
+  contacts_.clear();
+  general_sides_.clear();
+  applied_impulses_.clear();
+  couplings_.clear();
+  couplings_built_ = false;
+}
+
+int ContactProblem::addRigidBody(int index, const RigidBody& body, std::vector<int>& local_of) {
+  if (!body.movable()) return -1;
+  if (local_of[index] >= 0) return local_of[index];
+  ProblemBody out;
+  out.index = index;
+  out.unknowns = 6;
+  out.inverse_mass = body.inverse_mass;
+  out.inverse_inertia = body.inverse_inertia;
+  local_of[index] = static_cast<int>(bodies_.size());
+  bodies_.push_back(out);
+  return local_of[index];
+}
+
+int ContactProblem::addGeneralBody(int index, const BodyModel& body, std::vector<int>& local_of) {
+  if (body.velocityCount() == 0) return -1;
+  if (local_of[index] >= 0) return local_of[index];
+  ProblemBody out;
+  out.index = index;
+  out.unknowns = body.velocityCount();
+  out.model = &body;
+  local_of[index] = static_cast<int>(bodies_.size());
+  bodies_.push_back(out);
+  return local_of[index];
+}
+
+void ContactProblem::finish() {
+  Eigen::Index offset = 0;
+  for (ProblemBody& body : bodies_) {
+    local_of_[body.index] = -1;  // ready for the next build
+    body.offset = offset;
+    offset += body.unknowns;
+  }
+  velocity_changes_.setZero(offset);
+  applied_impulses_.assign(contacts_.size(), Eigen::Vector3d::Zero());
+}
+
+ProblemContact ContactProblem::rigidImpactContact(const RigidBody& a, const RigidBody& b,
+                                                  const ContactPoint& contact) {
+  ProblemContact out = entryFor(-1, contact);
+  const ContactSpace space(a, b, contact.point);
+  out.lever_arm_a = space.r_a;
+  out.lever_arm_b = space.r_b;
+  out.delassus = space.K;
+  out.free_velocity = space.relativeVelocity(a, b);
+  setTarget(out);
+  return out;
+}
+
+void ContactProblem::buildImpact(const std::vector<RigidBody>& bodies,
+                                 const std::vector<ContactPoint>& contacts,
+                                 const std::vector<int>& island) {
+  clear(ProblemLevel::kVelocity);
+  contacts_.reserve(island.size());
+  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
+  std::vector<int>& local_of = local_of_;
+  for (const int c : island) {
+    const ContactPoint& point = contacts[c];
+    const RigidBody& a = bodies[point.body_a];
+    const RigidBody& b = bodies[point.body_b];
+    ProblemContact entry = rigidImpactContact(a, b, point);
+    entry.source = c;
+    entry.local_a = addRigidBody(point.body_a, a, local_of);
+    entry.local_b = addRigidBody(point.body_b, b, local_of);
+    contacts_.push_back(entry);
+  }
+  finish();
+}
+
+void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
+                                 const std::vector<ContactPoint>& contacts,
+                                 const std::vector<int>& island) {
+  clear(ProblemLevel::kVelocity);
+  contacts_.reserve(island.size());
+  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
+  std::vector<int>& local_of = local_of_;
+  bool general = false;
+  for (const int c : island) {
+    const ContactPoint& point = contacts[c];
+    ProblemContact entry = entryFor(c, point);
+    const int index[2] = {point.body_a, point.body_b};
+    int* local[2] = {&entry.local_a, &entry.local_b};
+    Eigen::Vector3d* lever_arm[2] = {&entry.lever_arm_a, &entry.lever_arm_b};
+    for (int side = 0; side < 2; ++side) {
+      const BodyModel& body = *bodies[index[side]];
+      const Eigen::Vector3d velocity = body.materialPointVelocity(point.point);
+      entry.free_velocity += kSideSign[side] * velocity;
+      if (const RigidBody* rigid = body.asRigidBody()) {
+        *lever_arm[side] = point.point - rigid->com;
+        entry.delassus += rigidContactBlock(*rigid, *lever_arm[side]);
+        *local[side] = addRigidBody(index[side], *rigid, local_of);
+        continue;
+      }
+      *local[side] = addGeneralBody(index[side], body, local_of);
+      if (*local[side] < 0) continue;
+      if (!general) general_sides_.resize(2 * island.size());
+      general = true;
+      GeneralSide& out = general_sides_[2 * contacts_.size() + side];
+      out.jacobian = body.pointJacobian(point.point);
+      out.inverse_mass_jacobian_t = body.inverseMassJacobianTranspose(point.point);
+      entry.delassus += out.jacobian * out.inverse_mass_jacobian_t;
+    }
+    // Symmetric in exact arithmetic; make it so (a general body's products may round apart).
+    entry.delassus = 0.5 * (entry.delassus + entry.delassus.transpose()).eval();
+    setTarget(entry);
+    contacts_.push_back(entry);
+  }
+  finish();
+}
+
+void ContactProblem::buildResting(const std::vector<BodyState>& states,
+                                  const std::vector<RigidBody>& bodies,
+                                  const std::vector<ContactPoint>& contacts,
+                                  const std::vector<int>& island, double resting_velocity) {
+  clear(ProblemLevel::kAcceleration);
+  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
+  std::vector<int>& local_of = local_of_;
+  for (const int c : island) {
+    const ContactPoint& point = contacts[c];
+    const RigidBody& a = bodies[point.body_a];
+    const RigidBody& b = bodies[point.body_b];
+    const ContactSpace space(a, b, point.point);
+    const Eigen::Vector3d u = space.relativeVelocity(a, b);
+    const double u_n = u.dot(point.normal);
+    if (std::abs(u_n) > resting_velocity) continue;
+    ProblemContact entry = entryFor(c, point);
+    entry.restitution = 0.0;
+    entry.lever_arm_a = space.r_a;
+    entry.lever_arm_b = space.r_b;
+    entry.delassus = space.K;
+    const auto [linear_a, angular_a] = wrenchAcceleration(states[point.body_a], a);
+    const auto [linear_b, angular_b] = wrenchAcceleration(states[point.body_b], b);
+    entry.free_acceleration = (linear_b + angular_b.cross(space.r_b)) -
+                              (linear_a + angular_a.cross(space.r_a)) +
+                              (centripetal(b, space.r_b) - centripetal(a, space.r_a));
+    const Eigen::Vector3d u_t = u - u_n * point.normal;
+    if (!point.frictionless() && u_t.norm() > resting_velocity) {
+      entry.slip_direction = u_t.normalized();
+    }
+    entry.local_a = addRigidBody(point.body_a, a, local_of);
+    entry.local_b = addRigidBody(point.body_b, b, local_of);
+    contacts_.push_back(entry);
+  }
+  finish();
+}
+
+void ContactProblem::makePlastic() {
+  for (ProblemContact& c : contacts_) {
+    c.restitution = 0.0;
+    c.target_normal_velocity = 0.0;
+  }
+}
+
+Eigen::Vector3d ContactProblem::motionChange(std::size_t i,
+                                             const Eigen::VectorXd& velocity_changes) const {
+  const ProblemContact& c = contacts_[i];
+  Eigen::Vector3d change = Eigen::Vector3d::Zero();
+  const int local[2] = {c.local_a, c.local_b};
+  const Eigen::Vector3d* lever_arm[2] = {&c.lever_arm_a, &c.lever_arm_b};
+  for (int side = 0; side < 2; ++side) {
+    if (local[side] < 0) continue;
+    const ProblemBody& body = bodies_[local[side]];
+    Eigen::Vector3d point_change;
+    if (body.rigid()) {
+      point_change = velocity_changes.segment<3>(body.offset) +
+                     velocity_changes.segment<3>(body.offset + 3).cross(*lever_arm[side]);
+    } else {
+      point_change = general_sides_[2 * i + side].jacobian *
+                     velocity_changes.segment(body.offset, body.unknowns);
+    }
+    if (side == 0) {
+      change -= point_change;
+    } else {
+      change += point_change;
+    }
+  }
+  return change;
+}
+
+void ContactProblem::addImpulse(std::size_t i, const Eigen::Vector3d& impulse,
+                                Eigen::VectorXd& velocity_changes) const {
+  const ProblemContact& c = contacts_[i];
+  const int local[2] = {c.local_a, c.local_b};
+  const Eigen::Vector3d* lever_arm[2] = {&c.lever_arm_a, &c.lever_arm_b};
+  for (int side = 0; side < 2; ++side) {
+    if (local[side] < 0) continue;
+    const ProblemBody& body = bodies_[local[side]];
+    const Eigen::Vector3d p = side == 0 ? Eigen::Vector3d(-impulse) : impulse;
+    if (body.rigid()) {
+      velocity_changes.segment<3>(body.offset) += body.inverse_mass * p;
+      velocity_changes.segment<3>(body.offset + 3) +=
+          body.inverse_inertia * lever_arm[side]->cross(p);
+    } else {
+      velocity_changes.segment(body.offset, body.unknowns) +=
+          general_sides_[2 * i + side].inverse_mass_jacobian_t * p;
+    }
+  }
+}
+
+double ContactProblem::kineticEnergyChange() const {
+  double change = 0.0;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    if (applied_impulses_[i].isZero(0.0)) continue;
+    change += 0.5 * applied_impulses_[i].dot(freeMotion(i) + relativeMotion(i));
+  }
+  return change;
+}
+
+Eigen::Matrix3d ContactProblem::sideBlock(std::size_t i, int side_i, std::size_t j,
+                                          int side_j) const {
+  const ProblemContact& ci = contacts_[i];
+  const ProblemContact& cj = contacts_[j];
+  const ProblemBody& body = bodies_[side_i == 0 ? ci.local_a : ci.local_b];
+  if (body.rigid()) {
+    // Point velocity change at r_i per unit impulse at r_j: I3 / m - [r_i]x Iw^-1 [r_j]x.
+    const Eigen::Vector3d& r_i = side_i == 0 ? ci.lever_arm_a : ci.lever_arm_b;
+    const Eigen::Vector3d& r_j = side_j == 0 ? cj.lever_arm_a : cj.lever_arm_b;
+    Eigen::Matrix3d block = -skew(r_i) * body.inverse_inertia * skew(r_j);
+    block.diagonal().array() += body.inverse_mass;
+    return block;
+  }
+  return general_sides_[2 * i + side_i].jacobian *
+         general_sides_[2 * j + side_j].inverse_mass_jacobian_t;
+}
+
+Eigen::Matrix3d ContactProblem::delassusBlock(std::size_t i, std::size_t j) const {
+  if (i == j) return contacts_[i].delassus;
+  Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+  const int local_i[2] = {contacts_[i].local_a, contacts_[i].local_b};
+  const int local_j[2] = {contacts_[j].local_a, contacts_[j].local_b};
+  for (int si = 0; si < 2; ++si) {
+    if (local_i[si] < 0) continue;
+    for (int sj = 0; sj < 2; ++sj) {
+      if (local_j[sj] != local_i[si]) continue;
+      block += (kSideSign[si] * kSideSign[sj]) * sideBlock(i, si, j, sj);
+    }
+  }
+  return block;
+}
+
+const std::vector<std::pair<int, int>>& ContactProblem::couplings() const {
+  if (couplings_built_) return couplings_;
+  std::vector<std::pair<int, int>> incidences;  // (body, contact)
+  incidences.reserve(2 * contacts_.size());
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    if (contacts_[i].local_a >= 0) incidences.emplace_back(contacts_[i].local_a, int(i));
+    if (contacts_[i].local_b >= 0) incidences.emplace_back(contacts_[i].local_b, int(i));
+  }
+  std::sort(incidences.begin(), incidences.end());
+  for (std::size_t begin = 0, end = 0; begin < incidences.size(); begin = end) {
+    end = begin + 1;
+    while (end < incidences.size() && incidences[end].first == incidences[begin].first) ++end;
+    for (std::size_t x = begin; x < end; ++x) {
+      for (std::size_t y = x + 1; y < end; ++y) {
+        if (incidences[x].second != incidences[y].second) {
+          couplings_.emplace_back(incidences[x].second, incidences[y].second);
+        }
+      }
+    }
+  }
+  std::sort(couplings_.begin(), couplings_.end());
+  couplings_.erase(std::unique(couplings_.begin(), couplings_.end()), couplings_.end());
+  couplings_built_ = true;
+  return couplings_;
+}
+
+void ContactProblem::addVelocityChangesTo(std::vector<RigidBody>& bodies) const {
+  for (const ProblemBody& body : bodies_) {
+    RigidBody& out = bodies[body.index];
+    out.linear_velocity += velocity_changes_.segment<3>(body.offset);
+    out.angular_velocity += velocity_changes_.segment<3>(body.offset + 3);
+  }
+}
+
+void ContactProblem::addVelocityChangesTo(const std::vector<BodyModel*>& bodies) const {
+  for (const ProblemBody& body : bodies_) {
+    bodies[body.index]->addVelocityChange(velocity_changes_.segment(body.offset, body.unknowns));
+  }
+}
+
+}  // namespace collision_response::core
