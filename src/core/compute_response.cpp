@@ -65,9 +65,14 @@ void addWarnings(const Scene& scene, const SolverOptions& options, CollisionResu
 
 }  // namespace
 
-CollisionResult computeResponse(const Scene& scene, const SolverOptions& requested,
+CollisionResult computeResponse(const Scene& scene, const SolverOptions& options,
                                 const RequestLimits& limits) {
-  const std::vector<std::pair<int, int>> contact_bodies = validate(scene, requested, limits);
+  return computeValidatedResponse(scene, validate(scene, options, limits), options);
+}
+
+CollisionResult computeValidatedResponse(const Scene& scene,
+                                         const std::vector<std::pair<int, int>>& contact_bodies,
+                                         const SolverOptions& requested) {
   SolverOptions options = requested;
   options.deadline = Deadline::in(requested.time_budget);
 

@@ -193,8 +193,9 @@ void requireInRange(double value, const OptionRange& range, const std::string& f
   throw InvalidInput(field, "must lie in " + range.text() + units + " (" + describe(value) + ")");
 }
 
-std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,
-                                          const RequestLimits& limits) {
+SceneValidator::SceneValidator(const Scene& scene, const SolverOptions& options,
+                               const RequestLimits& limits)
+    : limits_(limits) {
   checkSize(scene.bodies.size(), scene.contacts.size(), limits);
   requireInRange(options.tolerance, option_ranges::kTolerance, "options.tolerance");
   requireInRange(options.integration_tolerance, option_ranges::kIntegrationTolerance,
@@ -205,27 +206,28 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
   requireInRange(static_cast<double>(options.max_iterations), option_ranges::kMaxIterations,
                  "options.max_iterations");
 
-  std::unordered_map<std::string, int> index_of;
-  index_of.reserve(scene.bodies.size());
-  std::vector<double> smallest_moments(scene.bodies.size());
+  index_of_.reserve(scene.bodies.size());
+  smallest_moments_.resize(scene.bodies.size());
   for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
     const std::string field = indexed("bodies", i);
-    smallest_moments[i] = validateBody(scene.bodies[i], field);
-    const auto [it, inserted] = index_of.emplace(scene.bodies[i].id, static_cast<int>(i));
+    smallest_moments_[i] = validateBody(scene.bodies[i], field);
+    const auto [it, inserted] = index_of_.emplace(scene.bodies[i].id, static_cast<int>(i));
     if (!inserted) {
       throw InvalidInput(field + ".id", "'" + scene.bodies[i].id + "' duplicates bodies[" +
                                             std::to_string(it->second) + "].id");
     }
   }
+}
 
-  std::vector<std::pair<int, int>> contact_bodies;
-  contact_bodies.reserve(scene.contacts.size());
-  for (std::size_t i = 0; i < scene.contacts.size(); ++i) {
+void SceneValidator::checkContacts(const Scene& scene) {
+  checkSize(scene.bodies.size(), scene.contacts.size(), limits_);
+  contact_bodies_.reserve(scene.contacts.size());
+  for (std::size_t i = contact_bodies_.size(); i < scene.contacts.size(); ++i) {
     const Contact& contact = scene.contacts[i];
     const std::string field = indexed("contacts", i);
     const auto find = [&](const std::string& id, const char* name) {
-      const auto it = index_of.find(id);
-      if (it == index_of.end())
+      const auto it = index_of_.find(id);
+      if (it == index_of_.end())
         throw InvalidInput(field + "." + name, "names unknown body id '" + id + "'");
       return it->second;
     };
@@ -248,11 +250,17 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
     }
     validateCoefficients(contact.restitution, contact.static_friction, contact.dynamic_friction,
                          field);
-    checkLeverArm(scene.bodies[a], a, smallest_moments[a], contact.point, field);
-    checkLeverArm(scene.bodies[b], b, smallest_moments[b], contact.point, field);
-    contact_bodies.emplace_back(a, b);
+    checkLeverArm(scene.bodies[a], a, smallest_moments_[a], contact.point, field);
+    checkLeverArm(scene.bodies[b], b, smallest_moments_[b], contact.point, field);
+    contact_bodies_.emplace_back(a, b);
   }
-  return contact_bodies;
+}
+
+std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,
+                                          const RequestLimits& limits) {
+  SceneValidator validator(scene, options, limits);
+  validator.checkContacts(scene);
+  return validator.contactBodies();
 }
 
 }  // namespace collision_response::core

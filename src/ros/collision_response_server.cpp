@@ -193,8 +193,11 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     core::Scene scene = toScene(request);
     const Defaults defaults_now = defaults();
     const core::SolverOptions options = fromMsg(request.options, defaults_now.options);
+    // Each value is checked once: the bodies and given contacts before detection (which needs
+    // valid poses), the detected contacts after it.
+    core::SceneValidator validator(scene, options, parameters_.limits);
+    validator.checkContacts(scene);
     if (wantsDetection(request)) {
-      core::validate(scene, options, parameters_.limits);  // detection needs valid poses
       const detection::DetectedContacts detected =
           detect(request, scene, options, defaults_now.contact_tolerance);
       response.detected_contacts.reserve(detected.contacts.size());
@@ -203,9 +206,11 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
       response.detected_depths = detected.depths;
       scene.contacts.insert(scene.contacts.end(), detected.contacts.begin(),
                             detected.contacts.end());
+      validator.checkContacts(scene);
     }
     const auto start = std::chrono::steady_clock::now();
-    const core::CollisionResult result = core::computeResponse(scene, options, parameters_.limits);
+    const core::CollisionResult result =
+        core::computeValidatedResponse(scene, validator.contactBodies(), options);
     response.solve_time =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

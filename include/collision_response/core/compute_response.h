@@ -34,4 +34,11 @@ struct CollisionResult {
 CollisionResult computeResponse(const Scene& scene, const SolverOptions& options = {},
                                 const RequestLimits& limits = {});
 
+/// computeResponse() for a scene already validated (validate(), or a SceneValidator that checked
+/// every contact): contact_bodies is its result. Nothing is validated again; the caller answers
+/// for the scene being the one that was checked.
+CollisionResult computeValidatedResponse(const Scene& scene,
+                                         const std::vector<std::pair<int, int>>& contact_bodies,
+                                         const SolverOptions& options = {});
+
 }  // namespace collision_response::core

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -47,6 +48,28 @@ void checkSize(std::size_t body_count, std::size_t contact_count, const RequestL
 /// exceeds the limits; cheap, so a server can call it before converting any shape.
 void checkGeometrySize(std::size_t shapes, std::size_t mesh_vertices, std::size_t mesh_triangles,
                        const RequestLimits& limits);
+
+/// Validation in two steps, so that each value of a request is checked once even when contacts are
+/// added after the bodies were checked (contacts detected from the bodies' shapes, which needs
+/// valid poses): the constructor checks the sizes, the options and every body; checkContacts()
+/// checks the contacts not checked yet, in order. validate() is both steps at once.
+class SceneValidator {
+ public:
+  /// Throws InvalidInput naming the first offending field (see validate()).
+  SceneValidator(const Scene& scene, const SolverOptions& options, const RequestLimits& limits);
+  /// Checks scene.contacts from the first one not checked yet to the last (the bodies must be those
+  /// given to the constructor, unchanged) and records their body indices. Throws InvalidInput
+  /// naming "contacts[i]..." (i: the index in scene.contacts), or "contacts" past the size limit.
+  void checkContacts(const Scene& scene);
+  /// Per checked contact, the indices of body_a and body_b in scene.bodies.
+  const std::vector<std::pair<int, int>>& contactBodies() const { return contact_bodies_; }
+
+ private:
+  RequestLimits limits_;
+  std::unordered_map<std::string, int> index_of_;
+  std::vector<double> smallest_moments_;
+  std::vector<std::pair<int, int>> contact_bodies_;
+};
 
 /// Checks everything the solvers rely on and throws InvalidInput naming the first offending field:
 /// sizes within limits; finite numbers everywhere; non-empty, unique ids; mass >= 0; for movable
