@@ -48,6 +48,8 @@ constexpr std::size_t kMaxSteps = 20000;
 constexpr double kStickSpeed = 1e-14;
 /// |s x g| below this fraction of |b| + mu_d |A| counts as a constant slip direction.
 constexpr double kParallel = 1e-12;
+/// Share of the tolerance allowed to the local error of one step (errors of successive steps add).
+constexpr double kStepShare = 0.3;
 
 double cross2(const Vec2& x, const Vec2& y) {
   return x.x() * y.y() - x.y() * y.x();
@@ -110,6 +112,16 @@ double strongeDistance(double D, double u_n, double h) {
     return den > 0.0 ? 2.0 * D / den : kInf;
   }
   return h > 0.0 ? (std::sqrt(disc) - u_n) / h : kInf;
+}
+
+/// Distance in p to the event of the current phase along constant rates dP_t/dp = r (kInf if
+/// none): maximum compression, then the end of the impact (as in advanceLinear()).
+double eventDistance(const Problem& pr, const State& st, const Vec2& r) {
+  const double h = pr.c + pr.b.dot(r);
+  const double u_n = pr.normal(st.p, st.P_t);
+  if (!st.restitution) return u_n >= 0.0 ? 0.0 : (h > 0.0 ? -u_n / h : kInf);
+  if (pr.stronge) return strongeDistance(st.W_end - st.W, u_n, h);
+  return std::max(0.0, st.p_end - st.p);
 }
 
 /// Closed-form segment: constant rates dP_t/dp = r, du_n/dp = h = c + b.r, for at most x_max in
@@ -295,7 +307,7 @@ bool approachStick(const Problem& pr, State& st) {
   if (sigma <= kStickSpeed * pr.V) return advanceLinear(pr, st, -pr.mu_d * s, 0.0);
   if (!(rate < 0.0)) return false;
   const double remaining = sigma / -rate;
-  const double budget = 0.1 * pr.tol * pr.J;
+  const double budget = 0.01 * pr.tol * pr.J;
   if (remaining <= budget) return advanceLinear(pr, st, -pr.mu_d * s, remaining);
   const Vec2 s_perp(-s.y(), s.x());
   const Vec2 g_theta = -pr.mu_d * (pr.A * s_perp);
@@ -311,7 +323,14 @@ bool approachStick(const Problem& pr, State& st) {
   const Vec2 s_mean = std::cos(phi) * s + std::sin(phi) * s_perp;
   const double rate_mean = s_mean.dot(pr.b - pr.mu_d * (pr.A * s_mean));
   if (!(rate_mean < 0.0)) return false;
-  return advanceLinear(pr, st, -pr.mu_d * s_mean, sigma / -rate_mean);
+  const double piece = sigma / -rate_mean;
+  // Inside the piece the straight path is off the true one by O(delta) (only its end is O(delta^2)
+  // accurate): an event inside it (maximum compression, the end of the impact) is located there to
+  // within (1 + mu_d) piece |delta|, which must then be within the budget too.
+  if ((1.0 + pr.mu_d) * piece * std::abs(delta) > budget &&
+      eventDistance(pr, st, -pr.mu_d * s_mean) <= piece)
+    return false;
+  return advanceLinear(pr, st, -pr.mu_d * s_mean, piece);
 }
 
 /// Rotating slip: integrates until the impact ends or slip stops (returns with `stuck` set after
@@ -332,12 +351,12 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
     ++stats.steps;
     Vec4 y1, f1;
     h = std::min(h, h_max);
-    const double err = dopriStep(pr, y, f, h, y1, f1) / pr.tol;
+    const double err = dopriStep(pr, y, f, h, y1, f1) / (kStepShare * pr.tol);
     if (!(err <= 1.0)) {
       h *= std::isfinite(err) ? std::max(0.2, 0.9 * std::pow(err, -order)) : 0.2;
       continue;
     }
-    stats.error_estimate += err * pr.tol;
+    stats.error_estimate += err * kStepShare * pr.tol;
     Vec4 grad;
     double offset;
     phaseEvent(pr, st, grad, offset);
