@@ -235,7 +235,7 @@ void expectBlockClosedForm(double theta, const Eigen::Vector3d& push, double mu_
 // The incline: 20 degrees, push 15 N up the slope (-x). m g sin 20 = 6.710 N down the
 // slope, so the load is L = 6.710 - 15 = -8.290 N (up the slope); N = m g cos 20 = 18.437 N.
 // mu_s = 0.6 holds 11.06 N > 8.29 N: sticks, sum f = +8.290 N x. mu_s = mu_d = 0.3 holds 5.53 N
-// < 8.29 N: slides up the slope, sum f = +0.3 N = +5.531 N x (before the fix: reported sliding
+// < 8.29 N: slides up the slope, sum f = +0.3 x 18.437 N = +5.531 N x (before the fix: reported sliding
 // with 6.33 N, each corner's force turned 24 degrees off the slip).
 TEST(RestingBlock, InclinePushedUpSlopeSticksOrSlides) {
   const double theta = 20.0 * M_PI / 180.0;
