@@ -31,6 +31,7 @@
 #include <cmath>
 #include <limits>
 
+#include "collision_response/core/friction_disk.h"
 #include "collision_response/core/least_norm.h"
 #include "collision_response/core/single_contact.h"
 
@@ -161,41 +162,10 @@ bool advanceLinear(const Problem& pr, State& st, const Vec2& r, double x_max) {
 
 /// Slip direction on leaving stick: (lambda I + mu_d A) s = b, |s| = 1, lambda > 0, so that
 /// du_t/dp = lambda s and friction -mu_d s opposes the growing slip. Requires
-/// |A^-1 b| > mu_d. Safeguarded Newton on 1 - 1/|s(lambda)| (nearly linear in lambda).
+/// |A^-1 b| > mu_d. The same root find as the iterative solver's friction disk
+/// (friction_disk.h, slipDirection()).
 Vec2 resumeDirection(const Problem& pr) {
-  const Mat2 M = pr.mu_d * pr.A;
-  const double mean = 0.5 * M.trace();
-  const double half = std::hypot(0.5 * (M(0, 0) - M(1, 1)), M(0, 1));
-  const double b_norm = pr.b.norm();
-  double lo = std::max(0.0, b_norm - (mean + half));
-  double hi = std::max(lo, b_norm - (mean - half));
-  auto solve = [&](double lambda) {
-    Mat2 L = M;
-    L.diagonal().array() += lambda;
-    return Vec2(L.inverse() * pr.b);
-  };
-  double lambda = 0.5 * (lo + hi);
-  for (int i = 0; i < 60 && hi - lo > 1e-15 * hi; ++i) {
-    Mat2 L = M;
-    L.diagonal().array() += lambda;
-    const Mat2 Li = L.inverse();
-    const Vec2 s = Li * pr.b;
-    const double norm = s.norm();
-    const double phi = 1.0 - 1.0 / norm;  // decreasing in lambda
-    if (phi > 0.0)
-      lo = lambda;
-    else
-      hi = lambda;
-    const double dphi = -s.dot(Li * s) / (norm * norm * norm);
-    double next = dphi < 0.0 ? lambda - phi / dphi : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::abs(next - lambda) <= 1e-15 * lambda) {
-      lambda = next;
-      break;
-    }
-    lambda = next;
-  }
-  return solve(lambda).normalized();
+  return slipDirection(pr.mu_d * pr.A, pr.b);
 }
 
 /// u_t = 0: stick while the sticking rate tau = -A^-1 b lies in the static cone, otherwise slip

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "collision_response/core/friction_disk.h"
 #include "collision_response/core/least_norm.h"
 
 namespace collision_response::core {
@@ -12,10 +13,10 @@ namespace {
 // Per-contact data fixed for the whole solve, and the accumulated impulse.
 struct ContactState {
   double inverse_k_nn = 0.0;  // 1 / (n^T K n); 0 if n^T K n = 0 (the normal direction is skipped)
-  Eigen::Matrix2d inverse_k_tt = Eigen::Matrix2d::Zero();  // (T^T K T)^+, T = [t1 t2]
-  bool singular = false;                                   // det K = 0 (least_norm.h)
-  double P_n = 0.0;                                        // accumulated normal impulse
-  Eigen::Vector2d P_t = Eigen::Vector2d::Zero();  // accumulated tangential impulse, (t1, t2)
+  Eigen::Matrix2d k_tt = Eigen::Matrix2d::Zero();  // T^T K T [1/kg], T = [t1 t2]
+  bool singular = false;                           // det K = 0 (least_norm.h)
+  double P_n = 0.0;                                // accumulated normal impulse
+  Eigen::Vector2d P_t = Eigen::Vector2d::Zero();   // accumulated tangential impulse, (t1, t2)
   double mu = 0.0;  // cone of the current pass: mu_s until the contact is found sliding, then mu_d
   bool sliding = false;  // the last sweep had to project onto the cone
 };
@@ -37,9 +38,7 @@ std::vector<ContactState> setUp(const ContactProblem& problem,
     if (!c.frictionless()) {
       const Eigen::Vector3d& t1 = c.tangent1;
       const Eigen::Vector3d& t2 = c.tangent2;
-      Eigen::Matrix2d k_tt;
-      k_tt << t1.dot(K * t1), t1.dot(K * t2), t2.dot(K * t1), t2.dot(K * t2);
-      s.inverse_k_tt = s.singular ? symmetricPseudoInverse(k_tt) : Eigen::Matrix2d(k_tt.inverse());
+      s.k_tt << t1.dot(K * t1), t1.dot(K * t2), t2.dot(K * t1), t2.dot(K * t2);
     }
   }
   return state;
@@ -67,21 +66,24 @@ double sweep(ContactProblem& problem, std::vector<ContactState>& state, bool fri
     }
     const double P_n = s.P_n;
 
-    // Tangential block: stop the slip, then project onto the Coulomb cone.
+    // Tangential block: the contact's own friction disk with its own K_tt (maximal dissipation,
+    // friction_disk.h): stick if the sticking impulse lies in the cone, otherwise friction on the
+    // cone exactly opposite to the slip it leaves (docs/physics.md, "The iterative solver").
     if (!c.frictionless()) {
       const Eigen::Vector3d u = problem.relativeMotion(i);
-      Eigen::Vector2d P_t =
-          s.P_t - s.inverse_k_tt * Eigen::Vector2d(u.dot(c.tangent1), u.dot(c.tangent2));
-      const double magnitude = P_t.norm();
+      // The tangential motion without this contact's own accumulated tangential impulse.
+      const Eigen::Vector2d u0 =
+          Eigen::Vector2d(u.dot(c.tangent1), u.dot(c.tangent2)) - s.k_tt * s.P_t;
       const bool fixed_slip = !c.slip_direction.isZero(0.0);
-      s.sliding = magnitude > s.mu * P_n || fixed_slip;
+      Eigen::Vector2d P_t;
       if (fixed_slip) {  // friction fixed against an existing slip
+        s.sliding = true;
         P_t = -c.dynamic_friction * P_n *
               Eigen::Vector2d(c.slip_direction.dot(c.tangent1), c.slip_direction.dot(c.tangent2));
-      } else if (s.sliding) {
-        const double limit = s.mu * P_n;
-        P_t =
-            magnitude > 0.0 ? Eigen::Vector2d(P_t * (limit / magnitude)) : Eigen::Vector2d::Zero();
+      } else {
+        bool sticking = true;
+        P_t = solveFrictionDisk(s.k_tt, u0, s.mu * P_n, sticking);
+        s.sliding = !sticking;
       }
       const Eigen::Vector2d dP_t = P_t - s.P_t;
       s.P_t = P_t;

@@ -602,3 +602,110 @@ TEST(IterativeSolver, LowLevelApiAppliesImpulsesAndReportsConvergence) {
 }
 
 }  // namespace
+
+// --- Friction that opposes the slip (issue 12, item 1; docs/physics.md, "The iterative solver").
+namespace {
+
+// A cube (mass m = 1 kg, side 1 m, I = m s^2 / 6 = 1/6 kg m^2 about every axis) resting flat on
+// the ground on its four bottom corners (+-0.5, +-0.5, 0), centre at z = 0.5, moving at
+// v = (v_x, v_y, -1) m/s, no spin. The corners are listed in a scrambled order so that a
+// Gauss-Seidel sweep does not follow the symmetry of the scene.
+cr::Scene flatCube(const Vector3d& v, double e, double mu) {
+  cr::BodyState box;
+  box.id = "box";
+  box.mass = 1.0;
+  box.inertia = Matrix3d::Identity() / 6.0;
+  box.position = {0.0, 0.0, 0.5};
+  box.linear_velocity = v;
+  cr::Scene scene;
+  scene.bodies = {ground(), box};
+  for (const auto& [x, y] :
+       std::vector<std::pair<double, double>>{{0.5, -0.5}, {-0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}}) {
+    scene.contacts.push_back(
+        contact("ground", "box", Vector3d(x, y, 0.0), Vector3d::UnitZ(), e, mu, mu));
+  }
+  return scene;
+}
+
+}  // namespace
+
+// Closed form (by hand). The cube lands at u_n = -1 m/s while sliding at 1 m/s along x, e = 0,
+// mu = 0.3. Guess: no spin after the impact, every corner keeps sliding along +x. Then every
+// corner ends at u' = v' (no spin), u'_n = 0 needs v'_z = 0: the total normal impulse is
+// m * 1 = 1 N s; each corner's friction opposes its slip (+x), -mu P_i x, total -0.3 N s x, so
+// v'_x = 1 - 0.3 = 0.7 m/s > 0: the corners do keep sliding. Consistency of "no spin": about y
+// the friction at the bottom (r_z = -0.5 m) gives sum (r x f)_y = r_z f_x = 0.15 N m s, the
+// normal impulses sum (r x P_n z)_y = -sum x_i P_i; zero needs sum x_i P_i = 0.15, i.e. the
+// front corners (x = +0.5) carry 0.65 N s and the back ones 0.35 N s, both >= 0. About x: by
+// the y symmetry the left and right corners carry the same, and the friction (along x) has no
+// x moment; about z: the friction is all along x at y = +-0.5 with equal loads, no yaw. So
+// v' = (0.7, 0, 0), w' = 0 is a solution, and the one of maximal dissipation. Before the fix
+// (the radial projection of -K_tt^-1 u_t) the iterative solver gave v'_x = 0.7191.
+TEST(FrictionOpposesSlip, CubeSlidingFlatOnFourCornersMatchesClosedForm) {
+  cr::SolverOptions options;
+  options.law = cr::ImpactLaw::kNewton;
+  options.method = cr::SolverMethod::kIterative;
+  options.tolerance = 1e-14;
+  const cr::CollisionResult result =
+      cr::computeResponse(flatCube(Vector3d(1.0, 0.0, -1.0), 0.0, 0.3), options);
+  ASSERT_TRUE(result.islands[0].converged);
+  const cr::BodyState& box = result.bodies[1];
+  expectVecNear(box.linear_velocity, Vector3d(0.7, 0.0, 0.0), 1e-9);
+  expectVecNear(box.angular_velocity, Vector3d::Zero(), 1e-9);
+  double normal = 0.0;
+  for (const auto& impulse : result.impulses) {
+    normal += impulse.normal_impulse;
+    EXPECT_FALSE(impulse.sticking);
+    // Friction exactly against the slip (+x).
+    EXPECT_NEAR(impulse.friction_impulse.y(), 0.0, 1e-9);
+    EXPECT_NEAR(impulse.friction_impulse.x(), -0.3 * impulse.normal_impulse, 1e-9);
+  }
+  EXPECT_NEAR(normal, 1.0, 1e-9);
+}
+
+// The same along the diagonal: slide at 1 m/s along (1, 1)/sqrt 2. The same argument with x
+// replaced by the diagonal (the corners' loads now balance the moment about the other diagonal)
+// gives v' = 0.7 (1, 1, 0)/sqrt 2, w' = 0.
+TEST(FrictionOpposesSlip, CubeSlidingFlatAlongTheDiagonalMatchesClosedForm) {
+  cr::SolverOptions options;
+  options.law = cr::ImpactLaw::kNewton;
+  options.method = cr::SolverMethod::kIterative;
+  options.tolerance = 1e-14;
+  const double d = 1.0 / std::sqrt(2.0);
+  const cr::CollisionResult result =
+      cr::computeResponse(flatCube(Vector3d(d, d, -1.0), 0.0, 0.3), options);
+  ASSERT_TRUE(result.islands[0].converged);
+  const cr::BodyState& box = result.bodies[1];
+  expectVecNear(box.linear_velocity, Vector3d(0.7 * d, 0.7 * d, 0.0), 1e-9);
+  expectVecNear(box.angular_velocity, Vector3d::Zero(), 1e-9);
+}
+
+// Mirror symmetry: the scene (cube landing flat, sliding along x) is symmetric under y -> -y, so
+// the answer is: no sideways velocity v'_y, no roll w'_x (and no yaw w'_z), for every law and
+// solver. Scenes: the README's (0.3 m/s, e = 0.5) at mu 0.1 and 0.6, and e = 0, mu = 0.3 at 1 m/s.
+TEST(FrictionOpposesSlip, MirrorSymmetricSlideLeavesNoSidewaysMotion) {
+  struct Case {
+    double slide, e, mu;
+  };
+  for (const Case& k : {Case{0.3, 0.5, 0.1}, Case{0.3, 0.5, 0.6}, Case{1.0, 0.0, 0.3}}) {
+    for (const cr::ImpactLaw law :
+         {cr::ImpactLaw::kNewton, cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+      for (const cr::SolverMethod method :
+           {cr::SolverMethod::kExact, cr::SolverMethod::kIterative, cr::SolverMethod::kAuto}) {
+        SCOPED_TRACE(::testing::Message()
+                     << "slide " << k.slide << " e " << k.e << " mu " << k.mu << " law "
+                     << cr::toString(law) << " solver " << static_cast<int>(method));
+        cr::SolverOptions options;
+        options.law = law;
+        options.method = method;
+        options.tolerance = 1e-14;
+        const cr::CollisionResult result =
+            cr::computeResponse(flatCube(Vector3d(k.slide, 0.0, -1.0), k.e, k.mu), options);
+        const cr::BodyState& box = result.bodies[1];
+        EXPECT_NEAR(box.linear_velocity.y(), 0.0, 1e-9);
+        EXPECT_NEAR(box.angular_velocity.x(), 0.0, 1e-9);
+        EXPECT_NEAR(box.angular_velocity.z(), 0.0, 1e-9);
+      }
+    }
+  }
+}

@@ -158,4 +158,113 @@ TEST(RestingContact, BoxOnFourCornersHoldsGravityAndPush) {
   EXPECT_NEAR(friction.y(), 0.0, 1e-8);
 }
 
+// --- Resting boxes whose friction opposes the slip (issue 12, item 4; docs/physics.md, "Resting
+// contacts"). A block (m = 2 kg, 0.2 m cube, I = m s^2 / 6 about every axis) rests flat on four
+// corners (+-0.1, +-0.1, 0), centre at z = 0.1. The incline of angle theta is built by turning
+// gravity: in the incline's frame (z along its normal, x down the slope) gravity is
+// m g (sin theta, 0, -cos theta). A push P (in the plane) acts through the centre.
+//
+// One-body closed form: the tangential load is L = m g sin theta x + P, the normal load
+// N = m g cos theta (the corners share it, their split balancing the moments, not unique).
+// Sticking needs |L| <= mu_s N: then sum f = -L, sum F_n = N. Otherwise the block starts to slide
+// along L/|L| without turning (the moments of the corner loads balance the friction's, and the
+// friction, all along -L, has no yaw moment about the centre since sum F_i r_i is parallel to
+// L), and every corner's friction is -mu_d F_i L/|L|: sum f = -mu_d N L/|L|.
+namespace {
+
+core::Scene blockOnIncline(double theta, const Eigen::Vector3d& push, double mu_s, double mu_d) {
+  core::BodyState floor;
+  floor.id = "floor";
+  core::BodyState block;
+  block.id = "block";
+  block.mass = 2.0;
+  block.inertia = Eigen::Matrix3d::Identity() * (2.0 * 0.04 / 6.0);
+  block.position = {0.0, 0.0, 0.1};
+  block.force =
+      Eigen::Vector3d(2.0 * kG * std::sin(theta), 0.0, -2.0 * kG * std::cos(theta)) + push;
+  core::Scene scene;
+  scene.bodies = {floor, block};
+  for (const auto& xy : {Eigen::Vector2d(0.1, -0.1), Eigen::Vector2d(-0.1, -0.1),
+                         Eigen::Vector2d(0.1, 0.1), Eigen::Vector2d(-0.1, 0.1)}) {
+    core::Contact contact;
+    contact.body_a = "floor";
+    contact.body_b = "block";
+    contact.point = {xy.x(), xy.y(), 0.0};
+    contact.normal = Eigen::Vector3d::UnitZ();
+    contact.static_friction = mu_s;
+    contact.dynamic_friction = mu_d;
+    scene.contacts.push_back(contact);
+  }
+  return scene;
+}
+
+// Checks the corner forces' sums against the one-body closed form above (to 1e-9 m g).
+void expectBlockClosedForm(double theta, const Eigen::Vector3d& push, double mu_s, double mu_d,
+                           bool expect_stick) {
+  const double N = 2.0 * kG * std::cos(theta);
+  const Eigen::Vector3d load = Eigen::Vector3d(2.0 * kG * std::sin(theta), 0.0, 0.0) + push;
+  ASSERT_EQ(load.norm() <= mu_s * N, expect_stick) << "the case is not what it claims";
+  const Eigen::Vector3d want_friction =
+      expect_stick ? Eigen::Vector3d(-load) : Eigen::Vector3d(-mu_d * N * load.normalized());
+  core::SolverOptions options;
+  options.tolerance = 1e-14;
+  const core::CollisionResult result =
+      core::computeResponse(blockOnIncline(theta, push, mu_s, mu_d), options);
+  ASSERT_TRUE(result.islands[0].converged);
+  double normal = 0.0;
+  Eigen::Vector3d friction = Eigen::Vector3d::Zero();
+  for (const auto& contact : result.impulses) {
+    EXPECT_TRUE(contact.resting);
+    EXPECT_EQ(contact.sticking, expect_stick);
+    EXPECT_GE(contact.normal_force, 0.0);
+    normal += contact.normal_force;
+    friction += contact.friction_force;
+    if (!expect_stick && contact.normal_force > 0.0) {  // each corner's force against the slip
+      EXPECT_NEAR(contact.friction_force.normalized().dot(load.normalized()), -1.0, 1e-9);
+    }
+  }
+  const double tol = 1e-9 * 2.0 * kG;
+  EXPECT_NEAR(normal, N, tol);
+  EXPECT_NEAR(friction.x(), want_friction.x(), tol);
+  EXPECT_NEAR(friction.y(), want_friction.y(), tol);
+  EXPECT_NEAR(friction.z(), 0.0, tol);
+}
+
+}  // namespace
+
+// The issue's incline: 20 degrees, push 15 N up the slope (-x). m g sin 20 = 6.710 N down the
+// slope, so the load is L = 6.710 - 15 = -8.290 N (up the slope); N = m g cos 20 = 18.437 N.
+// mu_s = 0.6 holds 11.06 N > 8.29 N: sticks, sum f = +8.290 N x. mu_s = mu_d = 0.3 holds 5.53 N
+// < 8.29 N: slides up the slope, sum f = +0.3 x 18.437 N = +5.531 N x (before the fix: reported sliding
+// with 6.33 N, each corner's force turned 24 degrees off the slip).
+TEST(RestingBlock, InclinePushedUpSlopeSticksOrSlides) {
+  const double theta = 20.0 * M_PI / 180.0;
+  expectBlockClosedForm(theta, Eigen::Vector3d(-15.0, 0.0, 0.0), 0.6, 0.6, true);
+  expectBlockClosedForm(theta, Eigen::Vector3d(-15.0, 0.0, 0.0), 0.3, 0.3, false);
+}
+
+// Down the slope: push 2 N down (+x), L = 8.710 N; mu 0.6 holds 11.06 N (sticks), mu 0.3 holds
+// 5.53 N (slides down, sum f = -5.531 N x).
+TEST(RestingBlock, InclinePushedDownSlopeSticksOrSlides) {
+  const double theta = 20.0 * M_PI / 180.0;
+  expectBlockClosedForm(theta, Eigen::Vector3d(2.0, 0.0, 0.0), 0.6, 0.6, true);
+  expectBlockClosedForm(theta, Eigen::Vector3d(2.0, 0.0, 0.0), 0.3, 0.3, false);
+}
+
+// Sideways on the incline: push 5 N along y, L = (6.710, 5) N, |L| = 8.368 N; mu 0.6 sticks
+// (11.06 N), mu 0.3 slides along L/|L| (oblique: the anisotropic corner blocks matter), sum
+// f = -5.531 N L/|L|.
+TEST(RestingBlock, InclinePushedSidewaysSticksOrSlides) {
+  const double theta = 20.0 * M_PI / 180.0;
+  expectBlockClosedForm(theta, Eigen::Vector3d(0.0, 5.0, 0.0), 0.6, 0.6, true);
+  expectBlockClosedForm(theta, Eigen::Vector3d(0.0, 5.0, 0.0), 0.3, 0.3, false);
+}
+
+// On the floor (theta = 0, N = 19.62 N): push 5 N along (3, 4)/5 direction sticks at mu 0.6
+// (11.77 N); 10 N along it slides at mu_s 0.4 (7.85 N) with mu_d 0.3: sum f = -5.886 N (3, 4)/5.
+TEST(RestingBlock, FloorPushedObliquelySticksOrSlides) {
+  expectBlockClosedForm(0.0, Eigen::Vector3d(3.0, 4.0, 0.0), 0.6, 0.6, true);
+  expectBlockClosedForm(0.0, Eigen::Vector3d(6.0, 8.0, 0.0), 0.4, 0.3, false);
+}
+
 }  // namespace

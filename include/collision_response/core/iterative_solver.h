@@ -17,12 +17,13 @@ namespace collision_response::core {
 /// impulses to the bodies' velocity unknowns (a sweep is O(contacts), W is never formed). At
 /// convergence each contact's accumulated impulse P satisfies: P_n >= 0, u'_n >= target,
 /// P_n (u'_n - target) = 0, and Coulomb friction: sticking (u'_t = 0) where that needs
-/// |P_t| <= mu_s P_n, otherwise sliding with |P_t| = mu_d P_n (the tangential impulse projected
-/// radially onto the cone). Static and dynamic: sweeps run on the static cones to convergence;
-/// contacts that slide on theirs then move to the dynamic cone and the sweeps continue, until no
-/// contact moves (the exact solver's rule). A resting problem (ProblemLevel::kAcceleration) is
-/// solved the same way on accelerations and forces, a contact with a slip_direction getting the
-/// friction -mu_d F_n along it.
+/// |P_t| <= mu_s P_n, otherwise sliding with |P_t| = mu_d P_n exactly opposite to the slip u'_t
+/// (each contact's friction solved on its own disk with its own K_tt, maximal dissipation:
+/// solveFrictionDisk(), friction_disk.h). Static and dynamic: sweeps run on the static cones to
+/// convergence; contacts that slide on theirs then move to the dynamic cone and the sweeps
+/// continue, until no contact moves (the exact solver's rule). A resting problem
+/// (ProblemLevel::kAcceleration) is solved the same way on accelerations and forces, a contact with
+/// a slip_direction getting the friction -mu_d F_n along it.
 ///
 /// Applies the impulses to the problem (ContactProblem::applyImpulse()) and writes impulses[i]
 /// (normal_impulse, friction_impulse, sticking) for problem contact i (resized to the problem).
@@ -39,13 +40,13 @@ namespace collision_response::core {
 ///
 /// Singular W (bodies with fewer freedoms): a contact with n^T W_ii n = 0 gets no normal update
 /// (no impulse moves it along n: the direction is skipped); a singular K_tt is inverted as a
-/// pseudo-inverse (least_norm.h), so the tangential update is the least-norm one. At the end the
-/// impulse of a contact with a singular W_ii is projected onto the range of W_ii (its component
-/// in the null space of W_ii changes no velocity anywhere: J_i^T maps it to 0) when the projected
-/// impulse still satisfies P_n >= 0 and the cone (not in friction-only or fixed-slip mode): each
-/// contact's impulse is then least-norm for its own block. Redundant contacts (a null space of W
-/// spanning several contacts, e.g. 1000 points under one box) are not split least-norm: that is
-/// the exact solver's all-sticking solve.
+/// pseudo-inverse (least_norm.h), so the sticking tangential update is the least-norm one. At the
+/// end the impulse of a contact with a singular W_ii is projected onto the range of W_ii (its
+/// component in the null space of W_ii changes no velocity anywhere: J_i^T maps it to 0) when the
+/// projected impulse still satisfies P_n >= 0 and the cone (not in friction-only or fixed-slip
+/// mode): each contact's impulse is then least-norm for its own block. Redundant contacts (a null
+/// space of W spanning several contacts, e.g. 1000 points under one box) are not split least-norm:
+/// that is the exact solver's all-sticking solve.
 SolveReport solveIterative(ContactProblem& problem, const SolverOptions& options,
                            std::vector<ContactImpulse>& impulses,
                            const std::vector<double>* fixed_normal_impulses = nullptr);

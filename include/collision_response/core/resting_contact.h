@@ -16,8 +16,10 @@ namespace collision_response::core {
 /// contact gets the contact force F (+F on b, -F on a) that the wrenches call for:
 ///   F_n >= 0, a'_n >= 0, F_n a'_n = 0 (a the relative acceleration at the point);
 ///   a contact without slip sticks (a'_t = 0) if that needs |F_t| <= mu_s F_n, otherwise it starts
-///   to slide with |F_t| = mu_d F_n; a contact already slipping (ProblemContact::slip_direction)
-///   gets F_t = -mu_d F_n along it (dynamic friction against the slip).
+///   to slide with |F_t| = mu_d F_n opposite to the slip acceleration it leaves (several contacts:
+///   the iterative solver's friction disk, friction_disk.h); a contact already slipping
+///   (ProblemContact::slip_direction) gets F_t = -mu_d F_n along it (dynamic friction against the
+///   slip).
 /// It is the plastic Newton problem of the impact solvers on accelerations instead of velocities,
 /// with the same Delassus operator: one resting contact is solved in closed form
 /// (solveSingleContact(), whose singular-W rule applies), several by the iterative solver (its

@@ -1,0 +1,30 @@
+#pragma once
+
+#include <Eigen/Core>
+
+namespace collision_response::core {
+
+/// s with (lambda I + M) s = b, |s| = 1, lambda > 0, for a symmetric positive semi-definite 2x2 M
+/// and |M^+ b| > 1 (or b outside the range of M): the slip direction of maximal dissipation.
+/// Safeguarded Newton on 1 - 1/|s(lambda)| (nearly linear in lambda), bracketed by the
+/// eigenvalues of M. Used by the impulse-space integrator (slip resuming after stick, M = mu_d A)
+/// and by solveFrictionDisk() (M = radius K_tt).
+Eigen::Vector2d slipDirection(const Eigen::Matrix2d& M, const Eigen::Vector2d& b);
+
+/// The friction subproblem of one contact (docs/physics.md, "The iterative solver"): the
+/// tangential impulse x (in the contact's (t1, t2) basis) in the disk |x| <= radius that leaves
+/// the slip u'_t = u0 + K x with maximal dissipation, i.e. that minimizes x^T u0 + x^T K x / 2:
+///   stick: x = -K^+ u0 if |x| <= radius (u'_t = 0; singular K: the least-norm friction, the
+///          range of K: least_norm.h);
+///   slip:  x = -radius s on the circle with (K + lambda I) x = -u0, lambda > 0, so that the slip
+///          it leaves is u'_t = lambda radius s: friction exactly opposite to the slip it leaves
+///          (s = slipDirection(radius K, u0)). Not -radius K^-1 u0 / |K^-1 u0| (a radial
+///          projection of the sticking impulse), which for an anisotropic K turns friction off
+///          the slip.
+/// K [1/kg] is the contact's tangential Delassus block T^T W_ii T, u0 the tangential velocity
+/// [m/s] (or acceleration [m/s^2]) the contact would have without its own tangential impulse
+/// (force), radius = mu P_n [N s] (or mu F_n [N]). Returns x; `sticking` says which case.
+Eigen::Vector2d solveFrictionDisk(const Eigen::Matrix2d& K, const Eigen::Vector2d& u0,
+                                  double radius, bool& sticking);
+
+}  // namespace collision_response::core
