@@ -210,8 +210,8 @@ void ContactProblem::makePlastic() {
   }
 }
 
-Eigen::Vector3d ContactProblem::motionChange(std::size_t i,
-                                             const Eigen::VectorXd& velocity_changes) const {
+Eigen::Vector3d ContactProblem::generalMotionChange(std::size_t i,
+                                                    const Eigen::VectorXd& velocity_changes) const {
   const ProblemContact& c = contacts_[i];
   Eigen::Vector3d change = Eigen::Vector3d::Zero();
   const int local[2] = {c.local_a, c.local_b};
@@ -236,8 +236,8 @@ Eigen::Vector3d ContactProblem::motionChange(std::size_t i,
   return change;
 }
 
-void ContactProblem::addImpulse(std::size_t i, const Eigen::Vector3d& impulse,
-                                Eigen::VectorXd& velocity_changes) const {
+void ContactProblem::generalAddImpulse(std::size_t i, const Eigen::Vector3d& impulse,
+                                       Eigen::VectorXd& velocity_changes) const {
   const ProblemContact& c = contacts_[i];
   const int local[2] = {c.local_a, c.local_b};
   const Eigen::Vector3d* lever_arm[2] = {&c.lever_arm_a, &c.lever_arm_b};

@@ -58,8 +58,9 @@ bool slidingImpulse(const ProblemContact& contact, double u_n, const Eigen::Vect
 
 // Newton with friction for a singular K (the rare path of solveSingleContact()'s documentation).
 // Sets reached_target false when the impulse cannot give u'_n = -e u_n (n^T K n = 0).
-[[gnu::cold, gnu::noinline]] Eigen::Vector3d singularNewton(const ProblemContact& contact, const Eigen::Vector3d& u, double u_n,
-                               bool& sticking, bool& reached_target) {
+[[gnu::cold, gnu::noinline]] Eigen::Vector3d singularNewton(const ProblemContact& contact,
+                                                            const Eigen::Vector3d& u, double u_n,
+                                                            bool& sticking, bool& reached_target) {
   const Eigen::Vector3d& n = contact.normal;
   const Eigen::Matrix3d& K = contact.delassus;
   sticking = false;
@@ -122,12 +123,17 @@ Eigen::Vector3d coupledNewton(const ProblemContact& contact, const Eigen::Vector
     sticking = true;
     return P_stick;
   }
-  // Sliding along the direction the sticking impulse wanted, on the dynamic cone.
-  if (P_t_squared == 0.0) return frictionlessImpulse(contact, u_n);
-  Eigen::Vector3d P;
-  if (slidingImpulse(contact, u_n, P_t, P)) return P;
-  sticking = true;  // Painleve-like: no sliding impulse exists
-  return P_stick;
+  // Sliding along the direction the sticking impulse wanted, on the dynamic cone (slidingImpulse()
+  // written out here: this is the hot path, and |P_t| is known).
+  const double P_t_norm = std::sqrt(P_t_squared);
+  if (P_t_norm == 0.0) return frictionlessImpulse(contact, u_n);
+  const Eigen::Vector3d direction = n + (contact.dynamic_friction / P_t_norm) * P_t;
+  const double denominator = n.dot(K * direction);
+  if (!(denominator > 0.0)) {
+    sticking = true;  // Painleve-like: no sliding impulse exists
+    return P_stick;
+  }
+  return (-(1.0 + contact.restitution) * u_n / denominator) * direction;
 }
 
 }  // namespace

@@ -116,10 +116,23 @@ class ContactProblem {
     return freeMotion(i) + motionChange(i, velocity_changes_);
   }
   /// J_i dv for given velocity changes dv of the unknowns.
-  Eigen::Vector3d motionChange(std::size_t i, const Eigen::VectorXd& velocity_changes) const;
+  Eigen::Vector3d motionChange(std::size_t i, const Eigen::VectorXd& velocity_changes) const {
+    if (!general_sides_.empty()) return generalMotionChange(i, velocity_changes);
+    // Every body a free rigid body: inline closed form, J = [I3, -[r]x] per side.
+    const ProblemContact& c = contacts_[i];
+    Eigen::Vector3d change = Eigen::Vector3d::Zero();
+    if (c.local_a >= 0) change -= rigidPointChange(c.local_a, c.lever_arm_a, velocity_changes);
+    if (c.local_b >= 0) change += rigidPointChange(c.local_b, c.lever_arm_b, velocity_changes);
+    return change;
+  }
   /// dv += M^-1 J_i^T P for the impulse P (+P on b, -P on a) of contact i.
   void addImpulse(std::size_t i, const Eigen::Vector3d& impulse,
-                  Eigen::VectorXd& velocity_changes) const;
+                  Eigen::VectorXd& velocity_changes) const {
+    if (!general_sides_.empty()) return generalAddImpulse(i, impulse, velocity_changes);
+    const ProblemContact& c = contacts_[i];
+    if (c.local_a >= 0) addRigidImpulse(c.local_a, c.lever_arm_a, -impulse, velocity_changes);
+    if (c.local_b >= 0) addRigidImpulse(c.local_b, c.lever_arm_b, impulse, velocity_changes);
+  }
   /// Applies the impulse P [N s] (force [N] at kAcceleration) at contact i to the problem's state.
   void applyImpulse(std::size_t i, const Eigen::Vector3d& impulse) {
     addImpulse(i, impulse, velocity_changes_);
@@ -158,6 +171,24 @@ class ContactProblem {
   int addRigidBody(int index, const RigidBody& body, std::vector<int>& local_of);
   int addGeneralBody(int index, const BodyModel& body, std::vector<int>& local_of);
   void finish();
+  // motionChange() and addImpulse() when some body is general (any side kind).
+  Eigen::Vector3d generalMotionChange(std::size_t i, const Eigen::VectorXd& velocity_changes) const;
+  void generalAddImpulse(std::size_t i, const Eigen::Vector3d& impulse,
+                         Eigen::VectorXd& velocity_changes) const;
+  // dv_l + dw x r of the rigid problem body `local` (its 6 unknowns (dv_l, dw) at body.offset).
+  Eigen::Vector3d rigidPointChange(int local, const Eigen::Vector3d& r,
+                                   const Eigen::VectorXd& velocity_changes) const {
+    const double* v = velocity_changes.data() + bodies_[local].offset;
+    return Eigen::Map<const Eigen::Vector3d>(v) + Eigen::Map<const Eigen::Vector3d>(v + 3).cross(r);
+  }
+  // The rigid problem body `local` receives the impulse p at lever arm r.
+  void addRigidImpulse(int local, const Eigen::Vector3d& r, const Eigen::Vector3d& p,
+                       Eigen::VectorXd& velocity_changes) const {
+    const ProblemBody& body = bodies_[local];
+    double* v = velocity_changes.data() + body.offset;
+    Eigen::Map<Eigen::Vector3d>(v) += body.inverse_mass * p;
+    Eigen::Map<Eigen::Vector3d>(v + 3) += body.inverse_inertia * r.cross(p);
+  }
   // The 3x3 block side `side_i` of contact i gives side `side_j` of contact j through their common
   // body (both sides on that body), without signs.
   Eigen::Matrix3d sideBlock(std::size_t i, int side_i, std::size_t j, int side_j) const;
