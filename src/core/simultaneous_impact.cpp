@@ -21,6 +21,8 @@ constexpr double kStepsPerUnit = 32.0;
 constexpr std::size_t kStepBudget = 20000;
 // A sliding contact whose slip direction turns is stepped so that it turns by at most ~this.
 constexpr double kMaxTurn = 0.05;
+// A slip below this times the largest pre-impact speed is a stop.
+constexpr double kStopped = 1e-9;
 
 struct State {
   Phase phase = Phase::kIdle;
@@ -66,7 +68,15 @@ class Simultaneous {
       bool any = false;
       for (std::size_t i = 0; i < m_; ++i) {
         State& s = state_[i];
-        if (s.phase == Phase::kIdle && normalVelocity(i) < -approach) startCycle(i);
+        const double un = normalVelocity(i);
+        if (s.phase == Phase::kIdle && un < -approach) startCycle(i);
+        // Compression over (no longer approaching beyond round-off): its restitution starts.
+        if (s.phase == Phase::kCompression && un >= -approach && s.delta > 0.0) endCompression(i);
+        // A sliding contact whose slip is gone stops; the cone decides whether it stays stuck.
+        if (s.phase != Phase::kIdle && !problem_.contact(i).frictionless() &&
+            tangentialVelocity(i).norm() <= kStopped * scale_) {
+          s.sticking = true;
+        }
         any = any || s.phase != Phase::kIdle;
       }
       if (!any) return true;
@@ -118,9 +128,19 @@ class Simultaneous {
     if (s.phase == Phase::kCompression) return std::max(mid, 0.0);
     const double e = problem_.contact(i).restitution;
     const double force = s.delta_max - (s.delta_max - mid) / (e * e);
-    // The floor lets a contact finish its own end condition (Poisson impulse, Stronge work),
-    // which, not the spring, decides its end.
-    return std::max(force, 1e-3 * s.delta_max);
+    if (force > 1e-3 * s.delta_max) return force;
+    // The spring is (nearly) unloaded but the contact's own end condition (Poisson impulse,
+    // Stronge work), which decides its end, is not met yet (a discretization residue): the rate
+    // that meets it within about one step, at most the peak force.
+    const ProblemContact& c = problem_.contact(i);
+    double remaining = 0.0;
+    if (law_ == ImpactLaw::kPoisson) {
+      remaining = s.start_normal + (1.0 + e) * s.compression_impulse - s.impulse.dot(c.normal);
+    } else {
+      const double un = normalVelocity(i);
+      remaining = un > 0.0 ? (-e * e * s.compression_work - s.work) / un : s.delta_max * h_;
+    }
+    return std::max(1e-3 * s.delta_max, std::min(s.delta_max, remaining / h_));
   }
 
   // The rates of every contact's impulse per unit fictitious time (k = 1): normal spring force,
@@ -226,7 +246,9 @@ class Simultaneous {
       const double dpn = h_ * normal_rate_[i];
       double t = 2.0;
       if (s.phase == Phase::kIdle) {
-        if (un > 0.0 && un + dun < 0.0) t = -un / dun;
+        // Starts approaching: the step is cut there (the contact starts its compression once it
+        // approaches beyond round-off).
+        if (un > 1e-12 * scale_ && un + dun < 0.0) t = -un / dun;
       } else if (s.phase == Phase::kCompression) {
         if (dun > 0.0 && un + dun >= 0.0) t = std::max(-un / dun, 0.0);
       } else if (law_ == ImpactLaw::kPoisson) {
@@ -247,7 +269,7 @@ class Simultaneous {
           if (tmin > 1e-12 && tmin < t) t = tmin;
           // A turning slip direction: limit the step so that it turns by at most kMaxTurn.
           const double unorm = ut.norm();
-          if (unorm > 0.0) {
+          if (unorm > kStopped * scale_) {
             const double turn = (dut - dut.dot(ut) / (unorm * unorm) * ut).norm();
             if (turn > kMaxTurn * unorm) limit = std::min(limit, kMaxTurn * unorm / turn);
           }
@@ -278,7 +300,6 @@ class Simultaneous {
       const ProblemContact& c = problem_.contact(i);
       switch (s.phase) {
         case Phase::kIdle:
-          startCycle(i);
           break;
         case Phase::kCompression:
           if (normalVelocity(i) >= -1e-12 * scale_) {
@@ -305,7 +326,7 @@ class Simultaneous {
             break;
           }
           // Otherwise a slip minimum: stop if the slip is gone.
-          if (!c.frictionless() && tangentialVelocity(i).norm() <= 1e-9 * scale_) {
+          if (!c.frictionless() && tangentialVelocity(i).norm() <= kStopped * scale_) {
             s.sticking = true;
             ++events_;
           }

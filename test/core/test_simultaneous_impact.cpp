@@ -165,3 +165,117 @@ TEST(SimultaneousImpact, BoxLandingOnAnEdgeEqualsOneContactAtTheEdgeMidpoint) {
 }
 
 }  // namespace
+
+namespace {
+
+// Random islands: 1-3 boxes of random mass, size, orientation and velocity, the ground, and 2-6
+// contacts between random pairs (one side the ground or another box) at random points with random
+// normals, random e, mu_s >= mu_d. Checked under both laws: linear and angular momentum of the
+// bodies change by the contact impulses only (so both are conserved without the ground: checked
+// through the impulse-momentum identity), no contact ends approaching, every impulse has P_n >= 0
+// and lies in the static cone, and under Stronge the kinetic energy never increases.
+TEST(SimultaneousImpact, RandomIslandsConserveMomentumGainNoEnergyUnderStrongeAndSeparate) {
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), u01(0.0, 1.0);
+  auto randomUnit = [&]() {
+    Vector3d v;
+    do {
+      v = Vector3d(unit(rng), unit(rng), unit(rng));
+    } while (v.norm() < 0.1 || v.norm() > 1.0);
+    return Vector3d(v.normalized());
+  };
+  int checked = 0, fallbacks = 0;
+  for (int scene = 0; scene < 400; ++scene) {
+    const int boxes = 1 + int(rng() % 3);
+    std::vector<cr::RigidBody> bodies = {ground()};
+    for (int b = 0; b < boxes; ++b) {
+      const Matrix3d rotation =
+          Eigen::Quaterniond(unit(rng), unit(rng), unit(rng), unit(rng)).normalized().matrix();
+      bodies.push_back(box(std::exp(3.0 * unit(rng)),
+                           Vector3d(0.2 + u01(rng), 0.2 + u01(rng), 0.2 + u01(rng)), rotation,
+                           Vector3d(unit(rng), unit(rng), unit(rng)),
+                           Vector3d(unit(rng), unit(rng), unit(rng)),
+                           2.0 * Vector3d(unit(rng), unit(rng), unit(rng))));
+    }
+    std::vector<cr::ContactPoint> contacts;
+    std::vector<int> island;
+    const int count = 2 + int(rng() % 5);
+    for (int k = 0; k < count; ++k) {
+      const int b = 1 + int(rng() % boxes);
+      int a = int(rng() % (boxes + 1));
+      if (a == b) a = 0;
+      const double mu_s = 1.5 * u01(rng), mu_d = mu_s * u01(rng);
+      const Vector3d p = bodies[b].com + 0.5 * Vector3d(unit(rng), unit(rng), unit(rng));
+      Vector3d n = randomUnit();
+      // Approaching: flip the normal if the contact separates.
+      const Vector3d u =
+          bodies[b].pointVelocity(p - bodies[b].com) - bodies[a].pointVelocity(p - bodies[a].com);
+      if (u.dot(n) > 0.0) n = -n;
+      island.push_back(k);
+      contacts.emplace_back(a, b, p, n, u01(rng), mu_s, mu_d);
+    }
+    for (cr::ImpactLaw law : kLaws) {
+      std::vector<cr::RigidBody> after = bodies;
+      cr::ContactProblem problem;
+      problem.buildImpact(after, contacts, island);
+      cr::SolverOptions options;
+      options.law = law;
+      std::vector<cr::ContactImpulse> impulses;
+      const cr::SolveReport report = cr::solveSimultaneousImpulseSpace(problem, options, impulses);
+      problem.addVelocityChangesTo(after);
+      SCOPED_TRACE(testing::Message() << "scene " << scene << " law " << cr::toString(law));
+      fallbacks += report.converged ? 0 : 1;
+      double energy_before = 0.0, energy_after = 0.0, speed = 0.0, impulse_scale = 0.0;
+      for (std::size_t b = 1; b < bodies.size(); ++b) {
+        const Matrix3d inertia = bodies[b].inverse_inertia.inverse();
+        auto energy = [&](const cr::RigidBody& x) {
+          return 0.5 * x.linear_velocity.squaredNorm() / x.inverse_mass +
+                 0.5 * x.angular_velocity.dot(inertia * x.angular_velocity);
+        };
+        energy_before += energy(bodies[b]);
+        energy_after += energy(after[b]);
+        speed =
+            std::max(speed, bodies[b].linear_velocity.norm() + bodies[b].angular_velocity.norm());
+      }
+      // Impulse-momentum per body about the origin.
+      std::vector<Vector3d> linear(bodies.size(), Vector3d::Zero()),
+          angular(bodies.size(), Vector3d::Zero());
+      for (std::size_t k = 0; k < contacts.size(); ++k) {
+        const cr::ContactPoint& c = contacts[k];
+        const Vector3d p = impulses[k].total(c.normal);
+        impulse_scale = std::max(impulse_scale, p.norm());
+        linear[c.body_b] += p;
+        linear[c.body_a] -= p;
+        angular[c.body_b] += c.point.cross(p);
+        angular[c.body_a] -= c.point.cross(p);
+        EXPECT_GE(impulses[k].normal_impulse, -1e-12 * impulse_scale);
+        EXPECT_LE(impulses[k].friction_impulse.norm(),
+                  c.static_friction * impulses[k].normal_impulse * (1 + 1e-9) + 1e-12);
+      }
+      for (std::size_t b = 1; b < bodies.size(); ++b) {
+        const double m = 1.0 / bodies[b].inverse_mass;
+        const Matrix3d inertia = bodies[b].inverse_inertia.inverse();
+        const Vector3d dl = m * (after[b].linear_velocity - bodies[b].linear_velocity);
+        const Vector3d dh = bodies[b].com.cross(dl) +
+                            inertia * (after[b].angular_velocity - bodies[b].angular_velocity);
+        EXPECT_LE((dl - linear[b]).norm(), 1e-9 * (1 + impulse_scale));
+        EXPECT_LE((dh - angular[b]).norm(), 1e-9 * (1 + impulse_scale));
+      }
+      for (std::size_t k = 0; k < contacts.size(); ++k) {
+        const cr::ContactPoint& c = contacts[k];
+        const Vector3d u = after[c.body_b].pointVelocity(c.point - after[c.body_b].com) -
+                           after[c.body_a].pointVelocity(c.point - after[c.body_a].com);
+        EXPECT_GE(u.dot(c.normal), -1e-9 * (1 + speed)) << "contact " << k;
+      }
+      if (law == cr::ImpactLaw::kStronge) {
+        EXPECT_LE(energy_after, energy_before * (1 + 1e-9) + 1e-12);
+      }
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 800);
+  // The plastic fallback is rare.
+  EXPECT_LE(fallbacks, 8);
+}
+
+}  // namespace
