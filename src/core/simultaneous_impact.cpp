@@ -91,6 +91,11 @@ class Simultaneous {
   const Eigen::Vector3d& impulse(std::size_t i) const { return state_[i].impulse; }
 
  private:
+  Eigen::Matrix<double, 3, 2> tangents(std::size_t i) const {
+    Eigen::Matrix<double, 3, 2> t;
+    t << problem_.contact(i).tangent1, problem_.contact(i).tangent2;
+    return t;
+  }
   double normalVelocity(std::size_t i) const {
     return problem_.contact(i).normal.dot(u_.segment<3>(3 * i));
   }
@@ -170,25 +175,27 @@ class Simultaneous {
       }
       if (stick_.empty()) return;
       const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
-      Eigen::MatrixXd a(k, k);
+      // The sticking block of W (tangential rows and columns of the stuck contacts) changes only
+      // with the stuck set: its decomposition is kept.
+      if (stick_ != factored_) {
+        Eigen::MatrixXd a(k, k);
+        for (std::size_t p = 0; p < stick_.size(); ++p) {
+          for (std::size_t q = 0; q < stick_.size(); ++q) {
+            a.block<2, 2>(2 * p, 2 * q) = tangents(stick_[p]).transpose() *
+                                          w_.block<3, 3>(3 * stick_[p], 3 * stick_[q]) *
+                                          tangents(stick_[q]);
+          }
+        }
+        cod_.setThreshold(1e-12);
+        cod_.compute(a);
+        factored_ = stick_;
+      }
       Eigen::VectorXd b(k);
       const Eigen::VectorXd base = w_ * rates_;
       for (std::size_t p = 0; p < stick_.size(); ++p) {
-        const ProblemContact& cp = problem_.contact(stick_[p]);
-        Eigen::Matrix<double, 3, 2> tp;
-        tp << cp.tangent1, cp.tangent2;
-        b.segment<2>(2 * p) = -tp.transpose() * base.segment<3>(3 * stick_[p]);
-        for (std::size_t q = 0; q < stick_.size(); ++q) {
-          const ProblemContact& cq = problem_.contact(stick_[q]);
-          Eigen::Matrix<double, 3, 2> tq;
-          tq << cq.tangent1, cq.tangent2;
-          a.block<2, 2>(2 * p, 2 * q) =
-              tp.transpose() * w_.block<3, 3>(3 * stick_[p], 3 * stick_[q]) * tq;
-        }
+        b.segment<2>(2 * p) = -tangents(stick_[p]).transpose() * base.segment<3>(3 * stick_[p]);
       }
-      Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(a);
-      cod.setThreshold(1e-12);
-      const Eigen::VectorXd x = cod.solve(b);
+      const Eigen::VectorXd x = cod_.solve(b);
       bool all_in = true;
       for (std::size_t p = 0; p < stick_.size(); ++p) {
         const std::size_t i = stick_[p];
@@ -236,7 +243,8 @@ class Simultaneous {
     computeRates();
     du_ = h_ * (w_ * rates_);
     // The step fraction of the first event, and which contacts have it.
-    std::vector<double> event(m_, 2.0);
+    std::vector<double>& event = event_;
+    event.assign(m_, 2.0);
     double limit = 1.0;
     for (std::size_t i = 0; i < m_; ++i) {
       const State& s = state_[i];
@@ -344,7 +352,9 @@ class Simultaneous {
   Eigen::VectorXd u_;  // the stacked current relative velocities
   Eigen::VectorXd rates_, du_;
   std::vector<double> normal_rate_;
-  std::vector<std::size_t> stick_;
+  std::vector<std::size_t> stick_, factored_;
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_;
+  std::vector<double> event_;
   double scale_ = 0.0;   // largest |u| before the impact
   double lambda_ = 0.0;  // largest n^T W_ii n
   double h_ = 0.0;       // fictitious time step
