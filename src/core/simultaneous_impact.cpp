@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include "collision_response/core/exact_solver.h"
 #include "collision_response/core/impulse_space_integrator.h"
@@ -58,6 +59,7 @@ class Simultaneous {
     h_ = lambda_ > 0.0 ? 1.0 / (kStepsPerUnit * std::sqrt(lambda_)) : 0.0;
     rates_.resize(n3);
     du_.resize(n3);
+    base_.resize(n3);
   }
 
   // Runs to the end; false if the step budget ran out.
@@ -175,27 +177,14 @@ class Simultaneous {
       }
       if (stick_.empty()) return;
       const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
-      // The sticking block of W (tangential rows and columns of the stuck contacts) changes only
-      // with the stuck set: its decomposition is kept.
-      if (stick_ != factored_) {
-        Eigen::MatrixXd a(k, k);
-        for (std::size_t p = 0; p < stick_.size(); ++p) {
-          for (std::size_t q = 0; q < stick_.size(); ++q) {
-            a.block<2, 2>(2 * p, 2 * q) = tangents(stick_[p]).transpose() *
-                                          w_.block<3, 3>(3 * stick_[p], 3 * stick_[q]) *
-                                          tangents(stick_[q]);
-          }
-        }
-        cod_.setThreshold(1e-12);
-        cod_.compute(a);
-        factored_ = stick_;
-      }
-      Eigen::VectorXd b(k);
-      const Eigen::VectorXd base = w_ * rates_;
+      const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& cod = factorization();
+      b_.resize(k);
+      base_.noalias() = w_ * rates_;
       for (std::size_t p = 0; p < stick_.size(); ++p) {
-        b.segment<2>(2 * p) = -tangents(stick_[p]).transpose() * base.segment<3>(3 * stick_[p]);
+        b_.segment<2>(2 * p) = -tangents(stick_[p]).transpose() * base_.segment<3>(3 * stick_[p]);
       }
-      const Eigen::VectorXd x = cod_.solve(b);
+      x_ = cod.solve(b_);
+      const Eigen::VectorXd& x = x_;
       bool all_in = true;
       for (std::size_t p = 0; p < stick_.size(); ++p) {
         const std::size_t i = stick_[p];
@@ -220,6 +209,28 @@ class Simultaneous {
     }
   }
 
+  // The least-norm decomposition of the sticking block of W (tangential rows and columns of the
+  // stuck contacts), kept per stuck set (a set recurs as contacts stop and resume).
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& factorization() {
+    for (const auto& [set, cod] : factorizations_) {
+      if (set == stick_) return cod;
+    }
+    const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
+    Eigen::MatrixXd a(k, k);
+    for (std::size_t p = 0; p < stick_.size(); ++p) {
+      for (std::size_t q = 0; q < stick_.size(); ++q) {
+        a.block<2, 2>(2 * p, 2 * q) = tangents(stick_[p]).transpose() *
+                                      w_.block<3, 3>(3 * stick_[p], 3 * stick_[q]) *
+                                      tangents(stick_[q]);
+      }
+    }
+    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
+    cod.setThreshold(1e-12);
+    cod.compute(a);
+    factorizations_.emplace_back(stick_, std::move(cod));
+    return factorizations_.back().second;
+  }
+
   // Smallest theta in (0, 1] where a theta^2 + b theta + c (c < 0 at 0) reaches 0; 2 if none.
   static double firstRoot(double a, double b, double c) {
     if (c >= 0.0) return 0.0;
@@ -241,7 +252,8 @@ class Simultaneous {
 
   void step() {
     computeRates();
-    du_ = h_ * (w_ * rates_);
+    du_.noalias() = w_ * rates_;
+    du_ *= h_;
     // The step fraction of the first event, and which contacts have it.
     std::vector<double>& event = event_;
     event.assign(m_, 2.0);
@@ -352,9 +364,12 @@ class Simultaneous {
   Eigen::VectorXd u_;  // the stacked current relative velocities
   Eigen::VectorXd rates_, du_;
   std::vector<double> normal_rate_;
-  std::vector<std::size_t> stick_, factored_;
-  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_;
+  std::vector<std::size_t> stick_;
+  std::vector<
+      std::pair<std::vector<std::size_t>, Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>>>
+      factorizations_;
   std::vector<double> event_;
+  Eigen::VectorXd base_, b_, x_;
   double scale_ = 0.0;   // largest |u| before the impact
   double lambda_ = 0.0;  // largest n^T W_ii n
   double h_ = 0.0;       // fictitious time step
