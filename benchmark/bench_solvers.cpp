@@ -178,10 +178,11 @@ core::Scene chainScene(int spheres, double mu) {
 }
 
 void scene(benchmark::State& state, const core::Scene& scene, core::ImpactLaw law,
-           core::SolverMethod method) {
+           core::SolverMethod method, bool simultaneous = false) {
   core::SolverOptions options;
   options.law = law;
   options.method = method;
+  options.simultaneous_impulse_space = simultaneous;
   options.tolerance = 1e-10;
   for (auto _ : state) benchmark::DoNotOptimize(core::computeResponse(scene, options));
   state.SetItemsProcessed(state.iterations() * scene.contacts.size());
@@ -195,6 +196,10 @@ void BM_Cube4_Newton_Iterative(benchmark::State& s) {
 }
 void BM_Cube4_Stronge_Exact(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kExact);
+}
+// The simultaneous impulse-space integration (opt-in, SolverOptions::simultaneous_impulse_space).
+void BM_Cube4_Stronge_Simultaneous(benchmark::State& s) {
+  scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kAuto, true);
 }
 void BM_Chain_Newton_Iterative(benchmark::State& s) {
   scene(s, chainScene(static_cast<int>(s.range(0)), 0.3), core::ImpactLaw::kNewton,
@@ -219,6 +224,7 @@ BENCHMARK(BM_Poisson_3D)->Arg(9);
 BENCHMARK(BM_Cube4_Newton_Exact);
 BENCHMARK(BM_Cube4_Newton_Iterative);
 BENCHMARK(BM_Cube4_Stronge_Exact);
+BENCHMARK(BM_Cube4_Stronge_Simultaneous);
 BENCHMARK(BM_Chain_Newton_Exact)->Arg(4)->Arg(13);
 BENCHMARK(BM_Chain_Newton_Iterative)->Arg(4)->Arg(13)->Arg(64);
 BENCHMARK(BM_SingleContact_ComputeResponse);

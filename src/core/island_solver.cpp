@@ -7,6 +7,7 @@
 #include "collision_response/core/exact_solver.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/iterative_solver.h"
+#include "collision_response/core/simultaneous_impact.h"
 #include "collision_response/core/single_contact.h"
 
 namespace collision_response::core {
@@ -226,6 +227,10 @@ SolveReport solveIsland(ContactProblem& problem, const SolverOptions& options,
                               : problem.size() <= kExactSolverMaxContacts
                                   ? SolverMethod::kExact
                                   : SolverMethod::kIterative;
+  if (energetic && options.simultaneous_impulse_space && options.method == SolverMethod::kAuto &&
+      problem.size() <= kSimultaneousMaxContacts) {
+    return solveSimultaneousImpulseSpace(problem, options, impulses);
+  }
   return energetic ? solveTwoPhase(method, problem, options, impulses)
                    : solveNewton(method, problem, options, impulses);
 }

@@ -26,6 +26,8 @@ const char* toString(SolveMethod method) {
       return "resting_closed_form";
     case SolveMethod::kRestingIterative:
       return "resting_iterative";
+    case SolveMethod::kSimultaneousImpulseSpace:
+      return "simultaneous_impulse_space";
   }
   return "unknown";
 }

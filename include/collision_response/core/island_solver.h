@@ -15,6 +15,11 @@ namespace collision_response::core {
 /// Largest island that SolverMethod::kAuto sends to the exact (pivoting) solver; larger ones
 /// iterate.
 constexpr std::size_t kExactSolverMaxContacts = 12;
+/// Largest Poisson / Stronge island that SolverMethod::kAuto integrates simultaneously in impulse
+/// space when SolverOptions::simultaneous_impulse_space is set (simultaneous_impact.h; each step
+/// costs O(contacts^2), a sticking set a dense solve); larger ones, and explicit kExact /
+/// kIterative, take the two-phase scheme.
+constexpr std::size_t kSimultaneousMaxContacts = kExactSolverMaxContacts;
 /// Largest island the exact solver takes when asked for explicitly (its dense tableau grows as the
 /// square of the contacts); larger ones are an InvalidInput on "options.solver".
 constexpr std::size_t kExactSolverContactLimit = 128;
@@ -24,11 +29,15 @@ constexpr std::size_t kExactSolverContactLimit = 128;
 /// adds its velocity changes to the bodies) and writing impulses[i]'s normal and friction parts
 /// and sticking flag for problem contact i (resized to the problem; normal_velocity_before/after
 /// are the caller's). The report's method is one of kClosedForm, kImpulseSpace, kSequential,
-/// kExact, kIterative, kExactThenIterative, kTwoPhaseExact, kTwoPhaseIterative.
+/// kExact, kIterative, kExactThenIterative, kTwoPhaseExact, kTwoPhaseIterative,
+/// kSimultaneousImpulseSpace.
 ///
 /// One contact (SolverMethod::kAuto): Newton in closed form; Poisson and Stronge by impulse-space
-/// integration. Several contacts: Newton by the exact or the iterative solver; Poisson and Stronge
-/// by a two-phase scheme built on the same solvers:
+/// integration. Several contacts: Newton by the exact or the iterative solver; Poisson and Stronge,
+/// if options.simultaneous_impulse_space is set (opt-in) under kAuto up to
+/// kSimultaneousMaxContacts contacts, by the simultaneous impulse-space integration
+/// (solveSimultaneousImpulseSpace(), kSimultaneousImpulseSpace); otherwise by a two-phase scheme
+/// built on the same solvers:
 ///   1. compression: the plastic problem (e = 0) with Coulomb friction: no contact approaches and
 ///      friction opposes the final slip, so kinetic energy drops by D_c >= 0;
 ///   2. restitution: normal impulses R_i = e_i P_c,i at every contact (Poisson). For Stronge they

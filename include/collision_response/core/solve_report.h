@@ -21,6 +21,9 @@ enum class SolveMethod {
   kTwoPhaseIterative,   ///< "two_phase_iterative": the same with iterative phases
   kRestingClosedForm,   ///< "resting_closed_form": one resting contact, contact forces
   kRestingIterative,    ///< "resting_iterative": several resting contacts, contact forces
+  /// "simultaneous_impulse_space": Poisson / Stronge, several contacts integrated together in
+  /// impulse space (simultaneous_impact.h)
+  kSimultaneousImpulseSpace,
 };
 
 const char* toString(SolveMethod method);

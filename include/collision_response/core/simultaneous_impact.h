@@ -1,0 +1,32 @@
+#pragma once
+
+#include <vector>
+
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/contact_problem.h"
+#include "collision_response/core/solve_report.h"
+#include "collision_response/core/solver_options.h"
+
+namespace collision_response::core {
+
+/// Poisson or Stronge impact of all the contacts of an island integrated together in impulse space
+/// (docs/physics.md, "Simultaneous impulse-space integration"). Each contact has its own
+/// compression and restitution phases and its own slip, stick and slip resumption (mu_d while
+/// sliding, mu_s only once stopped); the normal impulse increments are shared among the active
+/// contacts by equal linear contact stiffnesses (Liu, Zhao and Brogliato's distribution with
+/// eta = 1 and equal stiffness): contact i's rate is proportional to its compression
+/// delta_i = -integral of u_n,i in a fictitious time, unloading along k / e_i^2. The answer does
+/// not depend on the stiffness (a common k only rescales the fictitious time).
+///
+/// Ends: a contact's compression when its u_n reaches 0 (p_c, W_c its own); its restitution at
+/// P_n = (1 + e) p_c (Poisson) or when its work reaches -e^2 W_c (Stronge). A finished contact that
+/// approaches again starts a new compression. One contact: integrateSingleContact(). Applies the
+/// impulses to the problem and writes impulses[i] (normal and friction parts, sticking), like
+/// solveIsland(). Laws other than Poisson and Stronge: std::invalid_argument.
+///
+/// Past a step budget the rest is a plastic exact solve with friction (report.converged = false,
+/// impulse_space->fallback = true), so that no contact ends approaching.
+SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverOptions& options,
+                                          std::vector<ContactImpulse>& impulses);
+
+}  // namespace collision_response::core

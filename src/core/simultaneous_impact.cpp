@@ -1,0 +1,439 @@
+#include "collision_response/core/simultaneous_impact.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+#include "collision_response/core/exact_solver.h"
+#include "collision_response/core/impulse_space_integrator.h"
+#include "collision_response/core/iterative_solver.h"
+
+namespace collision_response::core {
+namespace {
+
+enum class Phase { kIdle, kCompression, kRestitution };
+
+// Steps of the fictitious time per 1 / sqrt(k max_i n^T W_ii n): about 50 per compression.
+constexpr double kStepsPerUnit = 32.0;
+// Steps (accepted pieces, events included) before the plastic fallback.
+constexpr std::size_t kStepBudget = 20000;
+// A sliding contact whose slip direction turns is stepped so that it turns by at most ~this.
+constexpr double kMaxTurn = 0.05;
+// A slip below this times the largest pre-impact speed is a stop.
+constexpr double kStopped = 1e-9;
+
+struct State {
+  Phase phase = Phase::kIdle;
+  bool sticking = false;
+  double delta = 0.0;      // compression of the contact's linear spring [m s / s = velocity x time]
+  double delta_max = 0.0;  // at the end of compression
+  double start_normal = 0.0;                       // P_n at the start of the current cycle [N s]
+  double compression_impulse = 0.0;                // p_c of the current cycle
+  double compression_work = 0.0;                   // W_c of the current cycle (<= 0)
+  double work = 0.0;                               // integral of u_n dP_n in the current phase
+  Eigen::Vector3d slip = Eigen::Vector3d::Zero();  // slip direction used while |u_t| is ~0
+  Eigen::Vector3d impulse = Eigen::Vector3d::Zero();
+};
+
+class Simultaneous {
+ public:
+  Simultaneous(const ContactProblem& problem, ImpactLaw law)
+      : problem_(problem), law_(law), m_(problem.size()), state_(m_) {
+    const Eigen::Index n3 = 3 * static_cast<Eigen::Index>(m_);
+    w_.setZero(n3, n3);
+    u_.resize(n3);
+    for (std::size_t i = 0; i < m_; ++i) {
+      w_.block<3, 3>(3 * i, 3 * i) = problem.contact(i).delassus;
+      u_.segment<3>(3 * i) = problem.relativeMotion(i);
+      scale_ = std::max(scale_, u_.segment<3>(3 * i).norm());
+      lambda_ = std::max(lambda_, problem.contact(i).normalDelassus());
+    }
+    for (const auto& [i, j] : problem.couplings()) {
+      const Eigen::Matrix3d block = problem.delassusBlock(i, j);
+      w_.block<3, 3>(3 * i, 3 * j) = block;
+      w_.block<3, 3>(3 * j, 3 * i) = block.transpose();
+    }
+    h_ = lambda_ > 0.0 ? 1.0 / (kStepsPerUnit * std::sqrt(lambda_)) : 0.0;
+    rates_.resize(n3);
+    du_.resize(n3);
+    base_.resize(n3);
+  }
+
+  // Runs to the end; false if the step budget ran out.
+  bool run() {
+    if (h_ <= 0.0 || scale_ <= 0.0) return true;
+    const double approach = 1e-12 * scale_;
+    while (steps_ < kStepBudget) {
+      bool any = false;
+      for (std::size_t i = 0; i < m_; ++i) {
+        State& s = state_[i];
+        const double un = normalVelocity(i);
+        if (s.phase == Phase::kIdle && un < -approach) startCycle(i);
+        // Compression over (no longer approaching beyond round-off): its restitution starts.
+        if (s.phase == Phase::kCompression && un >= -approach && s.delta > 0.0) endCompression(i);
+        // A sliding contact whose slip is gone stops; the cone decides whether it stays stuck.
+        if (s.phase != Phase::kIdle && !problem_.contact(i).frictionless() &&
+            tangentialVelocity(i).norm() <= kStopped * scale_) {
+          s.sticking = true;
+        }
+        any = any || s.phase != Phase::kIdle;
+      }
+      if (!any) return true;
+      step();
+      ++steps_;
+    }
+    return false;
+  }
+
+  std::size_t steps() const { return steps_; }
+  std::size_t events() const { return events_; }
+  const Eigen::Vector3d& impulse(std::size_t i) const { return state_[i].impulse; }
+
+ private:
+  Eigen::Matrix<double, 3, 2> tangents(std::size_t i) const {
+    Eigen::Matrix<double, 3, 2> t;
+    t << problem_.contact(i).tangent1, problem_.contact(i).tangent2;
+    return t;
+  }
+  double normalVelocity(std::size_t i) const {
+    return problem_.contact(i).normal.dot(u_.segment<3>(3 * i));
+  }
+  Eigen::Vector3d tangentialVelocity(std::size_t i) const {
+    const Eigen::Vector3d& n = problem_.contact(i).normal;
+    const Eigen::Vector3d u = u_.segment<3>(3 * i);
+    return u - n.dot(u) * n;
+  }
+
+  void startCycle(std::size_t i) {
+    State& s = state_[i];
+    s.phase = Phase::kCompression;
+    s.delta = 0.0;
+    s.work = 0.0;
+    s.start_normal = s.impulse.dot(problem_.contact(i).normal);
+    ++events_;
+  }
+
+  void endCompression(std::size_t i) {
+    State& s = state_[i];
+    const ProblemContact& c = problem_.contact(i);
+    s.compression_impulse = s.impulse.dot(c.normal) - s.start_normal;
+    s.compression_work = s.work;
+    s.delta_max = s.delta;
+    s.work = 0.0;
+    s.phase =
+        c.restitution > 0.0 && s.compression_impulse > 0.0 ? Phase::kRestitution : Phase::kIdle;
+    ++events_;
+  }
+
+  // Normal impulse rate of an active contact over the next step: its spring force at mid-step.
+  double normalRate(std::size_t i) const {
+    const State& s = state_[i];
+    const double mid = s.delta - 0.5 * h_ * normalVelocity(i);
+    if (s.phase == Phase::kCompression) return std::max(mid, 0.0);
+    const double e = problem_.contact(i).restitution;
+    const double force = s.delta_max - (s.delta_max - mid) / (e * e);
+    if (force > 1e-3 * s.delta_max) return force;
+    // The spring is (nearly) unloaded but the contact's own end condition (Poisson impulse,
+    // Stronge work), which decides its end, is not met yet (a discretization residue): the rate
+    // that meets it within about one step, at most the peak force.
+    const ProblemContact& c = problem_.contact(i);
+    double remaining = 0.0;
+    if (law_ == ImpactLaw::kPoisson) {
+      remaining = s.start_normal + (1.0 + e) * s.compression_impulse - s.impulse.dot(c.normal);
+    } else {
+      const double un = normalVelocity(i);
+      remaining = un > 0.0 ? (-e * e * s.compression_work - s.work) / un : s.delta_max * h_;
+    }
+    return std::max(1e-3 * s.delta_max, std::min(s.delta_max, remaining / h_));
+  }
+
+  // The rates of every contact's impulse per unit fictitious time (k = 1): normal spring force,
+  // friction -mu_d s while sliding, sticking friction (least norm) while it lies in the mu_s cone.
+  void computeRates() {
+    rates_.setZero();
+    normal_rate_.assign(m_, 0.0);
+    for (std::size_t i = 0; i < m_; ++i) {
+      const State& s = state_[i];
+      if (s.phase == Phase::kIdle) continue;
+      const ProblemContact& c = problem_.contact(i);
+      normal_rate_[i] = normalRate(i);
+      rates_.segment<3>(3 * i) = normal_rate_[i] * c.normal;
+    }
+    for (std::size_t i = 0; i < m_; ++i) {
+      State& s = state_[i];
+      if (s.phase == Phase::kIdle || problem_.contact(i).frictionless() || s.sticking) continue;
+      const Eigen::Vector3d ut = tangentialVelocity(i);
+      if (ut.norm() > 1e-14 * scale_) s.slip = ut.normalized();
+      rates_.segment<3>(3 * i) -= problem_.contact(i).dynamic_friction * normal_rate_[i] * s.slip;
+    }
+    // Sticking contacts: tangential rates holding u_t = 0, in the static cone, else slip resumes.
+    for (;;) {
+      stick_.clear();
+      for (std::size_t i = 0; i < m_; ++i) {
+        if (state_[i].phase != Phase::kIdle && state_[i].sticking) stick_.push_back(i);
+      }
+      if (stick_.empty()) return;
+      const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
+      const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& cod = factorization();
+      b_.resize(k);
+      base_.noalias() = w_ * rates_;
+      for (std::size_t p = 0; p < stick_.size(); ++p) {
+        b_.segment<2>(2 * p) = -tangents(stick_[p]).transpose() * base_.segment<3>(3 * stick_[p]);
+      }
+      x_ = cod.solve(b_);
+      const Eigen::VectorXd& x = x_;
+      bool all_in = true;
+      for (std::size_t p = 0; p < stick_.size(); ++p) {
+        const std::size_t i = stick_[p];
+        const ProblemContact& c = problem_.contact(i);
+        const Eigen::Vector3d f = x(2 * p) * c.tangent1 + x(2 * p + 1) * c.tangent2;
+        if (f.norm() > c.static_friction * normal_rate_[i] * (1.0 + 1e-9) + 1e-300) {
+          // Slip resumes against the friction it would need.
+          state_[i].sticking = false;
+          state_[i].slip = -f.normalized();
+          rates_.segment<3>(3 * i) -= c.dynamic_friction * normal_rate_[i] * state_[i].slip;
+          all_in = false;
+          ++events_;
+        }
+      }
+      if (all_in) {
+        for (std::size_t p = 0; p < stick_.size(); ++p) {
+          const ProblemContact& c = problem_.contact(stick_[p]);
+          rates_.segment<3>(3 * stick_[p]) += x(2 * p) * c.tangent1 + x(2 * p + 1) * c.tangent2;
+        }
+        return;
+      }
+    }
+  }
+
+  // The least-norm decomposition of the sticking block of W (tangential rows and columns of the
+  // stuck contacts), kept per stuck set (a set recurs as contacts stop and resume).
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& factorization() {
+    for (const auto& [set, cod] : factorizations_) {
+      if (set == stick_) return cod;
+    }
+    const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
+    Eigen::MatrixXd a(k, k);
+    for (std::size_t p = 0; p < stick_.size(); ++p) {
+      for (std::size_t q = 0; q < stick_.size(); ++q) {
+        a.block<2, 2>(2 * p, 2 * q) = tangents(stick_[p]).transpose() *
+                                      w_.block<3, 3>(3 * stick_[p], 3 * stick_[q]) *
+                                      tangents(stick_[q]);
+      }
+    }
+    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
+    cod.setThreshold(1e-12);
+    cod.compute(a);
+    factorizations_.emplace_back(stick_, std::move(cod));
+    return factorizations_.back().second;
+  }
+
+  // Smallest theta in (0, 1] where a theta^2 + b theta + c (c < 0 at 0) reaches 0; 2 if none.
+  static double firstRoot(double a, double b, double c) {
+    if (c >= 0.0) return 0.0;
+    double best = 2.0;
+    if (std::abs(a) <= 1e-300) {
+      if (b > 0.0) best = -c / b;
+    } else {
+      const double disc = b * b - 4.0 * a * c;
+      if (disc >= 0.0) {
+        const double root = std::sqrt(disc);
+        const double q = -0.5 * (b + (b >= 0.0 ? root : -root));
+        for (double t : {q / a, q != 0.0 ? c / q : 2.0}) {
+          if (t > 0.0 && t < best) best = t;
+        }
+      }
+    }
+    return best <= 1.0 ? best : 2.0;
+  }
+
+  void step() {
+    computeRates();
+    du_.noalias() = w_ * rates_;
+    du_ *= h_;
+    // The step fraction of the first event, and which contacts have it.
+    std::vector<double>& event = event_;
+    event.assign(m_, 2.0);
+    double limit = 1.0;
+    for (std::size_t i = 0; i < m_; ++i) {
+      const State& s = state_[i];
+      const ProblemContact& c = problem_.contact(i);
+      const double un = normalVelocity(i);
+      const double dun = c.normal.dot(du_.segment<3>(3 * i));
+      const double dpn = h_ * normal_rate_[i];
+      double t = 2.0;
+      if (s.phase == Phase::kIdle) {
+        // Starts approaching: the step is cut there (the contact starts its compression once it
+        // approaches beyond round-off).
+        if (un > 1e-12 * scale_ && un + dun < 0.0) t = -un / dun;
+      } else if (s.phase == Phase::kCompression) {
+        if (dun > 0.0 && un + dun >= 0.0) t = std::max(-un / dun, 0.0);
+      } else if (law_ == ImpactLaw::kPoisson) {
+        const double target = s.start_normal + (1.0 + c.restitution) * s.compression_impulse;
+        const double now = s.impulse.dot(c.normal);
+        t = now >= target ? 0.0 : dpn > 0.0 ? (target - now) / dpn : 2.0;
+      } else {
+        const double target = -c.restitution * c.restitution * s.compression_work;
+        t = firstRoot(0.5 * dpn * dun, dpn * un, s.work - target);
+      }
+      if (s.phase != Phase::kIdle && !s.sticking && !c.frictionless()) {
+        const Eigen::Vector3d ut = tangentialVelocity(i);
+        Eigen::Vector3d dut = du_.segment<3>(3 * i);
+        dut -= c.normal.dot(dut) * c.normal;
+        const double dd = dut.squaredNorm();
+        if (dd > 0.0) {
+          const double tmin = -ut.dot(dut) / dd;
+          if (tmin > 1e-12 && tmin < t) t = tmin;
+          // A turning slip direction: limit the step so that it turns by at most kMaxTurn.
+          const double unorm = ut.norm();
+          if (unorm > kStopped * scale_) {
+            const double turn = (dut - dut.dot(ut) / (unorm * unorm) * ut).norm();
+            if (turn > kMaxTurn * unorm) limit = std::min(limit, kMaxTurn * unorm / turn);
+          }
+        }
+      }
+      event[i] = t;
+    }
+    double theta = limit;
+    for (double t : event) theta = std::min(theta, t);
+    // Advance by theta: impulses and velocities exactly (linear in the impulse), spring
+    // compressions and works by the trapezoid rule (exact: u is linear over the step).
+    for (std::size_t i = 0; i < m_; ++i) {
+      State& s = state_[i];
+      if (s.phase == Phase::kIdle) continue;
+      const ProblemContact& c = problem_.contact(i);
+      const double un0 = normalVelocity(i);
+      const double un1 = un0 + theta * c.normal.dot(du_.segment<3>(3 * i));
+      s.impulse += theta * h_ * rates_.segment<3>(3 * i);
+      s.delta -= theta * h_ * 0.5 * (un0 + un1);
+      s.work += theta * h_ * normal_rate_[i] * 0.5 * (un0 + un1);
+    }
+    u_ += theta * du_;
+    // Transitions of the contacts whose event is this one.
+    const double same = theta + 1e-9 * std::max(theta, 1e-300);
+    for (std::size_t i = 0; i < m_; ++i) {
+      if (event[i] > same) continue;
+      State& s = state_[i];
+      const ProblemContact& c = problem_.contact(i);
+      switch (s.phase) {
+        case Phase::kIdle:
+          break;
+        case Phase::kCompression:
+          if (normalVelocity(i) >= -1e-12 * scale_) {
+            endCompression(i);
+            break;
+          }
+          [[fallthrough]];
+        case Phase::kRestitution: {
+          bool done;
+          if (s.phase == Phase::kCompression) {
+            done = false;
+          } else if (law_ == ImpactLaw::kPoisson) {
+            done = s.impulse.dot(c.normal) >= s.start_normal +
+                                                  (1.0 + c.restitution) * s.compression_impulse -
+                                                  1e-12 * s.compression_impulse;
+          } else {
+            const double target = -c.restitution * c.restitution * s.compression_work;
+            done = s.work >= target - 1e-12 * std::abs(s.compression_work);
+          }
+          if (done) {
+            s.phase = Phase::kIdle;
+            s.sticking = false;
+            ++events_;
+            break;
+          }
+          // Otherwise a slip minimum: stop if the slip is gone.
+          if (!c.frictionless() && tangentialVelocity(i).norm() <= kStopped * scale_) {
+            s.sticking = true;
+            ++events_;
+          }
+          break;
+        }
+      }
+    }
+  }
+
+  const ContactProblem& problem_;
+  ImpactLaw law_;
+  std::size_t m_;
+  std::vector<State> state_;
+  Eigen::MatrixXd w_;  // the stacked W (3m x 3m)
+  Eigen::VectorXd u_;  // the stacked current relative velocities
+  Eigen::VectorXd rates_, du_;
+  std::vector<double> normal_rate_;
+  std::vector<std::size_t> stick_;
+  std::vector<
+      std::pair<std::vector<std::size_t>, Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>>>
+      factorizations_;
+  std::vector<double> event_;
+  Eigen::VectorXd base_, b_, x_;
+  double scale_ = 0.0;   // largest |u| before the impact
+  double lambda_ = 0.0;  // largest n^T W_ii n
+  double h_ = 0.0;       // fictitious time step
+  std::size_t steps_ = 0, events_ = 0;
+};
+
+}  // namespace
+
+SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverOptions& options,
+                                          std::vector<ContactImpulse>& impulses) {
+  if (options.law != ImpactLaw::kPoisson && options.law != ImpactLaw::kStronge) {
+    throw std::invalid_argument("solveSimultaneousImpulseSpace: Poisson or Stronge only");
+  }
+  impulses.assign(problem.size(), ContactImpulse{});
+  SolveReport report;
+  report.method = SolveMethod::kSimultaneousImpulseSpace;
+  ImpulseSpaceDetail detail;
+  if (problem.size() == 1) {
+    impulses[0] =
+        integrateSingleContact(problem, 0, options.law, options.integration_tolerance, &detail);
+    problem.applyImpulse(0, impulses[0].total(problem.contact(0).normal));
+    report.iterations = detail.steps + detail.segments;
+    report.residual = detail.error_estimate;
+    report.impulse_space = detail;
+    return report;
+  }
+  Simultaneous scheme(problem, options.law);
+  const bool finished = scheme.run();
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    const ProblemContact& c = problem.contact(i);
+    const Eigen::Vector3d p = scheme.impulse(i);
+    problem.applyImpulse(i, p);
+    impulses[i].normal_impulse = p.dot(c.normal);
+    impulses[i].friction_impulse = p - impulses[i].normal_impulse * c.normal;
+  }
+  detail.steps = scheme.steps();
+  detail.segments = scheme.events();
+  report.iterations = scheme.steps();
+  if (!finished) {
+    // Budget exhausted: the rest as a plastic problem with friction, so nothing ends approaching.
+    detail.fallback = true;
+    report.converged = false;
+    problem.makePlastic();
+    std::vector<ContactImpulse> rest;
+    const SolveReport plastic = problem.size() <= 128 ? solveExact(problem, options, rest)
+                                                      : solveIterative(problem, options, rest);
+    for (std::size_t i = 0; i < problem.size(); ++i) {
+      impulses[i].normal_impulse += rest[i].normal_impulse;
+      impulses[i].friction_impulse += rest[i].friction_impulse;
+    }
+    report.iterations += plastic.iterations;
+  }
+  double speed = 0.0;
+  for (std::size_t i = 0; i < problem.size(); ++i)
+    speed = std::max(speed, problem.relativeMotion(i).norm());
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    const ProblemContact& c = problem.contact(i);
+    const Eigen::Vector3d u = problem.relativeMotion(i);
+    const double slip = (u - u.dot(c.normal) * c.normal).norm();
+    impulses[i].sticking = !c.frictionless() && impulses[i].normal_impulse > 0.0 &&
+                           slip <= 1e-9 * std::max(speed, 1e-300);
+  }
+  report.impulse_space = detail;
+  return report;
+}
+
+}  // namespace collision_response::core
