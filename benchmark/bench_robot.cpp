@@ -2,6 +2,7 @@
 // base, 9 joints with the gripper's) strikes a free box with its hand, one frictional contact,
 // Stronge. The model is loaded once; per request: the state (kinematics, M(q) by CRBA, its
 // Cholesky factor), the contact's Jacobian and M^-1 J^T, the solve and the joint velocities.
+//   devel/lib/collision_response/bench_robot            (Release build)
 // BM_Arm7StrikesBox: every joint free; BM_Arm7LockedStrikesBox: every joint locked (the arm an
 // immovable body, the box alone moves).
 #include <benchmark/benchmark.h>
@@ -21,6 +22,7 @@ namespace rb = collision_response::robot;
 namespace {
 
 void run(benchmark::State& state, bool locked) {
+  const bool newton = state.range(0) == 1;
   rb::ArticulatedBody arm = rb::robotFromUrdfFile(ROBOT_URDF_DIR "/arm7.urdf");
   if (locked) {
     for (int j = 0; j < arm.jointCount(); ++j) arm.setJointModel(j, rb::JointModel::kLocked);
@@ -36,7 +38,7 @@ void run(benchmark::State& state, bool locked) {
   contact.part_a = hand;
   const std::vector<cr::ContactPoint> contacts = {contact};
   cr::SolverOptions options;
-  options.law = cr::ImpactLaw::kStronge;
+  options.law = newton ? cr::ImpactLaw::kNewton : cr::ImpactLaw::kStronge;
   for (auto _ : state) {
     arm.setState(q, qdot);
     cr::RigidBody box;
@@ -59,6 +61,8 @@ void BM_Arm7LockedStrikesBox(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_Arm7StrikesBox);
-BENCHMARK(BM_Arm7LockedStrikesBox);
+// Argument: 0 Stronge (impulse-space integration of the frictional contact, 3D slip), 1 Newton
+// (closed form): the difference is the law's cost, the rest the robot's.
+BENCHMARK(BM_Arm7StrikesBox)->Arg(0)->Arg(1);
+BENCHMARK(BM_Arm7LockedStrikesBox)->Arg(0)->Arg(1);
 BENCHMARK_MAIN();
