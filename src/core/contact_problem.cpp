@@ -138,11 +138,12 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
     const ContactPoint& point = contacts[c];
     ProblemContact entry = entryFor(c, point);
     const int index[2] = {point.body_a, point.body_b};
+    const int part[2] = {point.part_a, point.part_b};
     int* local[2] = {&entry.local_a, &entry.local_b};
     Eigen::Vector3d* lever_arm[2] = {&entry.lever_arm_a, &entry.lever_arm_b};
     for (int side = 0; side < 2; ++side) {
       const BodyModel& body = *bodies[index[side]];
-      const Eigen::Vector3d velocity = body.materialPointVelocity(point.point);
+      const Eigen::Vector3d velocity = body.partPointVelocity(part[side], point.point);
       entry.free_velocity += kSideSign[side] * velocity;
       if (const RigidBody* rigid = body.asRigidBody()) {
         *lever_arm[side] = point.point - rigid->com;
@@ -155,8 +156,8 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
       if (!general) general_sides_.resize(2 * island.size());
       general = true;
       GeneralSide& out = general_sides_[2 * contacts_.size() + side];
-      out.jacobian = body.pointJacobian(point.point);
-      out.inverse_mass_jacobian_t = body.inverseMassJacobianTranspose(point.point);
+      out.jacobian = body.partPointJacobian(part[side], point.point);
+      out.inverse_mass_jacobian_t = body.partInverseMassJacobianTranspose(part[side], point.point);
       entry.delassus += out.jacobian * out.inverse_mass_jacobian_t;
     }
     // Symmetric in exact arithmetic; make it so (a general body's products may round apart).

@@ -38,6 +38,20 @@ class BodyModel {
       const Eigen::Vector3d& point) const = 0;
   /// v += change (n entries). Does nothing for a body without unknowns.
   virtual void addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) = 0;
+  /// Bodies made of several parts (the links of a robot, articulated_body.h) resolve a contact's
+  /// point on the part it names (ContactPoint::part_a / part_b): these take that part, -1 for
+  /// "the body's own" (the default: the methods above, for single-part bodies).
+  virtual Eigen::Vector3d partPointVelocity(int /*part*/, const Eigen::Vector3d& point) const {
+    return materialPointVelocity(point);
+  }
+  virtual Eigen::Matrix<double, 3, Eigen::Dynamic> partPointJacobian(
+      int /*part*/, const Eigen::Vector3d& point) const {
+    return pointJacobian(point);
+  }
+  virtual Eigen::Matrix<double, Eigen::Dynamic, 3> partInverseMassJacobianTranspose(
+      int /*part*/, const Eigen::Vector3d& point) const {
+    return inverseMassJacobianTranspose(point);
+  }
   /// The free rigid body behind this model (the solvers' closed-form fast path), or nullptr.
   virtual const RigidBody* asRigidBody() const { return nullptr; }
 

@@ -14,6 +14,10 @@ struct ContactPoint {
   double restitution = 0.0;                           ///< e in [0, 1]
   double static_friction = 0.0;                       ///< mu_s >= 0
   double dynamic_friction = 0.0;                      ///< 0 <= mu_d <= mu_s
+  /// Part of body a / b the point belongs to, for bodies of several parts (a robot's link index,
+  /// BodyModel::partPointJacobian()); -1 for single-part bodies. Free rigid bodies ignore it.
+  int part_a = -1;
+  int part_b = -1;
 
   ContactPoint() = default;
   ContactPoint(int a_index, int b_index, const Eigen::Vector3d& contact_point,

@@ -1,0 +1,68 @@
+// One impact prediction for a robot (docs/robots.md): the 7-DOF arm of test/robot/arm7.urdf (fixed
+// base, 9 joints with the gripper's) strikes a free box with its hand, one frictional contact,
+// Stronge. The model is loaded once; per request: the state (kinematics, M(q) by CRBA, its
+// Cholesky factor), the contact's Jacobian and M^-1 J^T, the solve and the joint velocities.
+//   devel/lib/collision_response/bench_robot            (Release build)
+// BM_Arm7StrikesBox: every joint free; BM_Arm7LockedStrikesBox: every joint locked (the arm an
+// immovable body, the box alone moves).
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "collision_response/core/body_response.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/urdf_loader.h"
+
+namespace cr = collision_response::core;
+namespace rb = collision_response::robot;
+
+namespace {
+
+void run(benchmark::State& state, bool locked) {
+  const bool newton = state.range(0) == 1;
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(ROBOT_URDF_DIR "/arm7.urdf");
+  if (locked) {
+    for (int j = 0; j < arm.jointCount(); ++j) arm.setJointModel(j, rb::JointModel::kLocked);
+  }
+  Eigen::VectorXd q(9), qdot(9);
+  q << 0.3, -0.8, 0.2, 1.4, -0.3, 0.9, 0.1, 0.02, 0.02;
+  qdot << 0.5, 0.2, -0.3, 0.4, 0.1, -0.2, 0.3, 0.0, 0.0;
+  const int hand = arm.linkIndex("hand");
+  arm.setState(q, qdot);
+  const Eigen::Vector3d p = arm.linkPose(hand).translation();
+  const Eigen::Vector3d n = Eigen::Vector3d(1, 0.3, -0.2).normalized();
+  cr::ContactPoint contact(0, 1, p, n, 0.5, 0.6, 0.5);
+  contact.part_a = hand;
+  const std::vector<cr::ContactPoint> contacts = {contact};
+  cr::SolverOptions options;
+  options.law = newton ? cr::ImpactLaw::kNewton : cr::ImpactLaw::kStronge;
+  for (auto _ : state) {
+    arm.setState(q, qdot);
+    cr::RigidBody box;
+    box.inverse_mass = 1.0 / 1.5;
+    box.inverse_inertia = Eigen::Vector3d(1 / 0.0125, 1 / 0.01625, 1 / 0.00625).asDiagonal();
+    box.com = p + 0.05 * n;
+    box.linear_velocity = -2.0 * n + Eigen::Vector3d(0.3, -0.2, 0.1);
+    const cr::BodyResponse out = cr::computeBodyResponse({&arm, &box}, contacts, options);
+    benchmark::DoNotOptimize(out.impulses[0].normal_impulse);
+    benchmark::DoNotOptimize(arm.jointVelocities().data());
+  }
+}
+
+void BM_Arm7StrikesBox(benchmark::State& state) {
+  run(state, false);
+}
+void BM_Arm7LockedStrikesBox(benchmark::State& state) {
+  run(state, true);
+}
+
+}  // namespace
+
+// Argument: 0 Stronge (impulse-space integration of the frictional contact, 3D slip), 1 Newton
+// (closed form): the difference is the law's cost, the rest the robot's.
+BENCHMARK(BM_Arm7StrikesBox)->Arg(0)->Arg(1);
+BENCHMARK(BM_Arm7LockedStrikesBox)->Arg(0)->Arg(1);
+BENCHMARK_MAIN();

@@ -1,0 +1,175 @@
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <kdl/frames.hpp>
+#include <kdl/rigidbodyinertia.hpp>
+#include <kdl/tree.hpp>
+#include <string>
+#include <vector>
+
+#include "collision_response/core/body_model.h"
+
+namespace collision_response::robot {
+
+/// What a joint does during an impact (docs/robots.md, "Joint models").
+enum class JointModel {
+  kFree,      ///< its velocity jumps: one velocity unknown
+  kLocked,    ///< moves with its parent during the impact: no unknown, its velocity is kept
+  kArmature,  ///< free, with a rotor inertia (kg m^2, or kg for a prismatic joint) added on M's
+              ///< diagonal
+};
+
+/// How the robot's base moves.
+enum class BaseType {
+  kFixed,     ///< placed by a pose, immovable
+  kFloating,  ///< 6 more unknowns: the base twist (velocity of the base origin, angular velocity)
+};
+
+/// A robot as a body of the contact problem (core::BodyModel, docs/robots.md): a kinematic tree of
+/// links (KDL::Tree; revolute, continuous, prismatic and fixed joints, limits unused) on a fixed or
+/// floating base. Velocity unknowns v = (base twist (v_o [m/s], w [rad/s]), world, if floating;
+/// the velocities of the free joints in joint order). Per state (setState()): the links' world
+/// frames, the joint-space inertia M(q) by the composite-rigid-body algorithm on KDL's spatial
+/// types (world frame, reference point at the world origin), its Cholesky factor M = L L^T, so
+/// that every M^-1 J(p)^T is two triangular solves. A contact names a link as its part
+/// (core::ContactPoint::part_a / part_b = linkIndex("name")); the part-less BodyModel methods use
+/// defaultLink() (the last link).
+class ArticulatedBody final : public core::BodyModel {
+ public:
+  /// The tree's root segment is the base; base_inertia is the base link's inertia in the base
+  /// frame (a KDL::Tree's root has none: urdf_loader.h passes the URDF root link's), used when the
+  /// base floats. Every joint free, q = qdot = 0, base at the identity. Throws
+  /// std::invalid_argument for an empty tree or a floating base on a massless robot. A singular
+  /// M (singularJoint()) is accepted here, so that the joint can be locked; setState() and the
+  /// contact problem refuse it.
+  ArticulatedBody(const KDL::Tree& tree, BaseType base = BaseType::kFixed,
+                  const KDL::RigidBodyInertia& base_inertia = KDL::RigidBodyInertia::Zero());
+
+  // --- Description -----------------------------------------------------------------------------
+  BaseType baseType() const { return base_type_; }
+  /// Joints with a coordinate (revolute, continuous, prismatic), in KDL's q_nr order: the order of
+  /// jointPositions() and jointVelocities().
+  int jointCount() const { return static_cast<int>(joint_names_.size()); }
+  const std::vector<std::string>& jointNames() const { return joint_names_; }
+  /// Why M is singular ("singular joint-space inertia: joint 'name' moves no mass ..."), empty if
+  /// it is not; requireRegular() throws it as std::invalid_argument.
+  const std::string& singularJoint() const { return singular_; }
+  void requireRegular() const;
+  /// Index of a joint by name; throws std::invalid_argument naming it if there is none.
+  int jointIndex(const std::string& name) const;
+  /// Links (the tree's segments below the base; the base itself is link 0), by name.
+  int linkCount() const { return static_cast<int>(links_.size()); }
+  const std::string& linkName(int link) const { return links_[link].name; }
+  /// Throws std::invalid_argument naming it if there is no such link.
+  int linkIndex(const std::string& name) const;
+  int defaultLink() const { return default_link_; }
+  void setDefaultLink(int link);
+
+  /// Joint model (and armature, for kArmature) of a joint; rebuilds the state's factorisation
+  /// (a singular M is recorded, not thrown: locking joints one by one may pass through one).
+  void setJointModel(int joint, JointModel model, double armature = 0.0);
+  JointModel jointModel(int joint) const { return joint_models_[joint]; }
+
+  // --- State -------------------------------------------------------------------------------------
+  /// Joint positions q [rad | m] and velocities [rad/s | m/s] (jointCount() each), base pose in
+  /// the world and, for a floating base, its twist (velocity of the base origin, angular velocity,
+  /// world). Computes kinematics, M(q) and its factor. Throws std::invalid_argument on wrong sizes
+  /// and when M is singular (a free joint moving only massless links, or one whose motion the
+  /// floating base already gives them), naming the joint; the state is then kept (lock the joint).
+  void setState(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                const Eigen::Isometry3d& base_pose = Eigen::Isometry3d::Identity(),
+                const Eigen::Vector3d& base_linear_velocity = Eigen::Vector3d::Zero(),
+                const Eigen::Vector3d& base_angular_velocity = Eigen::Vector3d::Zero());
+  const Eigen::VectorXd& jointPositions() const { return q_; }
+  const Eigen::VectorXd& jointVelocities() const { return qdot_; }
+  const Eigen::Vector3d& baseLinearVelocity() const { return base_linear_velocity_; }
+  const Eigen::Vector3d& baseAngularVelocity() const { return base_angular_velocity_; }
+  /// World pose of a link's frame.
+  Eigen::Isometry3d linkPose(int link) const;
+
+  /// M(q) in the velocity unknowns (velocityCount() square), with armature [kg, kg m, kg m^2].
+  const Eigen::MatrixXd& massMatrix() const { return mass_matrix_; }
+  /// The joint of unknown k (-1 for the base twist's six).
+  int jointOfUnknown(int k) const { return joint_of_unknown_[k]; }
+  /// Unknown of a joint, -1 for a locked one.
+  int unknownOfJoint(int joint) const { return unknown_of_joint_[joint]; }
+  /// J(p) of the material point of `link` at world p, 3 x velocityCount().
+  Eigen::Matrix<double, 3, Eigen::Dynamic> linkPointJacobian(int link,
+                                                             const Eigen::Vector3d& point) const;
+  /// Generalized impulse of a velocity change, M dv = sum of J^T P over the impulses that made it
+  /// [N s for base and prismatic unknowns, N m s for rotations].
+  Eigen::VectorXd generalizedImpulse(const Eigen::VectorXd& velocity_change) const {
+    return mass_matrix_ * velocity_change;
+  }
+  /// Kinetic energy (1/2) v_all^T M_all v_all of the whole robot, locked joints included [J].
+  double kineticEnergy() const;
+  /// Total linear [N s] and angular momentum about the world origin [N m s], world.
+  Eigen::Matrix<double, 6, 1> momentum() const;
+
+  // --- core::BodyModel
+  // -----------------------------------------------------------------------------
+  int velocityCount() const override { return unknowns_; }
+  Eigen::VectorXd velocity() const override;
+  Eigen::Vector3d materialPointVelocity(const Eigen::Vector3d& point) const override {
+    return partPointVelocity(default_link_, point);
+  }
+  Eigen::Matrix<double, 3, Eigen::Dynamic> pointJacobian(
+      const Eigen::Vector3d& point) const override {
+    return partPointJacobian(default_link_, point);
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, 3> inverseMassJacobianTranspose(
+      const Eigen::Vector3d& point) const override {
+    return partInverseMassJacobianTranspose(default_link_, point);
+  }
+  void addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) override;
+  Eigen::Vector3d partPointVelocity(int part, const Eigen::Vector3d& point) const override;
+  Eigen::Matrix<double, 3, Eigen::Dynamic> partPointJacobian(
+      int part, const Eigen::Vector3d& point) const override;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> partInverseMassJacobianTranspose(
+      int part, const Eigen::Vector3d& point) const override;
+
+ private:
+  struct Link {
+    std::string name;
+    int parent = -1;                  // link index, -1 for the base
+    KDL::Segment segment;             // joint + tip frame + inertia (tip frame)
+    int joint = -1;                   // index into joint_names_, -1 for a fixed joint / the base
+    KDL::Frame frame;                 // world frame of the link (segment tip)
+    KDL::Twist axis;                  // motion of a unit joint velocity, world, at the origin
+    KDL::Twist twist;                 // link twist, world, at the world origin
+    KDL::RigidBodyInertia inertia;    // world, at the world origin
+    KDL::RigidBodyInertia composite;  // the link and its subtree
+  };
+  void rebuild();  // unknowns from the joint models, then kinematics, M and its factor
+  void updateKinematics();
+  void updateTwists();
+  void updateMassMatrix();
+  void factorise();
+  // Motion of a unit value of unknown k (world twist at the origin).
+  const KDL::Twist& unknownAxis(int k) const;
+  int checkLink(int link) const;
+
+  BaseType base_type_;
+  std::vector<Link> links_;  // topological order: parents first; links_[0] is the base
+  std::vector<std::string> joint_names_;
+  std::vector<int> link_of_joint_;
+  std::vector<JointModel> joint_models_;
+  std::vector<double> armatures_;
+  std::vector<int> unknown_of_joint_;
+  std::vector<int> joint_of_unknown_;
+  int unknowns_ = 0;
+  int default_link_ = 0;
+
+  Eigen::VectorXd q_, qdot_;
+  KDL::Frame base_pose_ = KDL::Frame::Identity();
+  Eigen::Vector3d base_linear_velocity_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d base_angular_velocity_ = Eigen::Vector3d::Zero();
+  KDL::Twist base_axes_[6];
+  Eigen::MatrixXd mass_matrix_;
+  Eigen::LLT<Eigen::MatrixXd> factor_;
+  std::string singular_;
+};
+
+}  // namespace collision_response::robot

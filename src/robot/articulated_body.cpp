@@ -1,0 +1,359 @@
+#include "collision_response/robot/articulated_body.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <utility>
+
+namespace collision_response::robot {
+namespace {
+
+KDL::Vector toKdl(const Eigen::Vector3d& v) {
+  return KDL::Vector(v.x(), v.y(), v.z());
+}
+Eigen::Vector3d toEigen(const KDL::Vector& v) {
+  return Eigen::Vector3d(v.x(), v.y(), v.z());
+}
+
+KDL::Frame toKdl(const Eigen::Isometry3d& pose) {
+  const Eigen::Matrix3d r = pose.rotation();
+  return KDL::Frame(KDL::Rotation(r(0, 0), r(0, 1), r(0, 2), r(1, 0), r(1, 1), r(1, 2), r(2, 0),
+                                  r(2, 1), r(2, 2)),
+                    toKdl(pose.translation()));
+}
+
+// Velocity at the world point p of a twist given at the world origin: vel + rot x p.
+Eigen::Vector3d velocityAt(const KDL::Twist& twist, const Eigen::Vector3d& p) {
+  return toEigen(twist.vel) + toEigen(twist.rot).cross(p);
+}
+
+// Relative size of the smallest Cholesky pivot, against M's largest diagonal entry, below which M
+// counts as singular (a free joint that moves no mass).
+constexpr double kSingularPivot = 1e-12;
+
+}  // namespace
+
+ArticulatedBody::ArticulatedBody(const KDL::Tree& tree, BaseType base,
+                                 const KDL::RigidBodyInertia& base_inertia)
+    : base_type_(base) {
+  const auto root = tree.getRootSegment();
+  if (root == tree.getSegments().end()) throw std::invalid_argument("an empty kinematic tree");
+  Link base_link;
+  base_link.name = root->first;
+  base_link.segment = KDL::Segment(root->first, KDL::Joint(KDL::Joint::Fixed),
+                                   KDL::Frame::Identity(), base_inertia);
+  links_.push_back(std::move(base_link));
+  // Depth-first, parents before children (children in the tree's order).
+  std::vector<std::pair<KDL::SegmentMap::const_iterator, int>> stack;
+  for (auto it = root->second.children.rbegin(); it != root->second.children.rend(); ++it) {
+    stack.emplace_back(*it, 0);
+  }
+  std::vector<std::pair<unsigned, int>> joints;  // (q_nr, link)
+  while (!stack.empty()) {
+    const auto [element, parent] = stack.back();
+    stack.pop_back();
+    Link link;
+    link.name = element->first;
+    link.parent = parent;
+    link.segment = element->second.segment;
+    const int index = static_cast<int>(links_.size());
+    if (link.segment.getJoint().getType() != KDL::Joint::Fixed) {
+      joints.emplace_back(element->second.q_nr, index);
+    }
+    links_.push_back(std::move(link));
+    const auto& children = element->second.children;
+    for (auto it = children.rbegin(); it != children.rend(); ++it) stack.emplace_back(*it, index);
+  }
+  std::sort(joints.begin(), joints.end());
+  for (const auto& [q_nr, link] : joints) {
+    links_[link].joint = static_cast<int>(joint_names_.size());
+    joint_names_.push_back(links_[link].segment.getJoint().getName());
+    link_of_joint_.push_back(link);
+  }
+  joint_models_.assign(joint_names_.size(), JointModel::kFree);
+  armatures_.assign(joint_names_.size(), 0.0);
+  default_link_ = linkCount() - 1;
+  if (base_type_ == BaseType::kFloating) {
+    double mass = base_inertia.getMass();
+    for (const Link& link : links_) mass += link.segment.getInertia().getMass();
+    if (!(mass > 0.0)) throw std::invalid_argument("a floating base robot without mass");
+  }
+  q_.setZero(jointCount());
+  qdot_.setZero(jointCount());
+  rebuild();
+}
+
+int ArticulatedBody::jointIndex(const std::string& name) const {
+  const auto it = std::find(joint_names_.begin(), joint_names_.end(), name);
+  if (it == joint_names_.end()) throw std::invalid_argument("no joint '" + name + "'");
+  return static_cast<int>(it - joint_names_.begin());
+}
+
+int ArticulatedBody::linkIndex(const std::string& name) const {
+  for (int i = 0; i < linkCount(); ++i) {
+    if (links_[i].name == name) return i;
+  }
+  throw std::invalid_argument("no link '" + name + "'");
+}
+
+int ArticulatedBody::checkLink(int link) const {
+  if (link < 0 || link >= linkCount()) {
+    throw std::invalid_argument("no link " + std::to_string(link) + " (the robot has " +
+                                std::to_string(linkCount()) + ")");
+  }
+  return link;
+}
+
+void ArticulatedBody::setDefaultLink(int link) {
+  default_link_ = checkLink(link);
+}
+
+void ArticulatedBody::setJointModel(int joint, JointModel model, double armature) {
+  if (joint < 0 || joint >= jointCount()) {
+    throw std::invalid_argument("no joint " + std::to_string(joint));
+  }
+  if (!(armature >= 0.0)) throw std::invalid_argument("a negative armature");
+  joint_models_[joint] = model;
+  armatures_[joint] = model == JointModel::kArmature ? armature : 0.0;
+  rebuild();
+}
+
+void ArticulatedBody::rebuild() {
+  // Unknowns: the base twist first, then the joints that are not locked, in joint order.
+  unknown_of_joint_.assign(jointCount(), -1);
+  joint_of_unknown_.clear();
+  if (base_type_ == BaseType::kFloating) joint_of_unknown_.assign(6, -1);
+  for (int j = 0; j < jointCount(); ++j) {
+    if (joint_models_[j] == JointModel::kLocked) continue;
+    unknown_of_joint_[j] = static_cast<int>(joint_of_unknown_.size());
+    joint_of_unknown_.push_back(j);
+  }
+  unknowns_ = static_cast<int>(joint_of_unknown_.size());
+  updateKinematics();
+  updateMassMatrix();
+  factorise();
+}
+
+void ArticulatedBody::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                               const Eigen::Isometry3d& base_pose,
+                               const Eigen::Vector3d& base_linear_velocity,
+                               const Eigen::Vector3d& base_angular_velocity) {
+  if (q.size() != jointCount() || qdot.size() != jointCount()) {
+    throw std::invalid_argument("joint positions and velocities need " +
+                                std::to_string(jointCount()) + " entries each");
+  }
+  q_ = q;
+  qdot_ = qdot;
+  base_pose_ = toKdl(base_pose);
+  if (base_type_ == BaseType::kFloating) {
+    base_linear_velocity_ = base_linear_velocity;
+    base_angular_velocity_ = base_angular_velocity;
+  }
+  updateKinematics();
+  updateMassMatrix();
+  factorise();
+  requireRegular();
+}
+
+Eigen::Isometry3d ArticulatedBody::linkPose(int link) const {
+  const KDL::Frame& f = links_[checkLink(link)].frame;
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out.linear()(r, c) = f.M(r, c);
+    out.translation()(r) = f.p(r);
+  }
+  return out;
+}
+
+void ArticulatedBody::updateKinematics() {
+  Link& base = links_[0];
+  base.frame = base_pose_;
+  base.inertia = base_pose_ * base.segment.getInertia();
+  const KDL::Vector o = base_pose_.p;
+  for (int k = 0; k < 3; ++k) {
+    KDL::Vector e = KDL::Vector::Zero();
+    e(k) = 1.0;
+    base_axes_[k] = KDL::Twist(e, KDL::Vector::Zero());
+    base_axes_[3 + k] = KDL::Twist(o * e, e);  // w e_k about the base origin: v(0) = o x e_k
+  }
+  for (std::size_t i = 1; i < links_.size(); ++i) {
+    Link& link = links_[i];
+    const KDL::Frame& parent = links_[link.parent].frame;
+    const KDL::Joint& joint = link.segment.getJoint();
+    const double q = link.joint >= 0 ? q_(link.joint) : 0.0;
+    link.frame = parent * link.segment.pose(q);
+    link.inertia = link.frame * link.segment.getInertia();
+    if (link.joint < 0) {
+      link.axis = KDL::Twist::Zero();
+    } else {
+      const KDL::Vector axis = parent.M * joint.JointAxis();
+      const bool rotation = joint.getType() <= KDL::Joint::RotZ;
+      if (rotation) {
+        const KDL::Vector origin = parent * joint.JointOrigin();
+        link.axis = KDL::Twist(origin * axis, axis);  // w a through o: v(0) = o x a
+      } else {
+        link.axis = KDL::Twist(axis, KDL::Vector::Zero());
+      }
+    }
+  }
+  updateTwists();
+}
+
+void ArticulatedBody::updateTwists() {
+  Link& base = links_[0];
+  const KDL::Vector w = toKdl(base_angular_velocity_);
+  base.twist = KDL::Twist(toKdl(base_linear_velocity_) + base.frame.p * w, w);
+  for (std::size_t i = 1; i < links_.size(); ++i) {
+    Link& link = links_[i];
+    link.twist = links_[link.parent].twist;
+    if (link.joint >= 0) link.twist += link.axis * qdot_(link.joint);
+  }
+}
+
+const KDL::Twist& ArticulatedBody::unknownAxis(int k) const {
+  const int joint = joint_of_unknown_[k];
+  return joint < 0 ? base_axes_[k] : links_[link_of_joint_[joint]].axis;
+}
+
+void ArticulatedBody::updateMassMatrix() {
+  // Composite inertias, children before parents (world frame, reference point the origin: sums).
+  for (Link& link : links_) link.composite = link.inertia;
+  for (std::size_t i = links_.size() - 1; i > 0; --i) {
+    links_[links_[i].parent].composite = links_[links_[i].parent].composite + links_[i].composite;
+  }
+  // M_jk = S_j . (Ic_k S_k) for j on the path from k's link to the base: the wrench that moves
+  // k's subtree at a unit rate, seen by every joint that carries that subtree.
+  const int n = unknowns_;
+  mass_matrix_.setZero(n, n);
+  const int base_unknowns = base_type_ == BaseType::kFloating ? 6 : 0;
+  for (int k = 0; k < n; ++k) {
+    const int joint = joint_of_unknown_[k];
+    const int own = joint < 0 ? 0 : link_of_joint_[joint];
+    const KDL::Wrench force = links_[own].composite * unknownAxis(k);
+    for (int l = own; l >= 0; l = links_[l].parent) {
+      const int j = links_[l].joint;
+      if (l == 0) {
+        for (int b = 0; b < base_unknowns; ++b) {
+          mass_matrix_(b, k) = mass_matrix_(k, b) = KDL::dot(base_axes_[b], force);
+        }
+      } else if (j >= 0 && unknown_of_joint_[j] >= 0) {
+        const int u = unknown_of_joint_[j];
+        mass_matrix_(u, k) = mass_matrix_(k, u) = KDL::dot(links_[l].axis, force);
+      }
+    }
+    if (joint >= 0) mass_matrix_(k, k) += armatures_[joint];
+  }
+}
+
+void ArticulatedBody::requireRegular() const {
+  if (!singular_.empty()) throw std::invalid_argument(singular_);
+}
+
+void ArticulatedBody::factorise() {
+  const int n = unknowns_;
+  singular_.clear();
+  if (n == 0) return;
+  factor_.compute(mass_matrix_);
+  const double scale = mass_matrix_.diagonal().maxCoeff();
+  // Cholesky pivots in unknown order: the pivot of unknown k is that of M's leading (k+1) block, so
+  // the first zero pivot names the first unknown whose motion moves no mass the others do not.
+  const auto pivot_ok = [&](int k, const Eigen::MatrixXd& l) {
+    return l(k, k) * l(k, k) > kSingularPivot * scale;
+  };
+  int bad = -1;
+  if (factor_.info() == Eigen::Success && scale > 0.0) {
+    const Eigen::MatrixXd l = factor_.matrixL();
+    for (int k = 0; k < n && bad < 0; ++k) {
+      if (!pivot_ok(k, l)) bad = k;
+    }
+  } else {
+    bad = n - 1;
+    for (int k = 0; k < n; ++k) {
+      Eigen::LLT<Eigen::MatrixXd> lead(mass_matrix_.topLeftCorner(k + 1, k + 1));
+      if (lead.info() != Eigen::Success || !(scale > 0.0) ||
+          !pivot_ok(k, Eigen::MatrixXd(lead.matrixL()))) {
+        bad = k;
+        break;
+      }
+    }
+  }
+  singular_.clear();
+  if (bad >= 0) {
+    const int joint = joint_of_unknown_[bad];
+    singular_ =
+        (joint < 0 ? std::string("singular joint-space inertia at the floating base")
+                   : "singular joint-space inertia: joint '" + joint_names_[joint] +
+                         "' moves no mass (massless links beyond it); lock it or give them mass");
+  }
+}
+
+Eigen::VectorXd ArticulatedBody::velocity() const {
+  Eigen::VectorXd v(unknowns_);
+  for (int k = 0; k < unknowns_; ++k) {
+    const int joint = joint_of_unknown_[k];
+    v(k) = joint >= 0 ? qdot_(joint)
+                      : (k < 3 ? base_linear_velocity_(k) : base_angular_velocity_(k - 3));
+  }
+  return v;
+}
+
+void ArticulatedBody::addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) {
+  for (int k = 0; k < unknowns_; ++k) {
+    const int joint = joint_of_unknown_[k];
+    if (joint >= 0) {
+      qdot_(joint) += change(k);
+    } else if (k < 3) {
+      base_linear_velocity_(k) += change(k);
+    } else {
+      base_angular_velocity_(k - 3) += change(k);
+    }
+  }
+  updateTwists();
+}
+
+Eigen::Vector3d ArticulatedBody::partPointVelocity(int part, const Eigen::Vector3d& point) const {
+  return velocityAt(links_[checkLink(part < 0 ? default_link_ : part)].twist, point);
+}
+
+Eigen::Matrix<double, 3, Eigen::Dynamic> ArticulatedBody::linkPointJacobian(
+    int link, const Eigen::Vector3d& point) const {
+  Eigen::Matrix<double, 3, Eigen::Dynamic> jacobian =
+      Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, unknowns_);
+  for (int l = checkLink(link); l > 0; l = links_[l].parent) {
+    const int j = links_[l].joint;
+    if (j >= 0 && unknown_of_joint_[j] >= 0) {
+      jacobian.col(unknown_of_joint_[j]) = velocityAt(links_[l].axis, point);
+    }
+  }
+  if (base_type_ == BaseType::kFloating) {
+    for (int b = 0; b < 6; ++b) jacobian.col(b) = velocityAt(base_axes_[b], point);
+  }
+  return jacobian;
+}
+
+Eigen::Matrix<double, 3, Eigen::Dynamic> ArticulatedBody::partPointJacobian(
+    int part, const Eigen::Vector3d& point) const {
+  return linkPointJacobian(part < 0 ? default_link_ : part, point);
+}
+
+Eigen::Matrix<double, Eigen::Dynamic, 3> ArticulatedBody::partInverseMassJacobianTranspose(
+    int part, const Eigen::Vector3d& point) const {
+  if (unknowns_ == 0) return Eigen::Matrix<double, Eigen::Dynamic, 3>(0, 3);
+  requireRegular();
+  return factor_.solve(partPointJacobian(part, point).transpose());
+}
+
+double ArticulatedBody::kineticEnergy() const {
+  double energy = 0.0;
+  for (const Link& link : links_) energy += 0.5 * KDL::dot(link.twist, link.inertia * link.twist);
+  return energy;
+}
+
+Eigen::Matrix<double, 6, 1> ArticulatedBody::momentum() const {
+  KDL::Wrench total = KDL::Wrench::Zero();
+  for (const Link& link : links_) total += link.inertia * link.twist;
+  Eigen::Matrix<double, 6, 1> out;
+  out << toEigen(total.force), toEigen(total.torque);
+  return out;
+}
+
+}  // namespace collision_response::robot

@@ -1,0 +1,49 @@
+#include "collision_response/robot/urdf_loader.h"
+
+#include <urdf/model.h>
+#include <fstream>
+#include <kdl_parser/kdl_parser.hpp>
+#include <sstream>
+#include <stdexcept>
+
+namespace collision_response::robot {
+namespace {
+
+// The root link's inertia in the link frame (kdl_parser's conversion, which it does not apply to
+// the root).
+KDL::RigidBodyInertia rootInertia(const urdf::Model& model) {
+  const urdf::LinkConstSharedPtr root = model.getRoot();
+  if (!root || !root->inertial) return KDL::RigidBodyInertia::Zero();
+  const urdf::Inertial& in = *root->inertial;
+  double x, y, z, w;
+  in.origin.rotation.getQuaternion(x, y, z, w);
+  const KDL::Frame origin(
+      KDL::Rotation::Quaternion(x, y, z, w),
+      KDL::Vector(in.origin.position.x, in.origin.position.y, in.origin.position.z));
+  return origin * KDL::RigidBodyInertia(
+                      in.mass, KDL::Vector::Zero(),
+                      KDL::RotationalInertia(in.ixx, in.iyy, in.izz, in.ixy, in.ixz, in.iyz));
+}
+
+}  // namespace
+
+ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
+  urdf::Model model;
+  if (!model.initString(xml)) throw std::invalid_argument("URDF: the document does not parse");
+  KDL::Tree tree;
+  if (!kdl_parser::treeFromUrdfModel(model, tree)) {
+    throw std::invalid_argument("URDF: kdl_parser could not build the tree of '" + model.getName() +
+                                "'");
+  }
+  return ArticulatedBody(tree, base, rootInertia(model));
+}
+
+ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base) {
+  std::ifstream file(path);
+  if (!file) throw std::invalid_argument("URDF: cannot read '" + path + "'");
+  std::stringstream text;
+  text << file.rdbuf();
+  return robotFromUrdfString(text.str(), base);
+}
+
+}  // namespace collision_response::robot

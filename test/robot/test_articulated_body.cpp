@@ -1,0 +1,201 @@
+// ArticulatedBody's model against closed forms and KDL's chain solvers (docs/robots.md): M(q) of a
+// pendulum and of the textbook planar 2R arm, the 7-DOF arm's M(q) and Jacobians against
+// ChainDynParam::JntToMass and ChainJntToJacSolver, joint models (locked, armature) and the
+// rejection of a singular joint-space inertia.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <kdl/chain.hpp>
+#include <kdl/chaindynparam.hpp>
+#include <kdl/chainjnttojacsolver.hpp>
+#include <kdl/jacobian.hpp>
+#include <kdl/jntspaceinertiamatrix.hpp>
+#include <kdl/tree.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+#include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/urdf_loader.h"
+
+namespace rb = collision_response::robot;
+using Eigen::Matrix2d;
+using Eigen::MatrixXd;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+
+namespace {
+
+const std::string kDir = ROBOT_TEST_DIR;
+
+// The 2R arm of two_link.urdf.
+constexpr double m1 = 2.0, l1 = 1.0, lc1 = 0.5, I1 = m1 * l1 * l1 / 12.0;
+constexpr double m2 = 1.0, l2 = 0.8, lc2 = 0.4, I2 = m2 * l2 * l2 / 12.0;
+
+// The textbook joint-space inertia of a planar 2R arm (Spong, Robot Modeling and Control, 7.4.2):
+//   M11 = m1 lc1^2 + m2 (l1^2 + lc2^2 + 2 l1 lc2 cos q2) + I1 + I2
+//   M12 = m2 (lc2^2 + l1 lc2 cos q2) + I2,   M22 = m2 lc2^2 + I2.
+Matrix2d twoLinkMass(double q2) {
+  Matrix2d m;
+  m(0, 0) = m1 * lc1 * lc1 + m2 * (l1 * l1 + lc2 * lc2 + 2 * l1 * lc2 * std::cos(q2)) + I1 + I2;
+  m(0, 1) = m(1, 0) = m2 * (lc2 * lc2 + l1 * lc2 * std::cos(q2)) + I2;
+  m(1, 1) = m2 * lc2 * lc2 + I2;
+  return m;
+}
+
+}  // namespace
+
+// Pendulum: one unknown, M = I_hinge = m L^2 / 3 = 2/3 kg m^2; at q = 0 the point (d, 0, 0) of the
+// rod moves at w z x (d, 0, 0) = (0, w d, 0): J = (0, d, 0).
+TEST(ArticulatedBody, PendulumMassAndJacobian) {
+  rb::ArticulatedBody rod = rb::robotFromUrdfFile(kDir + "/pendulum.urdf");
+  ASSERT_EQ(rod.jointCount(), 1);
+  ASSERT_EQ(rod.velocityCount(), 1);
+  EXPECT_EQ(rod.jointNames()[0], "hinge");
+  EXPECT_NEAR(rod.massMatrix()(0, 0), 2.0 / 3.0, 1e-15);
+  const auto J = rod.linkPointJacobian(rod.linkIndex("rod"), Vector3d(0.7, 0, 0));
+  EXPECT_TRUE(J.isApprox(Vector3d(0, 0.7, 0), 1e-15));
+  // At q = 90 degrees the rod points along y: M unchanged, the point (0, d, 0) moves along -x.
+  rod.setState(VectorXd::Constant(1, M_PI / 2), VectorXd::Constant(1, 2.0));
+  EXPECT_NEAR(rod.massMatrix()(0, 0), 2.0 / 3.0, 1e-15);
+  EXPECT_TRUE(rod.partPointVelocity(rod.linkIndex("rod"), Vector3d(0, 0.5, 0))
+                  .isApprox(Vector3d(-1.0, 0, 0), 1e-15));
+}
+
+TEST(ArticulatedBody, TwoLinkMassMatchesTheTextbookAtSeveralConfigurations) {
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/two_link.urdf");
+  ASSERT_EQ(arm.velocityCount(), 2);
+  for (const double q1 : {0.0, 0.4, -1.3}) {
+    for (const double q2 : {0.0, 0.9, 2.5, -2.0}) {
+      arm.setState(Eigen::Vector2d(q1, q2), Eigen::Vector2d::Zero());
+      EXPECT_TRUE(arm.massMatrix().isApprox(twoLinkMass(q2), 1e-14))
+          << "q = " << q1 << ", " << q2 << "\n"
+          << arm.massMatrix() << "\nwant\n"
+          << twoLinkMass(q2);
+    }
+  }
+}
+
+// The 7-DOF arm against KDL's chain solvers. A KDL chain has no branches, so the comparison is on
+// the chain base_link -> left_finger (7 revolute joints, the hand, one prismatic finger), rebuilt
+// as a tree for ArticulatedBody: the same links, two independent algorithms (ChainDynParam is the
+// chain's composite-rigid-body method in local frames; ChainJntToJacSolver the twists of the tip).
+TEST(ArticulatedBody, Arm7MassAndJacobiansEqualKdlChainSolvers) {
+  KDL::Tree full;
+  ASSERT_TRUE(kdl_parser::treeFromFile(kDir + "/arm7.urdf", full));
+  KDL::Chain chain;
+  ASSERT_TRUE(full.getChain("base_link", "left_finger", chain));
+  ASSERT_EQ(chain.getNrOfJoints(), 8u);
+  KDL::Tree tree("base_link");
+  ASSERT_TRUE(tree.addChain(chain, "base_link"));
+  rb::ArticulatedBody arm(tree);
+  ASSERT_EQ(arm.velocityCount(), 8);
+
+  KDL::ChainDynParam dynamics(chain, KDL::Vector(0, 0, -9.81));
+  KDL::ChainJntToJacSolver jacobians(chain);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI);
+  const int finger = arm.linkIndex("left_finger");
+  for (int trial = 0; trial < 20; ++trial) {
+    VectorXd q(8);
+    for (int i = 0; i < 7; ++i) q(i) = angle(rng);
+    q(7) = 0.02 + 0.01 * angle(rng) / M_PI;
+    arm.setState(q, VectorXd::Zero(8));
+    KDL::JntArray kq(8);
+    kq.data = q;
+    KDL::JntSpaceInertiaMatrix H(8);
+    ASSERT_GE(dynamics.JntToMass(kq, H), 0);
+    EXPECT_LE((arm.massMatrix() - H.data).cwiseAbs().maxCoeff(), 1e-12) << "trial " << trial;
+
+    KDL::Jacobian jac(8);
+    ASSERT_GE(jacobians.JntToJac(kq, jac), 0);
+    // KDL's Jacobian is the twist of the tip frame's origin, base coordinates: the velocity of a
+    // point p of the tip link is v_tip + w x (p - o_tip).
+    const Vector3d tip = arm.linkPose(finger).translation();
+    const Vector3d p = tip + Vector3d(0.03, -0.02, 0.05);
+    const MatrixXd want = jac.data.topRows(3) - [&] {
+      MatrixXd lever(3, 8);
+      for (int i = 0; i < 8; ++i) lever.col(i) = (p - tip).cross(Vector3d(jac.data.col(i).tail(3)));
+      return lever;
+    }();
+    EXPECT_LE((arm.linkPointJacobian(finger, p) - want).cwiseAbs().maxCoeff(), 1e-12);
+  }
+}
+
+// The whole arm (both fingers, a tree): the seven arm joints and the two finger joints. M is
+// symmetric positive definite and (1/2) qdot^T M qdot equals the links' kinetic energy summed
+// link by link (sum of (1/2) V_i . I_i V_i over the links' twists), an independent computation.
+TEST(ArticulatedBody, Arm7TreeEnergyMatchesMassMatrix) {
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/arm7.urdf");
+  ASSERT_EQ(arm.jointCount(), 9);
+  ASSERT_EQ(arm.linkCount(), 11);  // base, 7 links, hand, 2 fingers
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    VectorXd q(9), qdot(9);
+    for (int i = 0; i < 9; ++i) {
+      q(i) = 3 * u(rng);
+      qdot(i) = u(rng);
+    }
+    arm.setState(q, qdot);
+    const MatrixXd& M = arm.massMatrix();
+    EXPECT_LE((M - M.transpose()).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_NEAR(0.5 * qdot.dot(M * qdot), arm.kineticEnergy(), 1e-12);
+  }
+}
+
+// Armature: a single joint's M is I_hinge + I_a; locking the joint removes the unknown.
+TEST(ArticulatedBody, JointModels) {
+  rb::ArticulatedBody rod = rb::robotFromUrdfFile(kDir + "/pendulum.urdf");
+  rod.setJointModel(0, rb::JointModel::kArmature, 0.25);
+  EXPECT_NEAR(rod.massMatrix()(0, 0), 2.0 / 3.0 + 0.25, 1e-15);
+  rod.setJointModel(0, rb::JointModel::kLocked);
+  EXPECT_EQ(rod.velocityCount(), 0);
+  EXPECT_EQ(rod.unknownOfJoint(0), -1);
+  rod.setJointModel(0, rb::JointModel::kFree);
+  EXPECT_EQ(rod.velocityCount(), 1);
+
+  // The 2R arm with the shoulder locked: one unknown, M = M22.
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/two_link.urdf");
+  arm.setJointModel(arm.jointIndex("shoulder"), rb::JointModel::kLocked);
+  ASSERT_EQ(arm.velocityCount(), 1);
+  EXPECT_EQ(arm.jointOfUnknown(0), arm.jointIndex("elbow"));
+  EXPECT_NEAR(arm.massMatrix()(0, 0), twoLinkMass(0.0)(1, 1), 1e-15);
+}
+
+// A free joint that moves only massless links makes M singular: the robot is refused (setState(),
+// M^-1 J^T) naming the joint until it is locked. A document that does not parse and a missing file
+// are rejected.
+TEST(ArticulatedBody, SingularInertiaIsRejectedNamingTheJoint) {
+  const std::string urdf = R"(<?xml version="1.0"?>
+<robot name="massless_tip">
+  <link name="base"/>
+  <joint name="hinge" type="continuous">
+    <parent link="base"/><child link="rod"/><axis xyz="0 0 1"/>
+  </joint>
+  <link name="rod">
+    <inertial><origin xyz="0.5 0 0"/><mass value="1"/>
+      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>
+  </link>
+  <joint name="wrist" type="continuous">
+    <parent link="rod"/><child link="pointer"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>
+  </joint>
+  <link name="pointer"/>
+</robot>)";
+  rb::ArticulatedBody robot = rb::robotFromUrdfString(urdf);
+  EXPECT_NE(robot.singularJoint().find("'wrist'"), std::string::npos) << robot.singularJoint();
+  try {
+    robot.setState(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d::Zero());
+    FAIL() << "a massless link on a free joint was accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("'wrist'"), std::string::npos) << error.what();
+  }
+  EXPECT_THROW(robot.partInverseMassJacobianTranspose(2, Vector3d(1, 0, 0)), std::invalid_argument);
+  robot.setJointModel(robot.jointIndex("wrist"), rb::JointModel::kLocked);
+  EXPECT_TRUE(robot.singularJoint().empty());
+  robot.setState(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d::Zero());
+  EXPECT_EQ(robot.velocityCount(), 1);
+  EXPECT_THROW(rb::robotFromUrdfString("<robot"), std::invalid_argument);
+  EXPECT_THROW(rb::robotFromUrdfFile(kDir + "/missing.urdf"), std::invalid_argument);
+}
