@@ -141,6 +141,16 @@ def main():
     parser.add_argument("sessions", nargs="*")
     args = parser.parse_args()
     devel = os.path.abspath(args.devel)
+    if os.environ.get("CR_README_BLOCKS") == "skip":  # scripts/sanitize.sh: see there
+        print("readme: skipped (CR_README_BLOCKS=skip)")
+        if args.junit:
+            os.makedirs(os.path.dirname(os.path.abspath(args.junit)), exist_ok=True)
+            with open(args.junit, "w") as out:
+                out.write('<?xml version="1.0" encoding="UTF-8"?>\n<testsuite name="ReadmeBlocks" '
+                          'tests="1" failures="0" errors="0" skipped="1">\n  <testcase '
+                          'classname="ReadmeBlocks" name="all"><skipped/></testcase>\n'
+                          '</testsuite>\n')
+        return 0
     sessions = extract(os.path.join(REPO, "README.md"))
     if args.list:
         for name, blocks in sessions.items():

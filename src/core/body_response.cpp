@@ -110,12 +110,7 @@ BodyResponse computeBodyResponse(const std::vector<BodyModel*>& bodies,
     if (approaching) {
       report = solveIsland(problem, options, answer);
       problem.addVelocityChangesTo(bodies);
-      for (std::size_t i = 0; i < problem.size(); ++i) {
-        ContactImpulse& out = result.impulses[problem.contact(i).source];
-        out.normal_impulse = answer[i].normal_impulse;
-        out.friction_impulse = answer[i].friction_impulse;
-        out.sticking = answer[i].sticking;
-      }
+      problem.scatterImpulses(answer, result.impulses);
     }
     report.contacts = island;
     result.islands.push_back(std::move(report));

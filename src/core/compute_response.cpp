@@ -104,12 +104,7 @@ CollisionResult computeValidatedResponse(const Scene& scene,
       problem.buildImpact(bodies, contacts, island.contacts);
       report = solveIsland(problem, options, answer);
       problem.addVelocityChangesTo(bodies);
-      for (std::size_t i = 0; i < problem.size(); ++i) {
-        ContactImpulse& out = result.impulses[problem.contact(i).source];
-        out.normal_impulse = answer[i].normal_impulse;
-        out.friction_impulse = answer[i].friction_impulse;
-        out.sticking = answer[i].sticking;
-      }
+      problem.scatterImpulses(answer, result.impulses);
     } else {
       problem.buildResting(scene.bodies, bodies, contacts, island.contacts,
                            options.resting_velocity);

@@ -338,4 +338,14 @@ void ContactProblem::addVelocityChangesTo(const std::vector<BodyModel*>& bodies)
   }
 }
 
+void ContactProblem::scatterImpulses(const std::vector<ContactImpulse>& solved,
+                                     std::vector<ContactImpulse>& impulses) const {
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    ContactImpulse& out = impulses[contacts_[i].source];
+    out.normal_impulse = solved[i].normal_impulse;
+    out.friction_impulse = solved[i].friction_impulse;
+    out.sticking = solved[i].sticking;
+  }
+}
+
 }  // namespace collision_response::core

@@ -505,11 +505,7 @@ SolveReport solveExact(std::vector<RigidBody>& bodies, const std::vector<Contact
   std::vector<ContactImpulse> local;
   SolveReport report = solveExact(problem, options, local);
   problem.addVelocityChangesTo(bodies);
-  for (std::size_t i = 0; i < island.size(); ++i) {
-    impulses[island[i]].normal_impulse = local[i].normal_impulse;
-    impulses[island[i]].friction_impulse = local[i].friction_impulse;
-    impulses[island[i]].sticking = local[i].sticking;
-  }
+  problem.scatterImpulses(local, impulses);
   report.contacts = island;
   return report;
 }

@@ -7,6 +7,7 @@
 
 #include "collision_response/core/body_model.h"
 #include "collision_response/core/body_state.h"
+#include "collision_response/core/contact_impulse.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/problem_contact.h"
 #include "collision_response/core/rigid_body.h"
@@ -160,6 +161,11 @@ class ContactProblem {
   /// Adds the velocity changes to the bodies the problem was built from (the same list).
   void addVelocityChangesTo(std::vector<RigidBody>& bodies) const;
   void addVelocityChangesTo(const std::vector<BodyModel*>& bodies) const;
+  /// Writes a solver's answer (`solved`, in problem order) into `impulses`, the list of the
+  /// contacts the problem was built from, at each contact's source index: normal and friction
+  /// impulse and sticking (normal velocities are the caller's).
+  void scatterImpulses(const std::vector<ContactImpulse>& solved,
+                       std::vector<ContactImpulse>& impulses) const;
 
  private:
   // J (3 x n) and M^-1 J^T (n x 3) of a general body on one side of a contact.
