@@ -75,7 +75,7 @@ void emitSeeds(const std::string& dir) {
     if (!outcome.solved || outcome.result.islands.empty()) continue;
     std::string kind = std::string(collision_response::core::toString(request.options.law)) + "/" +
                        collision_response::core::toString(request.options.method);
-    for (const auto& island : outcome.result.islands) kind += "/" + island.method;
+    for (const auto& island : outcome.result.islands) kind += "/" + island.methodName();
     kind += approaching(outcome) ? "/impact" : "/rest";
     if (!kinds.insert(kind).second) continue;
     const std::string path = dir + "/seed-" + std::to_string(written++);
@@ -105,7 +105,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (outcome.solved) {
       std::printf("outcome: solved");
       for (const auto& island : outcome.result.islands) {
-        std::printf(" [%s, %zu iterations, residual %g%s]", island.method.c_str(),
+        std::printf(" [%s, %zu iterations, residual %g%s]", island.methodName().c_str(),
                     island.iterations, island.residual, island.converged ? "" : ", NOT converged");
       }
       std::printf("\n");
