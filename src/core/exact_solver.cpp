@@ -500,14 +500,10 @@ SolveReport solveExact(ContactProblem& problem, const SolverOptions& options,
 SolveReport solveExact(std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
                        const std::vector<int>& island, const SolverOptions& options,
                        std::vector<ContactImpulse>& impulses) {
-  ContactProblem problem;
-  problem.buildImpact(bodies, contacts, island);
-  std::vector<ContactImpulse> local;
-  SolveReport report = solveExact(problem, options, local);
-  problem.addVelocityChangesTo(bodies);
-  problem.scatterImpulses(local, impulses);
-  report.contacts = island;
-  return report;
+  return solveRigidIsland(bodies, contacts, island, impulses,
+                          [&](ContactProblem& problem, std::vector<ContactImpulse>& solved) {
+                            return solveExact(problem, options, solved);
+                          });
 }
 
 }  // namespace collision_response::core

@@ -191,14 +191,10 @@ SolveReport solveIterative(std::vector<RigidBody>& bodies,
                            const std::vector<ContactPoint>& contacts,
                            const std::vector<int>& island, const SolverOptions& options,
                            std::vector<ContactImpulse>& impulses) {
-  ContactProblem problem;
-  problem.buildImpact(bodies, contacts, island);
-  std::vector<ContactImpulse> local;
-  SolveReport report = solveIterative(problem, options, local);
-  problem.addVelocityChangesTo(bodies);
-  problem.scatterImpulses(local, impulses);
-  report.contacts = island;
-  return report;
+  return solveRigidIsland(bodies, contacts, island, impulses,
+                          [&](ContactProblem& problem, std::vector<ContactImpulse>& solved) {
+                            return solveIterative(problem, options, solved);
+                          });
 }
 
 }  // namespace collision_response::core

@@ -210,4 +210,21 @@ class ContactProblem {
   mutable bool couplings_built_ = false;
 };
 
+/// The rigid-body form of a solver (the solvers' convenience overloads): builds the impact problem
+/// of `island` between free rigid bodies, runs `solve(problem, solved)`, applies the velocity
+/// changes to `bodies` and writes the impulses into `impulses` at the contacts' indices.
+template <typename Solve>
+auto solveRigidIsland(std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
+                      const std::vector<int>& island, std::vector<ContactImpulse>& impulses,
+                      Solve solve) {
+  ContactProblem problem;
+  problem.buildImpact(bodies, contacts, island);
+  std::vector<ContactImpulse> solved;
+  auto report = solve(problem, solved);
+  problem.addVelocityChangesTo(bodies);
+  problem.scatterImpulses(solved, impulses);
+  report.contacts = island;
+  return report;
+}
+
 }  // namespace collision_response::core
