@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake python3 python3-catkin-pkg catkin
   ros-core-dev ros-base-dev libroscpp-dev ros-message-generation rosbash
-  libstd-msgs-dev libgeometry-msgs-dev libshape-msgs-dev python3-shape-msgs libtf2-ros-dev python3-tf2-ros libtf2-eigen-dev libeigen3-dev libfcl-dev
+  libstd-msgs-dev libgeometry-msgs-dev libshape-msgs-dev python3-shape-msgs libsensor-msgs-dev python3-sensor-msgs libtf2-ros-dev python3-tf2-ros libtf2-eigen-dev libeigen3-dev libfcl-dev
   librostest-dev python3-rostest python3-rosservice python3-rostopic libgtest-dev
   python3-std-msgs python3-geometry-msgs libbenchmark-dev
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools python3-nodelet pluginlib-dev
@@ -17,6 +17,7 @@ packages=(
   librosbag-storage-dev python3-rosbag python3-rospkg
   python3-diagnostic-msgs tf2-tools python3-tf2-msgs
   liburdf-dev libkdl-parser-dev liborocos-kdl-dev
+  ros-robot-state-publisher joint-state-publisher
 )
 scripts/install_packages.sh "${packages[@]}"
 

@@ -206,6 +206,7 @@ SceneValidator::SceneValidator(const Scene& scene, const SolverOptions& options,
   requireInRange(static_cast<double>(options.max_iterations), option_ranges::kMaxIterations,
                  "options.max_iterations");
 
+  body_count_ = scene.bodies.size();
   index_of_.reserve(scene.bodies.size());
   smallest_moments_.resize(scene.bodies.size());
   for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
@@ -215,6 +216,20 @@ SceneValidator::SceneValidator(const Scene& scene, const SolverOptions& options,
     if (!inserted) {
       throw InvalidInput(field + ".id", "'" + scene.bodies[i].id + "' duplicates bodies[" +
                                             std::to_string(it->second) + "].id");
+    }
+  }
+}
+
+void SceneValidator::addOtherBodyIds(const std::vector<std::string>& ids) {
+  for (const std::string& id : ids) {
+    const int index = static_cast<int>(index_of_.size());
+    const auto [it, inserted] = index_of_.emplace(id, index);
+    if (!inserted) {
+      if (it->second < static_cast<int>(body_count_)) {
+        throw InvalidInput(indexed("bodies", static_cast<std::size_t>(it->second)) + ".id",
+                           "'" + id + "' is also the name of a robot's link");
+      }
+      throw InvalidInput("bodies", "body id '" + id + "' given twice");
     }
   }
 }
@@ -236,7 +251,8 @@ void SceneValidator::checkContacts(const Scene& scene) {
     if (a == b)
       throw InvalidInput(field + ".body_b",
                          "is the same body as body_a ('" + contact.body_a + "')");
-    if (scene.bodies[a].immovable() && scene.bodies[b].immovable()) {
+    const int n = static_cast<int>(body_count_);
+    if (a < n && b < n && scene.bodies[a].immovable() && scene.bodies[b].immovable()) {
       throw InvalidInput(
           field, "both bodies ('" + contact.body_a + "', '" + contact.body_b + "') are immovable");
     }
@@ -250,8 +266,8 @@ void SceneValidator::checkContacts(const Scene& scene) {
     }
     validateCoefficients(contact.restitution, contact.static_friction, contact.dynamic_friction,
                          field);
-    checkLeverArm(scene.bodies[a], a, smallest_moments_[a], contact.point, field);
-    checkLeverArm(scene.bodies[b], b, smallest_moments_[b], contact.point, field);
+    if (a < n) checkLeverArm(scene.bodies[a], a, smallest_moments_[a], contact.point, field);
+    if (b < n) checkLeverArm(scene.bodies[b], b, smallest_moments_[b], contact.point, field);
     contact_bodies_.emplace_back(a, b);
   }
 }

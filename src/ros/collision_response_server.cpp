@@ -10,11 +10,15 @@
 #include <chrono>
 #include <optional>
 #include <stdexcept>
+#include <unordered_set>
 
+#include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/errors.h"
+#include "collision_response/core/rigid_body.h"
 #include "collision_response/core/validation.h"
 #include "collision_response/ros/message_conversion.h"
+#include "collision_response/ros/robot_conversion.h"
 
 namespace collision_response {
 namespace {
@@ -54,6 +58,7 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
       contact_tolerance_(parameters_.contact_tolerance),
       tf_timeout_(parameters_.tf_timeout),
       tf_listener_(tf_buffer_, node) {
+  loadRobots(node);
   responses_ = private_node.advertise<CollisionResponse>("responses", 10);
   markers_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   setUpMonitoring(node, private_node);
@@ -63,6 +68,49 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
       private_node.advertiseService("compute_batch", &CollisionResponseServer::computeBatch, this);
   ROS_INFO("collision_response: serving %s (law %s, solver %s)", service_.getService().c_str(),
            core::toString(default_options_.law), core::toString(default_options_.method));
+}
+
+void CollisionResponseServer::loadRobots(ros::NodeHandle& node) {
+  for (std::size_t i = 0; i < parameters_.robots.size(); ++i) {
+    const RobotParameters& entry = parameters_.robots[i];
+    const std::string field = "~robots[" + std::to_string(i) + "]";
+    std::string urdf;
+    if (!node.getParam(entry.description_param, urdf)) {
+      throw core::InvalidInput(
+          field + ".description_param",
+          "no string parameter '" + entry.description_param + "' holding the robot's URDF");
+    }
+    robots_.push_back(std::make_unique<ServedRobot>(entry, urdf, field));
+    ServedRobot* robot = robots_.back().get();
+    joint_state_subscribers_.push_back(node.subscribe<sensor_msgs::JointState>(
+        entry.joint_states_topic, 10, [robot](const sensor_msgs::JointState::ConstPtr& message) {
+          robot->jointStates().update(*message, ros::Time::now());
+        }));
+    ROS_INFO("collision_response: robot '%s' (%d joints, %s base) from %s, joint states on %s",
+             entry.name.c_str(), robot->model().jointCount(), entry.floating ? "floating" : "fixed",
+             entry.description_param.c_str(), entry.joint_states_topic.c_str());
+  }
+}
+
+ServedRobot* CollisionResponseServer::findRobot(const std::string& name) const {
+  for (const auto& robot : robots_)
+    if (robot->name() == name) return robot.get();
+  return nullptr;
+}
+
+bool CollisionResponseServer::involvesRobots(const ComputeResponse::Request& request) const {
+  if (!request.robots.empty()) return true;
+  if (robots_.empty()) return false;
+  const auto names_link = [&](const std::string& id) {
+    const std::size_t slash = id.find('/');
+    if (slash == std::string::npos || findRobot(id.substr(0, slash)) == nullptr) return false;
+    for (const BodyState& body : request.bodies)
+      if (body.id == id) return false;
+    return true;
+  };
+  for (const Contact& contact : request.contacts)
+    if (names_link(contact.body_a) || names_link(contact.body_b)) return true;
+  return false;
 }
 
 core::Scene CollisionResponseServer::toScene(const ComputeResponse::Request& request) const {
@@ -171,6 +219,7 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
   published.impulses = response.impulses;
   published.kinetic_energy_before = response.kinetic_energy_before;
   published.kinetic_energy_after = response.kinetic_energy_after;
+  published.robots = response.robots;
   responses_.publish(published);
   // Markers only when someone looks: the hot path does not pay for them.
   if (markers_.getNumSubscribers() > 0)
@@ -196,6 +245,11 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     // Each value is checked once: the bodies and given contacts before detection (which needs
     // valid poses), the detected contacts after it.
     core::SceneValidator validator(scene, options, parameters_.limits);
+    if (involvesRobots(request)) {
+      solveWithRobots(request, response, scene, validator, options);
+      response.success = true;
+      return field_error;
+    }
     validator.checkContacts(scene);
     if (wantsDetection(request)) {
       const detection::DetectedContacts detected =
@@ -253,8 +307,177 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     response.detected_contacts.clear();
     response.detected_depths.clear();
     response.warnings.clear();
+    response.robots.clear();
+    response.effective_masses.clear();
   }
   return field_error;
+}
+
+namespace {
+
+// A robot taking part in a request: the served robot, its message (the request's, or a default one
+// for a robot only named by contacts), and its model at the request's state.
+struct RequestRobot {
+  ServedRobot* served = nullptr;
+  RobotState message;
+  std::string field;  // "robots[i]", or the first contact naming it
+  Eigen::Isometry3d base_pose = Eigen::Isometry3d::Identity();
+  std::optional<robot::ArticulatedBody> model;
+  Eigen::VectorXd velocity_before;
+  double energy_before = 0.0;
+};
+
+}  // namespace
+
+void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& request,
+                                              ComputeResponse::Response& response,
+                                              core::Scene& scene, core::SceneValidator& validator,
+                                              const core::SolverOptions& options) {
+  // The robots: those listed, then those only named by contacts ("<robot>/<link>").
+  std::vector<RequestRobot> robots;
+  const auto add = [&](ServedRobot* served, const RobotState& message, const std::string& field) {
+    robots.emplace_back();
+    robots.back().served = served;
+    robots.back().message = message;
+    robots.back().field = field;
+  };
+  const auto find_listed = [&](const std::string& name) {
+    for (std::size_t r = 0; r < robots.size(); ++r)
+      if (robots[r].served->name() == name) return static_cast<int>(r);
+    return -1;
+  };
+  for (std::size_t i = 0; i < request.robots.size(); ++i) {
+    const std::string field = "robots[" + std::to_string(i) + "]";
+    ServedRobot* served = findRobot(request.robots[i].name);
+    if (served == nullptr) {
+      throw core::InvalidInput(field + ".name",
+                               "names no robot of ~robots ('" + request.robots[i].name + "')");
+    }
+    if (find_listed(served->name()) >= 0)
+      throw core::InvalidInput(field + ".name", "repeats robot '" + served->name() + "'");
+    add(served, request.robots[i], field);
+  }
+  std::unordered_set<std::string> body_ids;
+  for (const core::BodyState& body : scene.bodies) body_ids.insert(body.id);
+  for (std::size_t c = 0; c < request.contacts.size(); ++c) {
+    for (const std::string* id : {&request.contacts[c].body_a, &request.contacts[c].body_b}) {
+      const std::size_t slash = id->find('/');
+      if (slash == std::string::npos || body_ids.count(*id) > 0) continue;
+      ServedRobot* served = findRobot(id->substr(0, slash));
+      if (served == nullptr || find_listed(served->name()) >= 0) continue;
+      RobotState message;
+      message.name = served->name();
+      add(served, message, "contacts[" + std::to_string(c) + "]");
+    }
+  }
+
+  // Each robot at its state: base pose from the request or tf2, joints from the request or the
+  // latest joint states.
+  const ros::Time now = ros::Time::now();
+  std::vector<std::string> link_ids;
+  std::vector<std::pair<int, int>> robot_link_of_id;  // (robot, link) of link_ids[k]
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    RequestRobot& robot = robots[r];
+    if (const std::optional<Eigen::Isometry3d> pose = basePoseFromMsg(robot.message, robot.field)) {
+      robot.base_pose = *pose;
+    } else {
+      const std::string& base_frame = robot.served->baseFrame();
+      try {
+        robot.base_pose = tf2::transformToEigen(tf_buffer_.lookupTransform(
+            request.header.frame_id, base_frame, request.header.stamp, tf_timeout_));
+      } catch (const tf2::TransformException& e) {
+        throw core::InvalidInput(robot.field + ".base_pose",
+                                 "not given, and no transform from '" + base_frame + "' to '" +
+                                     request.header.frame_id + "': " + e.what());
+      }
+    }
+    robot.model = robotAtRequestState(*robot.served, robot.message, robot.base_pose, now,
+                                      parameters_.joint_state_timeout, robot.field);
+    robot.velocity_before = robot.model->velocity();
+    robot.energy_before = robot.model->kineticEnergy();
+    const std::vector<std::string>& ids = robot.served->linkIds();
+    for (std::size_t link = 0; link < ids.size(); ++link) {
+      link_ids.push_back(ids[link]);
+      robot_link_of_id.emplace_back(static_cast<int>(r), static_cast<int>(link));
+    }
+  }
+  validator.addOtherBodyIds(link_ids);
+  validator.checkContacts(scene);
+  if (wantsDetection(request)) {
+    const detection::DetectedContacts detected =
+        detect(request, scene, options, defaults().contact_tolerance);
+    for (const core::Contact& contact : detected.contacts)
+      response.detected_contacts.push_back(toMsg(contact));
+    response.detected_depths = detected.depths;
+    scene.contacts.insert(scene.contacts.end(), detected.contacts.begin(), detected.contacts.end());
+    validator.checkContacts(scene);
+  }
+
+  // Body models: the rigid bodies, then the robots; contacts by model index and part.
+  const int rigid_count = static_cast<int>(scene.bodies.size());
+  std::vector<core::RigidBody> rigid;
+  rigid.reserve(scene.bodies.size());
+  for (const core::BodyState& body : scene.bodies) rigid.push_back(core::makeRigidBody(body));
+  std::vector<core::BodyModel*> models;
+  models.reserve(rigid.size() + robots.size());
+  for (core::RigidBody& body : rigid) models.push_back(&body);
+  for (RequestRobot& robot : robots) models.push_back(&*robot.model);
+  std::vector<core::ContactPoint> points;
+  points.reserve(scene.contacts.size());
+  for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
+    const core::Contact& contact = scene.contacts[c];
+    core::ContactPoint point(-1, -1, contact.point, contact.normal.normalized(),
+                             contact.restitution, contact.static_friction,
+                             contact.dynamic_friction);
+    const auto [a, b] = validator.contactBodies()[c];
+    const auto place = [&](int index, int& body, int& part) {
+      if (index < rigid_count) {
+        body = index;
+        return;
+      }
+      const auto [robot, link] = robot_link_of_id[index - rigid_count];
+      body = rigid_count + robot;
+      part = link;
+    };
+    place(a, point.body_a, point.part_a);
+    place(b, point.body_b, point.part_b);
+    points.push_back(point);
+  }
+
+  double energy_before = 0.0;
+  for (const core::BodyState& body : scene.bodies) energy_before += core::kineticEnergy(body);
+  for (const RequestRobot& robot : robots) energy_before += robot.energy_before;
+
+  const auto start = std::chrono::steady_clock::now();
+  const core::BodyResponse result = core::computeBodyResponse(models, points, options);
+  response.solve_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // The answer: rigid bodies, impulses, islands, effective masses, robots.
+  double energy_after = 0.0;
+  response.bodies.reserve(scene.bodies.size());
+  for (int i = 0; i < rigid_count; ++i) {
+    core::BodyState& body = scene.bodies[i];
+    if (!body.immovable()) {
+      body.linear_velocity = rigid[i].linear_velocity;
+      body.angular_velocity = rigid[i].angular_velocity;
+    }
+    energy_after += core::kineticEnergy(body);
+    response.bodies.push_back(toMsg(body, request.header.frame_id));
+  }
+  response.impulses.reserve(result.impulses.size());
+  for (const core::ContactImpulse& impulse : result.impulses)
+    response.impulses.push_back(toMsg(impulse));
+  for (const core::SolveReport& island : result.islands) response.islands.push_back(toMsg(island));
+  response.effective_masses = result.effective_masses;
+  response.robots.reserve(robots.size());
+  for (const RequestRobot& robot : robots) {
+    response.robots.push_back(toMsg(robot.served->name(), *robot.model, robot.velocity_before,
+                                    robot.energy_before, robot.base_pose, request.header));
+    energy_after += response.robots.back().kinetic_energy_after;
+  }
+  response.kinetic_energy_before = energy_before;
+  response.kinetic_energy_after = energy_after;
 }
 
 bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
@@ -280,6 +503,7 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
     single.contacts = std::move(scene.contacts);
     single.options = scene.options;
     single.detection = scene.detection;
+    single.robots = std::move(scene.robots);
     answer = ComputeResponse::Response();
     const std::optional<core::InvalidInput> field_error = solve(single, answer);
     SceneResult& result = response.results[i];
@@ -300,6 +524,8 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
     result.detected_depths = std::move(answer.detected_depths);
     result.warnings = std::move(answer.warnings);
     result.solve_time = answer.solve_time;
+    result.robots = std::move(answer.robots);
+    result.effective_masses = std::move(answer.effective_masses);
     response.solve_time += answer.solve_time;
     max_solve_time = std::max(max_solve_time, answer.solve_time);
   }

@@ -100,6 +100,88 @@ detection::MaterialTable readMaterials(const XmlRpcValue& values) {
   return table;
 }
 
+bool readBool(XmlRpcValue value, const std::string& field) {
+  if (value.getType() != XmlRpcValue::TypeBoolean)
+    throw core::InvalidInput(field, "must be true or false");
+  return static_cast<bool>(value);
+}
+
+std::string stringOf(XmlRpcValue value, const std::string& field) {
+  if (value.getType() != XmlRpcValue::TypeString)
+    throw core::InvalidInput(field, "must be a string");
+  return static_cast<std::string>(value);
+}
+
+// One ~robots entry.
+RobotParameters readRobot(XmlRpcValue& entry, const std::string& field) {
+  if (entry.getType() != XmlRpcValue::TypeStruct || !entry.hasMember("name"))
+    throw core::InvalidInput(field, "must be a struct with at least a name");
+  RobotParameters robot;
+  for (auto& [name, value] : entry) {
+    const std::string member_field = field + "." + name;
+    if (name == "name") {
+      robot.name = stringOf(value, member_field);
+    } else if (name == "description_param") {
+      robot.description_param = stringOf(value, member_field);
+    } else if (name == "joint_states_topic") {
+      robot.joint_states_topic = stringOf(value, member_field);
+    } else if (name == "floating") {
+      robot.floating = readBool(value, member_field);
+    } else if (name == "base_frame") {
+      robot.base_frame = stringOf(value, member_field);
+    } else if (name == "locked_joints") {
+      if (value.getType() != XmlRpcValue::TypeArray)
+        throw core::InvalidInput(member_field, "must be a list of joint names");
+      for (int i = 0; i < value.size(); ++i)
+        robot.locked_joints.push_back(
+            stringOf(value[i], member_field + "[" + std::to_string(i) + "]"));
+    } else if (name == "armature") {
+      if (value.getType() != XmlRpcValue::TypeStruct)
+        throw core::InvalidInput(member_field, "must be a map {joint: rotor inertia}");
+      for (auto& [joint, inertia] : value) {
+        const double armature = number(inertia, member_field + "." + joint);
+        if (!(armature >= 0.0) || !std::isfinite(armature))
+          throw core::InvalidInput(
+              member_field + "." + joint,
+              "must be a finite number >= 0 [kg m^2, kg for a prismatic joint]");
+        robot.armature[joint] = armature;
+      }
+    } else {
+      throw core::InvalidInput(field, "has an unknown member '" + name +
+                                          "' (name, description_param, joint_states_topic, "
+                                          "floating, base_frame, locked_joints, armature)");
+    }
+  }
+  if (robot.name.empty()) throw core::InvalidInput(field + ".name", "must not be empty");
+  if (robot.name.find('/') != std::string::npos)
+    throw core::InvalidInput(field + ".name",
+                             "must not contain '/' (contacts name links as \"<name>/<link>\")");
+  if (robot.description_param.empty())
+    throw core::InvalidInput(field + ".description_param", "must not be empty");
+  if (robot.joint_states_topic.empty())
+    throw core::InvalidInput(field + ".joint_states_topic", "must not be empty");
+  return robot;
+}
+
+// ~robots: a list of robot entries with distinct names.
+std::vector<RobotParameters> readRobots(const XmlRpcValue& values) {
+  std::vector<RobotParameters> robots;
+  if (!has(values, "robots")) return robots;
+  XmlRpcValue list = member(values, "robots");
+  if (list.getType() != XmlRpcValue::TypeArray)
+    throw core::InvalidInput("~robots", "must be a list of {name, description_param, ...}");
+  for (int i = 0; i < list.size(); ++i) {
+    const std::string field = "~robots[" + std::to_string(i) + "]";
+    robots.push_back(readRobot(list[i], field));
+    for (int j = 0; j < i; ++j) {
+      if (robots[j].name == robots.back().name)
+        throw core::InvalidInput(field + ".name", "repeats the name '" + robots.back().name +
+                                                      "' of ~robots[" + std::to_string(j) + "]");
+    }
+  }
+  return robots;
+}
+
 }  // namespace
 
 ServerParameters loadServerParameters(const XmlRpc::XmlRpcValue& values) {
@@ -144,6 +226,8 @@ ServerParameters loadServerParameters(const XmlRpc::XmlRpcValue& values) {
   p.default_frame = readString(values, "default_frame", p.default_frame);
   if (p.default_frame.empty()) throw core::InvalidInput("~default_frame", "must not be empty");
   p.threads = static_cast<int>(readCount(values, "threads", static_cast<std::size_t>(p.threads)));
+  p.robots = readRobots(values);
+  p.joint_state_timeout = readPositive(values, "joint_state_timeout", p.joint_state_timeout);
   return p;
 }
 

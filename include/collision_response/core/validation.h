@@ -61,13 +61,21 @@ class SceneValidator {
   /// given to the constructor, unchanged) and records their body indices. Throws InvalidInput
   /// naming "contacts[i]..." (i: the index in scene.contacts), or "contacts" past the size limit.
   void checkContacts(const Scene& scene);
-  /// Per checked contact, the indices of body_a and body_b in scene.bodies.
+  /// Ids that contacts may name besides scene.bodies: the parts of bodies that are not free rigid
+  /// bodies (a robot's links, "<robot>/<link>", docs/robots.md). contactBodies() numbers them
+  /// scene.bodies.size() + k, k their index here. They count as movable, and their lever arms are
+  /// not checked (their model has its own checks). Call before checkContacts(). Throws
+  /// InvalidInput naming "bodies[i].id" if a body has one of these ids.
+  void addOtherBodyIds(const std::vector<std::string>& ids);
+  /// Per checked contact, the indices of body_a and body_b in scene.bodies (or past it: the other
+  /// body ids).
   const std::vector<std::pair<int, int>>& contactBodies() const { return contact_bodies_; }
 
  private:
   RequestLimits limits_;
   std::unordered_map<std::string, int> index_of_;
   std::vector<double> smallest_moments_;
+  std::size_t body_count_ = 0;
   std::vector<std::pair<int, int>> contact_bodies_;
 };
 

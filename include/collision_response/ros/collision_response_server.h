@@ -15,10 +15,12 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
+#include "collision_response/core/validation.h"
 #include "collision_response/detection/contact_detector.h"
 #include "collision_response/detection/detect_contacts.h"
 #include "collision_response/detection/materials.h"
 #include "collision_response/ros/response_markers.h"
+#include "collision_response/ros/served_robot.h"
 #include "collision_response/ros/server_parameters.h"
 
 namespace diagnostic_updater {
@@ -72,6 +74,19 @@ class CollisionResponseServer {
   /// that a batch can name it in the batch.
   std::optional<core::InvalidInput> solve(ComputeResponse::Request& request,
                                           ComputeResponse::Response& response);
+  /// The part of solve() for requests with robots (request.robots, or contacts naming
+  /// "<robot>/<link>"): rigid bodies and robots as general body models (core::computeBodyResponse).
+  /// `scene` holds the request's validated bodies and given contacts; `validator` has checked them.
+  void solveWithRobots(const ComputeResponse::Request& request, ComputeResponse::Response& response,
+                       core::Scene& scene, core::SceneValidator& validator,
+                       const core::SolverOptions& options);
+  /// Whether a request involves robots: it lists some, or a contact names an id that is no body's
+  /// and starts with a served robot's name and '/'.
+  bool involvesRobots(const ComputeResponse::Request& request) const;
+  /// The served robot called `name`, or nullptr.
+  ServedRobot* findRobot(const std::string& name) const;
+  /// ~robots: each model from its URDF parameter, and a subscriber to its joint-state topic.
+  void loadRobots(ros::NodeHandle& node);
   /// The request defaults (parameters, dynamic_reconfigure), read together under the mutex so that
   /// a reconfigure cannot land between them.
   struct Defaults {
@@ -110,6 +125,8 @@ class CollisionResponseServer {
   ros::Duration tf_timeout_;
   std::mutex detectors_mutex_;
   std::vector<std::unique_ptr<detection::ContactDetector>> idle_detectors_;
+  std::vector<std::unique_ptr<ServedRobot>> robots_;  // ~robots, in order
+  std::vector<ros::Subscriber> joint_state_subscribers_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Publisher responses_;

@@ -3,13 +3,30 @@
 #include <xmlrpcpp/XmlRpcValue.h>
 
 #include <cstddef>
+#include <map>
 #include <string>
+#include <vector>
 
 #include "collision_response/core/solver_options.h"
 #include "collision_response/detection/materials.h"
 #include "collision_response/ros/response_markers.h"
 
 namespace collision_response {
+
+/// One entry of ~robots: a robot the node serves as a body of requests (docs/robots.md, "Robots
+/// through ROS"). Its model is read from the URDF on the parameter server at start-up.
+struct RobotParameters {
+  std::string name;  ///< contacts name its links "<name>/<link>"; no '/' in it
+  std::string description_param = "/robot_description";  ///< parameter holding the URDF (a string)
+  std::string joint_states_topic = "/joint_states";      ///< sensor_msgs/JointState, latest kept
+  bool floating = false;  ///< base free (6 more velocity unknowns) or fixed
+  /// tf frame whose pose places the URDF root link when a request gives no base pose; empty: the
+  /// root link's name (what robot_state_publisher broadcasts).
+  std::string base_frame;
+  std::vector<std::string> locked_joints;  ///< joints that move with their parent in an impact
+  /// Rotor inertia added to a joint's diagonal of M [kg m^2 revolute, kg prismatic], by joint name.
+  std::map<std::string, double> armature;
+};
 
 /// Everything the node (or the nodelet) reads from its private namespace, with the defaults, in
 /// one place (docs/interface.md, "Parameters"). Ranges are core::option_ranges'.
@@ -32,6 +49,12 @@ struct ServerParameters {
   std::string default_frame = "world";  ///< ~default_frame: requests with an empty frame
   int threads =
       2;  ///< ~threads: requests served concurrently (the node; a nodelet uses its manager's)
+  /// ~robots: [{name, description_param, joint_states_topic, floating, base_frame, locked_joints,
+  /// armature}], the robots requests may name (none by default).
+  std::vector<RobotParameters> robots;
+  /// ~joint_state_timeout [s]: a robot's latest joint state older than this (by its header.stamp,
+  /// or its arrival if unstamped) is not used for a request.
+  double joint_state_timeout = 0.5;
 };
 
 /// Reads and checks the parameters from `values`, the private namespace as one XmlRpc struct (what

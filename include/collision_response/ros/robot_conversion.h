@@ -1,0 +1,43 @@
+#pragma once
+
+#include <collision_response/RobotResult.h>
+#include <collision_response/RobotState.h>
+#include <ros/time.h>
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+
+#include "collision_response/robot/articulated_body.h"
+#include "collision_response/ros/served_robot.h"
+
+namespace collision_response {
+
+/// The base pose a RobotState gives (request frame), or nothing when its orientation is all zero
+/// (the default: the caller looks the base frame up in tf2). Throws core::InvalidInput naming
+/// field + ".base_pose..." for a non-finite value or an orientation that is not unit length.
+std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const std::string& field);
+
+/// The served robot at the state a request gives it (docs/robots.md, "Robots through ROS"): a copy
+/// of its model with the request's locked joints (or the entry's), joint positions and velocities
+/// from msg.joint_state, each one missing there from the robot's joint-state cache, `base_pose`
+/// (request frame) and, for a floating base, msg.base_twist. Throws core::InvalidInput naming
+/// `field` ("robots[i]") + ".joint_state.name[k]" for an unknown or repeated joint,
+/// ".joint_state.position" / ".velocity" for an array neither empty nor as long as name,
+/// ".joint_state.position[k]" / ".velocity[k]" for a value that is not finite (or beyond the core's
+/// magnitude limits), ".joint_state" for a joint given nowhere or whose latest message is older
+/// than `timeout` [s] at `now`, ".base_twist" for a non-finite twist, ".locked_joints[k]" for an
+/// unknown joint and ".locked_joints" when the unlocked joints leave M singular.
+robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const RobotState& msg,
+                                           const Eigen::Isometry3d& base_pose, const ros::Time& now,
+                                           double timeout, const std::string& field);
+
+/// A robot's answer: `after` is the model after the impact, `velocity_before` its velocity
+/// unknowns (ArticulatedBody::velocity()) and `energy_before` its kinetic energy [J] before it.
+/// joint_state: the model's joints in order, positions unchanged, velocities post-impact, effort
+/// the generalized impulse M (v_after - v_before) per joint (0 for a locked one).
+RobotResult toMsg(const std::string& name, const robot::ArticulatedBody& after,
+                  const Eigen::VectorXd& velocity_before, double energy_before,
+                  const Eigen::Isometry3d& base_pose, const std_msgs::Header& header);
+
+}  // namespace collision_response

@@ -1,0 +1,55 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "collision_response/robot/articulated_body.h"
+#include "collision_response/ros/joint_state_cache.h"
+#include "collision_response/ros/server_parameters.h"
+
+namespace collision_response {
+
+/// A robot the node serves (one ~robots entry, docs/robots.md, "Robots through ROS"): its model
+/// built once from the URDF, with the entry's base type, locked joints and armatures, and the
+/// latest joint state of its topic. Requests copy the model and set their state on the copy, so
+/// that concurrent requests share nothing but the joint-state cache.
+class ServedRobot {
+ public:
+  /// Builds the model from the URDF document `urdf` (the string of parameters.description_param).
+  /// Throws core::InvalidInput naming `field` (the entry, "~robots[i]"): ".description_param" for
+  /// a document that does not parse, ".locked_joints[k]" / ".armature.<joint>" for a joint the
+  /// model does not have, and the entry itself for a joint-space inertia that is singular with
+  /// the listed joints locked (naming the joint that moves no mass: lock it or give its links
+  /// mass).
+  ServedRobot(const RobotParameters& parameters, const std::string& urdf, const std::string& field);
+
+  const RobotParameters& parameters() const { return parameters_; }
+  const std::string& name() const { return parameters_.name; }
+  /// The model at q = 0 with the entry's joint models.
+  const robot::ArticulatedBody& model() const { return model_; }
+  /// The tf frame that places the root link when a request gives no base pose.
+  const std::string& baseFrame() const { return base_frame_; }
+  /// Link names prefixed with the robot's name, "<name>/<link>", by link index: the body ids
+  /// contacts use.
+  const std::vector<std::string>& linkIds() const { return link_ids_; }
+
+  /// A copy of the model whose locked joints are `locked` (names; the entry's armatures on the
+  /// others). Throws core::InvalidInput naming `field` + "[k]" for an unknown joint name.
+  robot::ArticulatedBody modelWithLockedJoints(const std::vector<std::string>& locked,
+                                               const std::string& field) const;
+
+  JointStateCache& jointStates() { return joint_states_; }
+  const JointStateCache& jointStates() const { return joint_states_; }
+
+ private:
+  void setJointModels(robot::ArticulatedBody& model, const std::vector<std::string>& locked,
+                      const std::string& field) const;
+
+  RobotParameters parameters_;
+  robot::ArticulatedBody model_;
+  std::string base_frame_;
+  std::vector<std::string> link_ids_;
+  JointStateCache joint_states_;
+};
+
+}  // namespace collision_response

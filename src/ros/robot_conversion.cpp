@@ -1,0 +1,200 @@
+#include "collision_response/ros/robot_conversion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "collision_response/core/errors.h"
+#include "collision_response/core/validation.h"
+#include "collision_response/ros/message_conversion.h"
+
+namespace collision_response {
+namespace {
+
+using Limits = core::MagnitudeLimits;
+
+std::string indexed(const std::string& field, std::size_t k) {
+  return field + "[" + std::to_string(k) + "]";
+}
+
+void requireFiniteWithin(double value, double limit, const std::string& field, const char* unit) {
+  if (!std::isfinite(value)) throw core::InvalidInput(field, "is not finite");
+  if (std::abs(value) > limit) {
+    throw core::InvalidInput(field, "exceeds " + std::to_string(limit) + " " + unit +
+                                        " in magnitude (" + std::to_string(value) + ")");
+  }
+}
+
+void requireFinite(const Eigen::Vector3d& v, double limit, const std::string& field,
+                   const char* unit) {
+  for (int k = 0; k < 3; ++k) {
+    static const char* const kAxis[] = {"x", "y", "z"};
+    requireFiniteWithin(v(k), limit, field + "." + kAxis[k], unit);
+  }
+}
+
+}  // namespace
+
+std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const std::string& field) {
+  const geometry_msgs::Quaternion& q = msg.base_pose.orientation;
+  if (q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w == 0.0) return std::nullopt;
+  const std::string pose_field = field + ".base_pose";
+  requireFinite(toEigen(msg.base_pose.position), Limits::kLength, pose_field + ".position", "m");
+  Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
+  if (!rotation.coeffs().allFinite())
+    throw core::InvalidInput(pose_field + ".orientation", "is not finite");
+  if (std::abs(rotation.norm() - 1.0) > core::kUnitTolerance) {
+    throw core::InvalidInput(
+        pose_field + ".orientation",
+        "is not a unit quaternion (norm " + std::to_string(rotation.norm()) + ")");
+  }
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation.normalized().toRotationMatrix();
+  pose.translation() = toEigen(msg.base_pose.position);
+  return pose;
+}
+
+robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const RobotState& msg,
+                                           const Eigen::Isometry3d& base_pose, const ros::Time& now,
+                                           double timeout, const std::string& field) {
+  robot::ArticulatedBody model =
+      msg.override_locked_joints
+          ? robot.modelWithLockedJoints(msg.locked_joints, field + ".locked_joints")
+          : robot.model();
+  if (!model.singularJoint().empty())
+    throw core::InvalidInput(field + ".locked_joints", model.singularJoint());
+
+  // The request's own values first.
+  const sensor_msgs::JointState& given = msg.joint_state;
+  const std::string state_field = field + ".joint_state";
+  const std::size_t count = given.name.size();
+  if (!given.position.empty() && given.position.size() != count) {
+    throw core::InvalidInput(state_field + ".position",
+                             "has " + std::to_string(given.position.size()) + " entries for " +
+                                 std::to_string(count) + " names (empty: the latest message's)");
+  }
+  if (!given.velocity.empty() && given.velocity.size() != count) {
+    throw core::InvalidInput(state_field + ".velocity",
+                             "has " + std::to_string(given.velocity.size()) + " entries for " +
+                                 std::to_string(count) + " names (empty: the latest message's)");
+  }
+  const int joints = model.jointCount();
+  Eigen::VectorXd q(joints), qdot(joints);
+  std::vector<bool> has_position(joints, false), has_velocity(joints, false);
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::string& name = given.name[k];
+    const auto& names = model.jointNames();
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) {
+      throw core::InvalidInput(
+          indexed(state_field + ".name", k),
+          "the robot '" + robot.name() + "' has no joint '" + name + "' with a coordinate");
+    }
+    const int joint = static_cast<int>(it - names.begin());
+    if (has_position[joint] || has_velocity[joint])
+      throw core::InvalidInput(indexed(state_field + ".name", k), "repeats joint '" + name + "'");
+    if (!given.position.empty()) {
+      requireFiniteWithin(given.position[k], Limits::kLength, indexed(state_field + ".position", k),
+                          "rad or m");
+      q(joint) = given.position[k];
+      has_position[joint] = true;
+    }
+    if (!given.velocity.empty()) {
+      requireFiniteWithin(given.velocity[k], Limits::kSpeed, indexed(state_field + ".velocity", k),
+                          "rad/s or m/s");
+      qdot(joint) = given.velocity[k];
+      has_velocity[joint] = true;
+    }
+  }
+
+  // The rest from the latest joint-state messages, if recent enough.
+  bool complete = true;
+  for (int joint = 0; joint < joints && complete; ++joint)
+    complete = has_position[joint] && has_velocity[joint];
+  if (!complete) {
+    const std::vector<JointStateCache::Sample> latest = robot.jointStates().snapshot();
+    const std::string& topic = robot.parameters().joint_states_topic;
+    for (int joint = 0; joint < joints; ++joint) {
+      if (has_position[joint] && has_velocity[joint]) continue;
+      const JointStateCache::Sample& sample = latest[joint];
+      const std::string& name = model.jointNames()[joint];
+      const bool found = (has_position[joint] || sample.has_position) &&
+                         (has_velocity[joint] || sample.has_velocity);
+      if (!found) {
+        throw core::InvalidInput(
+            state_field,
+            "joint '" + name + "' has no " +
+                (has_position[joint] || sample.has_position ? "velocity" : "position") +
+                ": not in the request and none received on " + topic);
+      }
+      const double age = (now - sample.stamp).toSec();
+      if (age > timeout) {
+        throw core::InvalidInput(state_field,
+                                 "the latest state of joint '" + name + "' on " + topic + " is " +
+                                     std::to_string(age) + " s old, beyond ~joint_state_timeout (" +
+                                     std::to_string(timeout) + " s); give it in the request");
+      }
+      if (!has_position[joint]) {
+        requireFiniteWithin(sample.position, Limits::kLength, state_field, "rad or m");
+        q(joint) = sample.position;
+      }
+      if (!has_velocity[joint]) {
+        requireFiniteWithin(sample.velocity, Limits::kSpeed, state_field, "rad/s or m/s");
+        qdot(joint) = sample.velocity;
+      }
+    }
+  }
+
+  Eigen::Vector3d base_linear = Eigen::Vector3d::Zero(), base_angular = Eigen::Vector3d::Zero();
+  if (model.baseType() == robot::BaseType::kFloating) {
+    base_linear = toEigen(msg.base_twist.linear);
+    base_angular = toEigen(msg.base_twist.angular);
+    requireFinite(base_linear, Limits::kSpeed, field + ".base_twist.linear", "m/s");
+    requireFinite(base_angular, Limits::kSpeed, field + ".base_twist.angular", "rad/s");
+  }
+  try {
+    model.setState(q, qdot, base_pose, base_linear, base_angular);
+  } catch (const std::invalid_argument& e) {
+    // M(q) singular at this configuration (a free joint moving no mass here).
+    throw core::InvalidInput(state_field,
+                             std::string("the robot cannot take this state: ") + e.what());
+  }
+  return model;
+}
+
+RobotResult toMsg(const std::string& name, const robot::ArticulatedBody& after,
+                  const Eigen::VectorXd& velocity_before, double energy_before,
+                  const Eigen::Isometry3d& base_pose, const std_msgs::Header& header) {
+  RobotResult result;
+  result.name = name;
+  result.joint_state.header = header;
+  result.joint_state.name = after.jointNames();
+  const int joints = after.jointCount();
+  result.joint_state.position.assign(after.jointPositions().data(),
+                                     after.jointPositions().data() + joints);
+  result.joint_state.velocity.assign(after.jointVelocities().data(),
+                                     after.jointVelocities().data() + joints);
+  result.joint_state.effort.assign(joints, 0.0);
+  const Eigen::VectorXd impulse = after.generalizedImpulse(after.velocity() - velocity_before);
+  for (int k = 0; k < after.velocityCount(); ++k) {
+    const int joint = after.jointOfUnknown(k);
+    if (joint >= 0) result.joint_state.effort[joint] = impulse(k);
+  }
+  result.floating = after.baseType() == robot::BaseType::kFloating;
+  const Eigen::Quaterniond rotation(base_pose.linear());
+  result.base_pose.position = toPoint(base_pose.translation());
+  result.base_pose.orientation.w = rotation.w();
+  result.base_pose.orientation.x = rotation.x();
+  result.base_pose.orientation.y = rotation.y();
+  result.base_pose.orientation.z = rotation.z();
+  if (result.floating) {
+    result.base_twist.linear = toVector3(after.baseLinearVelocity());
+    result.base_twist.angular = toVector3(after.baseAngularVelocity());
+  }
+  result.kinetic_energy_before = energy_before;
+  result.kinetic_energy_after = after.kineticEnergy();
+  return result;
+}
+
+}  // namespace collision_response

@@ -1,0 +1,81 @@
+#include "collision_response/ros/served_robot.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "collision_response/core/errors.h"
+#include "collision_response/robot/urdf_loader.h"
+
+namespace collision_response {
+namespace {
+
+robot::ArticulatedBody parse(const RobotParameters& parameters, const std::string& urdf,
+                             const std::string& field) {
+  try {
+    return robot::robotFromUrdfString(
+        urdf, parameters.floating ? robot::BaseType::kFloating : robot::BaseType::kFixed);
+  } catch (const std::invalid_argument& e) {
+    throw core::InvalidInput(
+        field + ".description_param",
+        "the URDF in '" + parameters.description_param + "' is not a usable robot: " + e.what());
+  }
+}
+
+}  // namespace
+
+ServedRobot::ServedRobot(const RobotParameters& parameters, const std::string& urdf,
+                         const std::string& field)
+    : parameters_(parameters),
+      model_(parse(parameters, urdf, field)),
+      joint_states_(model_.jointNames()) {
+  base_frame_ = parameters.base_frame.empty() ? model_.linkName(0) : parameters.base_frame;
+  for (const auto& [joint, armature] : parameters.armature) {
+    if (std::find(model_.jointNames().begin(), model_.jointNames().end(), joint) ==
+        model_.jointNames().end()) {
+      throw core::InvalidInput(field + ".armature." + joint,
+                               "the robot has no joint '" + joint + "' with a coordinate");
+    }
+  }
+  setJointModels(model_, parameters.locked_joints, field + ".locked_joints");
+  if (!model_.singularJoint().empty()) throw core::InvalidInput(field, model_.singularJoint());
+  link_ids_.reserve(model_.linkCount());
+  for (int link = 0; link < model_.linkCount(); ++link)
+    link_ids_.push_back(parameters.name + "/" + model_.linkName(link));
+}
+
+void ServedRobot::setJointModels(robot::ArticulatedBody& model,
+                                 const std::vector<std::string>& locked,
+                                 const std::string& field) const {
+  std::vector<bool> is_locked(model.jointCount(), false);
+  for (std::size_t k = 0; k < locked.size(); ++k) {
+    const auto& names = model.jointNames();
+    const auto it = std::find(names.begin(), names.end(), locked[k]);
+    if (it == names.end()) {
+      throw core::InvalidInput(
+          field + "[" + std::to_string(k) + "]",
+          "the robot '" + name() + "' has no joint '" + locked[k] + "' with a coordinate");
+    }
+    is_locked[it - names.begin()] = true;
+  }
+  for (int joint = 0; joint < model.jointCount(); ++joint) {
+    robot::JointModel wanted = robot::JointModel::kFree;
+    double armature = 0.0;
+    if (is_locked[joint]) {
+      wanted = robot::JointModel::kLocked;
+    } else if (const auto it = parameters_.armature.find(model.jointNames()[joint]);
+               it != parameters_.armature.end() && it->second > 0.0) {
+      wanted = robot::JointModel::kArmature;
+      armature = it->second;
+    }
+    if (model.jointModel(joint) != wanted) model.setJointModel(joint, wanted, armature);
+  }
+}
+
+robot::ArticulatedBody ServedRobot::modelWithLockedJoints(const std::vector<std::string>& locked,
+                                                          const std::string& field) const {
+  robot::ArticulatedBody model = model_;
+  setJointModels(model, locked, field);
+  return model;
+}
+
+}  // namespace collision_response

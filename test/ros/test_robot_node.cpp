@@ -1,0 +1,479 @@
+// Integration test: robots through ROS (docs/robots.md, "Robots through ROS"). The URDF is on the
+// parameter server, joint states come from this test on /joint_states, tf from
+// robot_state_publisher and a static world -> base_link transform (robot_node.test). The node's
+// answers are compared with the core library's, given the same state: the robot library's model
+// from the same URDF, the same rigid body, core::computeBodyResponse().
+#include <collision_response/ComputeBatch.h>
+#include <collision_response/ComputeResponse.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/JointState.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
+#include <mutex>
+
+#include "collision_response/core/body_response.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/robot/urdf_loader.h"
+#include "collision_response/ros/message_conversion.h"
+#include "node_test_messages.h"
+
+namespace cr = collision_response;
+using namespace collision_response::testing;
+using collision_response::toEigen;
+using collision_response::toVector3;
+
+namespace {
+
+constexpr double kExact = 1e-12;  // the node and the core do the same arithmetic
+
+// robot_node.test's static transform world -> base_link: x y z 0.5 -0.2 0.1, yaw 0.3.
+Eigen::Isometry3d worldToBase() {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(0.5, -0.2, 0.1);
+  pose.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return pose;
+}
+
+// What the test publishes on /joint_states (7 arm joints, 2 finger joints; model order).
+const std::vector<std::string> kJoints = {"joint1",
+                                          "joint2",
+                                          "joint3",
+                                          "joint4",
+                                          "joint5",
+                                          "joint6",
+                                          "joint7",
+                                          "left_finger_joint",
+                                          "right_finger_joint"};
+const std::vector<double> kPublishedPositions = {0.1, 0.6, -0.2, -1.2, 0.3, 0.9, 0.2, 0.01, 0.01};
+const std::vector<double> kPublishedVelocities = {0.2, 0.5, -0.1, -0.6, 0.1, 0.3, 0.05, 0, 0};
+
+// The arm from the URDF the node has (parsed once per base type).
+cr::robot::ArticulatedBody referenceArm(bool floating = false) {
+  static const auto parse = [](cr::robot::BaseType base) {
+    std::string urdf;
+    EXPECT_TRUE(ros::param::get("/robot_description", urdf));
+    return cr::robot::robotFromUrdfString(urdf, base);
+  };
+  static const cr::robot::ArticulatedBody fixed = parse(cr::robot::BaseType::kFixed);
+  static const cr::robot::ArticulatedBody free = parse(cr::robot::BaseType::kFloating);
+  return floating ? free : fixed;
+}
+
+Eigen::VectorXd vector(const std::vector<double>& values) {
+  return Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<int>(values.size()));
+}
+
+// A 2 kg box at rest, centred 5 cm beyond `point` along `normal`.
+cr::BodyState box(const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+  cr::BodyState body;
+  body.id = "box";
+  body.inertia.m = 2.0;
+  body.inertia.ixx = body.inertia.iyy = body.inertia.izz = 2.0 * 0.01 / 6.0;  // 10 cm cube
+  const Eigen::Vector3d centre = point + 0.05 * normal;
+  body.pose = pose(centre.x(), centre.y(), centre.z());
+  return body;
+}
+
+// The hand (link "hand") strikes the box at a point 4 cm along the hand's z from its origin, with
+// the normal along the point's velocity: the contact approaches.
+struct Strike {
+  Eigen::Vector3d point;
+  Eigen::Vector3d normal;
+};
+Strike strikeOf(const cr::robot::ArticulatedBody& arm) {
+  const int hand = arm.linkIndex("hand");
+  const Eigen::Isometry3d pose = arm.linkPose(hand);
+  Strike strike;
+  strike.point = pose * Eigen::Vector3d(0, 0, 0.04);
+  strike.normal = arm.partPointVelocity(hand, strike.point).normalized();
+  return strike;
+}
+
+cr::ComputeResponse strikeRequest(const Strike& strike) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  srv.request.bodies = {box(strike.point, strike.normal)};
+  srv.request.contacts = {contact("arm/hand", "box", strike.point.x(), strike.point.y(),
+                                  strike.point.z(), strike.normal.x(), strike.normal.y(),
+                                  strike.normal.z(), 0.4, 0.3, 0.2)};
+  return srv;
+}
+
+// The core's answer for the same arm state, box and contact.
+struct Reference {
+  cr::robot::ArticulatedBody arm;
+  cr::core::RigidBody box;
+  cr::core::BodyResponse response;
+};
+Reference reference(cr::robot::ArticulatedBody arm, const cr::ComputeResponse& srv) {
+  cr::core::BodyState state;
+  const cr::BodyState& msg = srv.request.bodies[0];
+  state.id = msg.id;
+  state.mass = msg.inertia.m;
+  state.inertia = Eigen::Vector3d(msg.inertia.ixx, msg.inertia.iyy, msg.inertia.izz).asDiagonal();
+  state.position = toEigen(msg.pose.position);
+  Reference ref{std::move(arm), cr::core::makeRigidBody(state), {}};
+  const cr::Contact& c = srv.request.contacts[0];
+  cr::core::ContactPoint point(0, 1, toEigen(c.point), toEigen(c.normal).normalized(),
+                               c.restitution, c.static_friction, c.dynamic_friction);
+  point.part_a = ref.arm.linkIndex("hand");
+  ref.response = cr::core::computeBodyResponse({&ref.arm, &ref.box}, {point});
+  return ref;
+}
+
+void expectMatches(const cr::ComputeResponse::Response& response, const Reference& ref) {
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.robots.size(), 1u);
+  const cr::RobotResult& robot = response.robots[0];
+  EXPECT_EQ(robot.name, "arm");
+  ASSERT_EQ(robot.joint_state.name, ref.arm.jointNames());
+  ASSERT_EQ(robot.joint_state.velocity.size(), kJoints.size());
+  for (int j = 0; j < ref.arm.jointCount(); ++j) {
+    EXPECT_NEAR(robot.joint_state.velocity[j], ref.arm.jointVelocities()(j), kExact) << j;
+    EXPECT_NEAR(robot.joint_state.position[j], ref.arm.jointPositions()(j), kExact) << j;
+  }
+  ASSERT_EQ(response.bodies.size(), 1u);
+  EXPECT_NEAR(response.bodies[0].twist.linear.x, ref.box.linear_velocity.x(), kExact);
+  EXPECT_NEAR(response.bodies[0].twist.linear.y, ref.box.linear_velocity.y(), kExact);
+  EXPECT_NEAR(response.bodies[0].twist.linear.z, ref.box.linear_velocity.z(), kExact);
+  ASSERT_EQ(response.impulses.size(), 1u);
+  EXPECT_NEAR(response.impulses[0].normal_impulse, ref.response.impulses[0].normal_impulse, kExact);
+  ASSERT_EQ(response.effective_masses.size(), 1u);
+  EXPECT_NEAR(response.effective_masses[0], ref.response.effective_masses[0], kExact);
+  // The contact separates and the impact does not create energy.
+  EXPECT_GT(response.impulses[0].normal_velocity_after, 0.0);
+  EXPECT_LE(response.kinetic_energy_after, response.kinetic_energy_before * (1 + 1e-12));
+}
+
+class RobotNodeTest : public ServiceTest {
+ protected:
+  void SetUp() override {
+    ServiceTest::SetUp();
+    // The node has the joint states once an answer uses them.
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(20.0);
+    cr::ComputeResponse probe = strikeRequest({Eigen::Vector3d(1, 0, 0), Eigen::Vector3d::UnitX()});
+    probe.request.robots.resize(1);
+    probe.request.robots[0].name = "arm";
+    while (ros::WallTime::now() < deadline && !call(probe).success) ros::WallDuration(0.05).sleep();
+  }
+
+  // The arm at the published state, placed by the static transform.
+  cr::robot::ArticulatedBody publishedArm() {
+    cr::robot::ArticulatedBody arm = referenceArm();
+    arm.setState(vector(kPublishedPositions), vector(kPublishedVelocities), worldToBase());
+    return arm;
+  }
+
+  // A bad request is answered with success false naming `field`; a good one still succeeds.
+  void expectRejected(const cr::ComputeResponse& srv, const std::string& field) {
+    const auto response = ServiceTest::expectRejected(srv, field);
+    EXPECT_TRUE(response.robots.empty());
+    cr::ComputeResponse good = strikeRequest(strikeOf(publishedArm()));
+    EXPECT_TRUE(call(good).success) << "node stopped serving after a bad request";
+  }
+};
+
+TEST_F(RobotNodeTest, LatestJointStateAndTfBaseMatchTheCore) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  cr::ComputeResponse srv = strikeRequest(strikeOf(arm));
+  srv.request.robots.resize(1);
+  srv.request.robots[0].name = "arm";  // joint state: the latest; base pose: tf
+  const auto response = call(srv);
+  expectMatches(response, reference(arm, srv));
+  // The generalized impulse is M (v_after - v_before) = J^T P, P the contact impulse on the arm.
+  const Reference ref = reference(arm, srv);
+  const Eigen::Vector3d impulse_on_arm =
+      -ref.response.impulses[0].total(toEigen(srv.request.contacts[0].normal).normalized());
+  const Eigen::VectorXd expected =
+      arm.linkPointJacobian(arm.linkIndex("hand"), toEigen(srv.request.contacts[0].point))
+          .transpose() *
+      impulse_on_arm;
+  for (int j = 0; j < arm.jointCount(); ++j)
+    EXPECT_NEAR(response.robots[0].joint_state.effort[j], expected(j), 1e-9) << j;
+  EXPECT_EQ(response.robots[0].joint_state.header.frame_id, "world");
+  EXPECT_FALSE(response.robots[0].floating);
+  EXPECT_NEAR(response.robots[0].base_pose.position.x, 0.5, 1e-12);
+}
+
+TEST_F(RobotNodeTest, FrictionlessStrikeMatchesTheClosedForm) {
+  // Frictionless, through the box's centre: every law gives P = (1 + e) m_eff (-u_n) with
+  // 1 / m_eff = n^T J M^-1 J^T n + 1 / m_box, and u_n after = -e u_n. J and M from the reference
+  // model, the rest by hand.
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  cr::ComputeResponse srv = strikeRequest(strike);
+  srv.request.contacts[0].static_friction = srv.request.contacts[0].dynamic_friction = 0.0;
+  const double e = srv.request.contacts[0].restitution;
+  const Eigen::MatrixXd jacobian = arm.linkPointJacobian(arm.linkIndex("hand"), strike.point);
+  const Eigen::MatrixXd w = jacobian * arm.massMatrix().inverse() * jacobian.transpose();
+  const double effective_mass = 1.0 / (strike.normal.dot(w * strike.normal) + 1.0 / 2.0);
+  const double u_n = -strike.normal.dot(jacobian * arm.velocity());  // box at rest
+  ASSERT_LT(u_n, 0.0);
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.effective_masses.size(), 1u);
+  EXPECT_NEAR(response.effective_masses[0], effective_mass, 1e-9 * effective_mass);
+  EXPECT_NEAR(response.impulses[0].normal_impulse, -(1 + e) * effective_mass * u_n,
+              1e-9 * effective_mass * std::abs(u_n));
+  EXPECT_NEAR(response.impulses[0].normal_velocity_before, u_n, 1e-12);
+  EXPECT_NEAR(response.impulses[0].normal_velocity_after, -e * u_n, 1e-9 * std::abs(u_n));
+  EXPECT_NEAR(toEigen(response.bodies[0].twist.linear).dot(strike.normal),
+              response.impulses[0].normal_impulse / 2.0, 1e-12);
+}
+
+TEST_F(RobotNodeTest, ContactNamingALinkIsEnough) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const cr::ComputeResponse srv = strikeRequest(strikeOf(arm));  // no robots field
+  expectMatches(call(srv), reference(arm, srv));
+}
+
+TEST_F(RobotNodeTest, RequestJointStateIgnoresTheTopic) {
+  const std::vector<double> q = {-0.3, 0.4, 0.5, -0.9, -0.2, 1.1, -0.4, 0.0, 0.02};
+  const std::vector<double> qdot = {-0.4, 0.7, 0.2, -0.8, 0.3, 0.6, -0.2, 0.0, 0.0};
+  cr::robot::ArticulatedBody arm = referenceArm();
+  arm.setState(vector(q), vector(qdot), worldToBase());
+  cr::ComputeResponse srv = strikeRequest(strikeOf(arm));
+  srv.request.robots.resize(1);
+  srv.request.robots[0].name = "arm";
+  srv.request.robots[0].joint_state.name = kJoints;
+  srv.request.robots[0].joint_state.position = q;
+  srv.request.robots[0].joint_state.velocity = qdot;
+  expectMatches(call(srv), reference(arm, srv));
+}
+
+TEST_F(RobotNodeTest, PartialJointStateTakesTheRestFromTheTopic) {
+  std::vector<double> q = kPublishedPositions, qdot = kPublishedVelocities;
+  q[3] = -1.5;
+  qdot[1] = 0.9;
+  cr::robot::ArticulatedBody arm = referenceArm();
+  arm.setState(vector(q), vector(qdot), worldToBase());
+  cr::ComputeResponse srv = strikeRequest(strikeOf(arm));
+  srv.request.robots.resize(1);
+  srv.request.robots[0].name = "arm";
+  srv.request.robots[0].joint_state.name = {"joint4", "joint2"};
+  srv.request.robots[0].joint_state.position = {-1.5, kPublishedPositions[1]};
+  srv.request.robots[0].joint_state.velocity = {kPublishedVelocities[3], 0.9};
+  expectMatches(call(srv), reference(arm, srv));
+}
+
+TEST_F(RobotNodeTest, LockedJointsOverride) {
+  cr::robot::ArticulatedBody arm = referenceArm();
+  arm.setJointModel(arm.jointIndex("joint2"), cr::robot::JointModel::kLocked);
+  arm.setState(vector(kPublishedPositions), vector(kPublishedVelocities), worldToBase());
+  cr::ComputeResponse srv = strikeRequest(strikeOf(arm));
+  srv.request.robots.resize(1);
+  srv.request.robots[0].name = "arm";
+  srv.request.robots[0].override_locked_joints = true;
+  srv.request.robots[0].locked_joints = {"joint2"};
+  const auto response = call(srv);
+  expectMatches(response, reference(arm, srv));
+  // A locked joint keeps its velocity and reports no generalized impulse.
+  EXPECT_EQ(response.robots[0].joint_state.velocity[1], kPublishedVelocities[1]);
+  EXPECT_EQ(response.robots[0].joint_state.effort[1], 0.0);
+}
+
+TEST_F(RobotNodeTest, FloatingBaseConservesMomentum) {
+  // A floating arm (its own topic, no messages: the request gives everything) strikes the box;
+  // nothing else acts, so the total linear momentum of arm and box is conserved.
+  cr::robot::ArticulatedBody arm = referenceArm(true);
+  const Eigen::Vector3d base_v(0.3, -0.1, 0.2), base_w(0.1, 0.2, -0.3);
+  arm.setState(vector(kPublishedPositions), vector(kPublishedVelocities), worldToBase(), base_v,
+               base_w);
+  const Strike strike = strikeOf(arm);
+  cr::ComputeResponse srv = strikeRequest(strike);
+  for (cr::Contact& c : srv.request.contacts) c.body_a = "floating_arm/hand";
+  srv.request.robots.resize(1);
+  cr::RobotState& robot = srv.request.robots[0];
+  robot.name = "floating_arm";
+  robot.joint_state.name = kJoints;
+  robot.joint_state.position = kPublishedPositions;
+  robot.joint_state.velocity = kPublishedVelocities;
+  robot.base_pose = pose(0.5, -0.2, 0.1, Eigen::Quaterniond(worldToBase().linear()));
+  robot.base_twist.linear = toVector3(base_v);
+  robot.base_twist.angular = toVector3(base_w);
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.robots.size(), 1u);
+  EXPECT_TRUE(response.robots[0].floating);
+  // The arm after: its model at the answer's state.
+  cr::robot::ArticulatedBody after = arm;
+  after.setState(vector(response.robots[0].joint_state.position),
+                 vector(response.robots[0].joint_state.velocity), worldToBase(),
+                 toEigen(response.robots[0].base_twist.linear),
+                 toEigen(response.robots[0].base_twist.angular));
+  const Eigen::Vector3d before = arm.momentum().head<3>();
+  const Eigen::Vector3d box_after = 2.0 * toEigen(response.bodies[0].twist.linear);
+  const Eigen::Vector3d total_after = after.momentum().head<3>() + box_after;
+  EXPECT_NEAR((total_after - before).norm(), 0.0, 1e-9 * (1.0 + before.norm()));
+  EXPECT_GT(response.impulses[0].normal_impulse, 0.0);
+  EXPECT_GT(response.impulses[0].normal_velocity_after, 0.0);
+}
+
+TEST_F(RobotNodeTest, BadRobotInputIsNamed) {
+  const Strike strike = strikeOf(publishedArm());
+  {
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "no_such_robot";
+    expectRejected(srv, "robots[0].name");
+  }
+  {
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.contacts[0].body_a = "arm/no_such_link";
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "arm";
+    expectRejected(srv, "contacts[0].body_a");
+  }
+  {
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "arm";
+    srv.request.robots[0].joint_state.name = {"joint1", "no_such_joint"};
+    srv.request.robots[0].joint_state.position = {0.0, 0.0};
+    expectRejected(srv, "robots[0].joint_state.name[1]");
+  }
+  {
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "arm";
+    srv.request.robots[0].joint_state.name = {"joint1", "joint2"};
+    srv.request.robots[0].joint_state.velocity = {0.0};
+    expectRejected(srv, "robots[0].joint_state.velocity");
+  }
+  {
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "arm";
+    srv.request.robots[0].joint_state.name = {"joint3"};
+    srv.request.robots[0].joint_state.velocity = {std::numeric_limits<double>::quiet_NaN()};
+    expectRejected(srv, "robots[0].joint_state.velocity[0]");
+  }
+  {
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "arm";
+    srv.request.robots[0].override_locked_joints = true;
+    srv.request.robots[0].locked_joints = {"hand_joint"};  // fixed: no coordinate
+    expectRejected(srv, "robots[0].locked_joints[0]");
+  }
+  {
+    // quiet_arm's topic has no publisher: nothing to take missing joints from.
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.contacts[0].body_a = "quiet_arm/hand";
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "quiet_arm";
+    srv.request.robots[0].joint_state.name = {"joint1"};
+    srv.request.robots[0].joint_state.position = {0.0};
+    srv.request.robots[0].joint_state.velocity = {0.0};
+    const auto response = call(srv);
+    EXPECT_FALSE(response.success);
+    EXPECT_NE(response.message.find("robots[0].joint_state"), std::string::npos)
+        << response.message;
+    EXPECT_NE(response.message.find("none received on /quiet_joint_states"), std::string::npos)
+        << response.message;
+  }
+  {
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "arm";
+    srv.request.robots[0].base_pose.orientation.w = 2.0;  // not unit
+    expectRejected(srv, "robots[0].base_pose.orientation");
+  }
+}
+
+TEST_F(RobotNodeTest, StaleJointStateIsRejected) {
+  // stale_arm's latest message is 5 s old (~joint_state_timeout 0.5 s).
+  ros::Publisher stale = node_.advertise<sensor_msgs::JointState>("/stale_joint_states", 1, true);
+  sensor_msgs::JointState msg;
+  msg.header.stamp = ros::Time::now() - ros::Duration(5.0);
+  msg.name = kJoints;
+  msg.position = kPublishedPositions;
+  msg.velocity = kPublishedVelocities;
+  stale.publish(msg);
+  cr::ComputeResponse srv = strikeRequest(strikeOf(publishedArm()));
+  srv.request.contacts[0].body_a = "stale_arm/hand";
+  srv.request.robots.resize(1);
+  srv.request.robots[0].name = "stale_arm";
+  // Wait until the node has the message: the error changes from "none received" to "old".
+  cr::ComputeResponse::Response response;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  do {
+    response = call(srv);
+    if (response.message.find("s old") != std::string::npos) break;
+    ros::WallDuration(0.05).sleep();
+  } while (ros::WallTime::now() < deadline);
+  EXPECT_FALSE(response.success);
+  EXPECT_NE(response.message.find("robots[0].joint_state"), std::string::npos) << response.message;
+  EXPECT_NE(response.message.find("~joint_state_timeout"), std::string::npos) << response.message;
+  EXPECT_TRUE(call(strikeRequest(strikeOf(publishedArm()))).success);
+}
+
+TEST_F(RobotNodeTest, AnswerIsPublishedWithTheRobots) {
+  ResponsesListener listener(node_);
+  ASSERT_TRUE(listener.waitForPublisher(10.0));
+  const cr::ComputeResponse srv = strikeRequest(strikeOf(publishedArm()));
+  ASSERT_TRUE(call(srv).success);
+  const auto published = listener.waitForMessage(10.0);
+  ASSERT_TRUE(published);
+  ASSERT_EQ(published->robots.size(), 1u);
+  EXPECT_EQ(published->robots[0].name, "arm");
+  EXPECT_EQ(published->robots[0].joint_state.name.size(), kJoints.size());
+}
+
+TEST_F(RobotNodeTest, BatchScenesCarryRobots) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const cr::ComputeResponse single = strikeRequest(strikeOf(arm));
+  cr::ComputeBatch batch;
+  batch.request.header.frame_id = "world";
+  cr::Scene scene;
+  scene.bodies = single.request.bodies;
+  scene.contacts = single.request.contacts;
+  scene.robots.resize(1);
+  scene.robots[0].name = "arm";
+  batch.request.scenes = {scene, scene};
+  batch.request.scenes[1].robots[0].name = "no_such_robot";
+  ros::ServiceClient client =
+      node_.serviceClient<cr::ComputeBatch>("/collision_response/compute_batch");
+  ASSERT_TRUE(client.call(batch));
+  ASSERT_EQ(batch.response.results.size(), 2u);
+  ASSERT_TRUE(batch.response.results[0].success) << batch.response.results[0].message;
+  const Reference ref = reference(arm, single);
+  ASSERT_EQ(batch.response.results[0].robots.size(), 1u);
+  for (int j = 0; j < arm.jointCount(); ++j) {
+    EXPECT_NEAR(batch.response.results[0].robots[0].joint_state.velocity[j],
+                ref.arm.jointVelocities()(j), kExact);
+  }
+  EXPECT_FALSE(batch.response.results[1].success);
+  EXPECT_NE(batch.response.results[1].message.find("scenes[1].robots[0].name"), std::string::npos)
+      << batch.response.results[1].message;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_robot_node");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  // /joint_states at 50 Hz, stamped now: never stale (~joint_state_timeout 0.5 s). For the whole
+  // run (a publisher torn down while its timer fires would race).
+  ros::NodeHandle node;
+  ros::Publisher joint_states = node.advertise<sensor_msgs::JointState>("/joint_states", 10);
+  ros::WallTimer timer =
+      node.createWallTimer(ros::WallDuration(0.02), [&joint_states](const ros::WallTimerEvent&) {
+        sensor_msgs::JointState msg;
+        msg.header.stamp = ros::Time::now();
+        msg.name = kJoints;
+        msg.position = kPublishedPositions;
+        msg.velocity = kPublishedVelocities;
+        joint_states.publish(msg);
+      });
+  const int result = RUN_ALL_TESTS();
+  timer.stop();
+  spinner.stop();
+  return result;
+}
