@@ -110,13 +110,86 @@ TEST(ServerParameters, RangesAreTheCoresAndNeverClamped) {
             ranges::kTolerance.max);
   expectRejected(with("tolerance", ranges::kTolerance.max * 1.5), "~tolerance");
   expectRejected(with("tolerance", -1e-300), "~tolerance");
-  EXPECT_EQ(cr::loadServerParameters(
-                with("integration_tolerance", ranges::kIntegrationTolerance.min))
-                .solver.integration_tolerance,
-            ranges::kIntegrationTolerance.min);
+  EXPECT_EQ(
+      cr::loadServerParameters(with("integration_tolerance", ranges::kIntegrationTolerance.min))
+          .solver.integration_tolerance,
+      ranges::kIntegrationTolerance.min);
   expectRejected(with("integration_tolerance", ranges::kIntegrationTolerance.min / 2),
                  "~integration_tolerance");
   expectRejected(with("contact_tolerance", ranges::kContactTolerance.max + 0.5),
                  "~contact_tolerance");
   expectRejected(with("time_budget", ranges::kTimeBudget.max * 2), "~time_budget");
+}
+
+namespace {
+
+XmlRpcValue robotEntry(const std::string& name) {
+  XmlRpcValue entry;
+  entry["name"] = name;
+  return entry;
+}
+
+XmlRpcValue robotList(std::initializer_list<XmlRpcValue> entries) {
+  XmlRpcValue list;
+  list.setSize(static_cast<int>(entries.size()));
+  int i = 0;
+  for (const XmlRpcValue& entry : entries) list[i++] = entry;
+  return list;
+}
+
+}  // namespace
+
+TEST(ServerParameters, RobotsAreReadWithTheirDefaults) {
+  XmlRpcValue arm = robotEntry("arm");
+  XmlRpcValue base = robotEntry("base");
+  base["description_param"] = "/base/robot_description";
+  base["joint_states_topic"] = "/base/joint_states";
+  base["floating"] = true;
+  base["base_frame"] = "odom";
+  XmlRpcValue locked;
+  locked.setSize(1);
+  locked[0] = "wheel_joint";
+  base["locked_joints"] = locked;
+  base["armature"]["wheel_joint"] = 0.02;
+  XmlRpcValue values = with("robots", robotList({arm, base}));
+  values["joint_state_timeout"] = 2;
+  const cr::ServerParameters p = cr::loadServerParameters(values);
+  ASSERT_EQ(p.robots.size(), 2u);
+  EXPECT_EQ(p.robots[0].name, "arm");
+  EXPECT_EQ(p.robots[0].description_param, "/robot_description");
+  EXPECT_EQ(p.robots[0].joint_states_topic, "/joint_states");
+  EXPECT_FALSE(p.robots[0].floating);
+  EXPECT_EQ(p.robots[0].base_frame, "");
+  EXPECT_TRUE(p.robots[0].locked_joints.empty());
+  EXPECT_EQ(p.robots[1].description_param, "/base/robot_description");
+  EXPECT_EQ(p.robots[1].joint_states_topic, "/base/joint_states");
+  EXPECT_TRUE(p.robots[1].floating);
+  EXPECT_EQ(p.robots[1].base_frame, "odom");
+  EXPECT_EQ(p.robots[1].locked_joints, std::vector<std::string>{"wheel_joint"});
+  EXPECT_EQ(p.robots[1].armature.at("wheel_joint"), 0.02);
+  EXPECT_EQ(p.joint_state_timeout, 2.0);
+  EXPECT_EQ(cr::loadServerParameters(XmlRpcValue()).joint_state_timeout, 0.5);
+  EXPECT_TRUE(cr::loadServerParameters(XmlRpcValue()).robots.empty());
+}
+
+TEST(ServerParameters, BadRobotsAreRejectedNamingTheEntry) {
+  expectRejected(with("robots", "arm"), "~robots");
+  expectRejected(with("robots", robotList({XmlRpcValue(3)})), "~robots[0]");
+  expectRejected(with("robots", robotList({robotEntry("")})), "~robots[0].name");
+  expectRejected(with("robots", robotList({robotEntry("a/b")})), "~robots[0].name");
+  expectRejected(with("robots", robotList({robotEntry("arm"), robotEntry("arm")})),
+                 "~robots[1].name");
+  XmlRpcValue unknown = robotEntry("arm");
+  unknown["urdf"] = "x";
+  expectRejected(with("robots", robotList({unknown})), "~robots[0]");
+  XmlRpcValue floating = robotEntry("arm");
+  floating["floating"] = "yes";
+  expectRejected(with("robots", robotList({floating})), "~robots[0].floating");
+  XmlRpcValue armature = robotEntry("arm");
+  armature["armature"]["joint1"] = -1.0;
+  expectRejected(with("robots", robotList({armature})), "~robots[0].armature.joint1");
+  XmlRpcValue locked = robotEntry("arm");
+  locked["locked_joints"] = "joint1";
+  expectRejected(with("robots", robotList({locked})), "~robots[0].locked_joints");
+  expectRejected(with("joint_state_timeout", 0.0), "~joint_state_timeout");
 }
