@@ -207,7 +207,10 @@ detection::DetectedContacts CollisionResponseServer::detect(const ComputeRespons
 
 bool CollisionResponseServer::compute(ComputeResponse::Request& request,
                                       ComputeResponse::Response& response) {
-  solve(request, response);
+  // Markers only when someone looks: the hot path does not pay for them.
+  const bool draw = markers_.getNumSubscribers() > 0;
+  std::vector<ContactLinkFrame> link_frames;
+  solve(request, response, draw ? &link_frames : nullptr);
   recordCalls(1, 1, response.success ? 0 : 1, response.solve_time, response.solve_time);
   if (!response.success) return true;
   CollisionResponse published;
@@ -221,14 +224,14 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
   published.kinetic_energy_after = response.kinetic_energy_after;
   published.robots = response.robots;
   responses_.publish(published);
-  // Markers only when someone looks: the hot path does not pay for them.
-  if (markers_.getNumSubscribers() > 0)
-    markers_.publish(makeMarkers(request, response, parameters_.marker_scales));
+  if (draw)
+    markers_.publish(makeMarkers(request, response, parameters_.marker_scales, link_frames));
   return true;
 }
 
 std::optional<core::InvalidInput> CollisionResponseServer::solve(
-    ComputeResponse::Request& request, ComputeResponse::Response& response) {
+    ComputeResponse::Request& request, ComputeResponse::Response& response,
+    std::vector<ContactLinkFrame>* link_frames) {
   std::optional<core::InvalidInput> field_error;
   response.success = false;
   const auto begin = std::chrono::steady_clock::now();  // a timeout reports the time to it
@@ -246,7 +249,7 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     // valid poses), the detected contacts after it.
     core::SceneValidator validator(scene, options, parameters_.limits);
     if (involvesRobots(request)) {
-      solveWithRobots(request, response, scene, validator, options);
+      solveWithRobots(request, response, scene, validator, options, link_frames);
       response.success = true;
       return field_error;
     }
@@ -332,7 +335,8 @@ struct RequestRobot {
 void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& request,
                                               ComputeResponse::Response& response,
                                               core::Scene& scene, core::SceneValidator& validator,
-                                              const core::SolverOptions& options) {
+                                              const core::SolverOptions& options,
+                                              std::vector<ContactLinkFrame>* link_frames) {
   // The robots: those listed, then those only named by contacts ("<robot>/<link>").
   std::vector<RequestRobot> robots;
   const auto add = [&](ServedRobot* served, const RobotState& message, const std::string& field) {
@@ -442,6 +446,17 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
     place(a, point.body_a, point.part_a);
     place(b, point.body_b, point.part_b);
     points.push_back(point);
+  }
+  if (link_frames != nullptr) {
+    link_frames->assign(points.size(), ContactLinkFrame());
+    for (std::size_t c = 0; c < points.size(); ++c) {
+      const bool on_a = points[c].part_a >= 0;
+      const int part = on_a ? points[c].part_a : points[c].part_b;
+      if (part < 0) continue;
+      const robot::ArticulatedBody& model =
+          *robots[(on_a ? points[c].body_a : points[c].body_b) - rigid_count].model;
+      (*link_frames)[c] = {model.linkName(part), model.linkPose(part)};
+    }
   }
 
   double energy_before = 0.0;

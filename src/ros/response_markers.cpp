@@ -60,7 +60,8 @@ void addArrow(visualization_msgs::MarkerArray& array, const std_msgs::Header& he
 
 visualization_msgs::MarkerArray makeMarkers(const ComputeResponse::Request& request,
                                             const ComputeResponse::Response& response,
-                                            const MarkerScales& scales) {
+                                            const MarkerScales& scales,
+                                            const std::vector<ContactLinkFrame>& link_frames) {
   visualization_msgs::MarkerArray array;
   Marker clear;
   clear.header = request.header;
@@ -72,25 +73,43 @@ visualization_msgs::MarkerArray makeMarkers(const ComputeResponse::Request& requ
   std::vector<const Contact*> contacts;
   for (const Contact& c : request.contacts) contacts.push_back(&c);
   for (const Contact& c : response.detected_contacts) contacts.push_back(&c);
-  if (!contacts.empty()) {
-    Marker points = marker(header, "contact_points", 0, Marker::SPHERE_LIST, color(1, 1, 0));
-    points.scale.x = points.scale.y = points.scale.z = scales.point;
-    for (const Contact* c : contacts) points.points.push_back(c->point);
-    array.markers.push_back(std::move(points));
-  }
+  const auto on_link = [&](std::size_t i) {
+    return i < link_frames.size() && !link_frames[i].frame_id.empty();
+  };
+  Marker points = marker(header, "contact_points", 0, Marker::SPHERE_LIST, color(1, 1, 0));
+  points.scale.x = points.scale.y = points.scale.z = scales.point;
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const Contact& c = *contacts[i];
     Eigen::Vector3d n = toEigen(c.normal);
     if (n.norm() > 0.0) n.normalize();
-    addArrow(array, header, "contact_normals", static_cast<int>(i), color(0, 0.6f, 1),
-             toEigen(c.point), scales.normal * n);
+    Eigen::Vector3d j = Eigen::Vector3d::Zero();
     if (i < response.impulses.size()) {
       const ContactImpulse& impulse = response.impulses[i];
-      const Eigen::Vector3d j = impulse.normal_impulse * n + toEigen(impulse.friction_impulse);
-      addArrow(array, header, "contact_impulses", static_cast<int>(i), color(1, 0, 0),
-               toEigen(c.point), scales.impulse * j);
+      j = impulse.normal_impulse * n + toEigen(impulse.friction_impulse);
     }
+    // In the request frame, or in the link's frame (p_link = link_T_request p).
+    std_msgs::Header frame = header;
+    Eigen::Vector3d p = toEigen(c.point);
+    if (on_link(i)) {
+      const Eigen::Isometry3d link_T_request = link_frames[i].request_T_link.inverse();
+      frame.frame_id = link_frames[i].frame_id;
+      p = link_T_request * p;
+      n = link_T_request.linear() * n;
+      j = link_T_request.linear() * j;
+      Marker sphere = marker(frame, "robot_contact_points", static_cast<int>(i), Marker::SPHERE,
+                             color(1, 1, 0));
+      sphere.pose.position = toPoint(p);
+      sphere.scale.x = sphere.scale.y = sphere.scale.z = scales.point;
+      array.markers.push_back(std::move(sphere));
+    } else {
+      points.points.push_back(c.point);
+    }
+    addArrow(array, frame, "contact_normals", static_cast<int>(i), color(0, 0.6f, 1), p,
+             scales.normal * n);
+    addArrow(array, frame, "contact_impulses", static_cast<int>(i), color(1, 0, 0), p,
+             scales.impulse * j);
   }
+  if (!points.points.empty()) array.markers.push_back(std::move(points));
   for (std::size_t i = 0; i < response.bodies.size(); ++i) {
     const BodyState& after = response.bodies[i];
     if (!(after.inertia.m > 0.0)) continue;  // immovable: velocity prescribed

@@ -424,6 +424,48 @@ TEST_F(RobotNodeTest, AnswerIsPublishedWithTheRobots) {
   EXPECT_EQ(published->robots[0].joint_state.name.size(), kJoints.size());
 }
 
+TEST_F(RobotNodeTest, MarkersCarryTheLinksFrames) {
+  std::mutex mutex;
+  visualization_msgs::MarkerArray::ConstPtr latest;
+  ros::Subscriber markers = node_.subscribe<visualization_msgs::MarkerArray>(
+      "/collision_response/markers", 1, [&](const visualization_msgs::MarkerArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        latest = m;
+      });
+  const ros::WallTime connected = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (markers.getNumPublishers() == 0 && ros::WallTime::now() < connected)
+    ros::WallDuration(0.01).sleep();
+  ros::WallDuration(0.2).sleep();  // the node sees the subscriber
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  ASSERT_TRUE(call(strikeRequest(strike)).success);
+  // The contact in the hand's frame: hand_T_world p, with the hand's pose from the reference.
+  const Eigen::Vector3d in_hand = arm.linkPose(arm.linkIndex("hand")).inverse() * strike.point;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  bool found = false;
+  while (!found && ros::WallTime::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (latest) {
+        for (const visualization_msgs::Marker& m : latest->markers) {
+          if (m.ns != "robot_contact_points") continue;
+          found = true;
+          EXPECT_EQ(m.header.frame_id, "hand");
+          EXPECT_NEAR((toEigen(m.pose.position) - in_hand).norm(), 0.0, 1e-9);
+        }
+        bool impulse_in_hand = false;
+        for (const visualization_msgs::Marker& m : latest->markers)
+          impulse_in_hand |= m.ns == "contact_impulses" && m.header.frame_id == "hand";
+        if (found) {
+          EXPECT_TRUE(impulse_in_hand);
+        }
+      }
+    }
+    ros::WallDuration(0.02).sleep();
+  }
+  EXPECT_TRUE(found) << "no robot contact marker";
+}
+
 TEST_F(RobotNodeTest, BatchScenesCarryRobots) {
   const cr::robot::ArticulatedBody arm = publishedArm();
   const cr::ComputeResponse single = strikeRequest(strikeOf(arm));

@@ -72,14 +72,18 @@ class CollisionResponseServer {
   /// An empty request.header.frame_id is set to ~default_frame (with a warning in the response).
   /// Returns the error of a request rejected for one of its values (named as in the request), so
   /// that a batch can name it in the batch.
+  /// `link_frames` (if not null) receives, per contact on a robot's link, that link's frame for
+  /// the markers (response_markers.h).
   std::optional<core::InvalidInput> solve(ComputeResponse::Request& request,
-                                          ComputeResponse::Response& response);
+                                          ComputeResponse::Response& response,
+                                          std::vector<ContactLinkFrame>* link_frames = nullptr);
   /// The part of solve() for requests with robots (request.robots, or contacts naming
   /// "<robot>/<link>"): rigid bodies and robots as general body models (core::computeBodyResponse).
   /// `scene` holds the request's validated bodies and given contacts; `validator` has checked them.
   void solveWithRobots(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                        core::Scene& scene, core::SceneValidator& validator,
-                       const core::SolverOptions& options);
+                       const core::SolverOptions& options,
+                       std::vector<ContactLinkFrame>* link_frames);
   /// Whether a request involves robots: it lists some, or a contact names an id that is no body's
   /// and starts with a served robot's name and '/'.
   bool involvesRobots(const ComputeResponse::Request& request) const;
