@@ -1,4 +1,4 @@
-// One impact prediction for a robot (docs/robots.md): the 7-DOF arm of test/robot/arm7.urdf (fixed
+// One impact prediction for a robot (docs/robots.md): the 7-DOF arm of urdf/arm7.urdf (fixed
 // base, 9 joints with the gripper's) strikes a free box with its hand, one frictional contact,
 // Stronge. The model is loaded once; per request: the state (kinematics, M(q) by CRBA, its
 // Cholesky factor), the contact's Jacobian and M^-1 J^T, the solve and the joint velocities.

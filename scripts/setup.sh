@@ -16,7 +16,7 @@ packages=(
   libdiagnostic-msgs-dev libvisualization-msgs-dev python3-visualization-msgs librosbag-dev
   librosbag-storage-dev python3-rosbag python3-rospkg
   python3-diagnostic-msgs tf2-tools python3-tf2-msgs
-  liburdf-dev libkdl-parser-dev liborocos-kdl-dev
+  liburdf-dev libkdl-parser-dev liborocos-kdl-dev libresource-retriever-dev libgeometric-shapes-dev
   ros-robot-state-publisher joint-state-publisher
 )
 scripts/install_packages.sh "${packages[@]}"

@@ -531,10 +531,12 @@ struct ContactDetector::Impl {
   /// Shape pairs whose inflated boxes overlap (FCL's dynamic AABB tree; planes tested against
   /// every other shape's box).
   std::vector<ShapePair> broadphase();
-  /// The candidates between two different bodies, not both immovable, ordered by body pair and
-  /// shape index (body_a < body_b).
+  /// The candidates between two different bodies, not both immovable and not of one collision
+  /// group (>= 0; `groups` empty or one per body), ordered by body pair and shape index
+  /// (body_a < body_b).
   std::vector<ShapePair> pairsToTest(const std::vector<ShapePair>& candidates,
-                                     const std::vector<core::BodyState>& states);
+                                     const std::vector<core::BodyState>& states,
+                                     const std::vector<int>& groups);
   /// The contacts of every pair, within options.max_contacts and options.deadline.
   static std::vector<DetectedContact> narrowphasePairs(const std::vector<ShapePair>& pairs,
                                                        const PairContext& ctx,
@@ -610,11 +612,13 @@ std::vector<ShapePair> ContactDetector::Impl::broadphase() {
 }
 
 std::vector<ShapePair> ContactDetector::Impl::pairsToTest(
-    const std::vector<ShapePair>& candidates, const std::vector<core::BodyState>& states) {
+    const std::vector<ShapePair>& candidates, const std::vector<core::BodyState>& states,
+    const std::vector<int>& groups) {
   std::vector<ShapePair> pairs;
   for (auto [s1, s2] : candidates) {
     if (s1->body == s2->body) continue;
     if (states[s1->body].immovable() && states[s2->body].immovable()) continue;
+    if (!groups.empty() && groups[s1->body] >= 0 && groups[s1->body] == groups[s2->body]) continue;
     if (s1->body > s2->body) std::swap(s1, s2);
     pairs.emplace_back(s1, s2);
   }
@@ -647,7 +651,8 @@ std::vector<DetectedContact> ContactDetector::Impl::narrowphasePairs(
 
 std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::BodyState>& bodies,
                                                      const std::vector<BodyGeometry>& geometry,
-                                                     const DetectionOptions& options) {
+                                                     const DetectionOptions& options,
+                                                     const std::vector<int>& collision_groups) {
   if (!std::isfinite(options.contact_tolerance) || options.contact_tolerance < 0.0) {
     throw core::InvalidInput("options.contact_tolerance", "must be finite and >= 0");
   }
@@ -655,6 +660,11 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
     throw core::InvalidInput("options.max_contacts_per_pair", "must be >= 1");
   }
   validateGeometry(geometry, bodies.size());
+  if (!collision_groups.empty() && collision_groups.size() != bodies.size()) {
+    throw core::InvalidInput("bodies", "collision groups given for " +
+                                           std::to_string(collision_groups.size()) +
+                                           " bodies, expected " + std::to_string(bodies.size()));
+  }
   PairContext ctx;
   ctx.tol = options.contact_tolerance;
   ctx.delta = std::max(1e-4 * ctx.tol, 1e-10);
@@ -663,7 +673,7 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
   Impl& im = *impl_;
   im.stats = Stats{};
   im.placeShapes(bodies, geometry, ctx.tol);
-  const std::vector<ShapePair> pairs = im.pairsToTest(im.broadphase(), bodies);
+  const std::vector<ShapePair> pairs = im.pairsToTest(im.broadphase(), bodies, collision_groups);
   return Impl::narrowphasePairs(pairs, ctx, options);
 }
 

@@ -37,7 +37,8 @@ DetectedContacts detectContacts(ContactDetector& detector,
   }
 
   DetectedContacts out;
-  const std::vector<DetectedContact> found = detector.detect(bodies, input.geometry, input.options);
+  const std::vector<DetectedContact> found =
+      detector.detect(bodies, input.geometry, input.options, input.collision_groups);
   out.contacts.reserve(found.size());
   out.depths.reserve(found.size());
   static const std::string kNone;

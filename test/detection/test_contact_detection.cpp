@@ -523,6 +523,44 @@ TEST(ContactDetection, CompoundBodies) {
   EXPECT_EQ(detector.lastStats().narrowphase_pairs, 4u);  // the top is 0.7 m up
 }
 
+TEST(ContactDetection, BodiesOfOneCollisionGroupAreNeverPaired) {
+  // Three boxes 0.2 m wide resting 0.2 mm deep on the floor, the middle one overlapping both of
+  // its neighbours by 1 cm (centres 0.19 m apart): the links of one robot at their joints.
+  const std::vector<cr::BodyState> bodies = {
+      kGround, body("link_a", 1.0, Vector3d(-0.19, 0, 0.0998)),
+      body("link_b", 1.0, Vector3d(0, 0, 0.0998)), body("other", 1.0, Vector3d(0.19, 0, 0.0998))};
+  const std::vector<detection::BodyGeometry> geometry = {
+      {{kFloor}}, {{box(0.2, 0.2, 0.2)}}, {{box(0.2, 0.2, 0.2)}}, {{box(0.2, 0.2, 0.2)}}};
+  const auto pairsOf = [](const std::vector<detection::DetectedContact>& contacts) {
+    std::vector<std::pair<int, int>> pairs;
+    for (const auto& c : contacts) pairs.emplace_back(c.body_a, c.body_b);
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    return pairs;
+  };
+  using Pairs = std::vector<std::pair<int, int>>;
+  detection::ContactDetector detector;
+  // No groups: every overlapping pair.
+  EXPECT_EQ(pairsOf(detector.detect(bodies, geometry)),
+            (Pairs{{0, 1}, {0, 2}, {0, 3}, {1, 2}, {2, 3}}));
+  // Bodies 1 and 2 in group 0: their overlap is skipped, body 3 (group 1) still meets body 2.
+  const auto grouped = detector.detect(bodies, geometry, {}, {-1, 0, 0, 1});
+  EXPECT_EQ(pairsOf(grouped), (Pairs{{0, 1}, {0, 2}, {0, 3}, {2, 3}}));
+  // Each box's 4 bottom corners on the floor; boxes 2 and 3, 1 cm into each other along x, the 4
+  // corners of their 0.2 m square faces.
+  EXPECT_EQ(grouped.size(), 3u * 4u + 4u);
+  // All of them in group 0 except the floor (-1: pairs with everything).
+  EXPECT_EQ(pairsOf(detector.detect(bodies, geometry, {}, {-1, 0, 0, 0})),
+            (Pairs{{0, 1}, {0, 2}, {0, 3}}));
+  // Negative groups are no group: everything paired.
+  EXPECT_EQ(pairsOf(detector.detect(bodies, geometry, {}, {-1, -1, -1, -1})).size(), 5u);
+  try {
+    detector.detect(bodies, geometry, {}, {0, 0});
+    ADD_FAILURE() << "collision groups for 2 of 4 bodies were accepted";
+  } catch (const cr::InvalidInput& e) {
+    EXPECT_EQ(e.field(), "bodies");
+  }
+}
+
 TEST(ContactDetection, BodiesWithoutGeometry) {
   detection::ContactDetector detector;
   EXPECT_TRUE(detector.detect({kGround, body("b", 1.0, Vector3d::Zero())}, {}).empty());

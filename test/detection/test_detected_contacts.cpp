@@ -94,6 +94,12 @@ TEST(DetectedContacts, TwoSpheresHeadOn) {
   expectVecNear(s.detected.contacts[0].normal, Vector3d::UnitX(), kTol);
   expectVecNear(s.result.bodies[0].linear_velocity, {-1.0, 0, 0}, kTol);
   expectVecNear(s.result.bodies[1].linear_velocity, {0.5, 0, 0}, kTol);
+
+  // The same two in one collision group (two links of one robot): never paired.
+  detection::DetectionInput grouped = shapesOf({{ball}, {ball}}, 0.5);
+  grouped.collision_groups = {3, 3};
+  detection::ContactDetector detector;
+  EXPECT_TRUE(detection::detectContacts(detector, {left, right}, grouped, {}).contacts.empty());
 }
 
 TEST(DetectedContacts, BoxLandingFlatKeepsNoSpin) {
@@ -234,6 +240,9 @@ TEST(DetectedContacts, BadInputNamesTheField) {
   EXPECT_EQ(fieldOf(input, limits), "bodies");
   input = shapesOf({{ball}, {ball}}, 0.5);
   input.materials = {"steel"};
+  EXPECT_EQ(fieldOf(input, {}), "bodies");
+  input = shapesOf({{ball}, {ball}}, 0.5);
+  input.collision_groups = {0, 0, 0};
   EXPECT_EQ(fieldOf(input, {}), "bodies");
   detection::MaterialTable table;
   EXPECT_THROW(table.set("steel", "", {0.5, 0.1, 0.1}), cr::InvalidInput);

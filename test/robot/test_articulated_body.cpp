@@ -28,6 +28,7 @@ using Eigen::VectorXd;
 namespace {
 
 const std::string kDir = ROBOT_TEST_DIR;
+const std::string kArm7 = ARM7_URDF;  // the shipped arm, urdf/arm7.urdf
 
 // The 2R arm of two_link.urdf.
 constexpr double m1 = 2.0, l1 = 1.0, lc1 = 0.5, I1 = m1 * l1 * l1 / 12.0;
@@ -83,7 +84,7 @@ TEST(ArticulatedBody, TwoLinkMassMatchesTheTextbookAtSeveralConfigurations) {
 // chain's composite-rigid-body method in local frames; ChainJntToJacSolver the twists of the tip).
 TEST(ArticulatedBody, Arm7MassAndJacobiansEqualKdlChainSolvers) {
   KDL::Tree full;
-  ASSERT_TRUE(kdl_parser::treeFromFile(kDir + "/arm7.urdf", full));
+  ASSERT_TRUE(kdl_parser::treeFromFile(kArm7, full));
   KDL::Chain chain;
   ASSERT_TRUE(full.getChain("base_link", "left_finger", chain));
   ASSERT_EQ(chain.getNrOfJoints(), 8u);
@@ -127,7 +128,7 @@ TEST(ArticulatedBody, Arm7MassAndJacobiansEqualKdlChainSolvers) {
 // symmetric positive definite and (1/2) qdot^T M qdot equals the links' kinetic energy summed
 // link by link (sum of (1/2) V_i . I_i V_i over the links' twists), an independent computation.
 TEST(ArticulatedBody, Arm7TreeEnergyMatchesMassMatrix) {
-  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/arm7.urdf");
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
   ASSERT_EQ(arm.jointCount(), 9);
   ASSERT_EQ(arm.linkCount(), 11);  // base, 7 links, hand, 2 fingers
   std::mt19937 rng(3);

@@ -25,6 +25,7 @@ using Eigen::VectorXd;
 namespace {
 
 const std::string kDir = ROBOT_TEST_DIR;
+const std::string kArm7 = ARM7_URDF;  // the shipped arm, urdf/arm7.urdf
 
 // A free solid sphere of mass ms and radius R, centre c, velocity v: I = 2/5 ms R^2.
 cr::RigidBody sphere(double ms, double R, const Vector3d& c, const Vector3d& v) {
@@ -148,7 +149,7 @@ TEST(RobotImpacts, TwoLinkTipImpactClosedForm) {
 // Every joint locked, fixed base: the arm has no unknowns and acts as an immovable body (here at
 // rest): a sphere struck centrally leaves at -e times its normal velocity.
 TEST(RobotImpacts, LockedFixedRobotIsImmovable) {
-  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/arm7.urdf");
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
   for (int j = 0; j < arm.jointCount(); ++j) arm.setJointModel(j, rb::JointModel::kLocked);
   EXPECT_EQ(arm.velocityCount(), 0);
   const int hand = arm.linkIndex("hand");
@@ -224,7 +225,7 @@ TEST(RobotImpacts, LockedFloatingRobotIsTheCompositeRigidBody) {
 // the total linear and angular momentum (about the world origin) are conserved to round-off; the
 // kinetic energy does not increase; no contact is left approaching.
 TEST(RobotImpacts, FloatingRobotStrikingAFreeBodyConservesMomentum) {
-  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/arm7.urdf", rb::BaseType::kFloating);
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7, rb::BaseType::kFloating);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int trial = 0; trial < 10; ++trial) {

@@ -69,9 +69,14 @@ class ContactDetector {
   /// is normalised) with geometry (empty, or one entry per body: checked with validateGeometry(),
   /// throws core::InvalidInput). Two immovable bodies (mass 0) never get contacts. Ordered by body
   /// pair.
+  ///
+  /// collision_groups: empty, or one group per body (else core::InvalidInput, "bodies"). Two
+  /// bodies of the same group >= 0 are never paired: the links of one robot, given as one body
+  /// each, whose neighbours overlap at their joints. A negative group (-1) pairs with everything.
   std::vector<DetectedContact> detect(const std::vector<core::BodyState>& bodies,
                                       const std::vector<BodyGeometry>& geometry,
-                                      const DetectionOptions& options = {});
+                                      const DetectionOptions& options = {},
+                                      const std::vector<int>& collision_groups = {});
 
   /// Counters of the last detect() call.
   const Stats& lastStats() const;

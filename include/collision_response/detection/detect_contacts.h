@@ -17,6 +17,10 @@ struct DetectionInput {
   std::vector<BodyGeometry> geometry;  ///< empty (no geometry) or one entry per body
   /// Empty or one per body; "" = no material. A name must appear in the material table.
   std::vector<std::string> materials;
+  /// Empty or one per body: bodies sharing a group >= 0 are never paired (the links of one robot,
+  /// each a body, overlap where they are joined); -1 pairs with every body.
+  /// ContactDetector::detect().
+  std::vector<int> collision_groups;
   DetectionOptions options;  ///< contact tolerance, points per pair
   ContactMaterial defaults;  ///< coefficients of pairs the material table does not name
 };
