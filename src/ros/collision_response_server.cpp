@@ -141,12 +141,14 @@ core::Scene CollisionResponseServer::toScene(const ComputeResponse::Request& req
   return scene;
 }
 
-bool CollisionResponseServer::wantsDetection(const ComputeResponse::Request& request) {
+bool CollisionResponseServer::wantsDetection(const ComputeResponse::Request& request,
+                                             bool robot_geometry) {
   switch (request.detection.mode) {
     case DetectionOptions::MODE_AUTO:
       return request.contacts.empty() &&
-             std::any_of(request.bodies.begin(), request.bodies.end(),
-                         [](const BodyState& body) { return hasGeometry(body); });
+             (robot_geometry ||
+              std::any_of(request.bodies.begin(), request.bodies.end(),
+                          [](const BodyState& body) { return hasGeometry(body); }));
     case DetectionOptions::MODE_ALWAYS:
       return true;
     case DetectionOptions::MODE_NEVER:
@@ -175,10 +177,16 @@ void CollisionResponseServer::releaseDetector(
 detection::DetectedContacts CollisionResponseServer::detect(const ComputeResponse::Request& request,
                                                             const core::Scene& scene,
                                                             const core::SolverOptions& options,
-                                                            double contact_tolerance) {
+                                                            double contact_tolerance,
+                                                            const LinkBodies* links) {
   // Limits first, from the messages, so an oversized mesh costs no conversion.
   std::size_t shapes = 0, vertices = 0, triangles = 0;
   for (const BodyState& body : request.bodies) countGeometry(body, shapes, vertices, triangles);
+  if (links != nullptr) {
+    shapes += links->shapes;
+    vertices += links->vertices;
+    triangles += links->triangles;
+  }
   core::checkGeometrySize(shapes, vertices, triangles, parameters_.limits);
 
   detection::DetectionInput input;
@@ -197,10 +205,24 @@ detection::DetectedContacts CollisionResponseServer::detect(const ComputeRespons
         geometryFromMsg(request.bodies[i], "bodies[" + std::to_string(i) + "]"));
     input.materials.push_back(request.bodies[i].material);
   }
+  const std::vector<core::BodyState>* bodies = &scene.bodies;
+  std::vector<core::BodyState> with_links;
+  if (links != nullptr && !links->bodies.empty()) {
+    with_links = scene.bodies;
+    with_links.insert(with_links.end(), links->bodies.begin(), links->bodies.end());
+    bodies = &with_links;
+    for (const detection::BodyGeometry* geometry : links->geometry) {
+      input.geometry.push_back(*geometry);
+      input.materials.emplace_back();  // the request's detection coefficients
+    }
+    input.collision_groups.assign(scene.bodies.size(), -1);
+    input.collision_groups.insert(input.collision_groups.end(), links->groups.begin(),
+                                  links->groups.end());
+  }
   std::unique_ptr<detection::ContactDetector> detector = acquireDetector();
   // Back to the pool after a detection; one that threw (its cache half rebuilt) is dropped.
   detection::DetectedContacts found = detection::detectContacts(
-      *detector, scene.bodies, input, parameters_.materials, parameters_.limits);
+      *detector, *bodies, input, parameters_.materials, parameters_.limits);
   releaseDetector(std::move(detector));
   return found;
 }
@@ -407,9 +429,36 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
   }
   validator.addOtherBodyIds(link_ids);
   validator.checkContacts(scene);
-  if (wantsDetection(request)) {
+  bool robot_geometry = false;
+  for (const RequestRobot& robot : robots) robot_geometry |= robot.served->hasGeometry();
+  if (wantsDetection(request, robot_geometry)) {
+    // The links with collision geometry as bodies of detection, placed by the robots' state. Mass
+    // 1 kg (detection pairs no two immovable bodies); detection reads only poses and shapes.
+    LinkBodies links;
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      const robot::ArticulatedBody& model = *robots[r].model;
+      for (int link = 0; link < model.linkCount(); ++link) {
+        const detection::BodyGeometry& geometry = robots[r].served->linkGeometry()[link];
+        if (geometry.shapes.empty()) continue;
+        core::BodyState body;
+        body.id = robots[r].served->linkIds()[link];
+        body.mass = 1.0;
+        body.inertia = Eigen::Matrix3d::Identity();
+        const Eigen::Isometry3d pose = model.linkPose(link);
+        body.position = pose.translation();
+        body.orientation = Eigen::Quaterniond(pose.linear());
+        links.bodies.push_back(std::move(body));
+        links.geometry.push_back(&geometry);
+        links.groups.push_back(static_cast<int>(r));
+        links.shapes += geometry.shapes.size();
+        for (const detection::Shape& shape : geometry.shapes) {
+          links.vertices += shape.vertices.size();
+          links.triangles += shape.triangles.size();
+        }
+      }
+    }
     const detection::DetectedContacts detected =
-        detect(request, scene, options, defaults().contact_tolerance);
+        detect(request, scene, options, defaults().contact_tolerance, &links);
     for (const core::Contact& contact : detected.contacts)
       response.detected_contacts.push_back(toMsg(contact));
     response.detected_depths = detected.depths;

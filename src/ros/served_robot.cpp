@@ -1,10 +1,12 @@
 #include "collision_response/ros/served_robot.h"
 
 #include <algorithm>
+#include <map>
 #include <stdexcept>
 
 #include "collision_response/core/errors.h"
 #include "collision_response/robot/urdf_loader.h"
+#include "collision_response/ros/robot_geometry.h"
 
 namespace collision_response {
 namespace {
@@ -38,9 +40,22 @@ ServedRobot::ServedRobot(const RobotParameters& parameters, const std::string& u
   }
   setJointModels(model_, parameters.locked_joints, field + ".locked_joints");
   if (!model_.singularJoint().empty()) throw core::InvalidInput(field, model_.singularJoint());
+  std::map<std::string, detection::BodyGeometry> geometry;
+  try {
+    geometry = linkCollisionGeometryFromUrdf(urdf);
+  } catch (const std::invalid_argument& e) {
+    throw core::InvalidInput(field + ".description_param",
+                             "the collision geometry of the URDF in '" +
+                                 parameters.description_param + "' cannot be read: " + e.what());
+  }
   link_ids_.reserve(model_.linkCount());
-  for (int link = 0; link < model_.linkCount(); ++link)
+  link_geometry_.resize(model_.linkCount());
+  for (int link = 0; link < model_.linkCount(); ++link) {
     link_ids_.push_back(parameters.name + "/" + model_.linkName(link));
+    const auto it = geometry.find(model_.linkName(link));
+    if (it != geometry.end()) link_geometry_[link] = std::move(it->second);
+    has_geometry_ |= !link_geometry_[link].shapes.empty();
+  }
 }
 
 void ServedRobot::setJointModels(robot::ArticulatedBody& model,

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <mutex>
 
 #include "collision_response/core/body_response.h"
@@ -464,6 +465,68 @@ TEST_F(RobotNodeTest, MarkersCarryTheLinksFrames) {
     ros::WallDuration(0.02).sleep();
   }
   EXPECT_TRUE(found) << "no robot contact marker";
+}
+
+TEST_F(RobotNodeTest, FingerPadsOnATableFromTheUrdfGeometry) {
+  // The left finger's frame placed pointing straight down (its pad box, 2 x 1 x 5 cm, reaches 5 cm
+  // along the finger's z) 0.1 mm into a table top at z = 0: the arm's base pose follows from the
+  // reference kinematics. The table (20 kg) rises at 0.5 m/s into the resting fingers.
+  const std::vector<double> q = {0.3, 0.2, -0.4, 0.3, 0.5, -0.3, 0.7, 0.015, 0.02};
+  cr::robot::ArticulatedBody arm = referenceArm();
+  arm.setState(vector(q), Eigen::VectorXd::Zero(arm.jointCount()));
+  Eigen::Isometry3d finger_wanted = Eigen::Isometry3d::Identity();
+  finger_wanted.translation() = Eigen::Vector3d(0.4, -0.1, 0.05 - 1e-4);
+  finger_wanted.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Isometry3d base =
+      finger_wanted * arm.linkPose(arm.linkIndex("left_finger")).inverse();
+
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  cr::BodyState table;
+  table.id = "table";
+  table.inertia.m = 20.0;
+  table.inertia.ixx = table.inertia.iyy = 20.0 * (1.0 + 0.01) / 12.0;
+  table.inertia.izz = 20.0 * 2.0 / 12.0;
+  table.pose = pose(0.4, -0.1, -0.05);
+  table.twist.linear.z = 0.5;
+  shape_msgs::SolidPrimitive top;
+  top.type = shape_msgs::SolidPrimitive::BOX;
+  top.dimensions = {1.0, 1.0, 0.1};
+  table.primitives = {top};
+  table.primitive_poses = {pose(0, 0, 0)};
+  srv.request.bodies = {table};
+  srv.request.detection.mode = cr::DetectionOptions::MODE_ALWAYS;
+  srv.request.detection.restitution = 0.3;
+  srv.request.robots.resize(1);
+  cr::RobotState& robot = srv.request.robots[0];
+  robot.name = "arm";
+  robot.joint_state.name = kJoints;
+  robot.joint_state.position = q;
+  robot.joint_state.velocity.assign(kJoints.size(), 0.0);
+  const Eigen::Quaterniond base_rotation(base.linear());
+  robot.base_pose =
+      pose(base.translation().x(), base.translation().y(), base.translation().z(), base_rotation);
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  std::map<std::string, int> per_link;
+  for (std::size_t k = 0; k < response.detected_contacts.size(); ++k) {
+    const cr::Contact& c = response.detected_contacts[k];
+    const std::string link = c.body_a == "table" ? c.body_b : c.body_a;
+    ++per_link[link];
+    EXPECT_NEAR(std::abs(c.normal.z), 1.0, 1e-9) << link;
+    EXPECT_NEAR(c.point.z, -5e-5, 1e-9) << link;  // midway through the 0.1 mm overlap
+    EXPECT_NEAR(response.detected_depths[k], 1e-4, 1e-9) << link;
+    EXPECT_GE(response.impulses[k].normal_impulse, 0.0);
+  }
+  EXPECT_EQ(per_link["arm/left_finger"], 4);  // the pad's four corners
+  EXPECT_EQ(per_link["arm/right_finger"], 4);
+  EXPECT_EQ(per_link.size(), 2u) << "only the finger pads touch the table";
+  // The fingers push the table back: it slows down, and the arm moves.
+  EXPECT_LT(response.bodies[0].twist.linear.z, 0.5);
+  ASSERT_EQ(response.robots.size(), 1u);
+  double speed = 0.0;
+  for (double v : response.robots[0].joint_state.velocity) speed += std::abs(v);
+  EXPECT_GT(speed, 0.0);
 }
 
 TEST_F(RobotNodeTest, BatchScenesCarryRobots) {

@@ -108,13 +108,22 @@ class CollisionResponseServer {
 
   /// Request to core scene in the request frame (tf2 look-ups for bodies in other frames).
   core::Scene toScene(const ComputeResponse::Request& request) const;
-  /// Whether the request's contacts are to be found from the bodies' shapes (detection.mode).
-  static bool wantsDetection(const ComputeResponse::Request& request);
-  /// Contacts from the bodies' shapes in `scene` (validated, request frame), with a detector of
-  /// the pool, within the contact limit and options.time_budget.
+  /// Whether the request's contacts are to be found from the bodies' shapes (detection.mode);
+  /// `robot_geometry`: a robot taking part has link collision geometry (MODE_AUTO counts it).
+  static bool wantsDetection(const ComputeResponse::Request& request, bool robot_geometry = false);
+  /// Robots' links as bodies of detection: each link with collision geometry placed at its pose
+  /// (request frame), in the collision group of its robot (links of one robot are never paired).
+  struct LinkBodies {
+    std::vector<core::BodyState> bodies;  ///< id "<robot>/<link>", pose linkPose(link)
+    std::vector<const detection::BodyGeometry*> geometry;
+    std::vector<int> groups;
+    std::size_t shapes = 0, vertices = 0, triangles = 0;
+  };
+  /// Contacts from the bodies' shapes in `scene` (validated, request frame) and the robots' links
+  /// (if any), with a detector of the pool, within the contact limit and options.time_budget.
   detection::DetectedContacts detect(const ComputeResponse::Request& request,
                                      const core::Scene& scene, const core::SolverOptions& options,
-                                     double contact_tolerance);
+                                     double contact_tolerance, const LinkBodies* links = nullptr);
 
   /// Detectors keep FCL objects between calls but are not thread-safe: each request borrows one.
   std::unique_ptr<detection::ContactDetector> acquireDetector();

@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "collision_response/detection/shapes.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/ros/joint_state_cache.h"
 #include "collision_response/ros/server_parameters.h"
@@ -17,7 +18,8 @@ class ServedRobot {
  public:
   /// Builds the model from the URDF document `urdf` (the string of parameters.description_param).
   /// Throws core::InvalidInput naming `field` (the entry, "~robots[i]"): ".description_param" for
-  /// a document that does not parse, ".locked_joints[k]" / ".armature.<joint>" for a joint the
+  /// a document that does not parse or whose collision geometry cannot be read (a mesh that does
+  /// not load), ".locked_joints[k]" / ".armature.<joint>" for a joint the
   /// model does not have, and the entry itself for a joint-space inertia that is singular with
   /// the listed joints locked (naming the joint that moves no mass: lock it or give its links
   /// mass).
@@ -32,6 +34,11 @@ class ServedRobot {
   /// Link names prefixed with the robot's name, "<name>/<link>", by link index: the body ids
   /// contacts use.
   const std::vector<std::string>& linkIds() const { return link_ids_; }
+  /// Each link's URDF collision geometry in the link's frame (robot_geometry.h), by link index;
+  /// empty for a link without <collision>.
+  const std::vector<detection::BodyGeometry>& linkGeometry() const { return link_geometry_; }
+  /// Whether any link has collision geometry.
+  bool hasGeometry() const { return has_geometry_; }
 
   /// A copy of the model whose locked joints are `locked` (names; the entry's armatures on the
   /// others). Throws core::InvalidInput naming `field` + "[k]" for an unknown joint name.
@@ -49,6 +56,8 @@ class ServedRobot {
   robot::ArticulatedBody model_;
   std::string base_frame_;
   std::vector<std::string> link_ids_;
+  std::vector<detection::BodyGeometry> link_geometry_;
+  bool has_geometry_ = false;
   JointStateCache joint_states_;
 };
 
