@@ -6,6 +6,9 @@ source scripts/build_dirs.sh
 # shellcheck disable=SC1091
 source "$devel_dir/setup.bash"
 set -u
+# Debian's ROS Python programs (joint_state_publisher, rostopic, ...) start with
+# "#!/usr/bin/env python3": they need Debian's interpreter (with rospy), not one first on PATH.
+export PATH=/usr/bin:$PATH
 free_port() { /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
 export ROS_HOSTNAME=127.0.0.1
 export ROS_HOME=${ROS_HOME:-$(mktemp -d /tmp/collision_response_ros.XXXXXX)}
@@ -32,9 +35,10 @@ start_master() {
   cat "$ROS_HOME/roscore.out" >&2
   return 1
 }
-# launch/collision_response.launch (extra args: roslaunch args); returns once the service is up.
+# launch/collision_response.launch, or launch/$LAUNCH_FILE (extra args: roslaunch args); returns once
+# the service is up.
 launch_node() {
-  roslaunch --wait collision_response collision_response.launch "$@" >"$ROS_HOME/node.out" 2>&1 &
+  roslaunch --wait collision_response "${LAUNCH_FILE:-collision_response.launch}" "$@" >"$ROS_HOME/node.out" 2>&1 &
   ros_pids+=($!)
   for _ in $(seq 1 300); do
     rosservice list 2>/dev/null | grep -qx /collision_response/compute && return 0

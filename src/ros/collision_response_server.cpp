@@ -417,8 +417,9 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
                                      request.header.frame_id + "': " + e.what());
       }
     }
-    robot.model = robotAtRequestState(*robot.served, robot.message, robot.base_pose, now,
-                                      parameters_.joint_state_timeout, robot.field);
+    robot.model =
+        robotAtRequestState(*robot.served, robot.message, robot.base_pose, now,
+                            parameters_.joint_state_timeout, robot.field, &response.warnings);
     robot.velocity_before = robot.model->velocity();
     robot.energy_before = robot.model->kineticEnergy();
     const std::vector<std::string>& ids = robot.served->linkIds();

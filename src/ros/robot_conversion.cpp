@@ -57,7 +57,8 @@ std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const st
 
 robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const RobotState& msg,
                                            const Eigen::Isometry3d& base_pose, const ros::Time& now,
-                                           double timeout, const std::string& field) {
+                                           double timeout, const std::string& field,
+                                           std::vector<std::string>* warnings) {
   robot::ArticulatedBody model =
       msg.override_locked_joints
           ? robot.modelWithLockedJoints(msg.locked_joints, field + ".locked_joints")
@@ -109,6 +110,7 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
   }
 
   // The rest from the latest joint-state messages, if recent enough.
+  std::vector<std::string> resting;  // joints whose velocity nobody gave
   bool complete = true;
   for (int joint = 0; joint < joints && complete; ++joint)
     complete = has_position[joint] && has_velocity[joint];
@@ -119,14 +121,11 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
       if (has_position[joint] && has_velocity[joint]) continue;
       const JointStateCache::Sample& sample = latest[joint];
       const std::string& name = model.jointNames()[joint];
-      const bool found = (has_position[joint] || sample.has_position) &&
-                         (has_velocity[joint] || sample.has_velocity);
-      if (!found) {
-        throw core::InvalidInput(
-            state_field,
-            "joint '" + name + "' has no " +
-                (has_position[joint] || sample.has_position ? "velocity" : "position") +
-                ": not in the request and none received on " + topic);
+      if (!has_position[joint] && !sample.has_position) {
+        throw core::InvalidInput(state_field, "joint '" + name +
+                                                  "' has no position: not in the request and "
+                                                  "none received on " +
+                                                  topic);
       }
       const double age = (now - sample.stamp).toSec();
       if (age > timeout) {
@@ -140,12 +139,26 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
         q(joint) = sample.position;
       }
       if (!has_velocity[joint]) {
-        requireFiniteWithin(sample.velocity, Limits::kSpeed, state_field, "rad/s or m/s");
-        qdot(joint) = sample.velocity;
+        // Publishers of positions only (joint_state_publisher, many drivers): a joint whose
+        // velocity nobody gives is at rest, said in a warning.
+        if (sample.has_velocity) {
+          requireFiniteWithin(sample.velocity, Limits::kSpeed, state_field, "rad/s or m/s");
+          qdot(joint) = sample.velocity;
+        } else {
+          qdot(joint) = 0.0;
+          resting.push_back(name);
+        }
       }
     }
   }
 
+  if (!resting.empty() && warnings != nullptr) {
+    std::string list;
+    for (const std::string& name : resting) list += (list.empty() ? "'" : ", '") + name + "'";
+    warnings->push_back(state_field + ": no velocity in the request or on " +
+                        robot.parameters().joint_states_topic + " for " + list +
+                        ": taken as 0 (at rest)");
+  }
   Eigen::Vector3d base_linear = Eigen::Vector3d::Zero(), base_angular = Eigen::Vector3d::Zero();
   if (model.baseType() == robot::BaseType::kFloating) {
     base_linear = toEigen(msg.base_twist.linear);
@@ -176,10 +189,16 @@ RobotResult toMsg(const std::string& name, const robot::ArticulatedBody& after,
   result.joint_state.velocity.assign(after.jointVelocities().data(),
                                      after.jointVelocities().data() + joints);
   result.joint_state.effort.assign(joints, 0.0);
+  result.joint_state_before.header = header;
+  result.joint_state_before.name = result.joint_state.name;
+  result.joint_state_before.position = result.joint_state.position;
+  result.joint_state_before.velocity = result.joint_state.velocity;  // locked joints keep theirs
   const Eigen::VectorXd impulse = after.generalizedImpulse(after.velocity() - velocity_before);
   for (int k = 0; k < after.velocityCount(); ++k) {
     const int joint = after.jointOfUnknown(k);
-    if (joint >= 0) result.joint_state.effort[joint] = impulse(k);
+    if (joint < 0) continue;
+    result.joint_state.effort[joint] = impulse(k);
+    result.joint_state_before.velocity[joint] = velocity_before(k);
   }
   result.floating = after.baseType() == robot::BaseType::kFloating;
   const Eigen::Quaterniond rotation(base_pose.linear());

@@ -196,6 +196,8 @@ TEST_F(RobotNodeTest, LatestJointStateAndTfBaseMatchTheCore) {
   for (int j = 0; j < arm.jointCount(); ++j)
     EXPECT_NEAR(response.robots[0].joint_state.effort[j], expected(j), 1e-9) << j;
   EXPECT_EQ(response.robots[0].joint_state.header.frame_id, "world");
+  EXPECT_EQ(response.robots[0].joint_state_before.velocity, kPublishedVelocities);
+  EXPECT_EQ(response.robots[0].joint_state_before.position, kPublishedPositions);
   EXPECT_FALSE(response.robots[0].floating);
   EXPECT_NEAR(response.robots[0].base_pose.position.x, 0.5, 1e-12);
 }

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/ros/served_robot.h"
@@ -25,12 +26,16 @@ std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const st
 /// `field` ("robots[i]") + ".joint_state.name[k]" for an unknown or repeated joint,
 /// ".joint_state.position" / ".velocity" for an array neither empty nor as long as name,
 /// ".joint_state.position[k]" / ".velocity[k]" for a value that is not finite (or beyond the core's
-/// magnitude limits), ".joint_state" for a joint given nowhere or whose latest message is older
-/// than `timeout` [s] at `now`, ".base_twist" for a non-finite twist, ".locked_joints[k]" for an
-/// unknown joint and ".locked_joints" when the unlocked joints leave M singular.
+/// magnitude limits), ".joint_state" for a joint whose position is given nowhere or whose latest
+/// message is older than `timeout` [s] at `now`, ".base_twist" for a non-finite twist,
+/// ".locked_joints[k]" for an unknown joint and ".locked_joints" when the unlocked joints leave M
+/// singular. A joint whose velocity neither the request nor the topic gives (publishers of
+/// positions only, such as joint_state_publisher) is at rest, with a line in `warnings` (if not
+/// null).
 robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const RobotState& msg,
                                            const Eigen::Isometry3d& base_pose, const ros::Time& now,
-                                           double timeout, const std::string& field);
+                                           double timeout, const std::string& field,
+                                           std::vector<std::string>* warnings = nullptr);
 
 /// A robot's answer: `after` is the model after the impact, `velocity_before` its velocity
 /// unknowns (ArticulatedBody::velocity()) and `energy_before` its kinetic energy [J] before it.
