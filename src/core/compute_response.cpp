@@ -95,9 +95,15 @@ CollisionResult computeValidatedResponse(const Scene& scene,
     result.impulses[c].normal_velocity_before = normalVelocity(bodies, contacts[c]);
   }
   // One problem per island, its storage reused across islands and calls on this thread (a
-  // single-contact call then allocates nothing for it).
-  thread_local ContactProblem problem;
-  thread_local std::vector<ContactImpulse> answer;
+  // single-contact call then allocates nothing for it). One thread_local object, referenced once:
+  // each use of a thread_local goes through its TLS wrapper.
+  struct Workspace {
+    ContactProblem problem;
+    std::vector<ContactImpulse> answer;
+  };
+  thread_local Workspace workspace;
+  ContactProblem& problem = workspace.problem;
+  std::vector<ContactImpulse>& answer = workspace.answer;
   for (const Island& island : findIslands(bodies, contact_bodies)) {
     SolveReport report;
     if (anyApproaching(result.impulses, island)) {

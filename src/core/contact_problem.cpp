@@ -27,9 +27,8 @@ Eigen::Vector3d centripetal(const RigidBody& body, const Eigen::Vector3d& r) {
   return body.angular_velocity.cross(body.angular_velocity.cross(r));
 }
 
-// The frame, coefficients and index fields of a problem entry.
-ProblemContact entryFor(int source, const ContactPoint& contact) {
-  ProblemContact out;
+// Sets the frame, coefficients and index fields of a problem entry (in place: entries are large).
+void setEntry(int source, const ContactPoint& contact, ProblemContact& out) {
   out.source = source;
   out.body_a = contact.body_a;
   out.body_b = contact.body_b;
@@ -38,12 +37,24 @@ ProblemContact entryFor(int source, const ContactPoint& contact) {
   out.restitution = contact.restitution;
   out.static_friction = contact.static_friction;
   out.dynamic_friction = contact.dynamic_friction;
-  return out;
 }
 
 void setTarget(ProblemContact& c) {
   const double u_n = c.free_velocity.dot(c.normal);
   c.target_normal_velocity = u_n < 0.0 ? -c.restitution * u_n : 0.0;
+}
+
+// Sets every impact field of `out` for a contact between two free rigid bodies: frame,
+// coefficients, lever arms r = p - c [m], K [1/kg], u [m/s] and the target normal velocity.
+void setRigidImpact(const RigidBody& a, const RigidBody& b, const ContactPoint& contact,
+                    ProblemContact& out) {
+  setEntry(-1, contact, out);
+  const ContactSpace space(a, b, contact.point);
+  out.lever_arm_a = space.r_a;
+  out.lever_arm_b = space.r_b;
+  out.delassus = space.K;
+  out.free_velocity = space.relativeVelocity(a, b);
+  setTarget(out);
 }
 
 }  // namespace
@@ -61,25 +72,23 @@ void ContactProblem::clear(ProblemLevel level) {
 int ContactProblem::addRigidBody(int index, const RigidBody& body, std::vector<int>& local_of) {
   if (!body.movable()) return -1;
   if (local_of[index] >= 0) return local_of[index];
-  ProblemBody out;
+  local_of[index] = static_cast<int>(bodies_.size());
+  ProblemBody& out = bodies_.emplace_back();
   out.index = index;
   out.unknowns = 6;
   out.inverse_mass = body.inverse_mass;
   out.inverse_inertia = body.inverse_inertia;
-  local_of[index] = static_cast<int>(bodies_.size());
-  bodies_.push_back(out);
   return local_of[index];
 }
 
 int ContactProblem::addGeneralBody(int index, const BodyModel& body, std::vector<int>& local_of) {
   if (body.velocityCount() == 0) return -1;
   if (local_of[index] >= 0) return local_of[index];
-  ProblemBody out;
+  local_of[index] = static_cast<int>(bodies_.size());
+  ProblemBody& out = bodies_.emplace_back();
   out.index = index;
   out.unknowns = body.velocityCount();
   out.model = &body;
-  local_of[index] = static_cast<int>(bodies_.size());
-  bodies_.push_back(out);
   return local_of[index];
 }
 
@@ -96,13 +105,8 @@ void ContactProblem::finish() {
 
 ProblemContact ContactProblem::rigidImpactContact(const RigidBody& a, const RigidBody& b,
                                                   const ContactPoint& contact) {
-  ProblemContact out = entryFor(-1, contact);
-  const ContactSpace space(a, b, contact.point);
-  out.lever_arm_a = space.r_a;
-  out.lever_arm_b = space.r_b;
-  out.delassus = space.K;
-  out.free_velocity = space.relativeVelocity(a, b);
-  setTarget(out);
+  ProblemContact out;
+  setRigidImpact(a, b, contact, out);
   return out;
 }
 
@@ -117,11 +121,11 @@ void ContactProblem::buildImpact(const std::vector<RigidBody>& bodies,
     const ContactPoint& point = contacts[c];
     const RigidBody& a = bodies[point.body_a];
     const RigidBody& b = bodies[point.body_b];
-    ProblemContact entry = rigidImpactContact(a, b, point);
+    ProblemContact& entry = contacts_.emplace_back();
+    setRigidImpact(a, b, point, entry);
     entry.source = c;
     entry.local_a = addRigidBody(point.body_a, a, local_of);
     entry.local_b = addRigidBody(point.body_b, b, local_of);
-    contacts_.push_back(entry);
   }
   finish();
 }
@@ -136,7 +140,9 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
   bool general = false;
   for (const int c : island) {
     const ContactPoint& point = contacts[c];
-    ProblemContact entry = entryFor(c, point);
+    const std::size_t row = contacts_.size();
+    ProblemContact& entry = contacts_.emplace_back();
+    setEntry(c, point, entry);
     const int index[2] = {point.body_a, point.body_b};
     const int part[2] = {point.part_a, point.part_b};
     int* local[2] = {&entry.local_a, &entry.local_b};
@@ -155,7 +161,7 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
       if (*local[side] < 0) continue;
       if (!general) general_sides_.resize(2 * island.size());
       general = true;
-      GeneralSide& out = general_sides_[2 * contacts_.size() + side];
+      GeneralSide& out = general_sides_[2 * row + side];
       out.jacobian = body.partPointJacobian(part[side], point.point);
       out.inverse_mass_jacobian_t = body.partInverseMassJacobianTranspose(part[side], point.point);
       entry.delassus += out.jacobian * out.inverse_mass_jacobian_t;
@@ -163,7 +169,6 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
     // Symmetric in exact arithmetic; make it so (a general body's products may round apart).
     entry.delassus = 0.5 * (entry.delassus + entry.delassus.transpose()).eval();
     setTarget(entry);
-    contacts_.push_back(entry);
   }
   finish();
 }
@@ -183,7 +188,8 @@ void ContactProblem::buildResting(const std::vector<BodyState>& states,
     const Eigen::Vector3d u = space.relativeVelocity(a, b);
     const double u_n = u.dot(point.normal);
     if (std::abs(u_n) > resting_velocity) continue;
-    ProblemContact entry = entryFor(c, point);
+    ProblemContact& entry = contacts_.emplace_back();
+    setEntry(c, point, entry);
     entry.restitution = 0.0;
     entry.lever_arm_a = space.r_a;
     entry.lever_arm_b = space.r_b;
@@ -199,7 +205,6 @@ void ContactProblem::buildResting(const std::vector<BodyState>& states,
     }
     entry.local_a = addRigidBody(point.body_a, a, local_of);
     entry.local_b = addRigidBody(point.body_b, b, local_of);
-    contacts_.push_back(entry);
   }
   finish();
 }

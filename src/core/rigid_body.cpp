@@ -4,12 +4,6 @@
 
 namespace collision_response::core {
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& r) {
-  Eigen::Matrix3d s;
-  s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
-  return s;
-}
-
 RigidBody makeRigidBody(const BodyState& state) {
   RigidBody body;
   body.com = state.worldCom();

@@ -1,7 +1,9 @@
 #include "collision_response/core/validation.h"
 
 #include <Eigen/Eigenvalues>
+#include <charconv>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 #include <unordered_map>
 
@@ -10,8 +12,17 @@
 namespace collision_response::core {
 namespace {
 
+// "array[i]", written into a buffer and made a string once (no temporaries: this runs for every
+// body and contact of every request). The array names are short literals ("bodies", "contacts").
 std::string indexed(const char* array, std::size_t i) {
-  return std::string(array) + "[" + std::to_string(i) + "]";
+  char text[64];
+  const std::size_t length = std::strlen(array);
+  if (length > 32) return std::string(array) + "[" + std::to_string(i) + "]";
+  std::memcpy(text, array, length);
+  text[length] = '[';
+  char* end = std::to_chars(text + length + 1, text + sizeof text - 1, i).ptr;
+  *end++ = ']';
+  return std::string(text, end);
 }
 
 std::string describe(double value) {
@@ -186,29 +197,43 @@ std::string OptionRange::text() const {
   return (min_exclusive ? "(" : "[") + describe(min) + ", " + describe(max) + "]";
 }
 
-void requireInRange(double value, const OptionRange& range, const std::string& field,
-                    const char* unit) {
-  if (std::isfinite(value) && range.contains(value)) return;
+namespace {
+
+[[noreturn, gnu::cold]] void throwOutOfRange(double value, const OptionRange& range,
+                                             const std::string& field, const char* unit) {
   const std::string units = *unit ? std::string(" ") + unit : std::string();
   throw InvalidInput(field, "must lie in " + range.text() + units + " (" + describe(value) + ")");
 }
 
+// requireInRange() for a literal field name, made a string only to report a failure (the option
+// names are longer than a short string: each would be a heap allocation on every request).
+void requireOptionInRange(double value, const OptionRange& range, const char* field,
+                          const char* unit = "") {
+  if (!(std::isfinite(value) && range.contains(value))) throwOutOfRange(value, range, field, unit);
+}
+
+}  // namespace
+
+void requireInRange(double value, const OptionRange& range, const std::string& field,
+                    const char* unit) {
+  if (!(std::isfinite(value) && range.contains(value))) throwOutOfRange(value, range, field, unit);
+}
+
 SceneValidator::SceneValidator(const Scene& scene, const SolverOptions& options,
                                const RequestLimits& limits)
-    : limits_(limits) {
+    : limits_(limits), smallest_moments_(scene.bodies.size()) {
   checkSize(scene.bodies.size(), scene.contacts.size(), limits);
-  requireInRange(options.tolerance, option_ranges::kTolerance, "options.tolerance");
-  requireInRange(options.integration_tolerance, option_ranges::kIntegrationTolerance,
-                 "options.integration_tolerance");
-  requireInRange(options.resting_velocity, option_ranges::kRestingVelocity,
-                 "options.resting_velocity", "m/s");
-  requireInRange(options.time_budget, option_ranges::kTimeBudget, "options.time_budget", "s");
-  requireInRange(static_cast<double>(options.max_iterations), option_ranges::kMaxIterations,
-                 "options.max_iterations");
+  requireOptionInRange(options.tolerance, option_ranges::kTolerance, "options.tolerance");
+  requireOptionInRange(options.integration_tolerance, option_ranges::kIntegrationTolerance,
+                       "options.integration_tolerance");
+  requireOptionInRange(options.resting_velocity, option_ranges::kRestingVelocity,
+                       "options.resting_velocity", "m/s");
+  requireOptionInRange(options.time_budget, option_ranges::kTimeBudget, "options.time_budget", "s");
+  requireOptionInRange(static_cast<double>(options.max_iterations), option_ranges::kMaxIterations,
+                       "options.max_iterations");
 
   body_count_ = scene.bodies.size();
   index_of_.reserve(scene.bodies.size());
-  smallest_moments_.resize(scene.bodies.size());
   for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
     const std::string field = indexed("bodies", i);
     smallest_moments_[i] = validateBody(scene.bodies[i], field);
@@ -276,7 +301,7 @@ std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOption
                                           const RequestLimits& limits) {
   SceneValidator validator(scene, options, limits);
   validator.checkContacts(scene);
-  return validator.contactBodies();
+  return std::move(validator).releaseContactBodies();
 }
 
 }  // namespace collision_response::core

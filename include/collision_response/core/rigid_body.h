@@ -50,7 +50,11 @@ struct RigidBody final : BodyModel {
 /// Builds the solver's view of a validated body state.
 RigidBody makeRigidBody(const BodyState& state);
 
-/// [r]x, the matrix with [r]x y = r x y.
-Eigen::Matrix3d skew(const Eigen::Vector3d& r);
+/// [r]x, the matrix with [r]x y = r x y (inline: K of every rigid contact is built from it).
+inline Eigen::Matrix3d skew(const Eigen::Vector3d& r) {
+  Eigen::Matrix3d s;
+  s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
+  return s;
+}
 
 }  // namespace collision_response::core

@@ -12,6 +12,15 @@
 
 namespace collision_response::core {
 
+/// The three paths of solveSingleContact(), each out of line on its own: the caller's one call
+/// reaches the path it needs, and the frictionless form does not share a stack frame (nor the
+/// register spills) with the frictional one. Each returns a zero impulse when u_n >= 0.
+namespace single_contact_paths {
+ContactImpulse frictionlessNewton(const ProblemContact& contact, const Eigen::Vector3d& u);
+ContactImpulse frictionalNewton(const ProblemContact& contact, const Eigen::Vector3d& u);
+ContactImpulse seedOnePass(const ProblemContact& contact, const Eigen::Vector3d& u);
+}  // namespace single_contact_paths
+
 /// Closed-form impulse for one isolated contact under the given law, from the problem's entry of
 /// the contact (K = contact.delassus, n, e, mu_s, mu_d) and its relative velocity u before the
 /// impulse [m/s] (docs/physics.md, "Newton restitution with Coulomb friction"). Nothing is
@@ -36,8 +45,13 @@ namespace collision_response::core {
 ///     no direction or no positive denominator, the frictionless impulse P_n n.
 ///   - kSeedOnePass: the friction pass is skipped along a tangent t with t^T K t = 0 (no impulse
 ///     along t changes the velocity: the least-norm friction impulse is 0).
-ContactImpulse solveSingleContact(const ProblemContact& contact, const Eigen::Vector3d& u,
-                                  ImpactLaw law);
+
+inline ContactImpulse solveSingleContact(const ProblemContact& contact, const Eigen::Vector3d& u,
+                                         ImpactLaw law) {
+  if (law == ImpactLaw::kSeedOnePass) return single_contact_paths::seedOnePass(contact, u);
+  return contact.frictionless() ? single_contact_paths::frictionlessNewton(contact, u)
+                                : single_contact_paths::frictionalNewton(contact, u);
+}
 
 /// Contact i of the problem at its current relative velocity (problem.relativeMotion(i)).
 inline ContactImpulse solveSingleContact(const ContactProblem& problem, std::size_t i,

@@ -57,6 +57,9 @@ class SceneValidator {
  public:
   /// Throws InvalidInput naming the first offending field (see validate()).
   SceneValidator(const Scene& scene, const SolverOptions& options, const RequestLimits& limits);
+  /// The contacts' body indices (contactBodies()) handed over when the validator is done with them
+  /// (validate() returns them without a copy).
+  std::vector<std::pair<int, int>> releaseContactBodies() && { return std::move(contact_bodies_); }
   /// Checks scene.contacts from the first one not checked yet to the last (the bodies must be those
   /// given to the constructor, unchanged) and records their body indices. Throws InvalidInput
   /// naming "contacts[i]..." (i: the index in scene.contacts), or "contacts" past the size limit.
