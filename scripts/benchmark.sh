@@ -3,7 +3,8 @@
 # into build/ (or $BUILD_DIR) with the benchmark targets, then runs
 #   1. Google Benchmark micro figures (bench_solvers)          -> benchmark/data/micro.json
 #   2. the accuracy sweep, ours and the peers Bullet and ODE     -> benchmark/data/results.csv
-#   3. the service load (private ROS master on a free port)     -> benchmark/data/service_load.csv
+#   3. the service load (private ROS master on a free port; rigid bodies, and the shipped arm
+#      striking a box)                                          -> benchmark/data/service_load.csv
 #      and the soak: the load rostest at 10x                    -> benchmark/data/service_soak.txt
 #   4. benchmark/report.py                                      -> benchmark/RESULTS.md, pareto.png
 # Environment: BUILD_DIR (default build), SWEEP_REPS (default 31), LOAD_CALLS (default 2000).
@@ -31,6 +32,12 @@ echo "benchmark: service load -> $out/service_load.csv"
 source scripts/ros_env.sh
 start_master
 rosparam load config/collision_response.yaml /collision_response
+# The robot rows: the shipped arm as robot "arm" (config/robot.yaml), its base at the world origin;
+# service_load publishes its joint states itself.
+rosparam set -t urdf/arm7.urdf /robot_description
+rosparam load config/robot.yaml /collision_response
+rosrun tf2_ros static_transform_publisher 0 0 0 0 0 0 world base_link >"$ROS_HOME/tf.out" 2>&1 &
+ros_pids+=($!)
 "$bin/collision_response_node" __name:=collision_response >"$ROS_HOME/node.out" 2>&1 &
 node_pid=$!
 ros_pids+=("$node_pid")

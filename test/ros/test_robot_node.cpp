@@ -16,6 +16,7 @@
 #include <map>
 #include <mutex>
 
+#include "arm_strike.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/robot/urdf_loader.h"
@@ -39,18 +40,10 @@ Eigen::Isometry3d worldToBase() {
   return pose;
 }
 
-// What the test publishes on /joint_states (7 arm joints, 2 finger joints; model order).
-const std::vector<std::string> kJoints = {"joint1",
-                                          "joint2",
-                                          "joint3",
-                                          "joint4",
-                                          "joint5",
-                                          "joint6",
-                                          "joint7",
-                                          "left_finger_joint",
-                                          "right_finger_joint"};
-const std::vector<double> kPublishedPositions = {0.1, 0.6, -0.2, -1.2, 0.3, 0.9, 0.2, 0.01, 0.01};
-const std::vector<double> kPublishedVelocities = {0.2, 0.5, -0.1, -0.6, 0.1, 0.3, 0.05, 0, 0};
+// What the test publishes on /joint_states (kArmJoints, model order).
+const std::vector<std::string>& kJoints = kArmJoints;
+const std::vector<double>& kPublishedPositions = kArmSwingPositions;
+const std::vector<double>& kPublishedVelocities = kArmSwingVelocities;
 
 // The arm from the URDF the node has (parsed once per base type).
 cr::robot::ArticulatedBody referenceArm(bool floating = false) {
@@ -66,42 +59,6 @@ cr::robot::ArticulatedBody referenceArm(bool floating = false) {
 
 Eigen::VectorXd vector(const std::vector<double>& values) {
   return Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<int>(values.size()));
-}
-
-// A 2 kg box at rest, centred 5 cm beyond `point` along `normal`.
-cr::BodyState box(const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
-  cr::BodyState body;
-  body.id = "box";
-  body.inertia.m = 2.0;
-  body.inertia.ixx = body.inertia.iyy = body.inertia.izz = 2.0 * 0.01 / 6.0;  // 10 cm cube
-  const Eigen::Vector3d centre = point + 0.05 * normal;
-  body.pose = pose(centre.x(), centre.y(), centre.z());
-  return body;
-}
-
-// The hand (link "hand") strikes the box at a point 4 cm along the hand's z from its origin, with
-// the normal along the point's velocity: the contact approaches.
-struct Strike {
-  Eigen::Vector3d point;
-  Eigen::Vector3d normal;
-};
-Strike strikeOf(const cr::robot::ArticulatedBody& arm) {
-  const int hand = arm.linkIndex("hand");
-  const Eigen::Isometry3d pose = arm.linkPose(hand);
-  Strike strike;
-  strike.point = pose * Eigen::Vector3d(0, 0, 0.04);
-  strike.normal = arm.partPointVelocity(hand, strike.point).normalized();
-  return strike;
-}
-
-cr::ComputeResponse strikeRequest(const Strike& strike) {
-  cr::ComputeResponse srv;
-  srv.request.header.frame_id = "world";
-  srv.request.bodies = {box(strike.point, strike.normal)};
-  srv.request.contacts = {contact("arm/hand", "box", strike.point.x(), strike.point.y(),
-                                  strike.point.z(), strike.normal.x(), strike.normal.y(),
-                                  strike.normal.z(), 0.4, 0.3, 0.2)};
-  return srv;
 }
 
 // The core's answer for the same arm state, box and contact.
@@ -572,12 +529,7 @@ int main(int argc, char** argv) {
   ros::Publisher joint_states = node.advertise<sensor_msgs::JointState>("/joint_states", 10);
   ros::WallTimer timer =
       node.createWallTimer(ros::WallDuration(0.02), [&joint_states](const ros::WallTimerEvent&) {
-        sensor_msgs::JointState msg;
-        msg.header.stamp = ros::Time::now();
-        msg.name = kJoints;
-        msg.position = kPublishedPositions;
-        msg.velocity = kPublishedVelocities;
-        joint_states.publish(msg);
+        joint_states.publish(armJointState(kPublishedPositions, kPublishedVelocities));
       });
   const int result = RUN_ALL_TESTS();
   timer.stop();
