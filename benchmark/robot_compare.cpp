@@ -29,6 +29,7 @@ struct Answer {
   Eigen::VectorXd joint_change;  // [rad/s, m/s]
   Eigen::Vector3d box_change;    // [m/s]
   double normal_after = 0.0;     // u_n' [m/s]
+  bool sticking = false;         // the contact ends sticking
   double ns = 0.0;               // median per prediction [ns]
 };
 
@@ -61,6 +62,7 @@ Answer ours(const bench::ArmBoxScene& scene, cr::ImpactLaw law, int reps) {
     a.joint_change = arm.jointVelocities() - qdot;
     a.box_change = box.linear_velocity - scene.box_velocity;
     a.normal_after = out.impulses[0].normal_velocity_after;
+    a.sticking = out.impulses[0].sticking;
   }
   std::nth_element(ns.begin(), ns.begin() + ns.size() / 2, ns.end());
   a.ns = ns[ns.size() / 2];
@@ -107,9 +109,12 @@ int main(int argc, char** argv) {
   const Eigen::Vector3d p = arm.linkPose(hand).translation();
   const double un = scene.normal.dot(scene.box_velocity - arm.partPointVelocity(hand, p));
   row("ours", "newton_closed_form", newton.ns, newton.joint_change, newton.box_change, un,
-      newton.normal_after, "the reference");
+      newton.normal_after,
+      newton.sticking ? "the reference; the contact sticks" : "the reference; the contact slides");
   row("ours", "stronge", stronge.ns, stronge.joint_change, stronge.box_change, un,
-      stronge.normal_after, "Stronge's energetic e; default tolerance");
+      stronge.normal_after,
+      stronge.sticking ? "Stronge's energetic e; sticks at the end"
+                       : "Stronge's energetic e; slides at the end");
 
   struct Config {
     const char* name;
