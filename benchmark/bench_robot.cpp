@@ -2,6 +2,7 @@
 // base, 9 joints with the gripper's) strikes a free box with its hand, one frictional contact,
 // Stronge. The model is loaded once; per request: the state (kinematics, M(q) by CRBA, its
 // Cholesky factor), the contact's Jacobian and M^-1 J^T, the solve and the joint velocities.
+// The scene is robot_scene.h's (robot_peer_dart gives DART the same one).
 //   devel/lib/collision_response/bench_robot            (Release build)
 // BM_Arm7StrikesBox: every joint free; BM_Arm7LockedStrikesBox: every joint locked (the arm an
 // immovable body, the box alone moves).
@@ -15,6 +16,7 @@
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
+#include "robot_scene.h"
 
 namespace cr = collision_response::core;
 namespace rb = collision_response::robot;
@@ -23,29 +25,30 @@ namespace {
 
 void run(benchmark::State& state, bool locked) {
   const bool newton = state.range(0) == 1;
+  const collision_response::bench::ArmBoxScene scene;
   rb::ArticulatedBody arm = rb::robotFromUrdfFile(ROBOT_URDF_DIR "/arm7.urdf");
   if (locked) {
     for (int j = 0; j < arm.jointCount(); ++j) arm.setJointModel(j, rb::JointModel::kLocked);
   }
-  Eigen::VectorXd q(9), qdot(9);
-  q << 0.3, -0.8, 0.2, 1.4, -0.3, 0.9, 0.1, 0.02, 0.02;
-  qdot << 0.5, 0.2, -0.3, 0.4, 0.1, -0.2, 0.3, 0.0, 0.0;
+  const Eigen::VectorXd q = scene.q, qdot = scene.qdot;
   const int hand = arm.linkIndex("hand");
   arm.setState(q, qdot);
   const Eigen::Vector3d p = arm.linkPose(hand).translation();
-  const Eigen::Vector3d n = Eigen::Vector3d(1, 0.3, -0.2).normalized();
-  cr::ContactPoint contact(0, 1, p, n, 0.5, 0.6, 0.5);
+  const Eigen::Vector3d n = scene.normal;
+  cr::ContactPoint contact(0, 1, p, n, scene.restitution, scene.static_friction,
+                           scene.dynamic_friction);
   contact.part_a = hand;
   const std::vector<cr::ContactPoint> contacts = {contact};
   cr::SolverOptions options;
   options.law = newton ? cr::ImpactLaw::kNewton : cr::ImpactLaw::kStronge;
+  const Eigen::Vector3d inertia = scene.boxInertia();
   for (auto _ : state) {
     arm.setState(q, qdot);
     cr::RigidBody box;
-    box.inverse_mass = 1.0 / 1.5;
-    box.inverse_inertia = Eigen::Vector3d(1 / 0.0125, 1 / 0.01625, 1 / 0.00625).asDiagonal();
-    box.com = p + 0.05 * n;
-    box.linear_velocity = -2.0 * n + Eigen::Vector3d(0.3, -0.2, 0.1);
+    box.inverse_mass = 1.0 / scene.box_mass;
+    box.inverse_inertia = inertia.cwiseInverse().asDiagonal();
+    box.com = p + scene.box_offset * n;
+    box.linear_velocity = scene.box_velocity;
     const cr::BodyResponse out = cr::computeBodyResponse({&arm, &box}, contacts, options);
     benchmark::DoNotOptimize(out.impulses[0].normal_impulse);
     benchmark::DoNotOptimize(arm.jointVelocities().data());
