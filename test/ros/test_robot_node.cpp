@@ -346,7 +346,7 @@ TEST_F(RobotNodeTest, BadRobotInputIsNamed) {
 }
 
 TEST_F(RobotNodeTest, StaleJointStateIsRejected) {
-  // stale_arm's latest message is 5 s old (~joint_state_timeout 0.5 s).
+  // stale_arm's latest message is 5 s old (~joint_state_timeout 2 s).
   ros::Publisher stale = node_.advertise<sensor_msgs::JointState>("/stale_joint_states", 1, true);
   sensor_msgs::JointState msg;
   msg.header.stamp = ros::Time::now() - ros::Duration(5.0);
@@ -523,7 +523,7 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "test_robot_node");
   ros::AsyncSpinner spinner(2);
   spinner.start();
-  // /joint_states at 50 Hz, stamped now: never stale (~joint_state_timeout 0.5 s). For the whole
+  // /joint_states at 50 Hz, stamped now: never stale (~joint_state_timeout 2 s). For the whole
   // run (a publisher torn down while its timer fires would race).
   ros::NodeHandle node;
   ros::Publisher joint_states = node.advertise<sensor_msgs::JointState>("/joint_states", 10);
