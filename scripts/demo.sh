@@ -3,32 +3,50 @@
 # launch the node, send the sample request (a box dropped on a table, landing on one corner),
 # print a summary of the answer (--raw: the whole answer) and the published message, stop
 # everything.
+# --robot: the robot demo instead (scripts/robot_demo.sh): launch/robot.launch (the shipped 7-DOF
+# arm: URDF, joint_state_publisher holding it bent over a box on a table, robot_state_publisher,
+# the node serving it as robot "arm") and scripts/robot_request.yaml (the arm swinging down so that
+# its fingertips strike the box: joint velocities only, positions from /joint_states, base from tf,
+# contacts found from the URDF's collision geometry and the bodies' shapes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 raw=no
-case "${1:-}" in
-  --raw) raw=yes ;;
-  "") ;;
-  *) echo "usage: scripts/demo.sh [--raw]" >&2; exit 2 ;;
-esac
+robot=no
+for arg in "$@"; do
+  case "$arg" in
+    --raw) raw=yes ;;
+    --robot) robot=yes ;;
+    *) echo "usage: scripts/demo.sh [--robot] [--raw]" >&2; exit 2 ;;
+  esac
+done
 scripts/setup.sh
 source scripts/ros_env.sh
 
 start_master
 echo "demo: ROS master at $ROS_MASTER_URI"
-launch_node
-
-rostopic echo -n 1 /collision_response/responses >"$ROS_HOME/published.out" 2>&1 &
-echo_pid=$!
-ros_pids+=("$echo_pid")
-sleep 1  # let the subscriber connect before the call
-echo "demo: calling /collision_response/compute with scripts/sample_request.yaml"
-rosservice call /collision_response/compute "$(cat scripts/sample_request.yaml)" >"$ROS_HOME/answer.yaml"
+if [ "$robot" = yes ]; then
+  LAUNCH_FILE=robot.launch launch_node
+  # The request takes the joint positions from /joint_states: wait for joint_state_publisher.
+  timeout 30 rostopic echo -n 1 /joint_states >/dev/null
+  request=scripts/robot_request.yaml
+else
+  launch_node
+  rostopic echo -n 1 /collision_response/responses >"$ROS_HOME/published.out" 2>&1 &
+  echo_pid=$!
+  ros_pids+=("$echo_pid")
+  sleep 1  # let the subscriber connect before the call
+  request=scripts/sample_request.yaml
+fi
+echo "demo: calling /collision_response/compute with $request"
+rosservice call /collision_response/compute "$(cat "$request")" >"$ROS_HOME/answer.yaml"
 if [ "$raw" = yes ]; then
   cat "$ROS_HOME/answer.yaml"
+elif [ "$robot" = yes ]; then
+  /usr/bin/python3 scripts/summarize_robot_response.py "$ROS_HOME/answer.yaml"
 else
-  /usr/bin/python3 scripts/summarize_response.py "$ROS_HOME/answer.yaml" scripts/sample_request.yaml
+  /usr/bin/python3 scripts/summarize_response.py "$ROS_HOME/answer.yaml" "$request"
 fi
+[ "$robot" = yes ] && exit 0
 wait "$echo_pid" || true
 echo "demo: published on /collision_response/responses ($(grep -c . "$ROS_HOME/published.out") lines, first lines):"
 head -n 6 "$ROS_HOME/published.out"
