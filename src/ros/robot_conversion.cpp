@@ -1,6 +1,5 @@
 #include "collision_response/ros/robot_conversion.h"
 
-#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -85,14 +84,7 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
   std::vector<bool> has_position(joints, false), has_velocity(joints, false);
   for (std::size_t k = 0; k < count; ++k) {
     const std::string& name = given.name[k];
-    const auto& names = model.jointNames();
-    const auto it = std::find(names.begin(), names.end(), name);
-    if (it == names.end()) {
-      throw core::InvalidInput(
-          indexed(state_field + ".name", k),
-          "the robot '" + robot.name() + "' has no joint '" + name + "' with a coordinate");
-    }
-    const int joint = static_cast<int>(it - names.begin());
+    const int joint = robot.jointIndex(name, indexed(state_field + ".name", k));
     if (has_position[joint] || has_velocity[joint])
       throw core::InvalidInput(indexed(state_field + ".name", k), "repeats joint '" + name + "'");
     if (!given.position.empty()) {

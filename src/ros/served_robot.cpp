@@ -1,6 +1,5 @@
 #include "collision_response/ros/served_robot.h"
 
-#include <algorithm>
 #include <map>
 #include <stdexcept>
 
@@ -31,13 +30,8 @@ ServedRobot::ServedRobot(const RobotParameters& parameters, const std::string& u
       model_(parse(parameters, urdf, field)),
       joint_states_(model_.jointNames()) {
   base_frame_ = parameters.base_frame.empty() ? model_.linkName(0) : parameters.base_frame;
-  for (const auto& [joint, armature] : parameters.armature) {
-    if (std::find(model_.jointNames().begin(), model_.jointNames().end(), joint) ==
-        model_.jointNames().end()) {
-      throw core::InvalidInput(field + ".armature." + joint,
-                               "the robot has no joint '" + joint + "' with a coordinate");
-    }
-  }
+  for (const auto& entry : parameters.armature)
+    jointIndex(entry.first, field + ".armature." + entry.first);
   setJointModels(model_, parameters.locked_joints, field + ".locked_joints");
   if (!model_.singularJoint().empty()) throw core::InvalidInput(field, model_.singularJoint());
   std::map<std::string, detection::BodyGeometry> geometry;
@@ -63,14 +57,7 @@ void ServedRobot::setJointModels(robot::ArticulatedBody& model,
                                  const std::string& field) const {
   std::vector<bool> is_locked(model.jointCount(), false);
   for (std::size_t k = 0; k < locked.size(); ++k) {
-    const auto& names = model.jointNames();
-    const auto it = std::find(names.begin(), names.end(), locked[k]);
-    if (it == names.end()) {
-      throw core::InvalidInput(
-          field + "[" + std::to_string(k) + "]",
-          "the robot '" + name() + "' has no joint '" + locked[k] + "' with a coordinate");
-    }
-    is_locked[it - names.begin()] = true;
+    is_locked[jointIndex(locked[k], field + "[" + std::to_string(k) + "]")] = true;
   }
   for (int joint = 0; joint < model.jointCount(); ++joint) {
     robot::JointModel wanted = robot::JointModel::kFree;
@@ -83,6 +70,15 @@ void ServedRobot::setJointModels(robot::ArticulatedBody& model,
       armature = it->second;
     }
     if (model.jointModel(joint) != wanted) model.setJointModel(joint, wanted, armature);
+  }
+}
+
+int ServedRobot::jointIndex(const std::string& name, const std::string& field) const {
+  try {
+    return model_.jointIndex(name);
+  } catch (const std::invalid_argument&) {
+    throw core::InvalidInput(field, "the robot '" + parameters_.name + "' has no joint '" + name +
+                                        "' with a coordinate");
   }
 }
 

@@ -42,12 +42,14 @@ std::size_t readCount(const XmlRpcValue& values, const std::string& name, std::s
   return static_cast<std::size_t>(count);
 }
 
+std::string stringOf(XmlRpcValue value, const std::string& field) {
+  if (value.getType() != XmlRpcValue::TypeString)
+    throw core::InvalidInput(field, "must be a string");
+  return static_cast<std::string>(value);
+}
+
 std::string readString(const XmlRpcValue& values, const std::string& name, std::string value) {
-  if (!has(values, name)) return value;
-  XmlRpcValue v = member(values, name);
-  if (v.getType() != XmlRpcValue::TypeString)
-    throw core::InvalidInput("~" + name, "must be a string");
-  return static_cast<std::string>(v);
+  return has(values, name) ? stringOf(member(values, name), "~" + name) : value;
 }
 
 double readInRange(const XmlRpcValue& values, const std::string& name, double value,
@@ -104,12 +106,6 @@ bool readBool(XmlRpcValue value, const std::string& field) {
   if (value.getType() != XmlRpcValue::TypeBoolean)
     throw core::InvalidInput(field, "must be true or false");
   return static_cast<bool>(value);
-}
-
-std::string stringOf(XmlRpcValue value, const std::string& field) {
-  if (value.getType() != XmlRpcValue::TypeString)
-    throw core::InvalidInput(field, "must be a string");
-  return static_cast<std::string>(value);
 }
 
 // One ~robots entry.

@@ -45,6 +45,10 @@ class ServedRobot {
   robot::ArticulatedBody modelWithLockedJoints(const std::vector<std::string>& locked,
                                                const std::string& field) const;
 
+  /// The model's index of the joint `name` (one with a coordinate); throws core::InvalidInput
+  /// naming `field` if the robot has none.
+  int jointIndex(const std::string& name, const std::string& field) const;
+
   JointStateCache& jointStates() { return joint_states_; }
   const JointStateCache& jointStates() const { return joint_states_; }
 
