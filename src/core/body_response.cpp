@@ -2,12 +2,12 @@
 
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <string>
 
 #include "collision_response/core/contact_problem.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/island_solver.h"
+#include "collision_response/core/islands.h"
 
 namespace collision_response::core {
 namespace {
@@ -46,11 +46,6 @@ void validateContacts(const std::vector<BodyModel*>& bodies,
   }
 }
 
-int findRoot(std::vector<int>& parent, int i) {
-  while (parent[i] != i) i = parent[i] = parent[parent[i]];
-  return i;
-}
-
 double normalVelocity(const std::vector<BodyModel*>& bodies, const ContactPoint& contact) {
   const Eigen::Vector3d u =
       bodies[contact.body_b]->partPointVelocity(contact.part_b, contact.point) -
@@ -74,45 +69,38 @@ BodyResponse computeBodyResponse(const std::vector<BodyModel*>& bodies,
     result.impulses[c].normal_velocity_before = normalVelocity(bodies, contacts[c]);
   }
 
-  // Islands: contacts joined through bodies with velocity unknowns (union-find over bodies).
-  std::vector<int> parent(bodies.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  const auto movable = [&](int b) { return bodies[b]->velocityCount() > 0; };
+  std::vector<std::pair<int, int>> contact_bodies;
+  contact_bodies.reserve(contacts.size());
   for (const ContactPoint& contact : contacts) {
-    if (movable(contact.body_a) && movable(contact.body_b)) {
-      parent[findRoot(parent, contact.body_a)] = findRoot(parent, contact.body_b);
-    }
-  }
-  std::vector<int> island_of_root(bodies.size(), -1);
-  std::vector<std::vector<int>> islands;
-  for (std::size_t c = 0; c < contacts.size(); ++c) {
-    const int body = movable(contacts[c].body_a) ? contacts[c].body_a : contacts[c].body_b;
-    const int root = findRoot(parent, body);
-    if (island_of_root[root] < 0) {
-      island_of_root[root] = static_cast<int>(islands.size());
-      islands.emplace_back();
-    }
-    islands[island_of_root[root]].push_back(static_cast<int>(c));
+    contact_bodies.emplace_back(contact.body_a, contact.body_b);
   }
 
-  const std::vector<const BodyModel*> views(bodies.begin(), bodies.end());
-  ContactProblem problem;
-  std::vector<ContactImpulse> answer;
-  for (const std::vector<int>& island : islands) {
-    problem.buildImpact(views, contacts, island);
+  // One problem per island, its storage reused across islands and calls on this thread, as in
+  // computeResponse() (one thread_local object: each use of one goes through its TLS wrapper).
+  struct Workspace {
+    std::vector<const BodyModel*> views;
+    ContactProblem problem;
+    std::vector<ContactImpulse> answer;
+  };
+  thread_local Workspace workspace;
+  workspace.views.assign(bodies.begin(), bodies.end());
+  ContactProblem& problem = workspace.problem;
+  for (Island& island : findIslands(bodies, contact_bodies)) {
+    problem.buildImpact(workspace.views, contacts, island.contacts);
     for (std::size_t i = 0; i < problem.size(); ++i) {
       const double w = problem.contact(i).normalDelassus();
       if (w > 0.0) result.effective_masses[problem.contact(i).source] = 1.0 / w;
     }
     bool approaching = false;
-    for (const int c : island) approaching |= result.impulses[c].normal_velocity_before < 0.0;
+    for (const int c : island.contacts)
+      approaching |= result.impulses[c].normal_velocity_before < 0.0;
     SolveReport report;
     if (approaching) {
-      report = solveIsland(problem, options, answer);
+      report = solveIsland(problem, options, workspace.answer);
       problem.addVelocityChangesTo(bodies);
-      problem.scatterImpulses(answer, result.impulses);
+      problem.scatterImpulses(workspace.answer, result.impulses);
     }
-    report.contacts = island;
+    report.contacts = std::move(island.contacts);
     result.islands.push_back(std::move(report));
   }
   for (std::size_t c = 0; c < contacts.size(); ++c) {

@@ -21,6 +21,10 @@ KDL::Frame toKdl(const Eigen::Isometry3d& pose) {
                     toKdl(pose.translation()));
 }
 
+Eigen::Matrix3d toEigen(const KDL::Rotation& r) {
+  return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r.data);
+}
+
 // Velocity at the world point p of a twist given at the world origin: vel + rot x p.
 Eigen::Vector3d velocityAt(const KDL::Twist& twist, const Eigen::Vector3d& p) {
   return toEigen(twist.vel) + toEigen(twist.rot).cross(p);
@@ -30,7 +34,48 @@ Eigen::Vector3d velocityAt(const KDL::Twist& twist, const Eigen::Vector3d& p) {
 // counts as singular (a free joint that moves no mass).
 constexpr double kSingularPivot = 1e-12;
 
+// The momentum (linear [N s], angular about the origin [N m s]) of a body of spatial inertia
+// (m, h, I_o) moving with the twist (v at the origin, w): (m v - h x w, I_o w + h x v).
+struct Momentum {
+  Eigen::Vector3d linear, angular;
+};
+template <typename Inertia>
+Momentum momentumOf(const Inertia& inertia, const KDL::Twist& twist) {
+  const Eigen::Vector3d v = toEigen(twist.vel), w = toEigen(twist.rot);
+  return {inertia.mass * v - inertia.first_moment.cross(w),
+          inertia.rotational * w + inertia.first_moment.cross(v)};
+}
+// Power of a momentum against a twist: v . p + w . L (twice the kinetic energy when both are the
+// body's own; an entry of M when they are two unknowns' axes).
+double power(const KDL::Twist& twist, const Momentum& momentum) {
+  return toEigen(twist.vel).dot(momentum.linear) + toEigen(twist.rot).dot(momentum.angular);
+}
+
 }  // namespace
+
+ArticulatedBody::LocalInertia ArticulatedBody::localInertia(const KDL::RigidBodyInertia& inertia) {
+  // KDL keeps the rotational inertia about the frame's origin; ours is about the centre of mass.
+  LocalInertia out;
+  out.mass = inertia.getMass();
+  out.com = toEigen(inertia.getCOG());
+  const Eigen::Matrix3d about_origin =
+      Eigen::Map<const Eigen::Matrix3d>(inertia.getRotationalInertia().data);
+  out.about_com = about_origin - out.mass * (out.com.squaredNorm() * Eigen::Matrix3d::Identity() -
+                                             out.com * out.com.transpose());
+  return out;
+}
+
+ArticulatedBody::SpatialInertia ArticulatedBody::worldInertia(const Link& link) const {
+  const Eigen::Matrix3d r = toEigen(link.frame.M);
+  const Eigen::Vector3d c = r * link.local.com + toEigen(link.frame.p);
+  const double m = link.local.mass;
+  SpatialInertia out;
+  out.mass = m;
+  out.first_moment = m * c;
+  out.rotational = r * link.local.about_com * r.transpose() +
+                   m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+  return out;
+}
 
 ArticulatedBody::ArticulatedBody(const KDL::Tree& tree, BaseType base,
                                  const KDL::RigidBodyInertia& base_inertia)
@@ -41,6 +86,7 @@ ArticulatedBody::ArticulatedBody(const KDL::Tree& tree, BaseType base,
   base_link.name = root->first;
   base_link.segment = KDL::Segment(root->first, KDL::Joint(KDL::Joint::Fixed),
                                    KDL::Frame::Identity(), base_inertia);
+  base_link.local = localInertia(base_inertia);
   links_.push_back(std::move(base_link));
   // Depth-first, parents before children (children in the tree's order).
   std::vector<std::pair<KDL::SegmentMap::const_iterator, int>> stack;
@@ -55,6 +101,7 @@ ArticulatedBody::ArticulatedBody(const KDL::Tree& tree, BaseType base,
     link.name = element->first;
     link.parent = parent;
     link.segment = element->second.segment;
+    link.local = localInertia(link.segment.getInertia());
     const int index = static_cast<int>(links_.size());
     if (link.segment.getJoint().getType() != KDL::Joint::Fixed) {
       joints.emplace_back(element->second.q_nr, index);
@@ -167,7 +214,6 @@ Eigen::Isometry3d ArticulatedBody::linkPose(int link) const {
 void ArticulatedBody::updateKinematics() {
   Link& base = links_[0];
   base.frame = base_pose_;
-  base.inertia = base_pose_ * base.segment.getInertia();
   const KDL::Vector o = base_pose_.p;
   for (int k = 0; k < 3; ++k) {
     KDL::Vector e = KDL::Vector::Zero();
@@ -181,7 +227,6 @@ void ArticulatedBody::updateKinematics() {
     const KDL::Joint& joint = link.segment.getJoint();
     const double q = link.joint >= 0 ? q_(link.joint) : 0.0;
     link.frame = parent * link.segment.pose(q);
-    link.inertia = link.frame * link.segment.getInertia();
     if (link.joint < 0) {
       link.axis = KDL::Twist::Zero();
     } else {
@@ -215,29 +260,30 @@ const KDL::Twist& ArticulatedBody::unknownAxis(int k) const {
 }
 
 void ArticulatedBody::updateMassMatrix() {
-  // Composite inertias, children before parents (world frame, reference point the origin: sums).
-  for (Link& link : links_) link.composite = link.inertia;
-  for (std::size_t i = links_.size() - 1; i > 0; --i) {
-    links_[links_[i].parent].composite = links_[links_[i].parent].composite + links_[i].composite;
-  }
-  // M_jk = S_j . (Ic_k S_k) for j on the path from k's link to the base: the wrench that moves
-  // k's subtree at a unit rate, seen by every joint that carries that subtree.
   const int n = unknowns_;
   mass_matrix_.setZero(n, n);
+  if (n == 0) return;  // nothing moves: no inertia is needed
+  // Composite inertias, children before parents (world frame, reference point the origin: sums).
+  for (Link& link : links_) link.composite = worldInertia(link);
+  for (std::size_t i = links_.size() - 1; i > 0; --i) {
+    links_[links_[i].parent].composite += links_[i].composite;
+  }
+  // M_jk = S_j . (Ic_k S_k) for j on the path from k's link to the base: the momentum of k's
+  // subtree moving at a unit rate, seen by every joint that carries that subtree.
   const int base_unknowns = base_type_ == BaseType::kFloating ? 6 : 0;
   for (int k = 0; k < n; ++k) {
     const int joint = joint_of_unknown_[k];
     const int own = joint < 0 ? 0 : link_of_joint_[joint];
-    const KDL::Wrench force = links_[own].composite * unknownAxis(k);
+    const Momentum force = momentumOf(links_[own].composite, unknownAxis(k));
     for (int l = own; l >= 0; l = links_[l].parent) {
       const int j = links_[l].joint;
       if (l == 0) {
         for (int b = 0; b < base_unknowns; ++b) {
-          mass_matrix_(b, k) = mass_matrix_(k, b) = KDL::dot(base_axes_[b], force);
+          mass_matrix_(b, k) = mass_matrix_(k, b) = power(base_axes_[b], force);
         }
       } else if (j >= 0 && unknown_of_joint_[j] >= 0) {
         const int u = unknown_of_joint_[j];
-        mass_matrix_(u, k) = mass_matrix_(k, u) = KDL::dot(links_[l].axis, force);
+        mass_matrix_(u, k) = mass_matrix_(k, u) = power(links_[l].axis, force);
       }
     }
     if (joint >= 0) mass_matrix_(k, k) += armatures_[joint];
@@ -344,15 +390,19 @@ Eigen::Matrix<double, Eigen::Dynamic, 3> ArticulatedBody::partInverseMassJacobia
 
 double ArticulatedBody::kineticEnergy() const {
   double energy = 0.0;
-  for (const Link& link : links_) energy += 0.5 * KDL::dot(link.twist, link.inertia * link.twist);
+  for (const Link& link : links_) {
+    energy += 0.5 * power(link.twist, momentumOf(worldInertia(link), link.twist));
+  }
   return energy;
 }
 
 Eigen::Matrix<double, 6, 1> ArticulatedBody::momentum() const {
-  KDL::Wrench total = KDL::Wrench::Zero();
-  for (const Link& link : links_) total += link.inertia * link.twist;
-  Eigen::Matrix<double, 6, 1> out;
-  out << toEigen(total.force), toEigen(total.torque);
+  Eigen::Matrix<double, 6, 1> out = Eigen::Matrix<double, 6, 1>::Zero();
+  for (const Link& link : links_) {
+    const Momentum p = momentumOf(worldInertia(link), link.twist);
+    out.head<3>() += p.linear;
+    out.tail<3>() += p.angular;
+  }
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include <vector>
 
+#include "collision_response/core/body_model.h"
 #include "collision_response/core/rigid_body.h"
 
 namespace collision_response::core {
@@ -14,6 +15,9 @@ struct Island {
 
 /// Splits contacts (given as pairs of body indices) into islands, in order of their first contact.
 std::vector<Island> findIslands(const std::vector<RigidBody>& bodies,
+                                const std::vector<std::pair<int, int>>& contact_bodies);
+/// The same for general bodies (body_model.h): movable are those with velocity unknowns.
+std::vector<Island> findIslands(const std::vector<BodyModel*>& bodies,
                                 const std::vector<std::pair<int, int>>& contact_bodies);
 
 }  // namespace collision_response::core

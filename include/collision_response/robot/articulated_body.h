@@ -31,11 +31,12 @@ enum class BaseType {
 /// links (KDL::Tree; revolute, continuous, prismatic and fixed joints, limits unused) on a fixed or
 /// floating base. Velocity unknowns v = (base twist (v_o [m/s], w [rad/s]), world, if floating;
 /// the velocities of the free joints in joint order). Per state (setState()): the links' world
-/// frames, the joint-space inertia M(q) by the composite-rigid-body algorithm on KDL's spatial
-/// types (world frame, reference point at the world origin), its Cholesky factor M = L L^T, so
-/// that every M^-1 J(p)^T is two triangular solves. A contact names a link as its part
-/// (core::ContactPoint::part_a / part_b = linkIndex("name")); the part-less BodyModel methods use
-/// defaultLink() (the last link).
+/// frames (KDL's), the joint-space inertia M(q) by the composite-rigid-body algorithm (spatial
+/// inertias in the world frame about the world origin, Eigen fixed-size), its Cholesky factor
+/// M = L L^T, so that every M^-1 J(p)^T is two triangular solves. A robot without velocity
+/// unknowns (a fixed base, every joint locked) skips M: its state is the frames and twists. A
+/// contact names a link as its part (core::ContactPoint::part_a / part_b = linkIndex("name")); the
+/// part-less BodyModel methods use defaultLink() (the last link).
 class ArticulatedBody final : public core::BodyModel {
  public:
   /// The tree's root segment is the base; base_inertia is the base link's inertia in the base
@@ -131,17 +132,40 @@ class ArticulatedBody final : public core::BodyModel {
       int part, const Eigen::Vector3d& point) const override;
 
  private:
+  /// Mass properties of a rigid body in the world frame, about the world origin: mass m [kg],
+  /// first moment h = m c [kg m] (c its centre of mass), rotational inertia I_o about the origin
+  /// [kg m^2]. Such inertias of bodies add (composite bodies).
+  struct SpatialInertia {
+    double mass = 0.0;
+    Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d rotational = Eigen::Matrix3d::Zero();
+    SpatialInertia& operator+=(const SpatialInertia& other) {
+      mass += other.mass;
+      first_moment += other.first_moment;
+      rotational += other.rotational;
+      return *this;
+    }
+  };
+  /// A link's own mass properties in its (tip) frame: mass [kg], centre of mass [m] and rotational
+  /// inertia about the centre of mass [kg m^2], both in the link frame.
+  struct LocalInertia {
+    double mass = 0.0;
+    Eigen::Vector3d com = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d about_com = Eigen::Matrix3d::Zero();
+  };
   struct Link {
     std::string name;
-    int parent = -1;                  // link index, -1 for the base
-    KDL::Segment segment;             // joint + tip frame + inertia (tip frame)
-    int joint = -1;                   // index into joint_names_, -1 for a fixed joint / the base
-    KDL::Frame frame;                 // world frame of the link (segment tip)
-    KDL::Twist axis;                  // motion of a unit joint velocity, world, at the origin
-    KDL::Twist twist;                 // link twist, world, at the world origin
-    KDL::RigidBodyInertia inertia;    // world, at the world origin
-    KDL::RigidBodyInertia composite;  // the link and its subtree
+    int parent = -1;           // link index, -1 for the base
+    KDL::Segment segment;      // joint + tip frame (the inertia is in `local`)
+    LocalInertia local;        // the link's own, link frame
+    int joint = -1;            // index into joint_names_, -1 for a fixed joint / the base
+    KDL::Frame frame;          // world frame of the link (segment tip)
+    KDL::Twist axis;           // motion of a unit joint velocity, world, at the origin
+    KDL::Twist twist;          // link twist, world, at the world origin
+    SpatialInertia composite;  // the link and its subtree, world, about the origin (M(q) only)
   };
+  static LocalInertia localInertia(const KDL::RigidBodyInertia& inertia);
+  SpatialInertia worldInertia(const Link& link) const;
   void rebuild();  // unknowns from the joint models, then kinematics, M and its factor
   void updateKinematics();
   void updateTwists();
