@@ -27,8 +27,12 @@ void validateContacts(const std::vector<BodyModel*>& bodies,
     if (contact.body_b < 0 || contact.body_b >= count || bodies[contact.body_b] == nullptr) {
       throw InvalidInput(field(c, "body_b"), "no body " + std::to_string(contact.body_b));
     }
-    if (contact.body_a == contact.body_b) {
-      throw InvalidInput(field(c, "body_b"), "a contact of a body with itself");
+    // Two parts of one body (two links of a robot) may touch; one part cannot touch itself.
+    if (contact.body_a == contact.body_b &&
+        (contact.part_a == contact.part_b || bodies[contact.body_a]->asRigidBody() != nullptr)) {
+      throw InvalidInput(field(c, "body_b"), contact.part_a == contact.part_b && contact.part_a >= 0
+                                                 ? "a contact of a part with itself"
+                                                 : "a contact of a body with itself");
     }
     if (!contact.point.allFinite()) throw InvalidInput(field(c, "point"), "not finite");
     if (!contact.normal.allFinite() || std::abs(contact.normal.norm() - 1.0) > 1e-6) {

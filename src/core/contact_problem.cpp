@@ -166,6 +166,14 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
       out.inverse_mass_jacobian_t = body.partInverseMassJacobianTranspose(part[side], point.point);
       entry.delassus += out.jacobian * out.inverse_mass_jacobian_t;
     }
+    // Both sides on one general body (two links of one robot): u = (J_b - J_a) v, so W also has
+    // the cross terms -(J_a M^-1 J_b^T + J_b M^-1 J_a^T).
+    if (entry.local_a >= 0 && entry.local_a == entry.local_b && !bodies_[entry.local_a].rigid()) {
+      const GeneralSide& a = general_sides_[2 * row];
+      const GeneralSide& b = general_sides_[2 * row + 1];
+      entry.delassus -=
+          a.jacobian * b.inverse_mass_jacobian_t + b.jacobian * a.inverse_mass_jacobian_t;
+    }
     // Symmetric in exact arithmetic; make it so (a general body's products may round apart).
     entry.delassus = 0.5 * (entry.delassus + entry.delassus.transpose()).eval();
     setTarget(entry);

@@ -1,7 +1,8 @@
 // Robots in impacts (docs/robots.md): computeBodyResponse() with ArticulatedBody bodies against
 // closed forms derived here by hand: a pendulum struck by a free sphere (every law), a planar 2R
 // arm's tip impact, every joint locked (immovable / composite rigid body), a floating robot
-// striking a free body (momentum, energy, no contact left approaching) and armature.
+// striking a free body (momentum, energy, no contact left approaching), armature, and two links of
+// one robot striking each other.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "collision_response/core/body_response.h"
+#include "collision_response/core/errors.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
@@ -35,6 +37,18 @@ cr::RigidBody sphere(double ms, double R, const Vector3d& c, const Vector3d& v) 
   out.com = c;
   out.linear_velocity = v;
   return out;
+}
+
+// M(q) of two_link.urdf's planar 2R arm from the textbook (link 1: m1 = 2 kg, l1 = 1 m, centre of
+// mass at 0.5 m; link 2: m2 = 1 kg, l2 = 0.8 m, centre of mass at 0.4 m; uniform rods about z).
+Matrix2d twoLinkMassMatrix(double q2) {
+  const double m1 = 2.0, l1 = 1.0, lc1 = 0.5, I1 = m1 * l1 * l1 / 12.0;
+  const double m2 = 1.0, l2 = 0.8, lc2 = 0.4, I2 = m2 * l2 * l2 / 12.0;
+  Matrix2d M;
+  M(0, 0) = m1 * lc1 * lc1 + m2 * (l1 * l1 + lc2 * lc2 + 2 * l1 * lc2 * std::cos(q2)) + I1 + I2;
+  M(0, 1) = M(1, 0) = m2 * (lc2 * lc2 + l1 * lc2 * std::cos(q2)) + I2;
+  M(1, 1) = m2 * lc2 * lc2 + I2;
+  return M;
 }
 
 cr::SolverOptions withLaw(cr::ImpactLaw law) {
@@ -107,14 +121,10 @@ TEST(RobotImpacts, PendulumWithFrictionIsTheSingularLeastNormCase) {
 // M(q) from the textbook (test_articulated_body.cpp). u_n = n.J qdot; the impulse along n is
 // P = -(1 + e) u_n / (n^T J M^-1 J^T n), and dq = M^-1 J^T n P.
 TEST(RobotImpacts, TwoLinkTipImpactClosedForm) {
-  const double m1 = 2.0, l1 = 1.0, lc1 = 0.5, I1 = m1 * l1 * l1 / 12.0;
-  const double m2 = 1.0, l2 = 0.8, lc2 = 0.4, I2 = m2 * l2 * l2 / 12.0;
+  const double l1 = 1.0, l2 = 0.8;
   const double q1 = 0.4, q2 = 1.1, e = 0.5;
   const Vector2d qdot(0.5, -0.3);
-  Matrix2d M;
-  M(0, 0) = m1 * lc1 * lc1 + m2 * (l1 * l1 + lc2 * lc2 + 2 * l1 * lc2 * std::cos(q2)) + I1 + I2;
-  M(0, 1) = M(1, 0) = m2 * (lc2 * lc2 + l1 * lc2 * std::cos(q2)) + I2;
-  M(1, 1) = m2 * lc2 * lc2 + I2;
+  const Matrix2d M = twoLinkMassMatrix(q2);
   Matrix2d J;
   J << -l1 * std::sin(q1) - l2 * std::sin(q1 + q2), -l2 * std::sin(q1 + q2),
       l1 * std::cos(q1) + l2 * std::cos(q1 + q2), l2 * std::cos(q1 + q2);
@@ -301,4 +311,126 @@ TEST(RobotImpacts, ArmatureAddsToTheJointInertia) {
   EXPECT_NEAR(out.effective_masses[0], (I_hinge + I_a) / (d * d), 1e-12);
   EXPECT_NEAR(out.impulses[0].normal_impulse, (1 + e) * V * (I_hinge + I_a) / (d * d), 1e-9);
   EXPECT_NEAR(rod.jointVelocities()(0), (1 + e) * V / d, 1e-9);
+}
+
+// Two links of one robot striking each other (twin_pendulums.urdf): rod_a, hinged at the origin
+// along +x, turns at w_a = 4 rad/s, so its point p = (d, 0, 0), d = 0.75 m, moves at d w_a = 3 m/s
+// along +y into rod_b (hinged at (1.5, 0, 0) along -x, at rest), whose point p is also d from its
+// hinge. n = +y from rod_a to rod_b, e = 0.6, frictionless. rod_b's point moves as
+// w_b z x (-d x) = -d w_b y. Each rod reflects I_hinge / d^2 along y, so
+//   u_n = -d w_a = -3 m/s,  n^T W n = 2 d^2 / I_hinge,  P = (1 + e) 3 / (2 d^2 / I_hinge),
+//   w_a' = w_a - d P / I_hinge,  w_b' = -d P / I_hinge,  u_n' = -e u_n.
+// The joints are coupled only through the contact: W is the sum of the two rods' parts, which the
+// robot's one M(q) must give through the cross terms of the two links' Jacobians.
+TEST(RobotImpacts, TwoLinksOfOneRobotStrikeEachOther) {
+  const double d = 0.75, w_a = 4.0, e = 0.6, I_hinge = 2.0 / 3.0;
+  const double P = (1 + e) * d * w_a / (2 * d * d / I_hinge);
+  for (const cr::ImpactLaw law :
+       {cr::ImpactLaw::kNewton, cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    SCOPED_TRACE(cr::toString(law));
+    rb::ArticulatedBody twins = rb::robotFromUrdfFile(kDir + "/twin_pendulums.urdf");
+    twins.setState(VectorXd::Zero(2), (VectorXd(2) << w_a, 0.0).finished());
+    cr::ContactPoint contact(0, 0, Vector3d(d, 0, 0), Vector3d::UnitY(), e, 0.0, 0.0);
+    contact.part_a = twins.linkIndex("rod_a");
+    contact.part_b = twins.linkIndex("rod_b");
+    const cr::BodyResponse out = cr::computeBodyResponse({&twins}, {contact}, withLaw(law));
+    EXPECT_NEAR(out.impulses[0].normal_velocity_before, -d * w_a, 1e-12);
+    EXPECT_NEAR(out.effective_masses[0], I_hinge / (2 * d * d), 1e-12);
+    EXPECT_NEAR(out.impulses[0].normal_impulse, P, 1e-9);
+    EXPECT_NEAR(twins.jointVelocities()(twins.jointIndex("hinge_a")), w_a - d * P / I_hinge, 1e-9);
+    EXPECT_NEAR(twins.jointVelocities()(twins.jointIndex("hinge_b")), -d * P / I_hinge, 1e-9);
+    EXPECT_NEAR(out.impulses[0].normal_velocity_after, e * d * w_a, 1e-9);
+  }
+  // One link cannot strike itself, and a rigid body has no parts to do so.
+  rb::ArticulatedBody twins = rb::robotFromUrdfFile(kDir + "/twin_pendulums.urdf");
+  cr::ContactPoint self(0, 0, Vector3d(d, 0, 0), Vector3d::UnitY(), e, 0.0, 0.0);
+  self.part_a = self.part_b = twins.linkIndex("rod_a");
+  EXPECT_THROW(cr::computeBodyResponse({&twins}, {self}), cr::InvalidInput);
+  cr::RigidBody ball = sphere(1.0, 0.1, Vector3d::Zero(), Vector3d::UnitX());
+  cr::ContactPoint parts(0, 0, Vector3d(d, 0, 0), Vector3d::UnitY(), e, 0.0, 0.0);
+  parts.part_a = 0;
+  parts.part_b = 1;
+  EXPECT_THROW(cr::computeBodyResponse({&ball}, {parts}), cr::InvalidInput);
+}
+
+// The 2R arm of two_link.urdf at q = (0.4, 1.1), qdot = (0.5, -0.3): a point p of link 2 ("fore")
+// strikes link 1 ("upper") at the same world point, n (from upper to fore) in the plane,
+// frictionless, e = 0.5. At one point the shoulder moves both links alike, so the relative
+// velocity comes from the elbow alone: u = v_fore - v_upper = qdot_2 z x (p - o_elbow) = j qdot_2.
+// So n^T W n = (M^-1)_22 (n.j)^2, P = -(1 + e) u_n / (n^T W n), dq = M^-1 (0, n.j) P: only the
+// elbow's column of the Jacobians, which takes W's cross terms (-J_a M^-1 J_b^T - J_b M^-1 J_a^T)
+// to get; without them W would be J_a M^-1 J_a^T + J_b M^-1 J_b^T.
+TEST(RobotImpacts, TwoLinkSelfContactClosedForm) {
+  const double l1 = 1.0;
+  const double q1 = 0.4, q2 = 1.1, e = 0.5;
+  const Vector2d qdot(0.5, -0.3);
+  const Matrix2d M = twoLinkMassMatrix(q2);
+  const Vector2d elbow(l1 * std::cos(q1), l1 * std::sin(q1));
+  // p: 0.3 m along link 2 from the elbow, 0.05 m off its axis.
+  const Vector2d along(std::cos(q1 + q2), std::sin(q1 + q2)), across(-along.y(), along.x());
+  const Vector2d p = elbow + 0.3 * along + 0.05 * across;
+  const Vector2d j(-(p - elbow).y(), (p - elbow).x());  // z x (p - o_elbow)
+  const Vector2d n2 = -(j * qdot(1)).normalized();      // they approach
+  const double u_n = n2.dot(j) * qdot(1);
+  const Matrix2d Mi = M.inverse();
+  const double w = Mi(1, 1) * n2.dot(j) * n2.dot(j);
+  const double P = -(1 + e) * u_n / w;
+  const Vector2d qdot_after = qdot + Mi.col(1) * n2.dot(j) * P;
+
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/two_link.urdf");
+  arm.setState(Vector2d(q1, q2), qdot);
+  cr::ContactPoint contact(0, 0, Vector3d(p.x(), p.y(), 0), Vector3d(n2.x(), n2.y(), 0), e, 0.0,
+                           0.0);
+  contact.part_a = arm.linkIndex("upper");
+  contact.part_b = arm.linkIndex("fore");
+  const cr::BodyResponse out = cr::computeBodyResponse({&arm}, {contact});
+  EXPECT_NEAR(out.impulses[0].normal_velocity_before, u_n, 1e-12);
+  EXPECT_NEAR(out.effective_masses[0], 1.0 / w, 1e-12);
+  EXPECT_NEAR(out.impulses[0].normal_impulse, P, 1e-12);
+  EXPECT_LE((arm.jointVelocities() - qdot_after).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NEAR(out.impulses[0].normal_velocity_after, -e * u_n, 1e-12);
+}
+
+// A floating robot whose hand strikes its own forearm (arm7, random states, friction, Stronge):
+// an internal impulse pair changes neither the robot's linear nor its angular momentum (to
+// round-off), gains no energy, and leaves the contact not approaching.
+TEST(RobotImpacts, SelfContactOfAFloatingRobotConservesMomentum) {
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7, rb::BaseType::kFloating);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int struck = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    VectorXd q(9), qdot(9);
+    for (int i = 0; i < 9; ++i) {
+      q(i) = 2 * u(rng);
+      qdot(i) = 2 * u(rng);
+    }
+    q(7) = q(8) = 0.02;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::AngleAxisd(u(rng), Vector3d(u(rng), u(rng), 1).normalized()).matrix();
+    arm.setState(q, qdot, pose, Vector3d(u(rng), u(rng), u(rng)), Vector3d(u(rng), u(rng), u(rng)));
+    const int hand = arm.linkIndex("hand"), fore = arm.linkIndex("link3");
+    const Vector3d p = 0.5 * (arm.linkPose(hand).translation() + arm.linkPose(fore).translation());
+    // The normal against the relative velocity of the two links' points at p: they approach.
+    const Vector3d relative = arm.partPointVelocity(fore, p) - arm.partPointVelocity(hand, p);
+    if (relative.norm() < 1e-3) continue;
+    const Vector3d n =
+        (-relative.normalized() + 0.3 * Vector3d(u(rng), u(rng), u(rng))).normalized();
+    if (n.dot(relative) >= -1e-3) continue;
+    cr::ContactPoint contact(0, 0, p, n, 0.5, 0.6, 0.4);
+    contact.part_a = hand;
+    contact.part_b = fore;
+    const Eigen::Matrix<double, 6, 1> before = arm.momentum();
+    const double energy_before = arm.kineticEnergy();
+    const cr::BodyResponse out =
+        cr::computeBodyResponse({&arm}, {contact}, withLaw(cr::ImpactLaw::kStronge));
+    ASSERT_GT(out.impulses[0].normal_impulse, 0.0) << "trial " << trial;
+    ++struck;
+    const Eigen::Matrix<double, 6, 1> after = arm.momentum();
+    EXPECT_LE((after - before).cwiseAbs().maxCoeff(), 1e-12 * (1 + before.cwiseAbs().maxCoeff()))
+        << "trial " << trial;
+    EXPECT_LT(arm.kineticEnergy(), energy_before) << "trial " << trial;
+    EXPECT_GE(out.impulses[0].normal_velocity_after, -1e-9) << "trial " << trial;
+  }
+  EXPECT_GE(struck, 15);
 }

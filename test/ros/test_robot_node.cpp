@@ -191,6 +191,44 @@ TEST_F(RobotNodeTest, ContactNamingALinkIsEnough) {
   expectMatches(call(srv), reference(arm, srv));
 }
 
+// The hand striking the arm's own link3 (a contact between two links of one robot, no other body):
+// the node gives the core's answer for the same state and contact, and the contact separates.
+TEST_F(RobotNodeTest, TwoLinksOfTheArmStrikeEachOther) {
+  cr::robot::ArticulatedBody arm = publishedArm();
+  const int hand = arm.linkIndex("hand"), link3 = arm.linkIndex("link3");
+  const Eigen::Vector3d p =
+      0.5 * (arm.linkPose(hand).translation() + arm.linkPose(link3).translation());
+  const Eigen::Vector3d relative = arm.partPointVelocity(link3, p) - arm.partPointVelocity(hand, p);
+  ASSERT_GT(relative.norm(), 1e-3);
+  const Eigen::Vector3d n = -relative.normalized();  // from the hand to link3, approaching
+  cr::ComputeResponse srv = strikeRequest(strikeOf(arm));
+  srv.request.bodies.clear();
+  cr::Contact& c = srv.request.contacts[0];
+  c.body_a = "arm/hand";
+  c.body_b = "arm/link3";
+  c.point = cr::toPoint(p);
+  c.normal.x = n.x();
+  c.normal.y = n.y();
+  c.normal.z = n.z();
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+
+  cr::core::ContactPoint point(0, 0, p, n, c.restitution, c.static_friction, c.dynamic_friction);
+  point.part_a = hand;
+  point.part_b = link3;
+  const cr::core::BodyResponse ref = cr::core::computeBodyResponse({&arm}, {point});
+  ASSERT_EQ(response.robots.size(), 1u);
+  for (int j = 0; j < arm.jointCount(); ++j) {
+    EXPECT_NEAR(response.robots[0].joint_state.velocity[j], arm.jointVelocities()(j), kExact) << j;
+  }
+  ASSERT_EQ(response.impulses.size(), 1u);
+  EXPECT_GT(response.impulses[0].normal_impulse, 0.0);
+  EXPECT_NEAR(response.impulses[0].normal_impulse, ref.impulses[0].normal_impulse, kExact);
+  EXPECT_NEAR(response.effective_masses[0], ref.effective_masses[0], kExact);
+  EXPECT_GE(response.impulses[0].normal_velocity_after, -1e-9);
+  EXPECT_LE(response.kinetic_energy_after, response.kinetic_energy_before * (1 + 1e-12));
+}
+
 TEST_F(RobotNodeTest, RequestJointStateIgnoresTheTopic) {
   const std::vector<double> q = {-0.3, 0.4, 0.5, -0.9, -0.2, 1.1, -0.4, 0.0, 0.02};
   const std::vector<double> qdot = {-0.4, 0.7, 0.2, -0.8, 0.3, 0.6, -0.2, 0.0, 0.0};

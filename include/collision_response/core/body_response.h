@@ -28,7 +28,9 @@ struct BodyResponse {
 /// velocity changes are added to the bodies. Islands without an approaching contact get no
 /// impulse (SolveMethod::kNone; no resting-contact analysis for general bodies). Throws
 /// InvalidInput naming "contacts[i].<field>" for a body index out of range, a contact of a part
-/// with itself, a normal that is not unit length (1e-6) or coefficients out of range.
+/// with itself (two parts of one body, such as two links of a robot, may touch: the contact's W
+/// then has the cross terms of its two Jacobians), a normal that is not unit length (1e-6) or
+/// coefficients out of range.
 BodyResponse computeBodyResponse(const std::vector<BodyModel*>& bodies,
                                  const std::vector<ContactPoint>& contacts,
                                  const SolverOptions& options = {});
