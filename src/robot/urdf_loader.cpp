@@ -30,12 +30,16 @@ KDL::RigidBodyInertia rootInertia(const urdf::Model& model) {
 ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
   urdf::Model model;
   if (!model.initString(xml)) throw std::invalid_argument("URDF: the document does not parse");
+  const KDL::RigidBodyInertia root_inertia = rootInertia(model);
+  // kdl_parser drops a root link's inertia with a warning that KDL cannot use it; ours is passed
+  // to the body (a floating base uses it), so the root is handed to kdl_parser without one.
+  if (model.root_link_) model.root_link_->inertial.reset();
   KDL::Tree tree;
   if (!kdl_parser::treeFromUrdfModel(model, tree)) {
     throw std::invalid_argument("URDF: kdl_parser could not build the tree of '" + model.getName() +
                                 "'");
   }
-  return ArticulatedBody(tree, base, rootInertia(model));
+  return ArticulatedBody(tree, base, root_inertia);
 }
 
 ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base) {
