@@ -61,6 +61,9 @@ void setRigidImpact(const RigidBody& a, const RigidBody& b, const ContactPoint& 
 
 void ContactProblem::clear(ProblemLevel level) {
   level_ = level;
+  // finish() resets these; a build that threw before it (a general body refusing its Jacobian)
+  // left them set, and a reused problem must not see them.
+  for (const ProblemBody& body : bodies_) local_of_[body.index] = -1;
   bodies_.clear();
   contacts_.clear();
   general_sides_.clear();

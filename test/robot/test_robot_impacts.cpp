@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -433,4 +434,34 @@ TEST(RobotImpacts, SelfContactOfAFloatingRobotConservesMomentum) {
     EXPECT_GE(out.impulses[0].normal_velocity_after, -1e-9) << "trial " << trial;
   }
   EXPECT_GE(struck, 15);
+}
+
+// A robot whose joint moves no mass (a massless rod) cannot answer M^-1 J^T: the call throws. The
+// next call on the same thread (computeBodyResponse() reuses its contact problem) must give the
+// pendulum's closed form of PendulumStruckBySphereEveryLaw, untouched by the failed build.
+TEST(RobotImpacts, AFailedBuildLeavesNoTraceInTheNextCall) {
+  const std::string massless = R"(<robot name="massless">
+    <link name="base"/>
+    <joint name="hinge" type="continuous"><parent link="base"/><child link="rod"/>
+      <axis xyz="0 0 1"/></joint>
+    <link name="rod"/>
+  </robot>)";
+  const double d = 0.75, V = 3.0, e = 0.6, ms = 0.5, R = 0.1, I_hinge = 2.0 / 3.0;
+  {
+    rb::ArticulatedBody limp = rb::robotFromUrdfString(massless);
+    ASSERT_FALSE(limp.singularJoint().empty());
+    cr::RigidBody ball = sphere(ms, R, Vector3d(d, -R, 0), Vector3d(0, V, 0));
+    cr::ContactPoint contact(0, 1, Vector3d(d, 0, 0), Vector3d::UnitY(), e, 0.0, 0.0);
+    contact.part_b = limp.linkIndex("rod");
+    EXPECT_THROW(cr::computeBodyResponse({&ball, &limp}, {contact}), std::invalid_argument);
+  }
+  rb::ArticulatedBody rod = rb::robotFromUrdfFile(kDir + "/pendulum.urdf");
+  cr::RigidBody ball = sphere(ms, R, Vector3d(d, -R, 0), Vector3d(0, V, 0));
+  cr::ContactPoint contact(0, 1, Vector3d(d, 0, 0), Vector3d::UnitY(), e, 0.0, 0.0);
+  contact.part_b = rod.linkIndex("rod");
+  const cr::BodyResponse out = cr::computeBodyResponse({&ball, &rod}, {contact});
+  const double P = (1 + e) * V / (1 / ms + d * d / I_hinge);
+  EXPECT_NEAR(out.impulses[0].normal_impulse, P, 1e-9);
+  EXPECT_NEAR(rod.jointVelocities()(0), d * P / I_hinge, 1e-9);
+  EXPECT_NEAR(ball.linear_velocity.y(), V - P / ms, 1e-9);
 }
