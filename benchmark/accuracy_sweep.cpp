@@ -333,8 +333,10 @@ int main(int argc, char** argv) {
       }
       if (skipped > 0)
         note = std::to_string(skipped) + " of " + std::to_string(s.instances.size()) +
-               " instances not run (" + skipped_why + "); figures over the other " +
-               std::to_string(ran) + (note.empty() ? "" : "; " + note);
+               " instances not run (" +
+               skipped_why.substr(skipped_why.rfind("not run: ", 0) == 0 ? 9 : 0) +
+               "); figures over the other " + std::to_string(ran) +
+               (note.empty() ? "" : "; " + note);
       w.row(s, engine, curve, param, law, can_express, ns / ran, total, other, note);
     };
     auto peer = [&](const std::string& engine, const std::string& curve, const std::string& param,

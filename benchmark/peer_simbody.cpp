@@ -27,12 +27,18 @@ Eigen::Vector3d eig(const SimTK::Vec3& v) {
   return Eigen::Vector3d(v[0], v[1], v[2]);
 }
 
-/// The first line of an exception's message (Simbody's span several).
-std::string firstLine(const std::exception& e) {
-  const std::string what = e.what();
+/// The gist of a Simbody exception: its message names where it was thrown on a first line, then
+/// "Error detected by Simbody method M(): what; details" on the next; this keeps "what".
+std::string gist(const std::exception& e) {
+  std::string what = e.what();
+  const std::size_t method = what.find("Error detected by Simbody method");
+  if (method != std::string::npos) {
+    const std::size_t colon = what.find("): ", method);
+    if (colon != std::string::npos) what = what.substr(colon + 3);
+  }
   const std::size_t start = what.find_first_not_of(" \n");
   if (start == std::string::npos) return what;
-  return what.substr(start, what.find('\n', start) - start);
+  return what.substr(start, what.find_first_of(";\n", start) - start);
 }
 
 /// Debian's libsimbody is built without NDEBUG: its stepper and impulse solvers print a trace of
@@ -197,7 +203,7 @@ PeerRun runSimbody(const core::Scene& scene, const SimbodyConfig& config, int re
           return simulate(scene, config, repetitions);
         } catch (const std::exception& e) {
           PeerRun run;
-          run.note = "not run: Simbody: " + firstLine(e);
+          run.note = "not run: Simbody: " + gist(e);
           return run;
         }
       },
