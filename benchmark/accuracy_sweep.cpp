@@ -1,8 +1,10 @@
 // Accuracy sweep: run time against error for every scene of bench_scenes.h and every method (each
 // impact law, the exact and the iterative solver at 1..256 iterations, the impulse-space
 // integrator at several tolerances) and, in the same run on the same contacts, the peers Bullet
-// (sequential impulses at 1..256 iterations, MLCP Dantzig) and ODE (dWorldStep, dWorldQuickStep
-// at 1..256 iterations). Writes one CSV row per (scene, method, setting).
+// (sequential impulses at 1..256 iterations, MLCP Dantzig), ODE (dWorldStep, dWorldQuickStep
+// at 1..256 iterations) and Simbody (one SemiExplicitEulerTimeStepper step: PLUS, and PGS at
+// 1..256 iterations, each with Poisson and with Newton restitution). Writes one CSV row per
+// (scene, method, setting).
 //   accuracy_sweep [--out FILE] [--reps N]
 // Timing: steady_clock, warm cache, median over repetitions of a block of calls on pre-built
 // inputs (ours: the solver call alone; peers: their contact-resolving step alone), averaged over
@@ -30,6 +32,9 @@
 #endif
 #ifdef HAVE_ODE
 #include "peer_ode.h"
+#endif
+#ifdef HAVE_SIMBODY
+#include "peer_simbody.h"
 #endif
 
 namespace bench = collision_response::bench;
@@ -198,25 +203,45 @@ std::vector<OurMethod> ourMethods() {
   return out;
 }
 
+/// Velocity error of one answer against the references of the other laws (the largest over the
+/// instances).
+struct OtherLaws {
+  double newton_lcp = 0.0, poisson = 0.0, stronge = 0.0;
+
+  void accumulate(const bench::BenchScene& s, std::size_t instance, const bench::Velocities& after,
+                  const std::vector<Vector3d>& impulses) {
+    auto err = [&](const char* law) {
+      return bench::measure(s.instances[instance], after, impulses, s.referenceFor(law)[instance])
+          .velocity;
+    };
+    newton_lcp = std::max(newton_lcp, err("newton_lcp"));
+    poisson = std::max(poisson, err("poisson"));
+    stronge = std::max(stronge, err("stronge"));
+  }
+};
+
 struct Writer {
   FILE* f;
   void header() {
-    std::fprintf(f,
-                 "scene,family,reference,contacts,instances,engine,curve,param,law,expressible,"
-                 "ns_per_solve,ns_per_contact,vel_err,energy_err,energy_gain,restitution_err,"
-                 "approach,cone_violation,energy_ratio,vel_err_newton_lcp,note\n");
+    std::fprintf(
+        f,
+        "scene,family,reference,contacts,instances,engine,curve,param,law,expressible,"
+        "ns_per_solve,ns_per_contact,vel_err,energy_err,energy_gain,restitution_err,"
+        "approach,cone_violation,energy_ratio,vel_err_newton_lcp,vel_err_poisson,vel_err_stronge,"
+        "note\n");
   }
   void row(const bench::BenchScene& s, const std::string& engine, const std::string& curve,
            const std::string& param, const std::string& law, const std::string& expressible,
-           double ns, const bench::Errors& e, double vel_err_lcp, const std::string& note) {
+           double ns, const bench::Errors& e, const OtherLaws& other, const std::string& note) {
     const double contacts = static_cast<double>(s.contactsPerInstance());
     std::fprintf(f,
                  "%s,%s,\"%s\",%zu,%zu,%s,%s,%s,%s,\"%s\",%.1f,%.2f,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e,"
-                 "%.6f,%.3e,\"%s\"\n",
+                 "%.6f,%.3e,%.3e,%.3e,\"%s\"\n",
                  s.name.c_str(), s.family.c_str(), s.reference.c_str(), s.contactsPerInstance(),
                  s.instances.size(), engine.c_str(), curve.c_str(), param.c_str(), law.c_str(),
                  expressible.c_str(), ns, ns / contacts, e.velocity, e.energy, e.energy_gain,
-                 e.restitution, e.approach, e.cone, e.energy_ratio, vel_err_lcp, note.c_str());
+                 e.restitution, e.approach, e.cone, e.energy_ratio, other.newton_lcp, other.poisson,
+                 other.stronge, note.c_str());
     std::fflush(f);
   }
 };
@@ -251,14 +276,14 @@ int main(int argc, char** argv) {
                      m.curve == "stronge_iterative" ||
                      (m.curve == "seed_one_pass" && !m.single_contact_only)))
         continue;  // one contact: the laws' own single-contact paths above
-      bench::Errors total, total_lcp;
+      bench::Errors total;
+      OtherLaws other;
       double ns = 0.0, steps = 0.0, segments = 0.0;
       const auto& ref = s.referenceFor(m.reference_law);
-      const auto& lcp = s.referenceFor("newton_lcp");
       for (std::size_t i = 0; i < s.instances.size(); ++i) {
         const Answer a = answerOf(m, prepared[i]);
         bench::accumulate(total, bench::measure(s.instances[i], a.after, a.impulses, ref[i]));
-        bench::accumulate(total_lcp, bench::measure(s.instances[i], a.after, a.impulses, lcp[i]));
+        other.accumulate(s, i, a.after, a.impulses);
         ns += timePerCall(m, prepared[i], reps) / s.instances.size();
         if (m.stats) {
           const core::ImpulseSpaceDetail st = m.stats(prepared[i]);
@@ -270,25 +295,53 @@ int main(int argc, char** argv) {
       if (m.stats)
         std::snprintf(note, sizeof note, "mean %.1f Runge-Kutta steps, %.1f segments", steps,
                       segments);
-      w.row(s, "ours", m.curve, m.param, m.reference_law, "yes", ns, total, total_lcp.velocity,
-            note);
+      w.row(s, "ours", m.curve, m.param, m.reference_law, "yes", ns, total, other, note);
     }
     const std::string expressible =
         s.friction_split ? "no: one friction coefficient (given mu_d)" : "yes";
     const int peer_reps = 2 * reps + 1;
-    auto peer = [&](const std::string& engine, const std::string& curve, const std::string& param,
-                    const std::function<bench::PeerRun(const core::Scene&)>& run) {
+    // A peer configuration, measured against the reference of `law` (Newton's restitution:
+    // "newton_lcp"); `can_express`: what the "expressible" column says.
+    auto peerOf = [&](const std::string& engine, const std::string& curve, const std::string& param,
+                      const std::string& law, const std::string& can_express,
+                      const std::function<bench::PeerRun(const core::Scene&)>& run) {
       bench::Errors total;
+      OtherLaws other;
       double ns = 0.0;
-      std::string note;
-      const auto& ref = s.referenceFor("newton_lcp");
+      std::string note, skipped_why;
+      std::size_t skipped = 0;
+      const auto& ref = s.referenceFor(law);
       for (std::size_t i = 0; i < s.instances.size(); ++i) {
         const bench::PeerRun r = run(s.instances[i]);
+        if (r.after.linear.empty()) {  // the peer cannot take this instance: r.note says why
+          ++skipped;
+          skipped_why = r.note;
+          continue;
+        }
         bench::accumulate(total, bench::measure(s.instances[i], r.after, r.impulses, ref[i]));
-        ns += r.ns_per_solve / s.instances.size();
+        other.accumulate(s, i, r.after, r.impulses);
+        ns += r.ns_per_solve;
         if (!r.note.empty()) note = r.note;
       }
-      w.row(s, engine, curve, param, "newton_lcp", expressible, ns, total, total.velocity, note);
+      const std::size_t ran = s.instances.size() - skipped;
+      if (ran == 0) {  // no figures, only the reason
+        const double nan = std::nan("");
+        const bench::Errors none{nan, nan, nan, nan, nan, nan, nan};
+        w.row(s, engine, curve, param, law, "no: " + skipped_why, nan, none, {nan, nan, nan},
+              skipped_why);
+        return;
+      }
+      if (skipped > 0)
+        note = std::to_string(skipped) + " of " + std::to_string(s.instances.size()) +
+               " instances not run (" +
+               skipped_why.substr(skipped_why.rfind("not run: ", 0) == 0 ? 9 : 0) +
+               "); figures over the other " + std::to_string(ran) +
+               (note.empty() ? "" : "; " + note);
+      w.row(s, engine, curve, param, law, can_express, ns / ran, total, other, note);
+    };
+    auto peer = [&](const std::string& engine, const std::string& curve, const std::string& param,
+                    const std::function<bench::PeerRun(const core::Scene&)>& run) {
+      peerOf(engine, curve, param, "newton_lcp", expressible, run);
     };
 #ifdef HAVE_BULLET
     for (int k = 1; k <= 256; k *= 2)
@@ -307,6 +360,32 @@ int main(int argc, char** argv) {
       peer("ode", "ode_quickstep", "it=" + std::to_string(k), [&](const core::Scene& scene) {
         return bench::runOde(scene, {bench::OdeStepper::kQuickStep, k}, peer_reps);
       });
+#endif
+#ifdef HAVE_SIMBODY
+    // Simbody has mu_s and mu_d (chosen once from the slip before the impact) and Poisson's or
+    // Newton's restitution: each measured against our reference of that law. PLUS at the
+    // constraint tolerance 1e-10 and at Simbody's default 1e-3 (its rolling and capture speeds
+    // are twice it); PGS at 1e-10.
+    using SR = bench::SimbodyRestitution;
+    using SS = bench::SimbodySolver;
+    for (const auto& [name, restitution, law] :
+         {std::tuple<const char*, SR, const char*>{"poisson", SR::kPoisson, "poisson"},
+          std::tuple<const char*, SR, const char*>{"newton", SR::kNewton, "newton_lcp"}}) {
+      const SR rest = restitution;
+      for (const auto& [ctol_name, ctol] :
+           {std::pair<const char*, double>{"ctol=1e-10", 1e-10}, {"ctol=1e-3", 1e-3}}) {
+        const double c = ctol;
+        peerOf("simbody", std::string("simbody_plus_") + name, ctol_name, law, "yes",
+               [&](const core::Scene& scene) {
+                 return bench::runSimbody(scene, {SS::kPlus, rest, 0, -1.0, c}, peer_reps);
+               });
+      }
+      for (int k = 1; k <= 256; k *= 4)
+        peerOf("simbody", std::string("simbody_pgs_") + name, "it=" + std::to_string(k), law, "yes",
+               [&](const core::Scene& scene) {
+                 return bench::runSimbody(scene, {SS::kPgs, rest, k, 0.0}, peer_reps);
+               });
+    }
 #endif
   }
   std::fclose(f);

@@ -317,6 +317,116 @@ core::Scene chain(int spheres) {
   return s;
 }
 
+/// The same scene with its contacts replaced by one contact at `point` (their common restitution
+/// and friction): what a symmetric contact set is equivalent to.
+core::Scene withOneContact(const core::Scene& scene, const Vector3d& point) {
+  core::Scene one = scene;
+  one.contacts = {scene.contacts.front()};
+  one.contacts.front().point = point;
+  return one;
+}
+
+/// A scene whose contacts act, by symmetry, as one contact at `point`: the reference of every law
+/// is our single-contact answer there at the finest setting (fineSolve on the one contact).
+BenchScene equivalentContactScene(const std::string& name, const std::string& reference,
+                                  const core::Scene& scene, const Vector3d& point) {
+  BenchScene s = fineScene(name, "many_contacts", reference, {withOneContact(scene, point)});
+  s.instances = {scene};
+  return s;
+}
+
+/// A box (1.5 kg, 0.6 x 0.4 x 0.3 m, tilted 30 degrees about y) lands on its lowest edge, which
+/// lies along y on the ground (z up), while sliding across it: v = (1.2, 0, -1) m/s, w = (0, -2, 0)
+/// rad/s; e = 0.5, mu_s 0.6, mu_d 0.4; 2 contacts, the ends of the edge. The centre of mass is
+/// above the edge's midpoint plane y = 0 and v, w are symmetric about it (no y velocity, spin about
+/// y only, y a principal axis of the box), so the two contacts carry equal impulses and the
+/// contact velocities stay equal: the scene is one contact at the edge midpoint, for every law.
+core::Scene edgeLanding() {
+  const Vector3d half(0.3, 0.2, 0.15);  // [m] box half sizes, body axes
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 1.5;
+  box.inertia = collision_response::testing::boxInertia(box.mass, 2.0 * half);
+  box.orientation =
+      Quaterniond(Eigen::AngleAxisd(30.0 * std::acos(-1.0) / 180.0, Vector3d::UnitY()));
+  const Matrix3d R = box.orientation.toRotationMatrix();
+  // The lowest edge of the tilted box: body (+x, -z) edge, along body y (= world y).
+  const Vector3d edge_mid_body(half.x(), 0.0, -half.z());
+  box.position = -(R * edge_mid_body);  // edge midpoint at the origin
+  for (const double sx : {-1.0, 1.0})
+    for (const double sz : {-1.0, 1.0})
+      if ((R * Vector3d(sx * half.x(), 0.0, sz * half.z()) + box.position).z() < -1e-12)
+        throw std::logic_error("edgeLanding: the box is below the ground");
+  box.linear_velocity = {1.2, 0.0, -1.0};
+  box.angular_velocity = {0.0, -2.0, 0.0};
+  core::Scene s;
+  s.bodies = {ground(), box};
+  for (const double y : {-half.y(), half.y()})
+    s.contacts.push_back(contact("ground", "box", {0.0, y, 0.0}, Vector3d::UnitZ(), 0.5, 0.6, 0.4));
+  const Vector3d r = -box.position;  // edge midpoint from the centre of mass
+  if ((box.linear_velocity + box.angular_velocity.cross(r)).z() >= 0.0)
+    throw std::logic_error("edgeLanding: the edge does not approach the ground");
+  return s;
+}
+
+/// A thin plate (2 kg, 0.8 x 0.5 m, its centre of mass in the plane of its corners) lands flat on
+/// its 4 corners (ground z up) while sliding: v = (1.5, 0.8, -1) m/s, no spin; e = 0.6, mu_s 0.5,
+/// mu_d 0.3. The corners are symmetric about the centre of mass in the contact plane and the
+/// contact velocities are all v: the scene is one contact at the centre, for every law (it slides
+/// throughout: mu_d (1 + e) 1 m/s x 2 kg = 0.96 N s of friction against 3.4 N s to stop it).
+core::Scene plateFlat() {
+  core::BodyState plate;
+  plate.id = "plate";
+  plate.mass = 2.0;
+  plate.inertia = collision_response::testing::boxInertia(plate.mass, Vector3d(0.8, 0.5, 0.01));
+  plate.linear_velocity = {1.5, 0.8, -1.0};
+  core::Scene s;
+  s.bodies = {ground(), plate};
+  for (const double x : {-0.4, 0.4})
+    for (const double y : {-0.25, 0.25})
+      s.contacts.push_back(
+          contact("ground", "plate", {x, y, 0.0}, Vector3d::UnitZ(), 0.6, 0.5, 0.3));
+  return s;
+}
+
+/// Independent check of a symmetric scene's references (every law): the impulse of the equivalent
+/// contact passes through `point`, so the angular momentum about it is unchanged (all components),
+/// and the linear momentum along each of `fixed_axes` (no impulse there) is unchanged.
+void checkMomenta(const BenchScene& s, const Vector3d& point,
+                  const std::vector<Vector3d>& fixed_axes) {
+  using collision_response::testing::angularMomentum;
+  using collision_response::testing::linearMomentum;
+  const core::Scene& scene = s.instances.front();
+  const Vector3d p0 = linearMomentum(scene.bodies), h0 = angularMomentum(scene.bodies, point);
+  for (const auto& [law, refs] : s.reference_by_law) {
+    std::vector<core::BodyState> after = scene.bodies;
+    for (std::size_t i = 0; i < after.size(); ++i) {
+      after[i].linear_velocity = refs.front().linear[i];
+      after[i].angular_velocity = refs.front().angular[i];
+    }
+    bool ok = (angularMomentum(after, point) - h0).norm() <= 1e-12;
+    for (const Vector3d& axis : fixed_axes)
+      ok &= std::abs((linearMomentum(after) - p0).dot(axis)) <= 1e-12;
+    if (!ok) throw std::logic_error(s.name + ": reference (" + law + ") fails the momentum check");
+  }
+}
+
+/// The plate slides throughout, so every law gives the same closed form: v'_n = -e v_n, the
+/// tangential velocity reduced by mu_d (1 + e) |v_n| against the slip, no spin.
+void checkPlate(const BenchScene& s) {
+  const core::Scene& scene = s.instances.front();
+  const core::Contact& c = scene.contacts.front();
+  const Vector3d v = scene.bodies[1].linear_velocity;
+  const double vn = v.dot(c.normal);
+  const Vector3d vt = v - vn * c.normal;
+  const Vector3d expected = -c.restitution * vn * c.normal + vt -
+                            c.dynamic_friction * (1.0 + c.restitution) * -vn * vt.normalized();
+  for (const auto& [law, refs] : s.reference_by_law)
+    if ((refs.front().linear[1] - expected).norm() > 1e-12 ||
+        refs.front().angular[1].norm() > 1e-12)
+      throw std::logic_error("plate_flat: reference (" + law + ") differs from the closed form");
+}
+
 }  // namespace
 
 Velocities velocitiesBefore(const core::Scene& scene) {
@@ -349,6 +459,16 @@ std::vector<BenchScene> makeScenes() {
                              "exact (Lemke) solver of the same law (frictionless: unique)",
                              {chain(16)}));
   scenes.push_back(closedFormScene("stack_4", "many_contacts", {stack(4)}, stackClosedForm));
+  const std::string by_symmetry =
+      "one contact at the centre of the contacts (symmetry), same law, finest setting: closed "
+      "form (Newton), integrator at 1e-14";
+  scenes.push_back(
+      equivalentContactScene("edge_landing", by_symmetry, edgeLanding(), Vector3d::Zero()));
+  checkMomenta(scenes.back(), Vector3d::Zero(), {Vector3d::UnitY()});
+  scenes.push_back(
+      equivalentContactScene("plate_flat", by_symmetry, plateFlat(), Vector3d::Zero()));
+  checkMomenta(scenes.back(), Vector3d::Zero(), {});
+  checkPlate(scenes.back());
   return scenes;
 }
 

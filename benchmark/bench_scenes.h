@@ -43,8 +43,9 @@ struct BenchScene {
 /// Every scene of the sweep: closed forms (head-on spheres, a sphere sliding and one sticking,
 /// a cube flat on the ground with 4 contacts), the rod tip on a rough floor (equal and split
 /// friction), random off-centre frictional impacts (against a fine reference of the same law),
-/// mass ratios 1e3 and 1e6, a chain of 16 spheres (15 contacts) and a stack of 4 cubes on the
-/// ground (16 frictional contacts).
+/// mass ratios 1e3 and 1e6, a chain of 16 spheres (15 contacts), a stack of 4 cubes on the
+/// ground (16 frictional contacts), and two symmetric multi-contact landings whose reference is
+/// one contact by symmetry: a box on an edge (2 contacts) and a thin plate on its 4 corners.
 std::vector<BenchScene> makeScenes();
 
 /// Pre-impact velocities of an instance (the "before" state).

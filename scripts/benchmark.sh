@@ -2,7 +2,7 @@
 # The benchmark of the README, end to end: installs what it needs, builds (Release, portable flags)
 # into build/ (or $BUILD_DIR) with the benchmark targets, then runs
 #   1. Google Benchmark micro figures (bench_solvers)          -> benchmark/data/micro.json
-#   2. the accuracy sweep, ours and the peers Bullet and ODE     -> benchmark/data/results.csv
+#   2. the accuracy sweep, ours and the peers Bullet, ODE and Simbody -> benchmark/data/results.csv
 #      the robot: bench_robot (Google Benchmark)                -> benchmark/data/robot.json
 #      and robot_compare (ours and DART on the same impact)     -> benchmark/data/robot_dart.csv
 #   3. the service load (private ROS master on a free port; rigid bodies, and the shipped arm
@@ -43,7 +43,7 @@ fi
 
 fresh=$([ -d "${BUILD_DIR:-build}" ] && echo no || echo yes)
 scripts/install_packages.sh libbenchmark-dev libbullet-dev libode-dev pkg-config python3-matplotlib \
-  libdart-dev libdart-utils-urdf-dev
+  libdart-dev libdart-utils-urdf-dev libsimbody-dev
 CMAKE_ARGS="-DCOLLISION_RESPONSE_BENCHMARKS=ON ${CMAKE_ARGS:-}" scripts/setup.sh
 build_s=$(($(date +%s) - start))
 source scripts/build_dirs.sh
@@ -55,7 +55,7 @@ echo "benchmark: micro figures (Google Benchmark) -> $out/micro.json"
   --benchmark_out="$out/micro.json" \
   --benchmark_out_format=json >"$build_dir/micro.txt"
 
-echo "benchmark: accuracy sweep (ours, Bullet, ODE) -> $out/results.csv"
+echo "benchmark: accuracy sweep (ours, Bullet, ODE, Simbody) -> $out/results.csv"
 "$bin/accuracy_sweep" --out "$out/results.csv" --reps "${SWEEP_REPS:-31}"
 
 robot_figures
