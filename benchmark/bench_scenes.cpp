@@ -271,7 +271,10 @@ core::BodyState randomBody(std::mt19937& rng, const std::string& id, double mass
   core::BodyState body;
   body.id = id;
   body.mass = positive(rng) * mass_scale;
-  const double x = positive(rng), y = positive(rng), z = std::min(x + y, positive(rng));
+  // z inside [|x - y|, x + y] (share 0.1..1): all three triangle inequalities of a rigid body's
+  // principal moments.
+  const double x = positive(rng), y = positive(rng), share = 0.1 + 0.6 * (positive(rng) - 0.5);
+  const double z = std::abs(x - y) + share * (x + y - std::abs(x - y));
   body.inertia = Vector3d(x, y, z).asDiagonal() * (0.1 * mass_scale);
   body.orientation = Quaterniond(unit(rng), unit(rng), unit(rng), unit(rng)).normalized();
   body.position = Vector3d(unit(rng), unit(rng), unit(rng));

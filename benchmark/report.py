@@ -807,9 +807,8 @@ def main():
       "without NDEBUG, so the stepper and both solvers write a debug trace of every step to "
       "standard output (sent to /dev/null here): Simbody's times include formatting that trace "
       "and are no measure of a release build. Each run is a child process with a 10 s limit "
-      "(PLUS can take ever shorter sliding intervals without finishing); Simbody rejects "
-      "inertias that violate the triangle inequality (some of the random bodies); such runs "
-      "are listed as not run, with the reason. Simbody does not report per-contact impulses, "
+      "(PLUS can take ever shorter sliding intervals without finishing); such runs are listed "
+      "as not run, with the reason. Simbody does not report per-contact impulses, "
       "so its cone column is n/a.")
     w("- Every iteration count is listed, so each peer's best answer is in the tables; the "
       "comparisons above take, for each peer, its fastest setting within 1e-6 of the answer or "
