@@ -42,6 +42,8 @@ const std::array<Eigen::Vector2d, kD>& pyramidAngles() {
   }();
   return table;
 }
+/// A contact whose slip exceeds this fraction of its |u| gets its pyramid turned to the slip.
+constexpr double kAlignedSlip = 1e-6;
 /// A contact slides if |u'_t| exceeds this fraction of the largest pre-impact |u| of the island.
 constexpr double kSlipTolerance = 1e-9;
 /// An answer whose worst complementarity violation exceeds this fraction of that |u| is refused.
@@ -218,8 +220,18 @@ IslandLcp::IslandLcp(const ContactProblem& problem) : problem_(problem), contact
     c.frictional = !entry.frictionless();
     c.directions.col(0) = entry.normal;
     if (c.frictional) {  // t1 = d_1 and t2 = d_(1 + D/4) now, the rest of the pyramid for Lemke
-      c.directions.col(1) = entry.tangent1;
-      c.directions.col(1 + kD / 4) = entry.tangent2;
+      // The pyramid is turned so that d_1 lies along the contact's slip when it slides: friction
+      // against a slip whose direction the impact keeps (a body sliding flat or along an edge)
+      // is then Coulomb's exactly, not the nearest facet's.
+      Eigen::Vector3d slip = c.u - c.u.dot(entry.normal) * entry.normal;
+      if (slip.norm() > kAlignedSlip * c.u.norm()) {
+        slip -= slip.dot(entry.normal) * entry.normal;  // tangential to round-off once normalized
+        c.directions.col(1) = slip.normalized();
+        c.directions.col(1 + kD / 4) = entry.normal.cross(c.directions.col(1));
+      } else {
+        c.directions.col(1) = entry.tangent1;
+        c.directions.col(1 + kD / 4) = entry.tangent2;
+      }
       c.columns = 1 + kD;
     }
     c.offset = unknowns;

@@ -264,6 +264,35 @@ TEST(ExactSolver, SlidingCubeLandsFlatWithFriction) {
   EXPECT_NEAR(back, 0.525, kTol);
 }
 
+// A thin plate (2 kg, 1 m along x, 0.6 m along z, its centre of mass in the plane of its corners)
+// landing flat on its 4 corners while sliding at 1 m/s at 28 degrees from x, approaching at 1 m/s;
+// e = 0.5, mu = 0.3. By symmetry it is one contact at its centre, through the centre of mass:
+// P_n = (1 + e) m 1 = 3 N s; sticking would need m 1 = 2 N s > mu P_n = 0.9 N s, so it slides,
+// friction mu P_n against the slip, whose direction the impact keeps:
+//   v' = (1 - 0.9 / 2) (cos 28, 0, sin 28) + (0, e, 0),  w' = 0.
+// 28 degrees is no direction of a fixed 8-direction pyramid (45 degree steps): its facets would
+// give friction turned off the slip and up to cos(pi/8) short; the pyramid is turned to the slip.
+TEST(ExactSolver, PlateSlidingObliquelyLandsFlatAsOneContact) {
+  const double m = 2.0, a = 1.0, b = 0.6, angle = 28.0 * kPi / 180.0;
+  const Vector3d slip(std::cos(angle), 0, std::sin(angle));
+  const Matrix3d inertia =
+      Vector3d(m * b * b / 12, m * (a * a + b * b) / 12, m * a * a / 12).asDiagonal();
+  std::vector<cr::RigidBody> bodies = {
+      kGround, body(m, inertia, Vector3d::Zero(), slip - Vector3d::UnitY())};
+  const std::vector<Vector3d> corners = {Vector3d(a / 2, 0, b / 2), Vector3d(a / 2, 0, -b / 2),
+                                         Vector3d(-a / 2, 0, b / 2), Vector3d(-a / 2, 0, -b / 2)};
+  const auto rows = groundContacts(bodies, corners, 0.5, 0.3, 0.3);
+  std::vector<cr::ContactImpulse> impulses(rows.size());
+  const cr::SolveReport stats =
+      cr::solveExact(bodies, rows, allRows(rows.size()), cr::SolverOptions{}, impulses);
+  ASSERT_TRUE(stats.converged);
+  expectVecNear(bodies[1].linear_velocity, (1 - 0.9 / 2) * slip + Vector3d(0, 0.5, 0), kTol);
+  expectVecNear(bodies[1].angular_velocity, Vector3d::Zero(), kTol);
+  double total = 0.0;
+  for (const cr::ContactImpulse& impulse : impulses) total += impulse.normal_impulse;
+  EXPECT_NEAR(total, 3.0, kTol);
+}
+
 // The cube turned 30 degrees about z, landing on its lowest edge (two corners, r = (r_x, r_y,
 // +-1/2)), v = (0, -1, 0), e = 0.5, frictionless. By symmetry both impulses are P (along +y):
 //   v'_y = -1 + 2P,  w'_z = 6 (2 r_x P),  u'_n = v'_y + w'_z r_x = e

@@ -13,7 +13,8 @@
 namespace collision_response::core {
 
 /// Number D of tangent directions of the friction pyramid: d_k = cos(2 pi k / D) t1 +
-/// sin(2 pi k / D) t2, k = 0..D-1, with (t1, t2) from tangentBasis(n).
+/// sin(2 pi k / D) t2, k = 0..D-1, with t1 along the contact's slip before the solve when it
+/// slides (t2 = n x t1), otherwise (t1, t2) from tangentBasis(n).
 constexpr int kPyramidDirections = 8;
 
 /// The pyramid is inscribed in the Coulomb cone: every friction impulse it allows has
