@@ -25,10 +25,15 @@ constexpr std::size_t kStepBudget = 20000;
 constexpr double kMaxTurn = 0.05;
 // A slip below this times the largest pre-impact speed is a stop.
 constexpr double kStopped = 1e-9;
+// kVelocityConsistent: a slip minimum below this times the largest pre-impact speed is a stop
+// (the static cone then decides), and a slip resumed after a stop keeps the direction it resumed
+// in until it exceeds this (a 3D slip near 0 would otherwise turn by large angles per step).
+constexpr double kSmallSlip = 1e-6;
 
 struct State {
   Phase phase = Phase::kIdle;
   bool sticking = false;
+  bool resumed = false;    // kVelocityConsistent: slip resumed after a stop, direction held
   double delta = 0.0;      // compression of the contact's linear spring [m s / s = velocity x time]
   double delta_max = 0.0;  // at the end of compression
   double start_normal = 0.0;                       // P_n at the start of the current cycle [N s]
@@ -62,6 +67,7 @@ class Simultaneous {
     h_ = lambda_ <= 0.0                             ? 0.0
          : sharing_ == SimultaneousSharing::kSpring ? 1.0 / (kStepsPerUnit * std::sqrt(lambda_))
                                                     : 1.0;
+    stop_ = sharing_ == SimultaneousSharing::kSpring ? kStopped : kSmallSlip;
     rates_.resize(n3);
     du_.resize(n3);
     base_.resize(n3);
@@ -83,8 +89,8 @@ class Simultaneous {
           endCompression(i);
         }
         // A sliding contact whose slip is gone stops; the cone decides whether it stays stuck.
-        if (s.phase != Phase::kIdle && !problem_.contact(i).frictionless() &&
-            tangentialVelocity(i).norm() <= kStopped * scale_) {
+        if (s.phase != Phase::kIdle && !problem_.contact(i).frictionless() && !s.resumed &&
+            tangentialVelocity(i).norm() <= stop_ * scale_) {
           s.sticking = true;
         }
         any = any || s.phase != Phase::kIdle;
@@ -360,7 +366,11 @@ class Simultaneous {
           stick_.push_back(i);
         } else if (!c.frictionless()) {
           const Eigen::Vector3d ut = tangentialVelocity(i);
-          if (ut.norm() > 1e-14 * scale_) s.slip = ut.normalized();
+          const double slip = ut.norm();
+          if (slip > 1e-14 * scale_ && !(s.resumed && slip < kSmallSlip * scale_)) {
+            s.slip = ut.normalized();
+            s.resumed = false;
+          }
           column -= c.dynamic_friction * s.slip;
         }
         g_.block<3, 1>(3 * i, i) = column;
@@ -414,6 +424,7 @@ class Simultaneous {
         f -= c.normal.dot(f) * c.normal;
         if (f.norm() > c.static_friction * normal_rate_[i] * (1.0 + 1e-9) + 1e-300) {
           state_[i].sticking = false;
+          state_[i].resumed = true;
           state_[i].slip = -f.normalized();
           all_in = false;
           ++events_;
@@ -463,7 +474,7 @@ class Simultaneous {
           if (tmin > 1e-12 && tmin < t) t = tmin;
           // A turning slip direction: limit the step so that it turns by at most kMaxTurn.
           const double unorm = ut.norm();
-          if (unorm > kStopped * scale_) {
+          if (unorm > stop_ * scale_ && !s.resumed) {
             const double turn = (dut - dut.dot(ut) / (unorm * unorm) * ut).norm();
             if (turn > kMaxTurn * unorm) limit = std::min(limit, kMaxTurn * unorm / turn);
           }
@@ -516,11 +527,12 @@ class Simultaneous {
           if (done) {
             s.phase = Phase::kIdle;
             s.sticking = false;
+            s.resumed = false;
             ++events_;
             break;
           }
           // Otherwise a slip minimum: stop if the slip is gone.
-          if (!c.frictionless() && tangentialVelocity(i).norm() <= kStopped * scale_) {
+          if (!c.frictionless() && tangentialVelocity(i).norm() <= stop_ * scale_) {
             s.sticking = true;
             ++events_;
           }
@@ -555,6 +567,8 @@ class Simultaneous {
   double scale_ = 0.0;   // largest |u| before the impact
   double lambda_ = 0.0;  // largest n^T W_ii n
   double h_ = 0.0;       // fictitious time step
+  // A slip at or below stop_ times scale_ is a stop (kStopped or kSmallSlip by the rule).
+  double stop_ = kStopped;
   std::size_t steps_ = 0, events_ = 0;
 };
 
