@@ -264,6 +264,10 @@ class Simultaneous {
     return best <= 1.0 ? best : 2.0;
   }
 
+  bool unfrictioned(std::size_t i) const {
+    return sharing_ == SimultaneousSharing::kVelocityConsistent && unfrictioned_[i];
+  }
+
   // Rates of the chosen rule; false if there are none (kVelocityConsistent on a jammed island).
   bool computeRates() {
     if (sharing_ == SimultaneousSharing::kSpring) {
@@ -347,6 +351,8 @@ class Simultaneous {
   bool computeConsistentRates() {
     const Eigen::Index m = static_cast<Eigen::Index>(m_);
     normal_rate_.assign(m_, 0.0);
+    unfrictioned_.assign(m_, 0);
+    unstuck_now_.assign(m_, 0);
     for (std::size_t i = 0; i < m_; ++i) {
       if (state_[i].phase == Phase::kRestitution) normal_rate_[i] = restitutionRate(i);
     }
@@ -364,7 +370,7 @@ class Simultaneous {
         Eigen::Vector3d column = c.normal;
         if (!c.frictionless() && s.sticking) {
           stick_.push_back(i);
-        } else if (!c.frictionless()) {
+        } else if (!c.frictionless() && !unfrictioned_[i]) {
           const Eigen::Vector3d ut = tangentialVelocity(i);
           const double slip = ut.norm();
           if (slip > 1e-14 * scale_ && !(s.resumed && slip < kSmallSlip * scale_)) {
@@ -426,11 +432,34 @@ class Simultaneous {
           state_[i].sticking = false;
           state_[i].resumed = true;
           state_[i].slip = -f.normalized();
+          unstuck_now_[i] = 1;
           all_in = false;
           ++events_;
         }
       }
-      if (all_in) return true;
+      if (!all_in) continue;
+      // A sliding contact whose slip along its friction's direction is ~0 and would turn against
+      // it (friction would work with the slip) is not consistent: it stops (the cone decides);
+      // if it has just resumed, it gets no friction for this step (which cannot add energy).
+      du_.noalias() = w_ * rates_;
+      bool consistent = true;
+      for (std::size_t i = 0; i < m_; ++i) {
+        State& s = state_[i];
+        const ProblemContact& c = problem_.contact(i);
+        if (s.phase == Phase::kIdle || c.frictionless() || s.sticking || unfrictioned_[i]) continue;
+        Eigen::Vector3d dut = du_.segment<3>(3 * i);
+        dut -= c.normal.dot(dut) * c.normal;
+        const double along = s.slip.dot(dut);
+        if (along >= 0.0 || s.slip.dot(tangentialVelocity(i)) > -1e-12 * along) continue;
+        consistent = false;
+        ++events_;
+        if (unstuck_now_[i]) {
+          unfrictioned_[i] = 1;
+        } else {
+          s.sticking = true;
+        }
+      }
+      if (consistent) return true;
     }
   }
 
@@ -464,7 +493,7 @@ class Simultaneous {
         const double target = -c.restitution * c.restitution * s.compression_work;
         t = firstRoot(0.5 * dpn * dun, dpn * un, s.work - target);
       }
-      if (s.phase != Phase::kIdle && !s.sticking && !c.frictionless()) {
+      if (s.phase != Phase::kIdle && !s.sticking && !c.frictionless() && !unfrictioned(i)) {
         const Eigen::Vector3d ut = tangentialVelocity(i);
         Eigen::Vector3d dut = du_.segment<3>(3 * i);
         dut -= c.normal.dot(dut) * c.normal;
@@ -472,6 +501,13 @@ class Simultaneous {
         if (dd > 0.0) {
           const double tmin = -ut.dot(dut) / dd;
           if (tmin > 1e-12 && tmin < t) t = tmin;
+          // kVelocityConsistent: the slip along the friction's direction may not change sign
+          // within the step (friction would then work with the slip).
+          const double along = s.slip.dot(dut);
+          if (sharing_ == SimultaneousSharing::kVelocityConsistent && along < 0.0) {
+            const double ts = -s.slip.dot(ut) / along;
+            if (ts > 1e-12 && ts < t) t = ts;
+          }
           // A turning slip direction: limit the step so that it turns by at most kMaxTurn.
           const double unorm = ut.norm();
           if (unorm > stop_ * scale_ && !s.resumed) {
@@ -561,6 +597,7 @@ class Simultaneous {
   // kVelocityConsistent work space: g_ (3m x m) the impulse per unit normal rate, wg_ = W g_,
   // eff_ / q_ / r_ the compressing contacts' complementarity problem and its answer.
   std::vector<std::size_t> compressing_;
+  std::vector<char> unfrictioned_, unstuck_now_;  // per contact, this step
   Eigen::MatrixXd g_, wg_, stick_rhs_, stick_map_, eff_;
   Eigen::VectorXd q_, r_, r_all_;
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> compression_cod_;
