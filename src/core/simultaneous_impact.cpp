@@ -459,7 +459,19 @@ class Simultaneous {
           s.sticking = true;
         }
       }
-      if (consistent) return true;
+      if (!consistent) continue;
+      // A touching idle contact (u_n ~ 0) that these rates would make approach joins the
+      // compressing contacts now (the complementarity problem then decides its share, possibly 0),
+      // as in the plastic problem, where touching contacts take part.
+      bool joined = false;
+      for (std::size_t i = 0; i < m_; ++i) {
+        if (state_[i].phase != Phase::kIdle || normalVelocity(i) > 1e-12 * scale_) continue;
+        if (problem_.contact(i).normal.dot(du_.segment<3>(3 * i)) >= -1e-12 * scale_) continue;
+        startCycle(i);
+        compressing_.push_back(i);
+        joined = true;
+      }
+      if (!joined) return true;
     }
   }
 
@@ -484,7 +496,8 @@ class Simultaneous {
         // approaches beyond round-off).
         if (un > 1e-12 * scale_ && un + dun < 0.0) t = -un / dun;
       } else if (s.phase == Phase::kCompression) {
-        if (dun > 0.0 && un + dun >= 0.0) t = std::max(-un / dun, 0.0);
+        // (A touching contact that joined with u_n ~ 0 ends after the step, in run().)
+        if (dun > 0.0 && un + dun >= 0.0 && un < -1e-12 * scale_) t = std::max(-un / dun, 0.0);
       } else if (law_ == ImpactLaw::kPoisson) {
         const double target = s.start_normal + (1.0 + c.restitution) * s.compression_impulse;
         const double now = s.impulse.dot(c.normal);
