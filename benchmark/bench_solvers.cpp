@@ -199,11 +199,12 @@ void BM_Cube4_Newton_Iterative(benchmark::State& s) {
 void BM_Cube4_Stronge_Exact(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kExact);
 }
-// The simultaneous impulse-space integration (opt-in, SolverOptions::simultaneous_impulse_space).
+// The simultaneous impulse-space integration (opt-in, SolverOptions::simultaneous_impulse_space)
+// with the spring sharing rule (SolverOptions::simultaneous_sharing = kSpring).
 void BM_Cube4_Stronge_Simultaneous(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kAuto, true);
 }
-// The same with the velocity-consistent sharing rule (SimultaneousSharing::kVelocityConsistent).
+// The same with the velocity-consistent sharing rule (the opt-in's default).
 void BM_Cube4_Stronge_SimultaneousConsistent(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kAuto, true,
         core::SimultaneousSharing::kVelocityConsistent);

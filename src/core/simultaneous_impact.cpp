@@ -88,6 +88,16 @@ class Simultaneous {
             (s.delta > 0.0 || sharing_ == SimultaneousSharing::kVelocityConsistent)) {
           endCompression(i);
         }
+        // Velocity-consistent, Stronge: past its Poisson impulse, a contact that does not separate
+        // cannot release the rest of its work (it is held, e.g. wedged): its restitution ends.
+        if (sharing_ == SimultaneousSharing::kVelocityConsistent && law_ == ImpactLaw::kStronge &&
+            s.phase == Phase::kRestitution && std::abs(un) <= approach &&
+            poissonRemaining(i) <= 0.0) {
+          s.phase = Phase::kIdle;
+          s.sticking = false;
+          s.resumed = false;
+          ++events_;
+        }
         // A sliding contact whose slip is gone stops; the cone decides whether it stays stuck.
         if (s.phase != Phase::kIdle && !problem_.contact(i).frictionless() && !s.resumed &&
             tangentialVelocity(i).norm() <= stop_ * scale_) {
@@ -281,14 +291,26 @@ class Simultaneous {
   // Poisson: (1 + e) p_c - (P_n - start). Stronge: the same while it lasts (for a lone
   // frictionless contact, or contacts whose velocities stay in proportion, Stronge's end is
   // there); past it, the remaining work over the present separation speed (e p_c if none).
-  double restitutionRate(std::size_t i) const {
+  // The Poisson impulse a restituting contact has still to deliver, 0 within round-off.
+  double poissonRemaining(std::size_t i) const {
     const State& s = state_[i];
     const ProblemContact& c = problem_.contact(i);
     const double e = c.restitution;
     const double remaining =
         s.start_normal + (1.0 + e) * s.compression_impulse - s.impulse.dot(c.normal);
-    if (law_ == ImpactLaw::kPoisson) return std::max(remaining, 0.0);
-    if (remaining > 1e-9 * (1.0 + e) * s.compression_impulse) return remaining;
+    return remaining > 1e-9 * (1.0 + e) * s.compression_impulse ? remaining : 0.0;
+  }
+
+  double restitutionRate(std::size_t i) const {
+    const State& s = state_[i];
+    const double e = problem_.contact(i).restitution;
+    if (law_ == ImpactLaw::kPoisson) {
+      const ProblemContact& c = problem_.contact(i);
+      return std::max(s.start_normal + (1.0 + e) * s.compression_impulse - s.impulse.dot(c.normal),
+                      0.0);
+    }
+    const double remaining = poissonRemaining(i);
+    if (remaining > 0.0) return remaining;
     const double un = normalVelocity(i);
     const double work_left = std::max(-e * e * s.compression_work - s.work, 0.0);
     return un > 0.0 ? work_left / un : e * s.compression_impulse;
@@ -460,12 +482,14 @@ class Simultaneous {
         }
       }
       if (!consistent) continue;
-      // A touching idle contact (u_n ~ 0) that these rates would make approach joins the
-      // compressing contacts now (the complementarity problem then decides its share, possibly 0),
-      // as in the plastic problem, where touching contacts take part.
+      // A touching idle contact (u_n ~ 0) never loaded yet that these rates would make approach
+      // joins the compressing contacts now (the complementarity problem then decides its share,
+      // possibly 0), as in the plastic problem, where touching contacts take part (Newton's
+      // cradle). A contact that has had a cycle starts a new one once it approaches (run()).
       bool joined = false;
       for (std::size_t i = 0; i < m_; ++i) {
         if (state_[i].phase != Phase::kIdle || normalVelocity(i) > 1e-12 * scale_) continue;
+        if (state_[i].impulse.squaredNorm() > 0.0) continue;  // not the first time: see run()
         if (problem_.contact(i).normal.dot(du_.segment<3>(3 * i)) >= -1e-12 * scale_) continue;
         startCycle(i);
         compressing_.push_back(i);

@@ -184,6 +184,48 @@ TEST(SimultaneousImpact, BoxLandingOnAnEdgeEqualsOneContactAtTheEdgeMidpoint) {
   }
 }
 
+// (5) A unit cube (m = 1 kg, I = 1/6 kg m^2) sliding at v_x = 0.3 m/s lands flat at 1 m/s on its
+// 4 bottom corners, e = 0.5, mu_s = 0.6, mu_d = 0.5, under the velocity-consistent rule. By hand,
+// per pair of corners (leading x = +1/2, trailing -1/2; u_z = v_z -+ w_y / 2, u_x = v_x - w_y / 2
+// at both; normal impulses N_L, N_T and a friction F change w_y by 6 (-F / 2 - N_L / 2 + N_T / 2)):
+//  - compression: the rates keep both u_z equal, hence w_y = 0; sliding (F = -mu_d N) with
+//    N_L - N_T = mu_d N (rates 3/4, 1/4) until the slip stops at N = v_x / mu_d = 0.6; then stuck,
+//    F = 0, rates 1/2, 1/2, until N = 1: p_L = 0.65, p_T = 0.35, v = w = 0 (the plastic answer),
+//    and (u_z = N - 1 all along) W_c,L = 0.75 (0.18 - 0.6) + 0.5 (-0.08) = -0.355,
+//    W_c,T = 0.25 (-0.42) - 0.04 = -0.145.
+//  - restitution, rates e p = (0.325, 0.175), stuck: F = -0.09 per unit, v_z = 0.5 t,
+//    w_y = -0.18 t, u_L = 0.59 t, u_T = 0.41 t. Poisson ends both at t = 1: v' = (-0.09, 0, 0.5),
+//    w' = (0, -0.18, 0). Stronge: the leading pair's work 0.325 (0.59 t^2 / 2) reaches
+//    e^2 |W_c,L| = 0.08875 at t1 = 0.9621, the trailing one's is then short of 0.03625; it goes on
+//    alone, stuck (holding u_x = 0 takes F = +0.6 per unit impulse n: exactly its static cone),
+//    v_z and w_y growing by n and 1.2 n, u_T = 0.41 t1 + 1.6 n, until its work 0.41 t1 n + 0.8 n^2
+//    reaches 0.03625 - 0.035875 t1^2 (n = 0.00759): v' = (-0.09 t1 + 0.6 n, 0, 0.5 t1 + n),
+//    w' = (0, -0.18 t1 + 1.2 n, 0). Corners stuck at the end in both.
+TEST(SimultaneousImpact, SlidingCubeLandingFlatByHandUnderTheConsistentRule) {
+  const cr::RigidBody cube = box(1.0, Vector3d(1, 1, 1), Matrix3d::Identity(), Vector3d(0, 0, 0.5),
+                                 Vector3d(0.3, 0, -1), Vector3d::Zero());
+  const std::vector<Vector3d> corners = {Vector3d(-0.5, -0.5, 0), Vector3d(0.5, -0.5, 0),
+                                         Vector3d(-0.5, 0.5, 0), Vector3d(0.5, 0.5, 0)};
+  const double t1 = std::sqrt(0.25 * 0.355 / (0.325 * 0.59 / 2));
+  const double need = 0.25 * 0.145 - 0.175 * 0.41 * t1 * t1 / 2;
+  const double n = (-0.41 * t1 + std::sqrt(0.41 * t1 * 0.41 * t1 + 4 * 0.8 * need)) / (2 * 0.8);
+  for (cr::ImpactLaw law : kLaws) {
+    SCOPED_TRACE(cr::toString(law));
+    const Outcome out =
+        solve(cube, corners, 0.5, 0.6, 0.5, law, cr::SimultaneousSharing::kVelocityConsistent);
+    const bool poisson = law == cr::ImpactLaw::kPoisson;
+    const Vector3d v =
+        poisson ? Vector3d(-0.09, 0, 0.5) : Vector3d(-0.09 * t1 + 0.6 * n, 0, 0.5 * t1 + n);
+    const Vector3d w = poisson ? Vector3d(0, -0.18, 0) : Vector3d(0, -0.18 * t1 + 1.2 * n, 0);
+    EXPECT_TRUE(out.report.converged);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(out.body.linear_velocity[k], v[k], kTol) << "v " << k;
+      EXPECT_NEAR(out.body.angular_velocity[k], w[k], kTol) << "w " << k;
+    }
+    for (const cr::ContactImpulse& impulse : out.impulses) EXPECT_TRUE(impulse.sticking);
+  }
+}
+
 // (4) A flat face landing on an uneven set of points: a 1 kg box 1.0 x 0.8 x 0.5 m (centre of
 // mass 0.25 m above the face) falling flat at 2 m/s, e = 0.5, frictionless, on its 4 bottom
 // corners and 4 interior points (test_stress's 8-point flat box, in this file's frame). By hand:

@@ -75,7 +75,7 @@ struct SolverOptions {
   /// exposed to ROS requests or parameters.
   bool simultaneous_impulse_space = false;
   /// The sharing rule of the simultaneous integration (no unit).
-  SimultaneousSharing simultaneous_sharing = SimultaneousSharing::kSpring;
+  SimultaneousSharing simultaneous_sharing = SimultaneousSharing::kVelocityConsistent;
   /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
   /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.
   double resting_velocity = 1e-6;
