@@ -54,7 +54,8 @@ enum class SimultaneousSharing {
   /// Rates that keep the normal velocities consistent: the compressing contacts take the plastic
   /// complementarity rates that bring their normal velocities to 0 together (friction included,
   /// least norm on redundant contacts), the restituting ones the impulse each still has to deliver
-  /// (Poisson: (1 + e) p_c - P_n; Stronge: the same, then the remaining work over u_n).
+  /// (Poisson: (1 + e) p_c - P_n; Stronge: the same, then the remaining work over u_n). A face
+  /// landing flat does not spin however its contact points are sampled.
   kVelocityConsistent,
 };
 
@@ -74,7 +75,7 @@ struct SolverOptions {
   /// problem is not unique (docs/physics.md, "Simultaneous impulse-space integration"). Not yet
   /// exposed to ROS requests or parameters.
   bool simultaneous_impulse_space = false;
-  /// The sharing rule of the simultaneous integration (no unit).
+  /// The sharing rule of the simultaneous integration (no unit; used only with the opt-in above).
   SimultaneousSharing simultaneous_sharing = SimultaneousSharing::kVelocityConsistent;
   /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
   /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.
