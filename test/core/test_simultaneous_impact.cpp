@@ -226,6 +226,50 @@ TEST(SimultaneousImpact, SlidingCubeLandingFlatByHandUnderTheConsistentRule) {
   }
 }
 
+// (6) Newton's cradle, three equal balls (1 kg) touching in a row, the first at v = 1 m/s, e = 1,
+// frictionless, under the velocity-consistent rule. By hand: the touching second contact joins the
+// compression at once (the first one's impulse makes it approach); the plastic rates solve
+// [2 -1; -1 2] r = (1, 0): r = (2/3, 1/3), both contacts reach u_n = 0 together at v = 1/3 each,
+// with W_c,12 = (2/3) integral (t - 1) dt = -1/3 and W_c,23 = 0 (u_23 = 0 all along).
+//  - Poisson: rates e p_c = (2/3, 1/3) to the end: impulses (4/3, 2/3), v' = (-1/3, 2/3, 2/3).
+//  - Stronge: the second contact has no work to release and ends at once; the first, alone
+//    (u_12 = 2 P, P its new impulse), releases 1/3 at P^2 = 1/3: ball 1 leaves at 1/3 - 1/sqrt(3),
+//    ball 2 at 1/3 + 1/sqrt(3), which then strikes ball 3 (at 1/3) as a new cycle of the second
+//    contact, two equal balls, e = 1: they exchange velocities.
+//    v' = (1/3 - 1/sqrt(3), 1/3, 1/3 + 1/sqrt(3)); energy conserved (e = 1).
+TEST(SimultaneousImpact, NewtonsCradleByHandUnderTheConsistentRule) {
+  for (cr::ImpactLaw law : kLaws) {
+    SCOPED_TRACE(cr::toString(law));
+    std::vector<cr::RigidBody> bodies(3);
+    for (int i = 0; i < 3; ++i) {
+      bodies[i].inverse_mass = 1.0;
+      bodies[i].inverse_inertia = Matrix3d::Identity() / 0.004;
+      bodies[i].com = Vector3d(0.2 * i, 0, 0);
+    }
+    bodies[0].linear_velocity = Vector3d(1, 0, 0);
+    const std::vector<cr::ContactPoint> contacts = {
+        cr::ContactPoint(0, 1, Vector3d(0.1, 0, 0), Vector3d::UnitX(), 1.0, 0.0, 0.0),
+        cr::ContactPoint(1, 2, Vector3d(0.3, 0, 0), Vector3d::UnitX(), 1.0, 0.0, 0.0)};
+    cr::ContactProblem problem;
+    problem.buildImpact(bodies, contacts, {0, 1});
+    cr::SolverOptions options;
+    options.law = law;
+    options.simultaneous_sharing = cr::SimultaneousSharing::kVelocityConsistent;
+    std::vector<cr::ContactImpulse> impulses;
+    const cr::SolveReport report = cr::solveSimultaneousImpulseSpace(problem, options, impulses);
+    problem.addVelocityChangesTo(bodies);
+    EXPECT_TRUE(report.converged);
+    const double a = law == cr::ImpactLaw::kPoisson ? 1.0 / 3.0 : 1.0 / std::sqrt(3.0);
+    const Vector3d want = law == cr::ImpactLaw::kPoisson
+                              ? Vector3d(-1.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0)
+                              : Vector3d(1.0 / 3.0 - a, 1.0 / 3.0, 1.0 / 3.0 + a);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(bodies[i].linear_velocity.x(), want[i], kTol) << "ball " << i;
+      EXPECT_NEAR(bodies[i].linear_velocity.y(), 0.0, kTol);
+    }
+  }
+}
+
 // (4) A flat face landing on an uneven set of points: a 1 kg box 1.0 x 0.8 x 0.5 m (centre of
 // mass 0.25 m above the face) falling flat at 2 m/s, e = 0.5, frictionless, on its 4 bottom
 // corners and 4 interior points (test_stress's 8-point flat box, in this file's frame). By hand:
