@@ -55,7 +55,8 @@ enum class SimultaneousSharing {
   /// complementarity rates that bring their normal velocities to 0 together (friction included,
   /// least norm on redundant contacts), the restituting ones the impulse each still has to deliver
   /// (Poisson: (1 + e) p_c - P_n; Stronge: the same, then the remaining work over u_n). A face
-  /// landing flat does not spin however its contact points are sampled.
+  /// landing flat whose plastic answer does not rotate does not rotate, however its contact
+  /// points are sampled.
   kVelocityConsistent,
 };
 
