@@ -178,11 +178,13 @@ core::Scene chainScene(int spheres, double mu) {
 }
 
 void scene(benchmark::State& state, const core::Scene& scene, core::ImpactLaw law,
-           core::SolverMethod method, bool simultaneous = false) {
+           core::SolverMethod method, bool simultaneous = false,
+           core::SimultaneousSharing sharing = core::SimultaneousSharing::kSpring) {
   core::SolverOptions options;
   options.law = law;
   options.method = method;
   options.simultaneous_impulse_space = simultaneous;
+  options.simultaneous_sharing = sharing;
   options.tolerance = 1e-10;
   for (auto _ : state) benchmark::DoNotOptimize(core::computeResponse(scene, options));
   state.SetItemsProcessed(state.iterations() * scene.contacts.size());
@@ -197,9 +199,15 @@ void BM_Cube4_Newton_Iterative(benchmark::State& s) {
 void BM_Cube4_Stronge_Exact(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kExact);
 }
-// The simultaneous impulse-space integration (opt-in, SolverOptions::simultaneous_impulse_space).
+// The simultaneous impulse-space integration (opt-in, SolverOptions::simultaneous_impulse_space)
+// with the spring sharing rule (SolverOptions::simultaneous_sharing = kSpring).
 void BM_Cube4_Stronge_Simultaneous(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kAuto, true);
+}
+// The same with the velocity-consistent sharing rule (the opt-in's default).
+void BM_Cube4_Stronge_SimultaneousConsistent(benchmark::State& s) {
+  scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kAuto, true,
+        core::SimultaneousSharing::kVelocityConsistent);
 }
 void BM_Chain_Newton_Iterative(benchmark::State& s) {
   scene(s, chainScene(static_cast<int>(s.range(0)), 0.3), core::ImpactLaw::kNewton,
@@ -225,6 +233,7 @@ BENCHMARK(BM_Cube4_Newton_Exact);
 BENCHMARK(BM_Cube4_Newton_Iterative);
 BENCHMARK(BM_Cube4_Stronge_Exact);
 BENCHMARK(BM_Cube4_Stronge_Simultaneous);
+BENCHMARK(BM_Cube4_Stronge_SimultaneousConsistent);
 BENCHMARK(BM_Chain_Newton_Exact)->Arg(4)->Arg(13);
 BENCHMARK(BM_Chain_Newton_Iterative)->Arg(4)->Arg(13)->Arg(64);
 BENCHMARK(BM_SingleContact_ComputeResponse);

@@ -10,6 +10,7 @@
 #include "collision_response/core/exact_solver.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/iterative_solver.h"
+#include "collision_response/core/lcp.h"
 
 namespace collision_response::core {
 namespace {
@@ -24,10 +25,15 @@ constexpr std::size_t kStepBudget = 20000;
 constexpr double kMaxTurn = 0.05;
 // A slip below this times the largest pre-impact speed is a stop.
 constexpr double kStopped = 1e-9;
+// kVelocityConsistent: a slip minimum below this times the largest pre-impact speed is a stop
+// (the static cone then decides), and a slip resumed after a stop keeps the direction it resumed
+// in until it exceeds this (a 3D slip near 0 would otherwise turn by large angles per step).
+constexpr double kSmallSlip = 1e-6;
 
 struct State {
   Phase phase = Phase::kIdle;
   bool sticking = false;
+  bool resumed = false;    // kVelocityConsistent: slip resumed after a stop, direction held
   double delta = 0.0;      // compression of the contact's linear spring [m s / s = velocity x time]
   double delta_max = 0.0;  // at the end of compression
   double start_normal = 0.0;                       // P_n at the start of the current cycle [N s]
@@ -40,8 +46,8 @@ struct State {
 
 class Simultaneous {
  public:
-  Simultaneous(const ContactProblem& problem, ImpactLaw law)
-      : problem_(problem), law_(law), m_(problem.size()), state_(m_) {
+  Simultaneous(const ContactProblem& problem, ImpactLaw law, SimultaneousSharing sharing)
+      : problem_(problem), law_(law), sharing_(sharing), m_(problem.size()), state_(m_) {
     const Eigen::Index n3 = 3 * static_cast<Eigen::Index>(m_);
     w_.setZero(n3, n3);
     u_.resize(n3);
@@ -56,7 +62,12 @@ class Simultaneous {
       w_.block<3, 3>(3 * i, 3 * j) = block;
       w_.block<3, 3>(3 * j, 3 * i) = block.transpose();
     }
-    h_ = lambda_ > 0.0 ? 1.0 / (kStepsPerUnit * std::sqrt(lambda_)) : 0.0;
+    // Spring rates are forces in a fictitious time; consistent rates are the impulses still
+    // needed, so that one unit of fictitious time ends every phase that stays linear.
+    h_ = lambda_ <= 0.0                             ? 0.0
+         : sharing_ == SimultaneousSharing::kSpring ? 1.0 / (kStepsPerUnit * std::sqrt(lambda_))
+                                                    : 1.0;
+    stop_ = sharing_ == SimultaneousSharing::kSpring ? kStopped : kSmallSlip;
     rates_.resize(n3);
     du_.resize(n3);
     base_.resize(n3);
@@ -73,16 +84,29 @@ class Simultaneous {
         const double un = normalVelocity(i);
         if (s.phase == Phase::kIdle && un < -approach) startCycle(i);
         // Compression over (no longer approaching beyond round-off): its restitution starts.
-        if (s.phase == Phase::kCompression && un >= -approach && s.delta > 0.0) endCompression(i);
+        if (s.phase == Phase::kCompression && un >= -approach &&
+            (s.delta > 0.0 || sharing_ == SimultaneousSharing::kVelocityConsistent)) {
+          endCompression(i);
+        }
+        // Velocity-consistent, Stronge: past its Poisson impulse, a contact that does not separate
+        // cannot release the rest of its work (it is held, e.g. wedged): its restitution ends.
+        if (sharing_ == SimultaneousSharing::kVelocityConsistent && law_ == ImpactLaw::kStronge &&
+            s.phase == Phase::kRestitution && std::abs(un) <= approach &&
+            poissonRemaining(i) <= 0.0) {
+          s.phase = Phase::kIdle;
+          s.sticking = false;
+          s.resumed = false;
+          ++events_;
+        }
         // A sliding contact whose slip is gone stops; the cone decides whether it stays stuck.
-        if (s.phase != Phase::kIdle && !problem_.contact(i).frictionless() &&
-            tangentialVelocity(i).norm() <= kStopped * scale_) {
+        if (s.phase != Phase::kIdle && !problem_.contact(i).frictionless() && !s.resumed &&
+            tangentialVelocity(i).norm() <= stop_ * scale_) {
           s.sticking = true;
         }
         any = any || s.phase != Phase::kIdle;
       }
       if (!any) return true;
-      step();
+      if (!step()) return false;  // no consistent rates: jammed
       ++steps_;
     }
     return false;
@@ -152,7 +176,7 @@ class Simultaneous {
 
   // The rates of every contact's impulse per unit fictitious time (k = 1): normal spring force,
   // friction -mu_d s while sliding, sticking friction (least norm) while it lies in the mu_s cone.
-  void computeRates() {
+  void computeSpringRates() {
     rates_.setZero();
     normal_rate_.assign(m_, 0.0);
     for (std::size_t i = 0; i < m_; ++i) {
@@ -250,8 +274,234 @@ class Simultaneous {
     return best <= 1.0 ? best : 2.0;
   }
 
-  void step() {
-    computeRates();
+  bool unfrictioned(std::size_t i) const {
+    return sharing_ == SimultaneousSharing::kVelocityConsistent && unfrictioned_[i];
+  }
+
+  // Rates of the chosen rule; false if there are none (kVelocityConsistent on a jammed island).
+  bool computeRates() {
+    if (sharing_ == SimultaneousSharing::kSpring) {
+      computeSpringRates();
+      return true;
+    }
+    return computeConsistentRates();
+  }
+
+  // kVelocityConsistent, a restituting contact's rate: the normal impulse it still has to deliver.
+  // Poisson: (1 + e) p_c - (P_n - start). Stronge: the same while it lasts (for a lone
+  // frictionless contact, or contacts whose velocities stay in proportion, Stronge's end is
+  // there); past it, the remaining work over the present separation speed (e p_c if none).
+  // The Poisson impulse a restituting contact has still to deliver, 0 within round-off.
+  double poissonRemaining(std::size_t i) const {
+    const State& s = state_[i];
+    const ProblemContact& c = problem_.contact(i);
+    const double e = c.restitution;
+    const double remaining =
+        s.start_normal + (1.0 + e) * s.compression_impulse - s.impulse.dot(c.normal);
+    return remaining > 1e-9 * (1.0 + e) * s.compression_impulse ? remaining : 0.0;
+  }
+
+  double restitutionRate(std::size_t i) const {
+    const State& s = state_[i];
+    const double e = problem_.contact(i).restitution;
+    if (law_ == ImpactLaw::kPoisson) {
+      const ProblemContact& c = problem_.contact(i);
+      return std::max(s.start_normal + (1.0 + e) * s.compression_impulse - s.impulse.dot(c.normal),
+                      0.0);
+    }
+    const double remaining = poissonRemaining(i);
+    if (remaining > 0.0) return remaining;
+    const double un = normalVelocity(i);
+    const double work_left = std::max(-e * e * s.compression_work - s.work, 0.0);
+    return un > 0.0 ? work_left / un : e * s.compression_impulse;
+  }
+
+  // The compressing contacts' rates: r >= 0, w = q + M r >= 0, r.w = 0 (M the effective normal
+  // map of the compressing contacts, q their normal velocities plus the restituting contacts'
+  // effect). First the all-active least-norm answer (redundant contacts share symmetrically),
+  // else Lemke's method. False if neither gives one.
+  bool solveCompression(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, Eigen::VectorXd& r) {
+    const double q_scale = q.cwiseAbs().maxCoeff();
+    if (q_scale <= 0.0) {
+      r.setZero(q.size());
+      return true;
+    }
+    compression_cod_.setThreshold(1e-12);
+    compression_cod_.compute(M);
+    r = compression_cod_.solve(-q);
+    const double r_scale = r.cwiseAbs().maxCoeff();
+    if (r.allFinite() && r.minCoeff() >= -1e-12 * r_scale &&
+        (M * r + q).cwiseAbs().maxCoeff() <= 1e-10 * q_scale) {
+      r = r.cwiseMax(0.0);
+      return true;
+    }
+    const LcpResult lcp = solveLcp(M, q);
+    if (lcp.status != LcpStatus::kSolved) return false;
+    r = lcp.z;
+    return true;
+  }
+
+  // When the frictional problem has no answer (friction would press contacts closer faster than
+  // their normal impulses part them): the rates of the frictionless normal block (W_nn, positive
+  // semi-definite), with the restituting contacts' normal rates. Friction then follows them.
+  bool frictionlessCompression() {
+    const Eigen::Index k = static_cast<Eigen::Index>(compressing_.size());
+    Eigen::MatrixXd& M = eff_;
+    Eigen::VectorXd& q = q_;
+    for (Eigen::Index a = 0; a < k; ++a) {
+      const std::size_t i = compressing_[a];
+      const Eigen::Vector3d& n = problem_.contact(i).normal;
+      for (Eigen::Index b = 0; b < k; ++b) {
+        const std::size_t j = compressing_[b];
+        M(a, b) = n.dot(w_.block<3, 3>(3 * i, 3 * j) * problem_.contact(j).normal);
+      }
+      q(a) = normalVelocity(i);
+      for (std::size_t j = 0; j < m_; ++j) {
+        if (state_[j].phase != Phase::kRestitution) continue;
+        q(a) += n.dot(w_.block<3, 3>(3 * i, 3 * j) * problem_.contact(j).normal) * normal_rate_[j];
+      }
+    }
+    return solveCompression(M, q, r_);
+  }
+
+  // kVelocityConsistent: the impulse rate of every contact per unit of fictitious time. Each
+  // active contact's impulse per unit normal rate is its normal, minus mu_d times its slip
+  // direction while sliding, plus (sticking contacts) the tangential impulses that hold the stuck
+  // slips at 0 (least norm, a linear map of the normal rates); W through that gives the effective
+  // normal map `eff`. Restituting contacts take restitutionRate(); the compressing ones the
+  // complementarity rates that bring their normal velocities to 0 together at t = 1.
+  bool computeConsistentRates() {
+    const Eigen::Index m = static_cast<Eigen::Index>(m_);
+    normal_rate_.assign(m_, 0.0);
+    unfrictioned_.assign(m_, 0);
+    unstuck_now_.assign(m_, 0);
+    for (std::size_t i = 0; i < m_; ++i) {
+      if (state_[i].phase == Phase::kRestitution) normal_rate_[i] = restitutionRate(i);
+    }
+    compressing_.clear();
+    for (std::size_t i = 0; i < m_; ++i) {
+      if (state_[i].phase == Phase::kCompression) compressing_.push_back(i);
+    }
+    for (;;) {
+      g_.setZero(3 * m, m);
+      stick_.clear();
+      for (std::size_t i = 0; i < m_; ++i) {
+        State& s = state_[i];
+        if (s.phase == Phase::kIdle) continue;
+        const ProblemContact& c = problem_.contact(i);
+        Eigen::Vector3d column = c.normal;
+        if (!c.frictionless() && s.sticking) {
+          stick_.push_back(i);
+        } else if (!c.frictionless() && !unfrictioned_[i]) {
+          const Eigen::Vector3d ut = tangentialVelocity(i);
+          const double slip = ut.norm();
+          if (slip > 1e-14 * scale_ && !(s.resumed && slip < kSmallSlip * scale_)) {
+            s.slip = ut.normalized();
+            s.resumed = false;
+          }
+          column -= c.dynamic_friction * s.slip;
+        }
+        g_.block<3, 1>(3 * i, i) = column;
+      }
+      if (!stick_.empty()) {
+        const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& cod = factorization();
+        wg_.noalias() = w_ * g_;
+        stick_rhs_.resize(2 * static_cast<Eigen::Index>(stick_.size()), m);
+        for (std::size_t p = 0; p < stick_.size(); ++p) {
+          stick_rhs_.middleRows(2 * p, 2).noalias() =
+              -tangents(stick_[p]).transpose() * wg_.middleRows(3 * stick_[p], 3);
+        }
+        stick_map_ = cod.solve(stick_rhs_);
+        for (std::size_t p = 0; p < stick_.size(); ++p) {
+          g_.middleRows(3 * stick_[p], 3).noalias() +=
+              tangents(stick_[p]) * stick_map_.middleRows(2 * p, 2);
+        }
+      }
+      if (!compressing_.empty()) {
+        wg_.noalias() = w_ * g_;
+        const Eigen::Index k = static_cast<Eigen::Index>(compressing_.size());
+        eff_.resize(k, k);
+        q_.resize(k);
+        for (Eigen::Index a = 0; a < k; ++a) {
+          const std::size_t i = compressing_[a];
+          const Eigen::RowVectorXd row =
+              problem_.contact(i).normal.transpose() * wg_.middleRows(3 * i, 3);
+          for (Eigen::Index b = 0; b < k; ++b) eff_(a, b) = row(compressing_[b]);
+          q_(a) = normalVelocity(i);
+          for (std::size_t j = 0; j < m_; ++j) {
+            if (state_[j].phase == Phase::kRestitution) q_(a) += row(j) * normal_rate_[j];
+          }
+        }
+        if (!solveCompression(eff_, q_, r_) && !frictionlessCompression()) {
+          // Wedged (no impulse stops every approach): each compressing contact the impulse that
+          // would stop it alone.
+          for (Eigen::Index a = 0; a < k; ++a) {
+            const ProblemContact& c = problem_.contact(compressing_[a]);
+            r_(a) = std::max(-q_(a), 0.0) / c.normalDelassus();
+          }
+        }
+        for (Eigen::Index a = 0; a < k; ++a) normal_rate_[compressing_[a]] = r_(a);
+      }
+      r_all_ = Eigen::Map<const Eigen::VectorXd>(normal_rate_.data(), m);
+      rates_.noalias() = g_ * r_all_;
+      // Sticking contacts whose friction leaves the static cone resume slip against it.
+      bool all_in = true;
+      for (std::size_t i : stick_) {
+        const ProblemContact& c = problem_.contact(i);
+        Eigen::Vector3d f = rates_.segment<3>(3 * i);
+        f -= c.normal.dot(f) * c.normal;
+        if (f.norm() > c.static_friction * normal_rate_[i] * (1.0 + 1e-9) + 1e-300) {
+          state_[i].sticking = false;
+          state_[i].resumed = true;
+          state_[i].slip = -f.normalized();
+          unstuck_now_[i] = 1;
+          all_in = false;
+          ++events_;
+        }
+      }
+      if (!all_in) continue;
+      // A sliding contact whose slip along its friction's direction is ~0 and would turn against
+      // it (friction would work with the slip) is not consistent: it stops (the cone decides);
+      // if it has just resumed, it gets no friction for this step (which cannot add energy).
+      du_.noalias() = w_ * rates_;
+      bool consistent = true;
+      for (std::size_t i = 0; i < m_; ++i) {
+        State& s = state_[i];
+        const ProblemContact& c = problem_.contact(i);
+        if (s.phase == Phase::kIdle || c.frictionless() || s.sticking || unfrictioned_[i]) continue;
+        Eigen::Vector3d dut = du_.segment<3>(3 * i);
+        dut -= c.normal.dot(dut) * c.normal;
+        const double along = s.slip.dot(dut);
+        if (along >= 0.0 || s.slip.dot(tangentialVelocity(i)) > -1e-12 * along) continue;
+        consistent = false;
+        ++events_;
+        if (unstuck_now_[i]) {
+          unfrictioned_[i] = 1;
+        } else {
+          s.sticking = true;
+        }
+      }
+      if (!consistent) continue;
+      // A touching idle contact (u_n ~ 0) never loaded yet that these rates would make approach
+      // joins the compressing contacts now (the complementarity problem then decides its share,
+      // possibly 0), as in the plastic problem, where touching contacts take part (Newton's
+      // cradle). A contact that has had a cycle starts a new one once it approaches (run()).
+      bool joined = false;
+      for (std::size_t i = 0; i < m_; ++i) {
+        if (state_[i].phase != Phase::kIdle || normalVelocity(i) > 1e-12 * scale_) continue;
+        if (state_[i].impulse.squaredNorm() > 0.0) continue;  // not the first time: see run()
+        if (problem_.contact(i).normal.dot(du_.segment<3>(3 * i)) >= -1e-12 * scale_) continue;
+        startCycle(i);
+        compressing_.push_back(i);
+        joined = true;
+      }
+      if (!joined) return true;
+    }
+  }
+
+  // Returns false if there are no rates (a jammed island under kVelocityConsistent).
+  bool step() {
+    if (!computeRates()) return false;
     du_.noalias() = w_ * rates_;
     du_ *= h_;
     // The step fraction of the first event, and which contacts have it.
@@ -270,7 +520,8 @@ class Simultaneous {
         // approaches beyond round-off).
         if (un > 1e-12 * scale_ && un + dun < 0.0) t = -un / dun;
       } else if (s.phase == Phase::kCompression) {
-        if (dun > 0.0 && un + dun >= 0.0) t = std::max(-un / dun, 0.0);
+        // (A touching contact that joined with u_n ~ 0 ends after the step, in run().)
+        if (dun > 0.0 && un + dun >= 0.0 && un < -1e-12 * scale_) t = std::max(-un / dun, 0.0);
       } else if (law_ == ImpactLaw::kPoisson) {
         const double target = s.start_normal + (1.0 + c.restitution) * s.compression_impulse;
         const double now = s.impulse.dot(c.normal);
@@ -279,7 +530,7 @@ class Simultaneous {
         const double target = -c.restitution * c.restitution * s.compression_work;
         t = firstRoot(0.5 * dpn * dun, dpn * un, s.work - target);
       }
-      if (s.phase != Phase::kIdle && !s.sticking && !c.frictionless()) {
+      if (s.phase != Phase::kIdle && !s.sticking && !c.frictionless() && !unfrictioned(i)) {
         const Eigen::Vector3d ut = tangentialVelocity(i);
         Eigen::Vector3d dut = du_.segment<3>(3 * i);
         dut -= c.normal.dot(dut) * c.normal;
@@ -287,9 +538,16 @@ class Simultaneous {
         if (dd > 0.0) {
           const double tmin = -ut.dot(dut) / dd;
           if (tmin > 1e-12 && tmin < t) t = tmin;
+          // kVelocityConsistent: the slip along the friction's direction may not change sign
+          // within the step (friction would then work with the slip).
+          const double along = s.slip.dot(dut);
+          if (sharing_ == SimultaneousSharing::kVelocityConsistent && along < 0.0) {
+            const double ts = -s.slip.dot(ut) / along;
+            if (ts > 1e-12 && ts < t) t = ts;
+          }
           // A turning slip direction: limit the step so that it turns by at most kMaxTurn.
           const double unorm = ut.norm();
-          if (unorm > kStopped * scale_) {
+          if (unorm > stop_ * scale_ && !s.resumed) {
             const double turn = (dut - dut.dot(ut) / (unorm * unorm) * ut).norm();
             if (turn > kMaxTurn * unorm) limit = std::min(limit, kMaxTurn * unorm / turn);
           }
@@ -342,11 +600,12 @@ class Simultaneous {
           if (done) {
             s.phase = Phase::kIdle;
             s.sticking = false;
+            s.resumed = false;
             ++events_;
             break;
           }
           // Otherwise a slip minimum: stop if the slip is gone.
-          if (!c.frictionless() && tangentialVelocity(i).norm() <= kStopped * scale_) {
+          if (!c.frictionless() && tangentialVelocity(i).norm() <= stop_ * scale_) {
             s.sticking = true;
             ++events_;
           }
@@ -354,10 +613,12 @@ class Simultaneous {
         }
       }
     }
+    return true;
   }
 
   const ContactProblem& problem_;
   ImpactLaw law_;
+  SimultaneousSharing sharing_;
   std::size_t m_;
   std::vector<State> state_;
   Eigen::MatrixXd w_;  // the stacked W (3m x 3m)
@@ -370,9 +631,18 @@ class Simultaneous {
       factorizations_;
   std::vector<double> event_;
   Eigen::VectorXd base_, b_, x_;
+  // kVelocityConsistent work space: g_ (3m x m) the impulse per unit normal rate, wg_ = W g_,
+  // eff_ / q_ / r_ the compressing contacts' complementarity problem and its answer.
+  std::vector<std::size_t> compressing_;
+  std::vector<char> unfrictioned_, unstuck_now_;  // per contact, this step
+  Eigen::MatrixXd g_, wg_, stick_rhs_, stick_map_, eff_;
+  Eigen::VectorXd q_, r_, r_all_;
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> compression_cod_;
   double scale_ = 0.0;   // largest |u| before the impact
   double lambda_ = 0.0;  // largest n^T W_ii n
   double h_ = 0.0;       // fictitious time step
+  // A slip at or below stop_ times scale_ is a stop (kStopped or kSmallSlip by the rule).
+  double stop_ = kStopped;
   std::size_t steps_ = 0, events_ = 0;
 };
 
@@ -396,7 +666,7 @@ SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverO
     report.impulse_space = detail;
     return report;
   }
-  Simultaneous scheme(problem, options.law);
+  Simultaneous scheme(problem, options.law, options.simultaneous_sharing);
   const bool finished = scheme.run();
   for (std::size_t i = 0; i < problem.size(); ++i) {
     const ProblemContact& c = problem.contact(i);

@@ -12,11 +12,17 @@ namespace collision_response::core {
 /// Poisson or Stronge impact of all the contacts of an island integrated together in impulse space
 /// (docs/physics.md, "Simultaneous impulse-space integration"). Each contact has its own
 /// compression and restitution phases and its own slip, stick and slip resumption (mu_d while
-/// sliding, mu_s only once stopped); the normal impulse increments are shared among the active
-/// contacts by equal linear contact stiffnesses (Liu, Zhao and Brogliato's distribution with
-/// eta = 1 and equal stiffness): contact i's rate is proportional to its compression
-/// delta_i = -integral of u_n,i in a fictitious time, unloading along k / e_i^2. The answer does
-/// not depend on the stiffness (a common k only rescales the fictitious time).
+/// sliding, mu_s only once stopped). options.simultaneous_sharing shares the normal impulse
+/// increments among the active contacts:
+///  - kVelocityConsistent: rates are the impulses still needed per unit of a fictitious time; the
+///    compressing contacts take the plastic complementarity rates (W seen through the current
+///    friction, least norm on redundant contacts) that bring their normal velocities to 0 together
+///    at t = 1; a restituting contact takes its remaining Poisson impulse (1 + e) p_c - P_n
+///    (Stronge: the same, then its remaining work over u_n). A step goes to the next event in one
+///    piece.
+///  - kSpring: equal linear contact stiffnesses (Liu, Zhao and Brogliato's distribution with
+///    eta = 1): contact i's rate is proportional to its compression delta_i = -integral of u_n,i in
+///    a fictitious time, unloading along k / e_i^2; fixed steps.
 ///
 /// Ends: a contact's compression when its u_n reaches 0 (p_c, W_c its own); its restitution at
 /// P_n = (1 + e) p_c (Poisson) or when its work reaches -e^2 W_c (Stronge). A finished contact that

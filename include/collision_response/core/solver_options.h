@@ -43,6 +43,23 @@ enum class SolverMethod {
   kExact,      ///< pivoting (Lemke) solve of the linear complementarity problem, for few contacts
 };
 
+/// How the simultaneous impulse-space integration (simultaneous_impact.h) shares the normal impulse
+/// among the contacts active at each instant (docs/physics.md, "Simultaneous impulse-space
+/// integration"). Both rules end each contact on its own condition (Poisson impulse, Stronge
+/// work); they differ where the simultaneous problem is not unique.
+enum class SimultaneousSharing {
+  /// Equal linear springs, one per contact (Liu, Zhao and Brogliato's distribution with eta = 1):
+  /// rates in the ratios of the springs' compressions in a fictitious time.
+  kSpring,
+  /// Rates that keep the normal velocities consistent: the compressing contacts take the plastic
+  /// complementarity rates that bring their normal velocities to 0 together (friction included,
+  /// least norm on redundant contacts), the restituting ones the impulse each still has to deliver
+  /// (Poisson: (1 + e) p_c - P_n; Stronge: the same, then the remaining work over u_n). A face
+  /// landing flat whose plastic answer does not rotate does not rotate, however its contact
+  /// points are sampled.
+  kVelocityConsistent,
+};
+
 struct SolverOptions {
   ImpactLaw law = ImpactLaw::kStronge;  ///< physically possible by default
   SolverMethod method = SolverMethod::kAuto;
@@ -59,6 +76,8 @@ struct SolverOptions {
   /// problem is not unique (docs/physics.md, "Simultaneous impulse-space integration"). Not yet
   /// exposed to ROS requests or parameters.
   bool simultaneous_impulse_space = false;
+  /// The sharing rule of the simultaneous integration (no unit; used only with the opt-in above).
+  SimultaneousSharing simultaneous_sharing = SimultaneousSharing::kVelocityConsistent;
   /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
   /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.
   double resting_velocity = 1e-6;
