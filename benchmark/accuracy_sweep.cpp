@@ -189,8 +189,21 @@ std::vector<OurMethod> ourMethods() {
   for (int k = 1; k <= 256; k *= 2)
     out.push_back({"newton_iterative", "it=" + std::to_string(k), "newton_lcp", false,
                    island(L::kNewton, core::SolverMethod::kIterative, k)});
-  // Several contacts: the two-phase Poisson / Stronge schemes and the one-pass law's sequential
-  // pass.
+  // Several contacts: Poisson / Stronge as the automatic method solves them (the simultaneous
+  // impulse-space integration up to 12 contacts, the default; beyond, the two-phase scheme on the
+  // iterative solver), the two-phase schemes, and the one-pass law's sequential pass.
+  for (const auto& [curve, law] :
+       {std::pair<const char*, L>{"poisson_simultaneous", L::kPoisson},
+        std::pair<const char*, L>{"stronge_simultaneous", L::kStronge}}) {
+    core::SolverOptions options;
+    options.law = law;
+    options.time_budget = 3600.0;
+    out.push_back({curve, "", law == L::kPoisson ? "poisson" : "stronge", false,
+                   [options](const Prepared& p, std::vector<core::RigidBody>& work,
+                             std::vector<core::ContactImpulse>& impulses) {
+                     core::solveIsland(work, p.rows, p.island, options, impulses);
+                   }});
+  }
   out.push_back(
       {"poisson_exact", "", "poisson", false, island(L::kPoisson, core::SolverMethod::kExact, 1)});
   out.push_back(
@@ -273,6 +286,7 @@ int main(int argc, char** argv) {
     for (const auto& m : methods) {
       if (m.single_contact_only && !single) continue;
       if (single && (m.curve == "poisson_exact" || m.curve == "stronge_exact" ||
+                     m.curve == "poisson_simultaneous" || m.curve == "stronge_simultaneous" ||
                      m.curve == "stronge_iterative" ||
                      (m.curve == "seed_one_pass" && !m.single_contact_only)))
         continue;  // one contact: the laws' own single-contact paths above

@@ -199,12 +199,13 @@ void BM_Cube4_Newton_Iterative(benchmark::State& s) {
 void BM_Cube4_Stronge_Exact(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kExact);
 }
-// The simultaneous impulse-space integration (opt-in, SolverOptions::simultaneous_impulse_space)
-// with the spring sharing rule (SolverOptions::simultaneous_sharing = kSpring).
+// The simultaneous impulse-space integration (the default for Poisson / Stronge islands,
+// SolverOptions::simultaneous_impulse_space) with the spring sharing rule
+// (SolverOptions::simultaneous_sharing = kSpring).
 void BM_Cube4_Stronge_Simultaneous(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kAuto, true);
 }
-// The same with the velocity-consistent sharing rule (the opt-in's default).
+// The same with the velocity-consistent sharing rule (the default).
 void BM_Cube4_Stronge_SimultaneousConsistent(benchmark::State& s) {
   scene(s, cubeScene(0.5), core::ImpactLaw::kStronge, core::SolverMethod::kAuto, true,
         core::SimultaneousSharing::kVelocityConsistent);

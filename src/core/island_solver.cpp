@@ -229,7 +229,14 @@ SolveReport solveIsland(ContactProblem& problem, const SolverOptions& options,
                                   : SolverMethod::kIterative;
   if (energetic && options.simultaneous_impulse_space && options.method == SolverMethod::kAuto &&
       problem.size() <= kSimultaneousMaxContacts) {
-    return solveSimultaneousImpulseSpace(problem, options, impulses);
+    const SolveReport simultaneous =
+        solveSimultaneousImpulseSpace(problem, options, impulses, /*plastic_rest=*/false);
+    if (!simultaneous.impulse_space || !simultaneous.impulse_space->fallback) return simultaneous;
+    // Not finished within its step budget (contacts jammed so that a compression ends only
+    // asymptotically); nothing was applied: the two-phase scheme from the start.
+    SolveReport two_phase = solveTwoPhase(method, problem, options, impulses);
+    two_phase.iterations += simultaneous.iterations;
+    return two_phase;
   }
   return energetic ? solveTwoPhase(method, problem, options, impulses)
                    : solveNewton(method, problem, options, impulses);

@@ -649,7 +649,8 @@ class Simultaneous {
 }  // namespace
 
 SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverOptions& options,
-                                          std::vector<ContactImpulse>& impulses) {
+                                          std::vector<ContactImpulse>& impulses,
+                                          bool plastic_rest) {
   if (options.law != ImpactLaw::kPoisson && options.law != ImpactLaw::kStronge) {
     throw std::invalid_argument("solveSimultaneousImpulseSpace: Poisson or Stronge only");
   }
@@ -668,6 +669,15 @@ SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverO
   }
   Simultaneous scheme(problem, options.law, options.simultaneous_sharing);
   const bool finished = scheme.run();
+  detail.steps = scheme.steps();
+  detail.segments = scheme.events();
+  report.iterations = scheme.steps();
+  if (!finished && !plastic_rest) {
+    detail.fallback = true;
+    report.converged = false;
+    report.impulse_space = detail;
+    return report;
+  }
   for (std::size_t i = 0; i < problem.size(); ++i) {
     const ProblemContact& c = problem.contact(i);
     const Eigen::Vector3d p = scheme.impulse(i);
@@ -675,9 +685,6 @@ SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverO
     impulses[i].normal_impulse = p.dot(c.normal);
     impulses[i].friction_impulse = p - impulses[i].normal_impulse * c.normal;
   }
-  detail.steps = scheme.steps();
-  detail.segments = scheme.events();
-  report.iterations = scheme.steps();
   if (!finished) {
     // Budget exhausted: the rest as a plastic problem with friction, so nothing ends approaching.
     detail.fallback = true;

@@ -611,6 +611,8 @@ void CollisionResponseServer::setUpMonitoring(const ros::NodeHandle& node,
   ros::NodeHandle reconfigure_node(private_node);
   reconfigure_node.setParam("law", std::string(core::toString(default_options_.law)));
   reconfigure_node.setParam("solver", std::string(core::toString(default_options_.method)));
+  reconfigure_node.setParam(
+      "multi_contact", std::string(multiContactName(default_options_.simultaneous_impulse_space)));
   reconfigure_node.setParam("tolerance", default_options_.tolerance);
   reconfigure_node.setParam("max_iterations", static_cast<int>(default_options_.max_iterations));
   reconfigure_node.setParam("integration_tolerance", default_options_.integration_tolerance);
@@ -650,15 +652,21 @@ void CollisionResponseServer::reconfigure(SolverConfig& config, uint32_t /*level
              config.solver.c_str(), core::toString(options.method));
     config.solver = core::toString(options.method);
   }
+  if (!multiContactFromName(config.multi_contact, options.simultaneous_impulse_space)) {
+    ROS_WARN("collision_response: reconfigure: unknown multi_contact '%s', keeping '%s'",
+             config.multi_contact.c_str(), multiContactName(options.simultaneous_impulse_space));
+    config.multi_contact = multiContactName(options.simultaneous_impulse_space);
+  }
   options.tolerance = config.tolerance;
   options.max_iterations = static_cast<std::size_t>(std::max(1, config.max_iterations));
   options.integration_tolerance = config.integration_tolerance;
   default_options_ = options;
   contact_tolerance_ = config.contact_tolerance;
   ROS_INFO(
-      "collision_response: solver defaults: law %s, solver %s, tolerance %g, max_iterations "
-      "%zu, integration_tolerance %g, contact_tolerance %g m",
-      core::toString(options.law), core::toString(options.method), options.tolerance,
+      "collision_response: solver defaults: law %s, solver %s, multi_contact %s, tolerance %g, "
+      "max_iterations %zu, integration_tolerance %g, contact_tolerance %g m",
+      core::toString(options.law), core::toString(options.method),
+      multiContactName(options.simultaneous_impulse_space), options.tolerance,
       options.max_iterations, options.integration_tolerance, contact_tolerance_);
 }
 

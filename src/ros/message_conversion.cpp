@@ -270,6 +270,19 @@ core::SolverOptions fromMsg(const SolverOptions& msg, const core::SolverOptions&
     default:
       throw core::InvalidInput("options.solver", "unknown value " + std::to_string(msg.solver));
   }
+  switch (msg.multi_contact) {
+    case SolverOptions::MULTI_CONTACT_DEFAULT:
+      break;
+    case SolverOptions::MULTI_CONTACT_SIMULTANEOUS:
+      options.simultaneous_impulse_space = true;
+      break;
+    case SolverOptions::MULTI_CONTACT_TWO_PHASE:
+      options.simultaneous_impulse_space = false;
+      break;
+    default:
+      throw core::InvalidInput("options.multi_contact",
+                               "unknown value " + std::to_string(msg.multi_contact));
+  }
   if (msg.tolerance != 0.0) options.tolerance = msg.tolerance;
   if (msg.max_iterations != 0) options.max_iterations = msg.max_iterations;
   if (msg.integration_tolerance != 0.0) options.integration_tolerance = msg.integration_tolerance;

@@ -180,6 +180,16 @@ std::vector<RobotParameters> readRobots(const XmlRpcValue& values) {
 
 }  // namespace
 
+const char* multiContactName(bool simultaneous) {
+  return simultaneous ? "simultaneous" : "two_phase";
+}
+
+bool multiContactFromName(const std::string& name, bool& simultaneous) {
+  if (name != "simultaneous" && name != "two_phase") return false;
+  simultaneous = name == "simultaneous";
+  return true;
+}
+
 ServerParameters loadServerParameters(const XmlRpc::XmlRpcValue& values) {
   namespace ranges = core::option_ranges;
   ServerParameters p;
@@ -192,6 +202,12 @@ ServerParameters loadServerParameters(const XmlRpc::XmlRpcValue& values) {
   const std::string method = readString(values, "solver", core::toString(solver.method));
   if (!core::fromString(method, solver.method))
     throw core::InvalidInput("~solver", "must be 'auto', 'exact' or 'iterative' (" + method + ")");
+  const std::string multi_contact =
+      readString(values, "multi_contact", multiContactName(solver.simultaneous_impulse_space));
+  if (!multiContactFromName(multi_contact, solver.simultaneous_impulse_space)) {
+    throw core::InvalidInput("~multi_contact",
+                             "must be 'simultaneous' or 'two_phase' (" + multi_contact + ")");
+  }
   solver.tolerance = readInRange(values, "tolerance", solver.tolerance, ranges::kTolerance);
   solver.max_iterations = readCount(values, "max_iterations", solver.max_iterations);
   core::requireInRange(static_cast<double>(solver.max_iterations), ranges::kMaxIterations,

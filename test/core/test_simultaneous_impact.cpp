@@ -17,6 +17,7 @@
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/simultaneous_impact.h"
 #include "collision_response/core/solver_options.h"
+#include "sliding_cube_landing.h"
 
 namespace cr = collision_response::core;
 using Eigen::Matrix3d;
@@ -206,17 +207,15 @@ TEST(SimultaneousImpact, SlidingCubeLandingFlatByHandUnderTheConsistentRule) {
                                  Vector3d(0.3, 0, -1), Vector3d::Zero());
   const std::vector<Vector3d> corners = {Vector3d(-0.5, -0.5, 0), Vector3d(0.5, -0.5, 0),
                                          Vector3d(-0.5, 0.5, 0), Vector3d(0.5, 0.5, 0)};
-  const double t1 = std::sqrt(0.25 * 0.355 / (0.325 * 0.59 / 2));
-  const double need = 0.25 * 0.145 - 0.175 * 0.41 * t1 * t1 / 2;
-  const double n = (-0.41 * t1 + std::sqrt(0.41 * t1 * 0.41 * t1 + 4 * 0.8 * need)) / (2 * 0.8);
+  const collision_response::testing::CubeMotion stronge =
+      collision_response::testing::slidingCubeLandingUnderStronge();
   for (cr::ImpactLaw law : kLaws) {
     SCOPED_TRACE(cr::toString(law));
     const Outcome out =
         solve(cube, corners, 0.5, 0.6, 0.5, law, cr::SimultaneousSharing::kVelocityConsistent);
     const bool poisson = law == cr::ImpactLaw::kPoisson;
-    const Vector3d v =
-        poisson ? Vector3d(-0.09, 0, 0.5) : Vector3d(-0.09 * t1 + 0.6 * n, 0, 0.5 * t1 + n);
-    const Vector3d w = poisson ? Vector3d(0, -0.18, 0) : Vector3d(0, -0.18 * t1 + 1.2 * n, 0);
+    const Vector3d v = poisson ? Vector3d(-0.09, 0, 0.5) : stronge.linear;
+    const Vector3d w = poisson ? Vector3d(0, -0.18, 0) : stronge.angular;
     EXPECT_TRUE(out.report.converged);
     for (int k = 0; k < 3; ++k) {
       EXPECT_NEAR(out.body.linear_velocity[k], v[k], kTol) << "v " << k;
@@ -441,10 +440,10 @@ TEST(SimultaneousImpact, RandomIslandsVelocityConsistentSharing) {
 
 namespace {
 
-// Through solveIsland(): the opt-in routes Poisson / Stronge islands of several contacts to the
-// simultaneous integration (kAuto), and Newton (exact solver) already honours the symmetric
-// equivalences. The two-phase scheme's errors on the same scenes are printed (and the bar's is
-// checked: it stops the bar dead).
+// Through solveIsland(): simultaneous_impulse_space (the default) routes Poisson / Stronge islands
+// of several contacts to the simultaneous integration (kAuto), and Newton (exact solver) already
+// honours the symmetric equivalences. The two-phase scheme's errors on the same scenes are printed
+// (and the bar's is checked: it stops the bar dead).
 struct Scenes {
   std::string name;
   cr::RigidBody body;

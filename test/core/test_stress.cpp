@@ -620,9 +620,13 @@ void manyContacts(const std::vector<int>& counts, bool friction,
         ASSERT_EQ(r.islands.size(), 1u);
         const core::SolveReport& island = r.islands[0];
         if (method == core::SolverMethod::kAuto && law != core::ImpactLaw::kSeedOnePass) {
-          const bool exact = points <= int(core::kExactSolverMaxContacts);
-          EXPECT_NE(island.methodName().find(exact ? "exact" : "iterative"), std::string::npos)
-              << island.methodName();
+          // Few contacts: Newton by the exact solver, Poisson and Stronge by the simultaneous
+          // impulse-space integration; many: the iterative solver (two-phase for those two).
+          const bool few = points <= int(core::kExactSolverMaxContacts);
+          const bool energetic = law != core::ImpactLaw::kNewton;
+          const char* expected =
+              !few ? "iterative" : (energetic ? "simultaneous_impulse_space" : "exact");
+          EXPECT_NE(island.methodName().find(expected), std::string::npos) << island.methodName();
         }
         std::printf("%4d points friction %d %-14s %-9s: %-20s %6zu iterations residual %.2e%s\n",
                     points, int(friction), core::toString(law), core::toString(method),

@@ -322,8 +322,12 @@ TEST_F(NodeTest, RodOnRoughFloorGainsNoEnergyUnderTheDefaultLaw) {
   }
 }
 
-// Newton's cradle, three equal balls, e = 1: the simultaneous answer (-1/3, 2/3, 2/3) v for every
-// law (see test_impact_laws.cpp for the derivation), with momentum and energy conserved.
+// Newton's cradle, three equal balls, e = 1: the simultaneous answer (-1/3, 2/3, 2/3) v for Newton,
+// Poisson, and Stronge by the two-phase scheme (options.multi_contact MULTI_CONTACT_TWO_PHASE);
+// Stronge integrated simultaneously (the default) releases the first contact's work alone, and
+// the second, which did no compression work, starts a new cycle: (1/3 - 1/sqrt(3), 1/3,
+// 1/3 + 1/sqrt(3)) v (derivations in test_impact_laws.cpp and test_simultaneous_impact.cpp).
+// Momentum and energy conserved in every case.
 TEST_F(NodeTest, NewtonsCradleGivesTheSimultaneousAnswer) {
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
@@ -332,17 +336,36 @@ TEST_F(NodeTest, NewtonsCradleGivesTheSimultaneousAnswer) {
   srv.request.bodies[0].twist.linear.x = 1.0;
   srv.request.contacts = {contact("ball0", "ball1", 0.1, 0, 0, 1, 0, 0, 1.0),
                           contact("ball1", "ball2", 0.3, 0, 0, 1, 0, 0, 1.0)};
-  for (const uint8_t law : {cr::SolverOptions::LAW_NEWTON, cr::SolverOptions::LAW_POISSON,
-                            cr::SolverOptions::LAW_STRONGE}) {
-    SCOPED_TRACE(static_cast<int>(law));
-    srv.request.options.law = law;
-    const auto response = call(srv);
-    ASSERT_TRUE(response.success) << response.message;
-    EXPECT_NEAR(response.bodies[0].twist.linear.x, -1.0 / 3.0, kTolerance);
-    EXPECT_NEAR(response.bodies[1].twist.linear.x, 2.0 / 3.0, kTolerance);
-    EXPECT_NEAR(response.bodies[2].twist.linear.x, 2.0 / 3.0, kTolerance);
-    EXPECT_NEAR(response.kinetic_energy_after, response.kinetic_energy_before, kTolerance);
+  for (const uint8_t multi :
+       {cr::SolverOptions::MULTI_CONTACT_DEFAULT, cr::SolverOptions::MULTI_CONTACT_TWO_PHASE}) {
+    for (const uint8_t law : {cr::SolverOptions::LAW_NEWTON, cr::SolverOptions::LAW_POISSON,
+                              cr::SolverOptions::LAW_STRONGE}) {
+      SCOPED_TRACE(std::to_string(law) + " multi_contact " + std::to_string(multi));
+      srv.request.options.law = law;
+      srv.request.options.multi_contact = multi;
+      const auto response = call(srv);
+      ASSERT_TRUE(response.success) << response.message;
+      const double a = 1.0 / std::sqrt(3.0);
+      const bool integrated = law == cr::SolverOptions::LAW_STRONGE &&
+                              multi == cr::SolverOptions::MULTI_CONTACT_DEFAULT;
+      const double want[3] = {integrated ? 1.0 / 3.0 - a : -1.0 / 3.0,
+                              integrated ? 1.0 / 3.0 : 2.0 / 3.0,
+                              integrated ? 1.0 / 3.0 + a : 2.0 / 3.0};
+      for (int i = 0; i < 3; ++i)
+        EXPECT_NEAR(response.bodies[i].twist.linear.x, want[i], kTolerance) << "ball " << i;
+      EXPECT_NEAR(response.kinetic_energy_after, response.kinetic_energy_before, kTolerance);
+      ASSERT_EQ(response.islands.size(), 1u);
+      if (law != cr::SolverOptions::LAW_NEWTON) {
+        EXPECT_EQ(response.islands[0].method, multi == cr::SolverOptions::MULTI_CONTACT_TWO_PHASE
+                                                  ? "two_phase_exact"
+                                                  : "simultaneous_impulse_space");
+      }
+    }
   }
+  srv.request.options.multi_contact = 7;
+  const auto bad = call(srv);
+  EXPECT_FALSE(bad.success);
+  EXPECT_NE(bad.message.find("options.multi_contact"), std::string::npos) << bad.message;
 }
 
 // Resting contact through the service: a solid ball on the ground under gravity and a 1 N push

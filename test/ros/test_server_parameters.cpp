@@ -39,6 +39,7 @@ TEST(ServerParameters, NoParametersGiveTheDefaults) {
   EXPECT_EQ(p.solver.tolerance, built_in.tolerance);
   EXPECT_EQ(p.solver.max_iterations, built_in.max_iterations);
   EXPECT_EQ(p.solver.time_budget, built_in.time_budget);
+  EXPECT_TRUE(p.solver.simultaneous_impulse_space);  // ~multi_contact: simultaneous
   EXPECT_EQ(p.limits.max_bodies, cr::core::RequestLimits().max_bodies);
   EXPECT_EQ(p.default_frame, "world");
   EXPECT_EQ(p.contact_tolerance, 1e-3);
@@ -50,6 +51,7 @@ TEST(ServerParameters, EveryValueIsRead) {
   XmlRpcValue values;
   values["law"] = "newton";
   values["solver"] = "exact";
+  values["multi_contact"] = "two_phase";
   values["tolerance"] = 1e-6;
   values["max_iterations"] = 50;
   values["integration_tolerance"] = 1e-8;
@@ -68,6 +70,7 @@ TEST(ServerParameters, EveryValueIsRead) {
   const cr::ServerParameters p = cr::loadServerParameters(values);
   EXPECT_EQ(p.solver.law, cr::core::ImpactLaw::kNewton);
   EXPECT_EQ(p.solver.method, cr::core::SolverMethod::kExact);
+  EXPECT_FALSE(p.solver.simultaneous_impulse_space);
   EXPECT_EQ(p.solver.tolerance, 1e-6);
   EXPECT_EQ(p.solver.max_iterations, 50u);
   EXPECT_EQ(p.solver.integration_tolerance, 1e-8);
@@ -87,6 +90,7 @@ TEST(ServerParameters, EveryValueIsRead) {
 TEST(ServerParameters, BadValuesAreRejectedNamingTheParameter) {
   expectRejected(with("law", "elastic"), "~law");
   expectRejected(with("solver", "fast"), "~solver");
+  expectRejected(with("multi_contact", "sequential"), "~multi_contact");
   expectRejected(with("tolerance", "small"), "~tolerance");
   expectRejected(with("max_iterations", 0), "~max_iterations");
   expectRejected(with("max_iterations", 1.5), "~max_iterations");

@@ -39,13 +39,16 @@ core::SolverOptions options(core::ImpactLaw law, core::SolverMethod method) {
   o.method = method;
   o.time_budget = 600.0;  // validity, not speed, is tested here: never depend on the machine's load
   // Measurement hook (docs/physics.md, "Simultaneous impulse-space integration"):
-  // CR_SIMULTANEOUS=velocity_consistent or =spring switches the opt-in on, with that sharing rule.
+  // CR_SIMULTANEOUS=velocity_consistent (the default) or =spring chooses the sharing rule of the
+  // simultaneous integration, =two_phase switches it off.
   if (const char* rule = std::getenv("CR_SIMULTANEOUS")) {
     const std::string name(rule);
     if (name == "velocity_consistent" || name == "spring") {
       o.simultaneous_impulse_space = true;
       o.simultaneous_sharing = name == "spring" ? core::SimultaneousSharing::kSpring
                                                 : core::SimultaneousSharing::kVelocityConsistent;
+    } else if (name == "two_phase") {
+      o.simultaneous_impulse_space = false;
     }
   }
   return o;

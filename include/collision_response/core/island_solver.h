@@ -16,9 +16,10 @@ namespace collision_response::core {
 /// iterate.
 constexpr std::size_t kExactSolverMaxContacts = 12;
 /// Largest Poisson / Stronge island that SolverMethod::kAuto integrates simultaneously in impulse
-/// space when SolverOptions::simultaneous_impulse_space is set (opt-in; simultaneous_impact.h;
-/// each step costs a small complementarity problem, O(contacts^3)); larger ones, and explicit
-/// kExact / kIterative, take the two-phase scheme.
+/// space when SolverOptions::simultaneous_impulse_space is set (the default; simultaneous_impact.h;
+/// each step costs a small complementarity problem, O(contacts^3)); larger ones, explicit
+/// kExact / kIterative, and islands it cannot finish within its step budget take the two-phase
+/// scheme.
 constexpr std::size_t kSimultaneousMaxContacts = kExactSolverMaxContacts;
 /// Largest island the exact solver takes when asked for explicitly (its dense tableau grows as the
 /// square of the contacts); larger ones are an InvalidInput on "options.solver".
@@ -35,9 +36,10 @@ constexpr std::size_t kExactSolverContactLimit = 128;
 /// One contact (SolverMethod::kAuto): Newton in closed form; Poisson and Stronge by impulse-space
 /// integration. Several contacts: Newton by the exact or the iterative solver; Poisson and Stronge,
 /// under kAuto up to kSimultaneousMaxContacts contacts and if options.simultaneous_impulse_space
-/// is set (opt-in), by the simultaneous impulse-space integration
-/// (solveSimultaneousImpulseSpace(), kSimultaneousImpulseSpace); otherwise by a two-phase scheme
-/// built on the same solvers:
+/// is set (the default), by the simultaneous impulse-space integration
+/// (solveSimultaneousImpulseSpace(), kSimultaneousImpulseSpace; if it does not finish within its
+/// step budget, nothing of it is applied and the two-phase scheme below solves the island);
+/// otherwise by a two-phase scheme built on the same solvers:
 ///   1. compression: the plastic problem (e = 0) with Coulomb friction: no contact approaches and
 ///      friction opposes the final slip, so kinetic energy drops by D_c >= 0;
 ///   2. restitution: normal impulses R_i = e_i P_c,i at every contact (Poisson). For Stronge they

@@ -30,9 +30,12 @@ namespace collision_response::core {
 /// impulses to the problem and writes impulses[i] (normal and friction parts, sticking), like
 /// solveIsland(). Laws other than Poisson and Stronge: std::invalid_argument.
 ///
-/// Past a step budget the rest is a plastic exact solve with friction (report.converged = false,
-/// impulse_space->fallback = true), so that no contact ends approaching.
+/// Past a step budget (report.converged = false, impulse_space->fallback = true): with
+/// `plastic_rest`, the rest is a plastic exact solve with friction, so that no contact ends
+/// approaching; without, nothing is applied and impulses are not written (solveIsland() then
+/// solves the island by the two-phase scheme from the start).
 SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverOptions& options,
-                                          std::vector<ContactImpulse>& impulses);
+                                          std::vector<ContactImpulse>& impulses,
+                                          bool plastic_rest = true);
 
 }  // namespace collision_response::core

@@ -70,13 +70,14 @@ struct SolverOptions {
   std::size_t max_iterations = 10000;
   /// Impulse-space integration (kPoisson, kStronge): relative error tolerance on the impulse.
   double integration_tolerance = 1e-10;
-  /// Opt-in (kAuto only): Poisson / Stronge islands of 2 to kSimultaneousMaxContacts contacts by
-  /// the simultaneous impulse-space integration (simultaneous_impact.h) instead of the two-phase
-  /// scheme. Off by default: its answer differs from the two-phase one where the simultaneous
-  /// problem is not unique (docs/physics.md, "Simultaneous impulse-space integration"). Not yet
-  /// exposed to ROS requests or parameters.
-  bool simultaneous_impulse_space = false;
-  /// The sharing rule of the simultaneous integration (no unit; used only with the opt-in above).
+  /// kAuto only: Poisson / Stronge islands of 2 to kSimultaneousMaxContacts contacts by the
+  /// simultaneous impulse-space integration (simultaneous_impact.h), each contact with its own
+  /// phases, slip and stick; an island it cannot finish within its step budget (jammed contacts)
+  /// is solved again from the start by the two-phase scheme (reported two_phase_*). Off: the
+  /// two-phase scheme for every such island (docs/physics.md, "Several simultaneous contacts").
+  /// ROS: ~multi_contact, SolverOptions.multi_contact.
+  bool simultaneous_impulse_space = true;
+  /// The sharing rule of the simultaneous integration (no unit).
   SimultaneousSharing simultaneous_sharing = SimultaneousSharing::kVelocityConsistent;
   /// A contact with |u_n| at or below this [m/s], in an island where nothing approaches, is
   /// resting: it gets contact forces from the bodies' wrenches instead of an impulse.

@@ -42,9 +42,9 @@ class SolverConfig;  // generated from cfg/Solver.cfg
 /// the nodelet collision_response/CollisionResponseNodelet.
 ///
 /// Parameters (private namespace, read once here): ServerParameters (server_parameters.h).
-/// law, solver, tolerance, max_iterations, integration_tolerance and contact_tolerance can be
-/// changed at run time with dynamic_reconfigure (cfg/Solver.cfg); diagnostics (call rate,
-/// failures, solver time) go to /diagnostics at 1 Hz.
+/// law, solver, multi_contact, tolerance, max_iterations, integration_tolerance and
+/// contact_tolerance can be changed at run time with dynamic_reconfigure (cfg/Solver.cfg);
+/// diagnostics (call rate, failures, solver time) go to /diagnostics at 1 Hz.
 ///
 /// Thread-safe: the callbacks may run concurrently (a multi-threaded spinner, or a nodelet's MT
 /// node handles).

@@ -31,8 +31,9 @@ struct RobotParameters {
 /// Everything the node (or the nodelet) reads from its private namespace, with the defaults, in
 /// one place (docs/interface.md, "Parameters"). Ranges are core::option_ranges'.
 struct ServerParameters {
-  /// ~law, ~solver, ~tolerance, ~max_iterations, ~integration_tolerance, ~time_budget [s]: the
-  /// defaults of requests whose `options` leave them 0.
+  /// ~law, ~solver, ~multi_contact ('simultaneous' or 'two_phase':
+  /// solver.simultaneous_impulse_space), ~tolerance, ~max_iterations, ~integration_tolerance,
+  /// ~time_budget [s]: the defaults of requests whose `options` leave them 0.
   core::SolverOptions solver;
   /// ~max_bodies, ~max_contacts, ~max_shapes, ~max_mesh_vertices, ~max_mesh_triangles: larger
   /// requests are rejected before any work.
@@ -62,5 +63,10 @@ struct ServerParameters {
 /// defaults). A parameter that is absent takes its default; one of the wrong type or out of its
 /// range throws core::InvalidInput naming it ("~tolerance": never clamped). Needs no ROS master.
 ServerParameters loadServerParameters(const XmlRpc::XmlRpcValue& values);
+
+/// The ~multi_contact name of SolverOptions::simultaneous_impulse_space ("simultaneous",
+/// "two_phase"), and back (false for another name, leaving `simultaneous` as it was).
+const char* multiContactName(bool simultaneous);
+bool multiContactFromName(const std::string& name, bool& simultaneous);
 
 }  // namespace collision_response
