@@ -132,7 +132,9 @@ Velocities fineSolve(const core::Scene& scene, core::ImpactLaw law, bool lcp) {
 
 BenchScene closedFormScene(const std::string& name, const std::string& family,
                            std::vector<core::Scene> instances,
-                           Velocities (*closed_form)(const core::Scene&)) {
+                           Velocities (*closed_form)(const core::Scene&),
+                           Velocities (*poisson)(const core::Scene&) = nullptr,
+                           Velocities (*stronge)(const core::Scene&) = nullptr) {
   BenchScene s;
   s.name = name;
   s.family = family;
@@ -145,6 +147,14 @@ BenchScene closedFormScene(const std::string& name, const std::string& family,
   }
   for (const char* law : {"newton_lcp", "poisson", "stronge"})
     s.reference_by_law[law] = s.reference_by_law["newton"];
+  // Laws whose answer differs from Newton's here have their own closed form.
+  for (const auto& [law, form] : {std::pair<const char*, decltype(poisson)>{"poisson", poisson},
+                                  std::pair<const char*, decltype(stronge)>{"stronge", stronge}}) {
+    if (form == nullptr) continue;
+    s.reference = "closed form (per law)";
+    s.reference_by_law[law].clear();
+    for (const auto& scene : s.instances) s.reference_by_law[law].push_back(form(scene));
+  }
   return s;
 }
 
@@ -200,9 +210,10 @@ core::Scene sphereOnGround(bool slide) {
   return s;
 }
 
-/// A unit cube (1 kg) lands flat on the ground at v = (0.3, -1, 0.1) m/s: 4 corner contacts,
-/// e = 0.5, mu_s 0.5, mu_d 0.4. The sticking impulse (0.32 N s) is inside the cone (0.4 x 1.5),
-/// so the closed form is v' = (0, 0.5, 0), w' = 0: every corner ends at u'_n = -e u_n, stuck.
+/// A unit cube (1 kg, I = 1/6 kg m^2) lands flat on the ground at v = (0.3, -1, 0) m/s: 4 corner
+/// contacts, e = 0.5, mu_s 0.6, mu_d 0.5. Newton: the sticking impulse (0.3 N s) is inside the cone
+/// (0.6 x 1.5), so v' = (0, 0.5, 0), w' = 0: every corner ends at u'_n = -e u_n, stuck. Poisson and
+/// Stronge: see cubeFlatPoisson() and cubeFlatStronge().
 core::Scene cubeFlat() {
   core::Scene s;
   core::BodyState cube;
@@ -210,11 +221,11 @@ core::Scene cubeFlat() {
   cube.mass = 1.0;
   cube.inertia = Matrix3d::Identity() / 6.0;
   cube.position = {0.0, 0.5, 0.0};
-  cube.linear_velocity = {0.3, -1.0, 0.1};
+  cube.linear_velocity = {0.3, -1.0, 0.0};
   s.bodies = {ground(), cube};
   for (const double x : {-0.5, 0.5})
     for (const double z : {-0.5, 0.5})
-      s.contacts.push_back(contact("ground", "cube", {x, 0, z}, Vector3d::UnitY(), 0.5, 0.5, 0.4));
+      s.contacts.push_back(contact("ground", "cube", {x, 0, z}, Vector3d::UnitY(), 0.5, 0.6, 0.5));
   return s;
 }
 
@@ -222,6 +233,33 @@ Velocities cubeFlatClosedForm(const core::Scene& scene) {
   Velocities out = velocitiesBefore(scene);
   out.linear[1] = Vector3d(0.0, 0.5, 0.0);
   out.angular[1] = Vector3d::Zero();
+  return out;
+}
+
+/// Poisson (by hand, as in test_multi_contact's SlidingCubeLandingFlatKeepsItsCornersStuck, here
+/// with y up): compression ends stuck at v = w = 0, the leading corners (x = +1/2) carrying m v_x
+/// more normal impulse than the trailing ones to balance the friction's torque; restitution (e p_c
+/// per corner) releases that torque times e, the corners kept stuck by friction (0.18 per unit
+/// normal impulse, inside mu_s): v' = (-0.6 e v_x, e, 0), w' = (0, 0, 1.2 e v_x) = (-0.09, 0.5, 0)
+/// m/s and (0, 0, 0.18) rad/s: it tips backwards.
+Velocities cubeFlatPoisson(const core::Scene& scene) {
+  Velocities out = velocitiesBefore(scene);
+  out.linear[1] = Vector3d(-0.09, 0.5, 0.0);
+  out.angular[1] = Vector3d(0.0, 0.0, 0.18);
+  return out;
+}
+
+/// Stronge, each corner pair ending on its own work condition (the simultaneous integration, by
+/// hand in test_simultaneous_impact's SlidingCubeLandingFlatByHandUnderTheConsistentRule): the
+/// leading pair's restitution ends at t1 of the Poisson path, the trailing pair goes on alone,
+/// stuck, by a normal impulse n until its work reaches e^2 of its compression work.
+Velocities cubeFlatStronge(const core::Scene& scene) {
+  const double t1 = std::sqrt(0.25 * 0.355 / (0.325 * 0.59 / 2));
+  const double rest = 0.25 * 0.145 - 0.175 * 0.41 * t1 * t1 / 2;  // work still to release [J]
+  const double n = (std::sqrt(0.1681 * t1 * t1 + 3.2 * rest) - 0.41 * t1) / 1.6;
+  Velocities out = velocitiesBefore(scene);
+  out.linear[1] = Vector3d(-0.09 * t1 + 0.6 * n, 0.5 * t1 + n, 0.0);
+  out.angular[1] = Vector3d(0.0, 0.0, 0.18 * t1 - 1.2 * n);
   return out;
 }
 
@@ -448,7 +486,8 @@ std::vector<BenchScene> makeScenes() {
       closedFormScene("sphere_slide", "closed_form", {sphereOnGround(true)}, centralSpheres));
   scenes.push_back(
       closedFormScene("sphere_stick", "closed_form", {sphereOnGround(false)}, centralSpheres));
-  scenes.push_back(closedFormScene("cube_flat", "closed_form", {cubeFlat()}, cubeFlatClosedForm));
+  scenes.push_back(closedFormScene("cube_flat", "closed_form", {cubeFlat()}, cubeFlatClosedForm,
+                                   cubeFlatPoisson, cubeFlatStronge));
   scenes.push_back(
       closedFormScene("mass_ratio_1e3", "mass_ratio", {massRatio(1e3)}, centralSpheres));
   scenes.push_back(
