@@ -42,20 +42,20 @@ WHY_MISSED = {
     "the admissibility and residual checks, the velocity changes. ODE's dWorldStep solves its "
     "12-row LCP with one Dantzig pass in preallocated memory; what we spend beyond the solve is "
     "allocation and checking, which a preallocated per-island workspace would remove.",
-    ("edge_landing", "bullet"): "our exact (Lemke) solver is right here but costs 8 us for the "
-    "2 contacts (two 3-row contacts with identical y-friction rows: a degenerate LCP); our "
-    "iterative solver stays at another answer (KE'/KE 0.27, error 0.25) from 4 to 32 "
-    "iterations and reaches the reference only between 64 and 128, where Bullet's sequential "
-    "impulses with the first friction direction along the slip need 32. Not analysed further "
-    "yet: what that intermediate answer is (the scene has mu_s 0.6 and mu_d 0.4).",
+    ("edge_landing", "bullet"): "our exact (Lemke) solver is right here but costs about 10 us "
+    "for the 2 contacts (two 3-row contacts with identical y-friction rows: a degenerate LCP); "
+    "our iterative solver stays at another answer (error 0.25) from 4 to 32 iterations and "
+    "reaches the reference between 64 and 128, where Bullet's sequential impulses with the "
+    "first friction direction along the slip need 32. Under Poisson and Stronge (the "
+    "simultaneous integration, 1.5 us) the same scene is exact.",
     ("edge_landing", "ode"): "as against Bullet: ODE's QuickStep reaches 1e-7 in 32 iterations, "
     "ours stays at another answer up to 32 and our exact solver costs 8 us.",
-    ("plate_flat", "bullet"): "our exact solvers are wrong here: they use a friction pyramid of 8 "
-    "directions (exact_solver.h), and the plate slides at 28 degrees from a facet, so they give "
-    "too little friction (error 6e-2); our fastest accurate method is the iterative one (32 "
-    "iterations, 4 contacts), against Bullet's 8.",
-    ("plate_flat", "ode"): "as against Bullet: our exact solvers use an 8-direction friction "
-    "pyramid and miss the plate's slip direction; the iterative one is accurate but slower.",
+    ("plate_flat", "bullet"): "our exact solver is exact here (its friction pyramid is turned "
+    "to each contact's slip) but reaches the answer through Lemke pivots on 4 redundant "
+    "contacts (the all-sticking guess fails: the plate slides); our iterative solver needs "
+    "32 iterations on the 4 contacts, against Bullet's 8.",
+    ("plate_flat", "ode"): "as against Bullet: our exact solver pivots on 4 redundant "
+    "contacts; the iterative one is accurate but needs 32 iterations.",
     ("chain_16", "bullet"): "both are exact. We assemble the dense 15x15 Delassus matrix and "
     "factor it (LDL^T); Bullet's MLCP does the same amount of dense work but with less "
     "bookkeeping. The chain's matrix is tridiagonal: a banded factorisation would make it linear "
@@ -377,8 +377,8 @@ def symmetric_scenes(rows):
       "every law's reference is our single-contact answer. Each method's velocity error against "
       "the reference of its own law (the peers' most accurate setting):\n")
     picks = [("ours", "newton_exact", ""), ("ours", "newton_iterative", "it=256"),
-             ("ours", "poisson_exact", ""), ("ours", "stronge_exact", ""),
-             ("ours", "stronge_iterative", "it=256")]
+             ("ours", "poisson_simultaneous", ""), ("ours", "stronge_simultaneous", ""),
+             ("ours", "poisson_exact", ""), ("ours", "stronge_exact", "")]
     w("| scene | %s | Bullet | ODE | Simbody PLUS, Poisson | Simbody PLUS, Newton |\n|%s" % (
         " | ".join("ours %s" % (c + (" " + p if p else "")) for _, c, p in picks),
         " --- |" * (len(picks) + 5)))
@@ -397,11 +397,13 @@ def symmetric_scenes(rows):
             cells.append("%s (%s)" % (fmt_err(best["vel_err"]), label(best)) if best else "-")
         w("| %s | %s |" % (scene, " | ".join(cells)))
     w("")
-    w("Our exact solvers use a friction pyramid of 8 directions (`exact_solver.h`): the plate "
-      "slides at 28 degrees from a facet and gets too little friction. On the edge the slip is "
-      "along a facet, yet our two-phase Poisson and Stronge solvers (`poisson_exact`, "
-      "`stronge_exact`) miss the single-contact answer; the iterative Stronge solver and "
-      "Simbody's PLUS reach it. Not analysed yet.\n")
+    w("`poisson_simultaneous` and `stronge_simultaneous` are the default for Poisson and Stronge "
+      "islands (the simultaneous impulse-space integration, docs/physics.md): each contact slides "
+      "with mu_d until its own slip stops. The two-phase schemes (`poisson_exact`, "
+      "`stronge_exact`) decide friction once per phase from a plastic solve on the static cones, "
+      "so contacts that slide through compression under mu_s > mu_d are held: they miss the "
+      "single-contact answer. The exact solver's friction pyramid is turned to each contact's "
+      "slip, so `newton_exact` is exact on the plate sliding at 28 degrees from its edges.\n")
     return L
 
 
@@ -477,10 +479,11 @@ def simbody_section(rows):
       "as sticking, not all.")
     w("- stack_4: the intervals shrink without end (200 intervals of about 1e-7 each in the "
       "first 20 s), so no answer within the limit, with either restitution.")
-    w("- cube_flat with Poisson's restitution: the 4 corners are redundant, PLUS splits the "
-      "compression impulse unevenly (0.15, 0.2, 0.3, 0.35 N s) and Poisson's expansion, e "
-      "times each contact's own compression impulse, then tips the cube; our reference (every "
-      "law) and Simbody's Newton answer keep it flat.")
+    w("- cube_flat with Poisson's restitution: the leading corners carry more compression "
+      "impulse (they balance the friction's torque), so Poisson's expansion, e times each "
+      "contact's own compression impulse, tips the cube backwards: -0.09 m/s and 0.18 rad/s by "
+      "hand (bench_scenes.cpp, `cubeFlatPoisson`). PLUS gives that answer; Newton's law keeps "
+      "the cube flat.")
     w("- Simbody takes mu_d for the whole impact once a contact slips: where the slip stops "
       "during the impact and the contact would stay stuck only under mu_s, its answer slides "
       "(PGS on rod_tip_split; PLUS resolves that scene's sticking through its rolling "
