@@ -46,8 +46,14 @@ struct State {
 
 class Simultaneous {
  public:
-  Simultaneous(const ContactProblem& problem, ImpactLaw law, SimultaneousSharing sharing)
-      : problem_(problem), law_(law), sharing_(sharing), m_(problem.size()), state_(m_) {
+  Simultaneous(const ContactProblem& problem, ImpactLaw law, SimultaneousSharing sharing,
+               const Deadline& deadline)
+      : problem_(problem),
+        law_(law),
+        sharing_(sharing),
+        deadline_(deadline),
+        m_(problem.size()),
+        state_(m_) {
     const Eigen::Index n3 = 3 * static_cast<Eigen::Index>(m_);
     w_.setZero(n3, n3);
     u_.resize(n3);
@@ -78,6 +84,8 @@ class Simultaneous {
     if (h_ <= 0.0 || scale_ <= 0.0) return true;
     const double approach = 1e-12 * scale_;
     while (steps_ < kStepBudget) {
+      // Out of time counts as out of steps: the caller falls back (or the deadline throws there).
+      if (steps_ % 16 == 15 && deadline_.expired()) return false;
       bool any = false;
       for (std::size_t i = 0; i < m_; ++i) {
         State& s = state_[i];
@@ -619,6 +627,7 @@ class Simultaneous {
   const ContactProblem& problem_;
   ImpactLaw law_;
   SimultaneousSharing sharing_;
+  Deadline deadline_;
   std::size_t m_;
   std::vector<State> state_;
   Eigen::MatrixXd w_;  // the stacked W (3m x 3m)
@@ -667,7 +676,10 @@ SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverO
     report.impulse_space = detail;
     return report;
   }
-  Simultaneous scheme(problem, options.law, options.simultaneous_sharing);
+  // Falling back to the two-phase scheme, the integration gets half of the time left, so that the
+  // fallback has the rest; finishing it here, all of it.
+  Simultaneous scheme(problem, options.law, options.simultaneous_sharing,
+                      plastic_rest ? options.deadline : options.deadline.portion(0.5));
   const bool finished = scheme.run();
   detail.steps = scheme.steps();
   detail.segments = scheme.events();

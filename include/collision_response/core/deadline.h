@@ -24,6 +24,17 @@ class Deadline {
 
   bool expired() const { return end_ != Clock::time_point::max() && Clock::now() > end_; }
 
+  /// A deadline `fraction` (0..1) of the way from now to this one, with the same budget in its
+  /// message; this one if it never expires or has expired.
+  Deadline portion(double fraction) const {
+    Deadline out = *this;
+    const Clock::time_point now = Clock::now();
+    if (end_ != Clock::time_point::max() && now < end_) {
+      out.end_ = now + std::chrono::duration_cast<Clock::duration>((end_ - now) * fraction);
+    }
+    return out;
+  }
+
   /// Throws SolverTimeout naming `where` once expired.
   void check(const char* where) const {
     if (expired()) {

@@ -73,7 +73,8 @@ struct SolverOptions {
   /// kAuto only: Poisson / Stronge islands of 2 to kSimultaneousMaxContacts contacts by the
   /// simultaneous impulse-space integration (simultaneous_impact.h), each contact with its own
   /// phases, slip and stick; an island it cannot finish within its step budget (jammed contacts)
-  /// is solved again from the start by the two-phase scheme (reported two_phase_*). Off: the
+  /// or half of the time budget left is solved again from the start by the two-phase scheme
+  /// (reported two_phase_*). Off: the
   /// two-phase scheme for every such island (docs/physics.md, "Several simultaneous contacts").
   /// ROS: ~multi_contact, SolverOptions.multi_contact.
   bool simultaneous_impulse_space = true;
