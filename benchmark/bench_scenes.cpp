@@ -1,5 +1,6 @@
 // Benchmark scenes and their reference answers (see bench_scenes.h).
 #include "bench_scenes.h"
+#include "sliding_cube_landing.h"
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -254,12 +255,12 @@ Velocities cubeFlatPoisson(const core::Scene& scene) {
 /// leading pair's restitution ends at t1 of the Poisson path, the trailing pair goes on alone,
 /// stuck, by a normal impulse n until its work reaches e^2 of its compression work.
 Velocities cubeFlatStronge(const core::Scene& scene) {
-  const double t1 = std::sqrt(0.25 * 0.355 / (0.325 * 0.59 / 2));
-  const double rest = 0.25 * 0.145 - 0.175 * 0.41 * t1 * t1 / 2;  // work still to release [J]
-  const double n = (std::sqrt(0.1681 * t1 * t1 + 3.2 * rest) - 0.41 * t1) / 1.6;
+  // The hand derivation's answer, with z up there (sliding_cube_landing.h): here y is up, so the
+  // rotation about (n x slip) is about -z.
+  const testing::CubeMotion stronge = testing::slidingCubeLandingUnderStronge();
   Velocities out = velocitiesBefore(scene);
-  out.linear[1] = Vector3d(-0.09 * t1 + 0.6 * n, 0.5 * t1 + n, 0.0);
-  out.angular[1] = Vector3d(0.0, 0.0, 0.18 * t1 - 1.2 * n);
+  out.linear[1] = Vector3d(stronge.linear.x(), stronge.linear.z(), 0.0);
+  out.angular[1] = Vector3d(0.0, 0.0, -stronge.angular.y());
   return out;
 }
 

@@ -45,6 +45,11 @@ Momentum momentumOf(const Inertia& inertia, const KDL::Twist& twist) {
   return {inertia.mass * v - inertia.first_moment.cross(w),
           inertia.rotational * w + inertia.first_moment.cross(v)};
 }
+// Rotational inertia about the origin of a point mass m at c [kg m^2] (the parallel-axis term).
+Eigen::Matrix3d pointMassInertia(double m, const Eigen::Vector3d& c) {
+  return m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+}
+
 // Power of a momentum against a twist: v . p + w . L (twice the kinetic energy when both are the
 // body's own; an entry of M when they are two unknowns' axes).
 double power(const KDL::Twist& twist, const Momentum& momentum) {
@@ -60,8 +65,7 @@ ArticulatedBody::LocalInertia ArticulatedBody::localInertia(const KDL::RigidBody
   out.com = toEigen(inertia.getCOG());
   const Eigen::Matrix3d about_origin =
       Eigen::Map<const Eigen::Matrix3d>(inertia.getRotationalInertia().data);
-  out.about_com = about_origin - out.mass * (out.com.squaredNorm() * Eigen::Matrix3d::Identity() -
-                                             out.com * out.com.transpose());
+  out.about_com = about_origin - pointMassInertia(out.mass, out.com);
   return out;
 }
 
@@ -72,8 +76,7 @@ ArticulatedBody::SpatialInertia ArticulatedBody::worldInertia(const Link& link) 
   SpatialInertia out;
   out.mass = m;
   out.first_moment = m * c;
-  out.rotational = r * link.local.about_com * r.transpose() +
-                   m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+  out.rotational = r * link.local.about_com * r.transpose() + pointMassInertia(m, c);
   return out;
 }
 
