@@ -8,6 +8,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/island_solver.h"
 #include "collision_response/core/islands.h"
+#include "collision_response/core/resting_contact.h"
 
 namespace collision_response::core {
 namespace {
@@ -103,6 +104,10 @@ BodyResponse computeBodyResponse(const std::vector<BodyModel*>& bodies,
       report = solveIsland(problem, options, workspace.answer);
       problem.addVelocityChangesTo(bodies);
       problem.scatterImpulses(workspace.answer, result.impulses);
+    } else {
+      problem.buildResting(workspace.views, contacts, island.contacts, options.resting_velocity);
+      report = solveRestingIsland(problem, options, workspace.answer);
+      problem.scatterForces(workspace.answer, result.impulses);
     }
     report.contacts = std::move(island.contacts);
     result.islands.push_back(std::move(report));

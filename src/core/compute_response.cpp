@@ -115,13 +115,7 @@ CollisionResult computeValidatedResponse(const Scene& scene,
       problem.buildResting(scene.bodies, bodies, contacts, island.contacts,
                            options.resting_velocity);
       report = solveRestingIsland(problem, options, answer);
-      for (std::size_t i = 0; i < problem.size(); ++i) {
-        ContactImpulse& out = result.impulses[problem.contact(i).source];
-        out.resting = true;
-        out.normal_force = answer[i].normal_force;
-        out.friction_force = answer[i].friction_force;
-        out.sticking = answer[i].sticking;
-      }
+      problem.scatterForces(answer, result.impulses);
     }
     report.contacts = island.contacts;
     result.islands.push_back(std::move(report));

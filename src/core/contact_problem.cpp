@@ -11,22 +11,6 @@ namespace {
 
 constexpr double kSideSign[2] = {-1.0, 1.0};  // body a receives -P, body b +P
 
-// Acceleration (a [m/s^2], alpha [rad/s^2]) of a free rigid body under its wrench alone:
-// a = F / m, alpha = Iw^-1 (tau - w x Iw w) (zero for an immovable body).
-std::pair<Eigen::Vector3d, Eigen::Vector3d> wrenchAcceleration(const BodyState& state,
-                                                               const RigidBody& body) {
-  if (!body.movable()) return {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-  const Eigen::Vector3d& w = body.angular_velocity;
-  // Iw w from the body-frame tensor (not by inverting Iw^-1, which loses the small moments).
-  const Eigen::Matrix3d R = state.orientation.normalized().toRotationMatrix();
-  const Eigen::Vector3d Iw_w = R * (state.inertia * (R.transpose() * w));
-  return {body.inverse_mass * state.force, body.inverse_inertia * (state.torque - w.cross(Iw_w))};
-}
-
-Eigen::Vector3d centripetal(const RigidBody& body, const Eigen::Vector3d& r) {
-  return body.angular_velocity.cross(body.angular_velocity.cross(r));
-}
-
 // Sets the frame, coefficients and index fields of a problem entry (in place: entries are large).
 void setEntry(int source, const ContactPoint& contact, ProblemContact& out) {
   out.source = source;
@@ -37,6 +21,19 @@ void setEntry(int source, const ContactPoint& contact, ProblemContact& out) {
   out.restitution = contact.restitution;
   out.static_friction = contact.static_friction;
   out.dynamic_friction = contact.dynamic_friction;
+}
+
+// The fields of a resting entry (its acceleration and Jacobians aside) for the relative velocity
+// u [m/s] at the contact: e = 0, no velocity, the direction of a slip faster than
+// resting_velocity.
+void setRestingFields(const Eigen::Vector3d& u, double resting_velocity, ProblemContact& entry) {
+  entry.restitution = 0.0;
+  entry.free_velocity.setZero();
+  entry.target_normal_velocity = 0.0;
+  const Eigen::Vector3d u_t = u - u.dot(entry.normal) * entry.normal;
+  if (!entry.frictionless() && u_t.norm() > resting_velocity) {
+    entry.slip_direction = u_t.normalized();
+  }
 }
 
 void setTarget(ProblemContact& c) {
@@ -139,49 +136,53 @@ void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
   clear(ProblemLevel::kVelocity);
   contacts_.reserve(island.size());
   if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
-  std::vector<int>& local_of = local_of_;
-  bool general = false;
-  for (const int c : island) {
-    const ContactPoint& point = contacts[c];
-    const std::size_t row = contacts_.size();
-    ProblemContact& entry = contacts_.emplace_back();
-    setEntry(c, point, entry);
-    const int index[2] = {point.body_a, point.body_b};
-    const int part[2] = {point.part_a, point.part_b};
-    int* local[2] = {&entry.local_a, &entry.local_b};
-    Eigen::Vector3d* lever_arm[2] = {&entry.lever_arm_a, &entry.lever_arm_b};
-    for (int side = 0; side < 2; ++side) {
-      const BodyModel& body = *bodies[index[side]];
-      const Eigen::Vector3d velocity = body.partPointVelocity(part[side], point.point);
-      entry.free_velocity += kSideSign[side] * velocity;
-      if (const RigidBody* rigid = body.asRigidBody()) {
-        *lever_arm[side] = point.point - rigid->com;
-        entry.delassus += rigidContactBlock(*rigid, *lever_arm[side]);
-        *local[side] = addRigidBody(index[side], *rigid, local_of);
-        continue;
-      }
-      *local[side] = addGeneralBody(index[side], body, local_of);
-      if (*local[side] < 0) continue;
-      if (!general) general_sides_.resize(2 * island.size());
-      general = true;
-      GeneralSide& out = general_sides_[2 * row + side];
-      out.jacobian = body.partPointJacobian(part[side], point.point);
-      out.inverse_mass_jacobian_t = body.partInverseMassJacobianTranspose(part[side], point.point);
-      entry.delassus += out.jacobian * out.inverse_mass_jacobian_t;
-    }
-    // Both sides on one general body (two links of one robot): u = (J_b - J_a) v, so W also has
-    // the cross terms -(J_a M^-1 J_b^T + J_b M^-1 J_a^T).
-    if (entry.local_a >= 0 && entry.local_a == entry.local_b && !bodies_[entry.local_a].rigid()) {
-      const GeneralSide& a = general_sides_[2 * row];
-      const GeneralSide& b = general_sides_[2 * row + 1];
-      entry.delassus -=
-          a.jacobian * b.inverse_mass_jacobian_t + b.jacobian * a.inverse_mass_jacobian_t;
-    }
-    // Symmetric in exact arithmetic; make it so (a general body's products may round apart).
-    entry.delassus = 0.5 * (entry.delassus + entry.delassus.transpose()).eval();
-    setTarget(entry);
-  }
+  for (const int c : island) setTarget(addGeneralEntry(bodies, c, contacts[c], island.size()));
   finish();
+}
+
+ProblemContact& ContactProblem::addGeneralEntry(const std::vector<const BodyModel*>& bodies, int c,
+                                                const ContactPoint& point,
+                                                std::size_t max_contacts) {
+  const std::size_t row = contacts_.size();
+  ProblemContact& entry = contacts_.emplace_back();
+  setEntry(c, point, entry);
+  const int index[2] = {point.body_a, point.body_b};
+  const int part[2] = {point.part_a, point.part_b};
+  int* local[2] = {&entry.local_a, &entry.local_b};
+  Eigen::Vector3d* lever_arm[2] = {&entry.lever_arm_a, &entry.lever_arm_b};
+  const bool resting = level_ == ProblemLevel::kAcceleration;
+  for (int side = 0; side < 2; ++side) {
+    const BodyModel& body = *bodies[index[side]];
+    entry.free_velocity += kSideSign[side] * body.partPointVelocity(part[side], point.point);
+    if (resting) {
+      entry.free_acceleration +=
+          kSideSign[side] * body.partPointFreeAcceleration(part[side], point.point);
+    }
+    if (const RigidBody* rigid = body.asRigidBody()) {
+      *lever_arm[side] = point.point - rigid->com;
+      entry.delassus += rigidContactBlock(*rigid, *lever_arm[side]);
+      *local[side] = addRigidBody(index[side], *rigid, local_of_);
+      continue;
+    }
+    *local[side] = addGeneralBody(index[side], body, local_of_);
+    if (*local[side] < 0) continue;
+    if (general_sides_.empty()) general_sides_.resize(2 * max_contacts);
+    GeneralSide& out = general_sides_[2 * row + side];
+    out.jacobian = body.partPointJacobian(part[side], point.point);
+    out.inverse_mass_jacobian_t = body.partInverseMassJacobianTranspose(part[side], point.point);
+    entry.delassus += out.jacobian * out.inverse_mass_jacobian_t;
+  }
+  // Both sides on one general body (two links of one robot): u = (J_b - J_a) v, so W also has
+  // the cross terms -(J_a M^-1 J_b^T + J_b M^-1 J_a^T).
+  if (entry.local_a >= 0 && entry.local_a == entry.local_b && !bodies_[entry.local_a].rigid()) {
+    const GeneralSide& a = general_sides_[2 * row];
+    const GeneralSide& b = general_sides_[2 * row + 1];
+    entry.delassus -=
+        a.jacobian * b.inverse_mass_jacobian_t + b.jacobian * a.inverse_mass_jacobian_t;
+  }
+  // Symmetric in exact arithmetic; make it so (a general body's products may round apart).
+  entry.delassus = 0.5 * (entry.delassus + entry.delassus.transpose()).eval();
+  return entry;
 }
 
 void ContactProblem::buildResting(const std::vector<BodyState>& states,
@@ -193,29 +194,38 @@ void ContactProblem::buildResting(const std::vector<BodyState>& states,
   std::vector<int>& local_of = local_of_;
   for (const int c : island) {
     const ContactPoint& point = contacts[c];
-    const RigidBody& a = bodies[point.body_a];
-    const RigidBody& b = bodies[point.body_b];
+    RigidBody a = bodies[point.body_a];
+    RigidBody b = bodies[point.body_b];
     const ContactSpace space(a, b, point.point);
     const Eigen::Vector3d u = space.relativeVelocity(a, b);
-    const double u_n = u.dot(point.normal);
-    if (std::abs(u_n) > resting_velocity) continue;
+    if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
+    setFreeAcceleration(states[point.body_a], a);
+    setFreeAcceleration(states[point.body_b], b);
     ProblemContact& entry = contacts_.emplace_back();
     setEntry(c, point, entry);
-    entry.restitution = 0.0;
+    setRestingFields(u, resting_velocity, entry);
     entry.lever_arm_a = space.r_a;
     entry.lever_arm_b = space.r_b;
     entry.delassus = space.K;
-    const auto [linear_a, angular_a] = wrenchAcceleration(states[point.body_a], a);
-    const auto [linear_b, angular_b] = wrenchAcceleration(states[point.body_b], b);
-    entry.free_acceleration = (linear_b + angular_b.cross(space.r_b)) -
-                              (linear_a + angular_a.cross(space.r_a)) +
-                              (centripetal(b, space.r_b) - centripetal(a, space.r_a));
-    const Eigen::Vector3d u_t = u - u_n * point.normal;
-    if (!point.frictionless() && u_t.norm() > resting_velocity) {
-      entry.slip_direction = u_t.normalized();
-    }
+    entry.free_acceleration =
+        b.pointFreeAcceleration(space.r_b) - a.pointFreeAcceleration(space.r_a);
     entry.local_a = addRigidBody(point.body_a, a, local_of);
     entry.local_b = addRigidBody(point.body_b, b, local_of);
+  }
+  finish();
+}
+
+void ContactProblem::buildResting(const std::vector<const BodyModel*>& bodies,
+                                  const std::vector<ContactPoint>& contacts,
+                                  const std::vector<int>& island, double resting_velocity) {
+  clear(ProblemLevel::kAcceleration);
+  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
+  for (const int c : island) {
+    const ContactPoint& point = contacts[c];
+    const Eigen::Vector3d u = bodies[point.body_b]->partPointVelocity(point.part_b, point.point) -
+                              bodies[point.body_a]->partPointVelocity(point.part_a, point.point);
+    if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
+    setRestingFields(u, resting_velocity, addGeneralEntry(bodies, c, point, island.size()));
   }
   finish();
 }
@@ -360,6 +370,17 @@ void ContactProblem::scatterImpulses(const std::vector<ContactImpulse>& solved,
     ContactImpulse& out = impulses[contacts_[i].source];
     out.normal_impulse = solved[i].normal_impulse;
     out.friction_impulse = solved[i].friction_impulse;
+    out.sticking = solved[i].sticking;
+  }
+}
+
+void ContactProblem::scatterForces(const std::vector<ContactImpulse>& solved,
+                                   std::vector<ContactImpulse>& impulses) const {
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    ContactImpulse& out = impulses[contacts_[i].source];
+    out.resting = true;
+    out.normal_force = solved[i].normal_force;
+    out.friction_force = solved[i].friction_force;
     out.sticking = solved[i].sticking;
   }
 }

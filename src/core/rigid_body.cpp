@@ -19,6 +19,20 @@ RigidBody makeRigidBody(const BodyState& state) {
   return body;
 }
 
+void setFreeAcceleration(const BodyState& state, RigidBody& body) {
+  if (!body.movable()) {
+    body.linear_acceleration.setZero();
+    body.angular_acceleration.setZero();
+    return;
+  }
+  const Eigen::Vector3d& w = body.angular_velocity;
+  // Iw w from the body-frame tensor (not by inverting Iw^-1, which loses the small moments).
+  const Eigen::Matrix3d R = state.orientation.normalized().toRotationMatrix();
+  const Eigen::Vector3d Iw_w = R * (state.inertia * (R.transpose() * w));
+  body.linear_acceleration = body.inverse_mass * state.force;
+  body.angular_acceleration = body.inverse_inertia * (state.torque - w.cross(Iw_w));
+}
+
 Eigen::VectorXd RigidBody::velocity() const {
   Eigen::VectorXd v(velocityCount());
   if (movable()) v << linear_velocity, angular_velocity;

@@ -40,10 +40,13 @@ struct Momentum {
   Eigen::Vector3d linear, angular;
 };
 template <typename Inertia>
-Momentum momentumOf(const Inertia& inertia, const KDL::Twist& twist) {
-  const Eigen::Vector3d v = toEigen(twist.vel), w = toEigen(twist.rot);
+Momentum momentumOf(const Inertia& inertia, const Eigen::Vector3d& w, const Eigen::Vector3d& v) {
   return {inertia.mass * v - inertia.first_moment.cross(w),
           inertia.rotational * w + inertia.first_moment.cross(v)};
+}
+template <typename Inertia>
+Momentum momentumOf(const Inertia& inertia, const KDL::Twist& twist) {
+  return momentumOf(inertia, toEigen(twist.rot), toEigen(twist.vel));
 }
 // Rotational inertia about the origin of a point mass m at c [kg m^2] (the parallel-axis term).
 Eigen::Matrix3d pointMassInertia(double m, const Eigen::Vector3d& c) {
@@ -129,6 +132,7 @@ ArticulatedBody::ArticulatedBody(const KDL::Tree& tree, BaseType base,
   }
   q_.setZero(jointCount());
   qdot_.setZero(jointCount());
+  torques_.setZero(jointCount());
   rebuild();
 }
 
@@ -247,6 +251,7 @@ void ArticulatedBody::updateKinematics() {
 }
 
 void ArticulatedBody::updateTwists() {
+  free_accelerations_valid_ = false;
   Link& base = links_[0];
   const KDL::Vector w = toKdl(base_angular_velocity_);
   base.twist = KDL::Twist(toKdl(base_linear_velocity_) + base.frame.p * w, w);
@@ -407,6 +412,137 @@ Eigen::Matrix<double, 6, 1> ArticulatedBody::momentum() const {
     out.tail<3>() += p.angular;
   }
   return out;
+}
+
+void ArticulatedBody::setLoads(const Eigen::VectorXd& joint_torques,
+                               const Eigen::Vector3d& gravity) {
+  if (joint_torques.size() != jointCount()) {
+    throw std::invalid_argument("joint torques need " + std::to_string(jointCount()) + " entries");
+  }
+  torques_ = joint_torques;
+  gravity_ = gravity;
+  free_accelerations_valid_ = false;
+}
+
+void ArticulatedBody::inverseDynamics(const Eigen::VectorXd& joint_accelerations,
+                                      const Eigen::Matrix<double, 6, 1>& base_acceleration,
+                                      bool with_velocity, Eigen::VectorXd& joint_forces,
+                                      Eigen::Matrix<double, 6, 1>& base_forces,
+                                      std::vector<Acceleration>* accelerations) const {
+  const std::size_t n = links_.size();
+  std::vector<Acceleration> acceleration(n);
+  std::vector<Momentum> force(n);  // (force [N], moment about the origin [N m]) on each link
+  // The base: the time derivative of its twist at the origin, (alpha, a_b - alpha x p - w x v_b)
+  // for its origin p moving at v_b with acceleration a_b.
+  if (base_type_ == BaseType::kFloating) {
+    const Eigen::Vector3d alpha = base_acceleration.tail<3>();
+    acceleration[0].angular = alpha;
+    acceleration[0].linear = base_acceleration.head<3>() - alpha.cross(toEigen(links_[0].frame.p));
+    if (with_velocity) {
+      acceleration[0].linear -= base_angular_velocity_.cross(base_linear_velocity_);
+    }
+  }
+  // Outwards: A_i = A_parent + S_i qddot_i + (V_i x S_i) qdot_i (the axis moves with the parent).
+  for (std::size_t i = 1; i < n; ++i) {
+    const Link& link = links_[i];
+    acceleration[i] = acceleration[link.parent];
+    if (link.joint < 0) continue;
+    const Eigen::Vector3d s_w = toEigen(link.axis.rot), s_v = toEigen(link.axis.vel);
+    const double qddot = joint_accelerations(link.joint);
+    acceleration[i].angular += s_w * qddot;
+    acceleration[i].linear += s_v * qddot;
+    if (with_velocity) {
+      const double qdot = qdot_(link.joint);
+      const Eigen::Vector3d w = toEigen(link.twist.rot), v = toEigen(link.twist.vel);
+      acceleration[i].angular += w.cross(s_w) * qdot;
+      acceleration[i].linear += (w.cross(s_v) + v.cross(s_w)) * qdot;
+    }
+  }
+  // Each link's rate of change of momentum, I (A - (0, g)) + V x* (I V): gravity as an upward
+  // acceleration of the frame, so that the forces are what the joints must transmit.
+  for (std::size_t i = 0; i < n; ++i) {
+    const SpatialInertia inertia = worldInertia(links_[i]);
+    force[i] = momentumOf(inertia, acceleration[i].angular, acceleration[i].linear - gravity_);
+    if (with_velocity) {
+      const Eigen::Vector3d w = toEigen(links_[i].twist.rot), v = toEigen(links_[i].twist.vel);
+      const Momentum p = momentumOf(inertia, w, v);
+      force[i].linear += w.cross(p.linear);
+      force[i].angular += w.cross(p.angular) + v.cross(p.linear);
+    }
+  }
+  // Inwards: each joint carries its subtree; its generalized force is its axis' power.
+  joint_forces.setZero(jointCount());
+  for (std::size_t i = n - 1; i > 0; --i) {
+    const Link& link = links_[i];
+    if (link.joint >= 0) joint_forces(link.joint) = power(link.axis, force[i]);
+    force[link.parent].linear += force[i].linear;
+    force[link.parent].angular += force[i].angular;
+  }
+  base_forces.setZero();
+  if (base_type_ == BaseType::kFloating) {
+    for (int k = 0; k < 6; ++k) base_forces(k) = power(base_axes_[k], force[0]);
+  }
+  if (accelerations != nullptr) *accelerations = std::move(acceleration);
+}
+
+Eigen::VectorXd ArticulatedBody::gravityTorques() const {
+  Eigen::VectorXd torques;
+  Eigen::Matrix<double, 6, 1> base;
+  inverseDynamics(Eigen::VectorXd::Zero(jointCount()), Eigen::Matrix<double, 6, 1>::Zero(), false,
+                  torques, base, nullptr);
+  return torques;
+}
+
+Eigen::VectorXd ArticulatedBody::biasForces() const {
+  Eigen::VectorXd joint_forces;
+  Eigen::Matrix<double, 6, 1> base;
+  inverseDynamics(Eigen::VectorXd::Zero(jointCount()), Eigen::Matrix<double, 6, 1>::Zero(), true,
+                  joint_forces, base, nullptr);
+  Eigen::VectorXd h(unknowns_);
+  for (int k = 0; k < unknowns_; ++k) {
+    const int joint = joint_of_unknown_[k];
+    h(k) = joint >= 0 ? joint_forces(joint) : base(k);
+  }
+  return h;
+}
+
+Eigen::VectorXd ArticulatedBody::freeAcceleration() const {
+  if (unknowns_ == 0) return Eigen::VectorXd();
+  requireRegular();
+  Eigen::VectorXd rhs = -biasForces();
+  for (int k = 0; k < unknowns_; ++k) {
+    const int joint = joint_of_unknown_[k];
+    if (joint >= 0) rhs(k) += torques_(joint);
+  }
+  return factor_.solve(rhs);
+}
+
+void ArticulatedBody::updateFreeAccelerations() const {
+  const Eigen::VectorXd vdot = freeAcceleration();
+  Eigen::VectorXd joint_accelerations = Eigen::VectorXd::Zero(jointCount());
+  Eigen::Matrix<double, 6, 1> base = Eigen::Matrix<double, 6, 1>::Zero();
+  for (int k = 0; k < unknowns_; ++k) {
+    const int joint = joint_of_unknown_[k];
+    if (joint >= 0) {
+      joint_accelerations(joint) = vdot(k);
+    } else {
+      base(k) = vdot(k);
+    }
+  }
+  Eigen::VectorXd joint_forces;
+  Eigen::Matrix<double, 6, 1> base_forces;
+  inverseDynamics(joint_accelerations, base, true, joint_forces, base_forces, &free_accelerations_);
+  free_accelerations_valid_ = true;
+}
+
+Eigen::Vector3d ArticulatedBody::partPointFreeAcceleration(int part,
+                                                           const Eigen::Vector3d& point) const {
+  const int link = checkLink(part < 0 ? default_link_ : part);
+  if (!free_accelerations_valid_) updateFreeAccelerations();
+  // a_p = dv_o/dt + alpha x p + w x v_p for the material point at p.
+  const Acceleration& a = free_accelerations_[link];
+  const Eigen::Vector3d w = toEigen(links_[link].twist.rot);
+  return a.linear + a.angular.cross(point) + w.cross(velocityAt(links_[link].twist, point));
 }
 
 }  // namespace collision_response::robot

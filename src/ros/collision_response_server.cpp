@@ -471,7 +471,10 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
   const int rigid_count = static_cast<int>(scene.bodies.size());
   std::vector<core::RigidBody> rigid;
   rigid.reserve(scene.bodies.size());
-  for (const core::BodyState& body : scene.bodies) rigid.push_back(core::makeRigidBody(body));
+  for (const core::BodyState& body : scene.bodies) {
+    rigid.push_back(core::makeRigidBody(body));
+    core::setFreeAcceleration(body, rigid.back());  // their wrenches, for resting contacts
+  }
   std::vector<core::BodyModel*> models;
   models.reserve(rigid.size() + robots.size());
   for (core::RigidBody& body : rigid) models.push_back(&body);

@@ -19,7 +19,8 @@ void JointStateCache::update(const sensor_msgs::JointState& message, const ros::
     Sample& sample = samples_[it->second];
     const bool position = k < message.position.size();
     const bool velocity = k < message.velocity.size();
-    if (!position && !velocity) continue;
+    const bool effort = k < message.effort.size();
+    if (!position && !velocity && !effort) continue;
     if (position) {
       sample.position = message.position[k];
       sample.has_position = true;
@@ -27,6 +28,10 @@ void JointStateCache::update(const sensor_msgs::JointState& message, const ros::
     if (velocity) {
       sample.velocity = message.velocity[k];
       sample.has_velocity = true;
+    }
+    if (effort) {
+      sample.effort = message.effort[k];
+      sample.has_effort = true;
     }
     sample.stamp = stamp;
   }

@@ -33,6 +33,88 @@ void requireFinite(const Eigen::Vector3d& v, double limit, const std::string& fi
   }
 }
 
+// Throws naming `field` if the sample (`what` on `topic`) is older than `timeout` [s] at `now`.
+void requireRecent(const JointStateCache::Sample& sample, const ros::Time& now, double timeout,
+                   const std::string& field, const std::string& what, const std::string& topic) {
+  const double age = (now - sample.stamp).toSec();
+  if (age > timeout) {
+    throw core::InvalidInput(field, "the latest " + what + " on " + topic + " is " +
+                                        std::to_string(age) +
+                                        " s old, beyond ~joint_state_timeout (" +
+                                        std::to_string(timeout) + " s); give it in the request");
+  }
+}
+
+// tau from joint_state.effort (JOINT_TORQUES_EFFORT): each joint's from the request, else from the
+// joint-state topic; locked joints need none (their acceleration is 0).
+Eigen::VectorXd requestEfforts(const ServedRobot& robot, const RobotState& msg,
+                               const robot::ArticulatedBody& model, const ros::Time& now,
+                               double timeout, const std::string& field) {
+  const sensor_msgs::JointState& given = msg.joint_state;
+  const std::string effort_field = field + ".joint_state.effort";
+  if (!given.effort.empty() && given.effort.size() != given.name.size()) {
+    throw core::InvalidInput(effort_field, "has " + std::to_string(given.effort.size()) +
+                                               " entries for " + std::to_string(given.name.size()) +
+                                               " names (empty: the latest message's)");
+  }
+  const int joints = model.jointCount();
+  Eigen::VectorXd torques = Eigen::VectorXd::Zero(joints);
+  std::vector<bool> has_effort(joints, false);
+  for (std::size_t k = 0; k < given.effort.size(); ++k) {
+    const int joint = robot.jointIndex(given.name[k], indexed(field + ".joint_state.name", k));
+    requireFiniteWithin(given.effort[k], Limits::kForce, indexed(effort_field, k), "N m or N");
+    torques(joint) = given.effort[k];
+    has_effort[joint] = true;
+  }
+  std::vector<JointStateCache::Sample> latest;
+  const std::string& topic = robot.parameters().joint_states_topic;
+  for (int joint = 0; joint < joints; ++joint) {
+    if (has_effort[joint] || model.unknownOfJoint(joint) < 0) continue;
+    if (latest.empty()) latest = robot.jointStates().snapshot();
+    const JointStateCache::Sample& sample = latest[joint];
+    const std::string& name = model.jointNames()[joint];
+    if (!sample.has_effort) {
+      throw core::InvalidInput(effort_field, "joint '" + name +
+                                                 "' has no effort (joint_torques is "
+                                                 "JOINT_TORQUES_EFFORT): not in the request and "
+                                                 "none received on " +
+                                                 topic);
+    }
+    requireRecent(sample, now, timeout, effort_field, "effort of joint '" + name + "'", topic);
+    requireFiniteWithin(sample.effort, Limits::kForce, effort_field, "N m or N");
+    torques(joint) = sample.effort;
+  }
+  return torques;
+}
+
+// The loads of a resting analysis (RobotState.gravity and joint_torques). Gravity compensation
+// costs an inverse-dynamics pass only when there is gravity.
+void setRestingLoads(const ServedRobot& robot, const RobotState& msg, const ros::Time& now,
+                     double timeout, const std::string& field, robot::ArticulatedBody& model) {
+  const Eigen::Vector3d gravity = toEigen(msg.gravity);
+  requireFinite(gravity, Limits::kAcceleration, field + ".gravity", "m/s^2");
+  Eigen::VectorXd torques = Eigen::VectorXd::Zero(model.jointCount());
+  switch (msg.joint_torques) {
+    case RobotState::JOINT_TORQUES_GRAVITY_COMPENSATION:
+      if (!gravity.isZero(0.0)) {
+        model.setLoads(torques, gravity);
+        torques = model.gravityTorques();
+      }
+      break;
+    case RobotState::JOINT_TORQUES_EFFORT:
+      torques = requestEfforts(robot, msg, model, now, timeout, field);
+      break;
+    case RobotState::JOINT_TORQUES_NONE:
+      break;
+    default:
+      throw core::InvalidInput(field + ".joint_torques",
+                               "is " + std::to_string(msg.joint_torques) +
+                                   ": not JOINT_TORQUES_GRAVITY_COMPENSATION (0), "
+                                   "JOINT_TORQUES_EFFORT (1) or JOINT_TORQUES_NONE (2)");
+  }
+  model.setLoads(torques, gravity);
+}
+
 }  // namespace
 
 std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const std::string& field) {
@@ -119,13 +201,7 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
                                                   "none received on " +
                                                   topic);
       }
-      const double age = (now - sample.stamp).toSec();
-      if (age > timeout) {
-        throw core::InvalidInput(state_field,
-                                 "the latest state of joint '" + name + "' on " + topic + " is " +
-                                     std::to_string(age) + " s old, beyond ~joint_state_timeout (" +
-                                     std::to_string(timeout) + " s); give it in the request");
-      }
+      requireRecent(sample, now, timeout, state_field, "state of joint '" + name + "'", topic);
       if (!has_position[joint]) {
         requireFiniteWithin(sample.position, Limits::kLength, state_field, "rad or m");
         q(joint) = sample.position;
@@ -165,6 +241,7 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
     throw core::InvalidInput(state_field,
                              std::string("the robot cannot take this state: ") + e.what());
   }
+  setRestingLoads(robot, msg, now, timeout, field, model);
   return model;
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <kdl/chain.hpp>
 #include <kdl/chaindynparam.hpp>
+#include <kdl/chainidsolver_recursive_newton_euler.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
 #include <kdl/jacobian.hpp>
 #include <kdl/jntspaceinertiamatrix.hpp>
@@ -18,9 +19,9 @@
 
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
+#include "two_link_arm.h"
 
 namespace rb = collision_response::robot;
-using Eigen::Matrix2d;
 using Eigen::MatrixXd;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
@@ -29,21 +30,6 @@ namespace {
 
 const std::string kDir = ROBOT_TEST_DIR;
 const std::string kArm7 = ARM7_URDF;  // the shipped arm, urdf/arm7.urdf
-
-// The 2R arm of two_link.urdf.
-constexpr double m1 = 2.0, l1 = 1.0, lc1 = 0.5, I1 = m1 * l1 * l1 / 12.0;
-constexpr double m2 = 1.0, l2 = 0.8, lc2 = 0.4, I2 = m2 * l2 * l2 / 12.0;
-
-// The textbook joint-space inertia of a planar 2R arm (Spong, Robot Modeling and Control, 7.4.2):
-//   M11 = m1 lc1^2 + m2 (l1^2 + lc2^2 + 2 l1 lc2 cos q2) + I1 + I2
-//   M12 = m2 (lc2^2 + l1 lc2 cos q2) + I2,   M22 = m2 lc2^2 + I2.
-Matrix2d twoLinkMass(double q2) {
-  Matrix2d m;
-  m(0, 0) = m1 * lc1 * lc1 + m2 * (l1 * l1 + lc2 * lc2 + 2 * l1 * lc2 * std::cos(q2)) + I1 + I2;
-  m(0, 1) = m(1, 0) = m2 * (lc2 * lc2 + l1 * lc2 * std::cos(q2)) + I2;
-  m(1, 1) = m2 * lc2 * lc2 + I2;
-  return m;
-}
 
 }  // namespace
 
@@ -70,10 +56,10 @@ TEST(ArticulatedBody, TwoLinkMassMatchesTheTextbookAtSeveralConfigurations) {
   for (const double q1 : {0.0, 0.4, -1.3}) {
     for (const double q2 : {0.0, 0.9, 2.5, -2.0}) {
       arm.setState(Eigen::Vector2d(q1, q2), Eigen::Vector2d::Zero());
-      EXPECT_TRUE(arm.massMatrix().isApprox(twoLinkMass(q2), 1e-14))
+      EXPECT_TRUE(arm.massMatrix().isApprox(two_link::massMatrix(q2), 1e-14))
           << "q = " << q1 << ", " << q2 << "\n"
           << arm.massMatrix() << "\nwant\n"
-          << twoLinkMass(q2);
+          << two_link::massMatrix(q2);
     }
   }
 }
@@ -146,6 +132,99 @@ TEST(ArticulatedBody, Arm7TreeEnergyMatchesMassMatrix) {
   }
 }
 
+// The robot's dynamics for resting contacts against KDL's recursive Newton-Euler solver on the same
+// chain (KDL's own algorithm, in the links' frames): h(q, qdot) = C qdot + g(q) is KDL's torque for
+// zero joint accelerations, g(q) its torque at rest (also ChainDynParam::JntToGravity), and the
+// free acceleration M^-1 (tau - h) under random torques is the acceleration for which KDL's inverse
+// dynamics returns those torques.
+TEST(ArticulatedBody, Arm7DynamicsEqualKdlNewtonEuler) {
+  KDL::Tree full;
+  ASSERT_TRUE(kdl_parser::treeFromFile(kArm7, full));
+  KDL::Chain chain;
+  ASSERT_TRUE(full.getChain("base_link", "left_finger", chain));
+  KDL::Tree tree("base_link");
+  ASSERT_TRUE(tree.addChain(chain, "base_link"));
+  rb::ArticulatedBody arm(tree);
+  const Vector3d g(0.5, -1.2, -9.81);  // not along an axis of the base
+  KDL::ChainIdSolver_RNE newton_euler(chain, KDL::Vector(g.x(), g.y(), g.z()));
+  KDL::ChainDynParam dynamics(chain, KDL::Vector(g.x(), g.y(), g.z()));
+  const KDL::Wrenches no_wrench(chain.getNrOfSegments(), KDL::Wrench::Zero());
+  const auto kdlTorques = [&](const VectorXd& q, const VectorXd& qdot, const VectorXd& qddot) {
+    KDL::JntArray kq(8), kqd(8), kqdd(8), torques(8);
+    kq.data = q;
+    kqd.data = qdot;
+    kqdd.data = qddot;
+    EXPECT_GE(newton_euler.CartToJnt(kq, kqd, kqdd, no_wrench, torques), 0);
+    return VectorXd(torques.data);
+  };
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    VectorXd q(8), qdot(8), tau(8);
+    for (int i = 0; i < 8; ++i) {
+      q(i) = M_PI * u(rng);
+      qdot(i) = 2.0 * u(rng);
+      tau(i) = 20.0 * u(rng);
+    }
+    q(7) = 0.02 + 0.01 * u(rng);
+    arm.setState(q, qdot);
+    arm.setLoads(tau, g);
+    const VectorXd zero = VectorXd::Zero(8);
+    EXPECT_LE((arm.biasForces() - kdlTorques(q, qdot, zero)).cwiseAbs().maxCoeff(), 1e-11)
+        << "trial " << trial;
+    EXPECT_LE((arm.gravityTorques() - kdlTorques(q, zero, zero)).cwiseAbs().maxCoeff(), 1e-11);
+    KDL::JntArray kq(8), gravity(8);
+    kq.data = q;
+    ASSERT_GE(dynamics.JntToGravity(kq, gravity), 0);
+    EXPECT_LE((arm.gravityTorques() - gravity.data).cwiseAbs().maxCoeff(), 1e-11);
+    const VectorXd qddot = arm.freeAcceleration();
+    EXPECT_LE((kdlTorques(q, qdot, qddot) - tau).cwiseAbs().maxCoeff(), 1e-10) << "trial " << trial;
+  }
+}
+
+// A material point's free acceleration is the time derivative of its velocity along the motion
+// the free acceleration gives: central differences of partPointVelocity() over states 1e-5 s apart
+// (q +- qdot dt + qddot dt^2 / 2, qdot +- qddot dt: the point's velocity is then known to
+// O(dt^2)), on the whole arm (a tree: both fingers) with a locked joint and gravity.
+TEST(ArticulatedBody, Arm7PointAccelerationIsTheDerivativeOfItsVelocity) {
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
+  arm.setJointModel(arm.jointIndex("joint3"), rb::JointModel::kLocked);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double dt = 1e-5;
+  for (int trial = 0; trial < 5; ++trial) {
+    VectorXd q(9), qdot(9), tau(9);
+    for (int i = 0; i < 9; ++i) {
+      q(i) = 3 * u(rng);
+      qdot(i) = u(rng);
+      tau(i) = 5 * u(rng);
+    }
+    q(7) = q(8) = 0.02;
+    arm.setLoads(tau, Vector3d(0, 0, -9.81));
+    arm.setState(q, qdot);
+    VectorXd qddot = VectorXd::Zero(9);  // the locked joint's stays 0
+    const VectorXd vdot = arm.freeAcceleration();
+    for (int k = 0; k < arm.velocityCount(); ++k) qddot(arm.jointOfUnknown(k)) = vdot(k);
+    for (const char* name : {"left_finger", "link4", "hand"}) {
+      const int link = arm.linkIndex(name);
+      const Eigen::Isometry3d pose = arm.linkPose(link);
+      const Vector3d local(0.02, -0.03, 0.04);
+      const Vector3d want = arm.partPointFreeAcceleration(link, pose * local);
+      Vector3d velocity[2];
+      for (int side = 0; side < 2; ++side) {
+        const double h = side == 0 ? -dt : dt;
+        arm.setState(q + qdot * h + 0.5 * qddot * h * h, qdot + qddot * h);
+        velocity[side] = arm.partPointVelocity(link, arm.linkPose(link) * local);
+      }
+      arm.setState(q, qdot);
+      const Vector3d difference = (velocity[1] - velocity[0]) / (2 * dt);
+      EXPECT_LE((difference - want).norm(), 1e-6 * (1 + want.norm()))
+          << name << ", trial " << trial << ": " << want.transpose() << " against "
+          << difference.transpose();
+    }
+  }
+}
+
 // Armature: a single joint's M is I_hinge + I_a; locking the joint removes the unknown.
 TEST(ArticulatedBody, JointModels) {
   rb::ArticulatedBody rod = rb::robotFromUrdfFile(kDir + "/pendulum.urdf");
@@ -162,7 +241,7 @@ TEST(ArticulatedBody, JointModels) {
   arm.setJointModel(arm.jointIndex("shoulder"), rb::JointModel::kLocked);
   ASSERT_EQ(arm.velocityCount(), 1);
   EXPECT_EQ(arm.jointOfUnknown(0), arm.jointIndex("elbow"));
-  EXPECT_NEAR(arm.massMatrix()(0, 0), twoLinkMass(0.0)(1, 1), 1e-15);
+  EXPECT_NEAR(arm.massMatrix()(0, 0), two_link::massMatrix(0.0)(1, 1), 1e-15);
 }
 
 // A free joint that moves only massless links makes M singular: the robot is refused (setState(),

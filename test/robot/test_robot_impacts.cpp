@@ -16,6 +16,7 @@
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
+#include "two_link_arm.h"
 
 namespace cr = collision_response::core;
 namespace rb = collision_response::robot;
@@ -38,18 +39,6 @@ cr::RigidBody sphere(double ms, double R, const Vector3d& c, const Vector3d& v) 
   out.com = c;
   out.linear_velocity = v;
   return out;
-}
-
-// M(q) of two_link.urdf's planar 2R arm from the textbook (link 1: m1 = 2 kg, l1 = 1 m, centre of
-// mass at 0.5 m; link 2: m2 = 1 kg, l2 = 0.8 m, centre of mass at 0.4 m; uniform rods about z).
-Matrix2d twoLinkMassMatrix(double q2) {
-  const double m1 = 2.0, l1 = 1.0, lc1 = 0.5, I1 = m1 * l1 * l1 / 12.0;
-  const double m2 = 1.0, l2 = 0.8, lc2 = 0.4, I2 = m2 * l2 * l2 / 12.0;
-  Matrix2d M;
-  M(0, 0) = m1 * lc1 * lc1 + m2 * (l1 * l1 + lc2 * lc2 + 2 * l1 * lc2 * std::cos(q2)) + I1 + I2;
-  M(0, 1) = M(1, 0) = m2 * (lc2 * lc2 + l1 * lc2 * std::cos(q2)) + I2;
-  M(1, 1) = m2 * lc2 * lc2 + I2;
-  return M;
 }
 
 cr::SolverOptions withLaw(cr::ImpactLaw law) {
@@ -125,7 +114,7 @@ TEST(RobotImpacts, TwoLinkTipImpactClosedForm) {
   const double l1 = 1.0, l2 = 0.8;
   const double q1 = 0.4, q2 = 1.1, e = 0.5;
   const Vector2d qdot(0.5, -0.3);
-  const Matrix2d M = twoLinkMassMatrix(q2);
+  const Matrix2d M = two_link::massMatrix(q2);
   Matrix2d J;
   J << -l1 * std::sin(q1) - l2 * std::sin(q1 + q2), -l2 * std::sin(q1 + q2),
       l1 * std::cos(q1) + l2 * std::cos(q1 + q2), l2 * std::cos(q1 + q2);
@@ -192,19 +181,13 @@ TEST(RobotImpacts, LockedFloatingRobotIsTheCompositeRigidBody) {
   ASSERT_EQ(arm.velocityCount(), 6);
 
   // Composite body from the URDF numbers.
-  const double m1 = 2.0, m2 = 1.0, m = 3.0;
-  const Matrix3d R1 = Eigen::AngleAxisd(q1, Vector3d::UnitZ()).toRotationMatrix();
+  const two_link::Composite composite = two_link::composite(q1, q2);
+  const double m = composite.mass;
+  const Vector3d c = composite.com;
+  const Matrix3d I = composite.inertia;
   const Matrix3d R2 = Eigen::AngleAxisd(q1 + q2, Vector3d::UnitZ()).toRotationMatrix();
-  const Vector3d c1 = R1 * Vector3d(0.5, 0, 0);
-  const Vector3d c2 = R1 * Vector3d(1, 0, 0) + R2 * Vector3d(0.4, 0, 0);
-  const Matrix3d I1 = Vector3d(0.001, 2.0 / 12, 2.0 / 12).asDiagonal();
-  const Matrix3d I2 = Vector3d(0.001, 0.64 / 12, 0.64 / 12).asDiagonal();
-  const Vector3d c = (m1 * c1 + m2 * c2) / m;
-  const auto shift = [&](double mi, const Vector3d& r) {
-    return Matrix3d(mi * (r.squaredNorm() * Matrix3d::Identity() - r * r.transpose()));
-  };
-  const Matrix3d I =
-      R1 * I1 * R1.transpose() + shift(m1, c1 - c) + R2 * I2 * R2.transpose() + shift(m2, c2 - c);
+  const Vector3d c2 = R2 * Vector3d(two_link::lc2, 0, 0) +
+                      Eigen::AngleAxisd(q1, Vector3d::UnitZ()) * Vector3d(two_link::l1, 0, 0);
   // Joint rates are kept (locked: they move with the parent), so the composite body is the robot
   // only when they are 0 as well: reset them.
   arm.setState(Vector2d(q1, q2), Vector2d::Zero(), Eigen::Isometry3d::Identity(), v_o, w);
@@ -365,7 +348,7 @@ TEST(RobotImpacts, TwoLinkSelfContactClosedForm) {
   const double l1 = 1.0;
   const double q1 = 0.4, q2 = 1.1, e = 0.5;
   const Vector2d qdot(0.5, -0.3);
-  const Matrix2d M = twoLinkMassMatrix(q2);
+  const Matrix2d M = two_link::massMatrix(q2);
   const Vector2d elbow(l1 * std::cos(q1), l1 * std::sin(q1));
   // p: 0.3 m along link 2 from the elbow, 0.05 m off its axis.
   const Vector2d along(std::cos(q1 + q2), std::sin(q1 + q2)), across(-along.y(), along.x());

@@ -383,6 +383,83 @@ TEST_F(RobotNodeTest, BadRobotInputIsNamed) {
   }
 }
 
+// Resting contacts through the node: the arm at rest at the published positions, its hand on a
+// table (n = +z, request frame "world"), gravity -z. Its joint torques (joint_state.effort under
+// JOINT_TORQUES_EFFORT) are gravity compensation plus the torques of a push F0 = 20 N into the
+// table, tau = g(q) - J(p)^T n F0 (from the reference model): the table pushes back with exactly
+// F0 (statics), and no velocity changes. Gravity compensation alone (the default) rests the hand
+// on the table without pressing. Bad values are named.
+TEST_F(RobotNodeTest, HandPushingOnATableFeelsItsOwnPush) {
+  cr::robot::ArticulatedBody arm = referenceArm();
+  const Eigen::VectorXd q = vector(kPublishedPositions);
+  arm.setState(q, Eigen::VectorXd::Zero(q.size()), worldToBase());
+  const int hand = arm.linkIndex("hand");
+  const Eigen::Vector3d p = arm.linkPose(hand) * Eigen::Vector3d(0, 0, 0.03);
+  arm.setLoads(Eigen::VectorXd::Zero(q.size()), Eigen::Vector3d(0, 0, -9.81));
+  const double f0 = 20.0;
+  const Eigen::VectorXd tau = arm.gravityTorques() - arm.linkPointJacobian(hand, p).transpose() *
+                                                         Eigen::Vector3d::UnitZ() * f0;
+
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  cr::BodyState table;
+  table.id = "table";
+  table.pose.orientation.w = 1.0;
+  srv.request.bodies = {table};
+  srv.request.contacts = {
+      contact("table", "arm/hand", p.x(), p.y(), p.z(), 0, 0, 1, 0.0, 0.5, 0.5)};
+  srv.request.robots.resize(1);
+  cr::RobotState& robot = srv.request.robots[0];
+  robot.name = "arm";
+  robot.joint_state.name = kJoints;
+  robot.joint_state.position = kPublishedPositions;
+  robot.joint_state.velocity.assign(kJoints.size(), 0.0);
+  robot.joint_state.effort.assign(tau.data(), tau.data() + tau.size());
+  robot.gravity.z = -9.81;
+  robot.joint_torques = cr::RobotState::JOINT_TORQUES_EFFORT;
+  auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.impulses.size(), 1u);
+  EXPECT_TRUE(response.impulses[0].resting);
+  EXPECT_NEAR(response.impulses[0].normal_force, f0, 1e-9);
+  EXPECT_EQ(response.impulses[0].normal_impulse, 0.0);
+  ASSERT_EQ(response.islands.size(), 1u);
+  EXPECT_EQ(response.islands[0].method, "resting_closed_form");
+  ASSERT_EQ(response.robots.size(), 1u);
+  for (const double v : response.robots[0].joint_state.velocity) EXPECT_EQ(v, 0.0);
+
+  robot.joint_torques = cr::RobotState::JOINT_TORQUES_GRAVITY_COMPENSATION;
+  response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_TRUE(response.impulses[0].resting);
+  EXPECT_LE(response.impulses[0].normal_force, 1e-9);
+
+  {
+    cr::ComputeResponse bad = srv;
+    bad.request.robots[0].joint_torques = 7;
+    expectRejected(bad, "robots[0].joint_torques");
+  }
+  {
+    cr::ComputeResponse bad = srv;
+    bad.request.robots[0].joint_torques = cr::RobotState::JOINT_TORQUES_EFFORT;
+    bad.request.robots[0].joint_state.effort.pop_back();
+    expectRejected(bad, "robots[0].joint_state.effort");
+  }
+  {
+    // /joint_states carries no effort: a joint whose effort the request leaves out has none.
+    cr::ComputeResponse bad = srv;
+    bad.request.robots[0].joint_torques = cr::RobotState::JOINT_TORQUES_EFFORT;
+    bad.request.robots[0].joint_state.effort.clear();
+    const auto rejected = ServiceTest::expectRejected(bad, "robots[0].joint_state.effort");
+    EXPECT_NE(rejected.message.find("has no effort"), std::string::npos) << rejected.message;
+  }
+  {
+    cr::ComputeResponse bad = srv;
+    bad.request.robots[0].gravity.x = std::numeric_limits<double>::quiet_NaN();
+    expectRejected(bad, "robots[0].gravity.x");
+  }
+}
+
 TEST_F(RobotNodeTest, StaleJointStateIsRejected) {
   // stale_arm's latest message is 5 s old (~joint_state_timeout 2 s).
   ros::Publisher stale = node_.advertise<sensor_msgs::JointState>("/stale_joint_states", 1, true);

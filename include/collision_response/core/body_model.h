@@ -52,6 +52,15 @@ class BodyModel {
       int /*part*/, const Eigen::Vector3d& point) const {
     return inverseMassJacobianTranspose(point);
   }
+  /// Resting contacts (docs/physics.md, "Resting contacts"): the world acceleration [m/s^2] of
+  /// the material point of `part` (-1: the body's own) at world p under the body's own loads alone
+  /// (no contact force): what its wrench, gravity or actuators give, with the velocity-product
+  /// terms (w x (w x r) of a rigid body, J-dot v of a robot). The default, for a model that knows
+  /// of no load, is 0.
+  virtual Eigen::Vector3d partPointFreeAcceleration(int /*part*/,
+                                                    const Eigen::Vector3d& /*point*/) const {
+    return Eigen::Vector3d::Zero();
+  }
   /// The free rigid body behind this model (the solvers' closed-form fast path), or nullptr.
   virtual const RigidBody* asRigidBody() const { return nullptr; }
 

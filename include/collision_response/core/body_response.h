@@ -25,8 +25,11 @@ struct BodyResponse {
 /// velocity unknowns) at the given contacts (body indices into `bodies`, parts for multi-part
 /// bodies): islands of contacts coupled through bodies with unknowns are built into contact
 /// problems (ContactProblem::buildImpact()) and solved by solveIsland() under `options`; the
-/// velocity changes are added to the bodies. Islands without an approaching contact get no
-/// impulse (SolveMethod::kNone; no resting-contact analysis for general bodies). Throws
+/// velocity changes are added to the bodies. An island without an approaching contact gets
+/// no impulse; its resting contacts (|u_n| <= options.resting_velocity) get the contact forces of
+/// the force-based Coulomb model (solveRestingIsland(), ContactProblem::buildResting()) from each
+/// body's BodyModel::partPointFreeAcceleration(): a rigid body's after setFreeAcceleration(), a
+/// robot's from its loads (ArticulatedBody::setLoads()). Throws
 /// InvalidInput naming "contacts[i].<field>" for a body index out of range, a contact of a part
 /// with itself (two parts of one body, such as two links of a robot, may touch: the contact's W
 /// then has the cross terms of its two Jacobians), a normal that is not unit length (1e-6) or

@@ -83,6 +83,13 @@ class ContactProblem {
                     const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
                     double resting_velocity);
 
+  /// The same for general bodies: a side's free acceleration is its
+  /// BodyModel::partPointFreeAcceleration() (a rigid body's is set by setFreeAcceleration(), a
+  /// robot's by its loads).
+  void buildResting(const std::vector<const BodyModel*>& bodies,
+                    const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
+                    double resting_velocity);
+
   /// One contact between two free rigid bodies as a problem entry on its own (local_a, local_b
   /// unset), for the closed forms: K, the frame and u = free_velocity, target -e u_n.
   static ProblemContact rigidImpactContact(const RigidBody& a, const RigidBody& b,
@@ -166,6 +173,10 @@ class ContactProblem {
   /// impulse and sticking (normal velocities are the caller's).
   void scatterImpulses(const std::vector<ContactImpulse>& solved,
                        std::vector<ContactImpulse>& impulses) const;
+  /// The same for the answer of solveRestingIsland() (kAcceleration): resting, normal and
+  /// friction force, sticking.
+  void scatterForces(const std::vector<ContactImpulse>& solved,
+                     std::vector<ContactImpulse>& impulses) const;
 
  private:
   // J (3 x n) and M^-1 J^T (n x 3) of a general body on one side of a contact.
@@ -177,6 +188,11 @@ class ContactProblem {
   int addRigidBody(int index, const RigidBody& body, std::vector<int>& local_of);
   int addGeneralBody(int index, const BodyModel& body, std::vector<int>& local_of);
   void finish();
+  // Appends the entry of contact c (`point`) between general bodies: frame, coefficients, u, K
+  // (with the cross terms when both sides are parts of one body), the sides' J and M^-1 J^T, and
+  // at kAcceleration the free acceleration. max_contacts: the island's size (general_sides_).
+  ProblemContact& addGeneralEntry(const std::vector<const BodyModel*>& bodies, int c,
+                                  const ContactPoint& point, std::size_t max_contacts);
   // motionChange() and addImpulse() when some body is general (any side kind).
   Eigen::Vector3d generalMotionChange(std::size_t i, const Eigen::VectorXd& velocity_changes) const;
   void generalAddImpulse(std::size_t i, const Eigen::Vector3d& impulse,

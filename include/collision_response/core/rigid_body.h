@@ -18,12 +18,23 @@ struct RigidBody final : BodyModel {
   Eigen::Vector3d com = Eigen::Vector3d::Zero();               ///< centre of mass, world [m]
   Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();   ///< world [m/s]
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< world [rad/s]
+  /// Resting contacts: the accelerations under the body's wrench alone (setFreeAcceleration()),
+  /// centre of mass [m/s^2] and angular [rad/s^2], world; zero unless set.
+  Eigen::Vector3d linear_acceleration = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_acceleration = Eigen::Vector3d::Zero();
 
   bool movable() const { return inverse_mass > 0.0; }
 
   /// Velocity of the material point at offset r from the centre of mass [m/s].
   Eigen::Vector3d pointVelocity(const Eigen::Vector3d& r) const {
     return linear_velocity + angular_velocity.cross(r);
+  }
+
+  /// Acceleration of the material point at offset r from the centre of mass under the wrench
+  /// alone [m/s^2]: a + alpha x r + w x (w x r).
+  Eigen::Vector3d pointFreeAcceleration(const Eigen::Vector3d& r) const {
+    return linear_acceleration + angular_acceleration.cross(r) +
+           angular_velocity.cross(angular_velocity.cross(r));
   }
 
   /// Applies the impulse p [N s] at offset r from the centre of mass (no-op for immovable bodies).
@@ -44,11 +55,20 @@ struct RigidBody final : BodyModel {
   Eigen::Matrix<double, Eigen::Dynamic, 3> inverseMassJacobianTranspose(
       const Eigen::Vector3d& point) const override;
   void addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) override;
+  Eigen::Vector3d partPointFreeAcceleration(int /*part*/,
+                                            const Eigen::Vector3d& point) const override {
+    return pointFreeAcceleration(point - com);
+  }
   const RigidBody* asRigidBody() const override { return this; }
 };
 
-/// Builds the solver's view of a validated body state.
+/// Builds the solver's view of a validated body state (velocities; no accelerations: impacts do
+/// not need them).
 RigidBody makeRigidBody(const BodyState& state);
+
+/// Sets body.linear_acceleration and angular_acceleration from the state's wrench (resting
+/// contacts): a = F / m, alpha = Iw^-1 (tau - w x Iw w); zero for an immovable body.
+void setFreeAcceleration(const BodyState& state, RigidBody& body);
 
 /// [r]x, the matrix with [r]x y = r x y (inline: K of every rigid contact is built from it).
 inline Eigen::Matrix3d skew(const Eigen::Vector3d& r) {

@@ -24,6 +24,7 @@ struct MagnitudeLimits {
   static constexpr double kLength = 1e7;                ///< [m], |position|, |com|, |point|
   static constexpr double kSpeed = 1e7;                 ///< [m/s] and [rad/s]
   static constexpr double kForce = 1e18;                ///< [N] and [N m]
+  static constexpr double kAcceleration = 1e9;          ///< [m/s^2], a robot's gravity
   /// Largest lever arm of a contact over the smallest radius of gyration of its body, |r| / k_min
   /// with k_min^2 = I_min / m. The contact-space matrix K holds terms up to |r|^2 / I_min next to
   /// 1 / m: past (1e6)^2 its round-off exceeds 1 / m and n^T K n loses even its sign.

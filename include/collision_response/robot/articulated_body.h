@@ -109,6 +109,26 @@ class ArticulatedBody final : public core::BodyModel {
   /// Total linear [N s] and angular momentum about the world origin [N m s], world.
   Eigen::Matrix<double, 6, 1> momentum() const;
 
+  // --- Loads (resting contacts, docs/robots.md, "Resting contacts") ---------------------------
+  /// The joint torques tau [N m revolute, N prismatic] the actuators apply (jointCount() entries,
+  /// joint order; a locked joint's entry is unused: its acceleration is 0) and the gravitational
+  /// acceleration g [m/s^2], world (e.g. (0, 0, -9.81) for a z-up world). Default: zero torques,
+  /// no gravity. Kept across setState(). Throws std::invalid_argument on a wrong size.
+  void setLoads(const Eigen::VectorXd& joint_torques, const Eigen::Vector3d& gravity);
+  const Eigen::VectorXd& jointTorques() const { return torques_; }
+  const Eigen::Vector3d& gravity() const { return gravity_; }
+  /// The joint torques that hold the robot still against gravity at its configuration, g(q)
+  /// (every joint, locked ones included) [N m | N]: gravity compensation.
+  Eigen::VectorXd gravityTorques() const;
+  /// h(q, v) in the velocity unknowns: the generalized forces the unknowns need for zero
+  /// acceleration, C(q, v) v + g(q) (Coriolis, centrifugal and gravity; the base's as a force [N]
+  /// and a moment about the base origin [N m], world), so that M vdot + h = tau.
+  Eigen::VectorXd biasForces() const;
+  /// vdot = M^-1 (tau - h): the acceleration of the velocity unknowns under the loads alone
+  /// (locked joints: 0; the base's as the acceleration of its origin [m/s^2] and angular
+  /// acceleration [rad/s^2]).
+  Eigen::VectorXd freeAcceleration() const;
+
   // --- core::BodyModel
   // -----------------------------------------------------------------------------
   int velocityCount() const override { return unknowns_; }
@@ -130,8 +150,28 @@ class ArticulatedBody final : public core::BodyModel {
       int part, const Eigen::Vector3d& point) const override;
   Eigen::Matrix<double, Eigen::Dynamic, 3> partInverseMassJacobianTranspose(
       int part, const Eigen::Vector3d& point) const override;
+  /// The material point's acceleration under the loads alone: J(p) vdot + J-dot(p) v, from the
+  /// links' accelerations for freeAcceleration(), computed on the first call after a change of
+  /// state or loads (not thread-safe on one object, as setState() is not).
+  Eigen::Vector3d partPointFreeAcceleration(int part, const Eigen::Vector3d& point) const override;
 
  private:
+  /// A link's spatial acceleration, world, at the world origin: angular [rad/s^2] and the
+  /// derivative of the velocity field at the origin [m/s^2] (the time derivative of a twist).
+  struct Acceleration {
+    Eigen::Vector3d angular = Eigen::Vector3d::Zero();
+    Eigen::Vector3d linear = Eigen::Vector3d::Zero();
+  };
+  /// Recursive Newton-Euler: the generalized forces (per joint, and the base's 6 as for its
+  /// unknowns) that give the joints the accelerations `joint_accelerations` (jointCount()) and the
+  /// base the acceleration `base_acceleration` (origin [m/s^2], angular [rad/s^2]; a floating base
+  /// only), with the joints' velocities if `with_velocity`, under gravity. Writes the links'
+  /// accelerations (gravity not included) to `accelerations` if not null.
+  void inverseDynamics(const Eigen::VectorXd& joint_accelerations,
+                       const Eigen::Matrix<double, 6, 1>& base_acceleration, bool with_velocity,
+                       Eigen::VectorXd& joint_forces, Eigen::Matrix<double, 6, 1>& base_forces,
+                       std::vector<Acceleration>* accelerations) const;
+  void updateFreeAccelerations() const;
   /// Mass properties of a rigid body in the world frame, about the world origin: mass m [kg],
   /// first moment h = m c [kg m] (c its centre of mass), rotational inertia I_o about the origin
   /// [kg m^2]. Such inertias of bodies add (composite bodies).
@@ -194,6 +234,11 @@ class ArticulatedBody final : public core::BodyModel {
   Eigen::MatrixXd mass_matrix_;
   Eigen::LLT<Eigen::MatrixXd> factor_;
   std::string singular_;
+  Eigen::VectorXd torques_;                            // tau, joint order
+  Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();  // g, world
+  // Links' accelerations under the loads alone (partPointFreeAcceleration()), valid if the flag.
+  mutable std::vector<Acceleration> free_accelerations_;
+  mutable bool free_accelerations_valid_ = false;
 };
 
 }  // namespace collision_response::robot

@@ -10,19 +10,21 @@
 
 namespace collision_response {
 
-/// The latest position and velocity of each joint of one robot, as they arrive on its joint-state
-/// topic (docs/robots.md, "Robots through ROS"). Kept per joint, so that several publishers of
-/// parts of the robot (an arm and its gripper) on one topic combine; joints of other robots on the
-/// same topic are ignored. Thread-safe: the subscriber writes while requests read.
+/// The latest position, velocity and effort of each joint of one robot, as they arrive on its
+/// joint-state topic (docs/robots.md, "Robots through ROS"). Kept per joint, so that several
+/// publishers of parts of the robot (an arm and its gripper) on one topic combine; joints of other
+/// robots on the same topic are ignored. Thread-safe: the subscriber writes while requests read.
 class JointStateCache {
  public:
   /// One joint's latest values; `stamp` is the message's header.stamp, or its arrival time if the
-  /// message was not stamped. has_position / has_velocity: a message gave the value.
+  /// message was not stamped. has_position / has_velocity / has_effort: a message gave the value.
   struct Sample {
     double position = 0.0;  ///< [rad | m]
     double velocity = 0.0;  ///< [rad/s | m/s]
+    double effort = 0.0;    ///< [N m | N]
     bool has_position = false;
     bool has_velocity = false;
+    bool has_effort = false;
     ros::Time stamp;
   };
 

@@ -31,7 +31,11 @@ std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const st
 /// ".locked_joints[k]" for an unknown joint and ".locked_joints" when the unlocked joints leave M
 /// singular. A joint whose velocity neither the request nor the topic gives (publishers of
 /// positions only, such as joint_state_publisher) is at rest, with a line in `warnings` (if not
-/// null).
+/// null). The loads of resting contacts (ArticulatedBody::setLoads()): msg.gravity (request frame;
+/// ".gravity" if not finite or beyond 1e9 m/s^2) and the torques msg.joint_torques names: gravity
+/// compensation g(q), none, or joint_state.effort (".joint_state.effort" for an array neither empty
+/// nor as long as name, a value not finite, or a free joint whose effort is given nowhere or is
+/// older than `timeout`); ".joint_torques" for another value.
 robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const RobotState& msg,
                                            const Eigen::Isometry3d& base_pose, const ros::Time& now,
                                            double timeout, const std::string& field,
