@@ -55,6 +55,41 @@ void run(benchmark::State& state, bool locked) {
   }
 }
 
+// A resting prediction (docs/robots.md, "Resting contacts"): the arm at rest at the scene's q, its
+// hand on a table (n = +z), gravity -z, its actuators pushing 20 N into the table. Per request:
+// the state, the loads, and computeBodyResponse() (an island without an approaching contact: the
+// free acceleration by two Newton-Euler passes and M's factor, the force in closed form).
+// Argument 0: the torques given (as JointState.effort); 1: gravity compensation computed per
+// request (the node's default), no push.
+void BM_Arm7RestsOnTable(benchmark::State& state) {
+  const bool compensation = state.range(0) == 1;
+  const collision_response::bench::ArmBoxScene scene;
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(ROBOT_URDF_DIR "/arm7.urdf");
+  const Eigen::VectorXd q = scene.q, rest = Eigen::VectorXd::Zero(arm.jointCount());
+  const Eigen::Vector3d g(0, 0, -9.81), n = Eigen::Vector3d::UnitZ();
+  const int hand = arm.linkIndex("hand");
+  arm.setState(q, rest);
+  const Eigen::Vector3d p = arm.linkPose(hand).translation();
+  arm.setLoads(rest, g);
+  const Eigen::VectorXd push =
+      arm.gravityTorques() - arm.linkPointJacobian(hand, p).transpose() * n * 20.0;
+  cr::ContactPoint contact(0, 1, p, n, 0.0, scene.static_friction, scene.dynamic_friction);
+  contact.part_b = hand;
+  const std::vector<cr::ContactPoint> contacts = {contact};
+  cr::RigidBody table;
+  for (auto _ : state) {
+    arm.setState(q, rest);
+    if (compensation) {
+      arm.setLoads(rest, g);
+      arm.setLoads(arm.gravityTorques(), g);
+    } else {
+      arm.setLoads(push, g);
+    }
+    const cr::BodyResponse out = cr::computeBodyResponse({&table, &arm}, contacts);
+    benchmark::DoNotOptimize(out.impulses[0].normal_force);
+  }
+}
+
 void BM_Arm7StrikesBox(benchmark::State& state) {
   run(state, false);
 }
@@ -68,4 +103,5 @@ void BM_Arm7LockedStrikesBox(benchmark::State& state) {
 // (closed form): the difference is the law's cost, the rest the robot's.
 BENCHMARK(BM_Arm7StrikesBox)->Arg(0)->Arg(1);
 BENCHMARK(BM_Arm7LockedStrikesBox)->Arg(0)->Arg(1);
+BENCHMARK(BM_Arm7RestsOnTable)->Arg(0)->Arg(1);
 BENCHMARK_MAIN();
