@@ -118,8 +118,9 @@ TEST(RobotResting, TwoLinkTipSlidingOnASurfaceTextbookDynamics) {
 // centre of mass and inertia of two_link::composite()), spinning (w not along a principal axis:
 // gyroscopic terms) under gravity along an oblique direction, touching an immovable surface at a
 // point of its forearm whose velocity the surface's normal is perpendicular to, sliding with
-// friction. Its contact force equals the rigid resting analysis of that composite body with the
-// weight m g as its wrench (computeResponse(), an independent path) to 1e-12.
+// friction. Its base accelerates as the composite body does, and its contact force equals the
+// rigid resting analysis of that composite body with the weight m g as its wrench
+// (computeResponse(), an independent path) to 1e-12.
 TEST(RobotResting, LockedFloatingRobotRestsAsItsCompositeRigidBody) {
   const double q1 = 0.3, q2 = 0.7;
   const Vector3d v_o(0.2, -0.1, 0.05), w(0.4, 0.9, -0.6);  // base twist
@@ -129,6 +130,16 @@ TEST(RobotResting, LockedFloatingRobotRestsAsItsCompositeRigidBody) {
   arm.setState(Vector2d(q1, q2), Vector2d::Zero(), Eigen::Isometry3d::Identity(), v_o, w);
   arm.setLoads(Vector2d::Zero(), g);
   const two_link::Composite body = two_link::composite(q1, q2);
+  // The base's unknowns accelerate as the composite body's point at the base origin o = 0:
+  // alpha = -I^-1 (w x I w) (no torque about the centre of mass), a_o = g + alpha x (o - c) +
+  // w x (w x (o - c)).
+  const Vector3d alpha = -body.inertia.inverse() * w.cross(body.inertia * w);
+  const Vector3d r = -body.com;
+  const VectorXd base_acceleration = arm.freeAcceleration();
+  ASSERT_EQ(base_acceleration.size(), 6);
+  EXPECT_LE((base_acceleration.head<3>() - (g + alpha.cross(r) + w.cross(w.cross(r)))).norm(),
+            1e-12);
+  EXPECT_LE((base_acceleration.tail<3>() - alpha).norm(), 1e-12);
 
   cr::Scene scene;
   cr::BodyState surface;
