@@ -396,6 +396,16 @@ Eigen::Matrix<double, Eigen::Dynamic, 3> ArticulatedBody::partInverseMassJacobia
   return factor_.solve(partPointJacobian(part, point).transpose());
 }
 
+Eigen::VectorXd ArticulatedBody::jointTorquesOf(int link, const Eigen::Vector3d& point,
+                                                const Eigen::Vector3d& force) const {
+  Eigen::VectorXd torques = Eigen::VectorXd::Zero(jointCount());
+  for (int l = checkLink(link); l > 0; l = links_[l].parent) {
+    const int j = links_[l].joint;
+    if (j >= 0) torques(j) = velocityAt(links_[l].axis, point).dot(force);
+  }
+  return torques;
+}
+
 double ArticulatedBody::kineticEnergy() const {
   double energy = 0.0;
   for (const Link& link : links_) {

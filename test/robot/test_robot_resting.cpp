@@ -68,6 +68,13 @@ TEST(RobotResting, PendulumOnASupportCarriesTheWeightByTheLever) {
         EXPECT_LE(c.friction_force.norm(), 1e-12);
         // Resting forces change no velocity.
         EXPECT_EQ(rod.jointVelocities()(0), 0.0);
+        // Statics about the hinge: the actuator and the support hold the weight's moment.
+        const Vector3d on_rod = c.normal_force * Vector3d::UnitY() + c.friction_force;
+        const double support_torque =
+            rod.jointTorquesOf(rod.linkIndex("rod"), contact.point, on_rod)(0);
+        if (tau <= kG) {
+          EXPECT_NEAR(tau + support_torque, kG, 1e-12);
+        }
       }
     }
   }

@@ -397,8 +397,9 @@ TEST_F(RobotNodeTest, HandPushingOnATableFeelsItsOwnPush) {
   const Eigen::Vector3d p = arm.linkPose(hand) * Eigen::Vector3d(0, 0, 0.03);
   arm.setLoads(Eigen::VectorXd::Zero(q.size()), Eigen::Vector3d(0, 0, -9.81));
   const double f0 = 20.0;
-  const Eigen::VectorXd tau = arm.gravityTorques() - arm.linkPointJacobian(hand, p).transpose() *
-                                                         Eigen::Vector3d::UnitZ() * f0;
+  const Eigen::VectorXd gravity_torques = arm.gravityTorques();
+  const Eigen::VectorXd tau =
+      gravity_torques - arm.linkPointJacobian(hand, p).transpose() * Eigen::Vector3d::UnitZ() * f0;
 
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
@@ -427,6 +428,13 @@ TEST_F(RobotNodeTest, HandPushingOnATableFeelsItsOwnPush) {
   EXPECT_EQ(response.islands[0].method, "resting_closed_form");
   ASSERT_EQ(response.robots.size(), 1u);
   for (const double v : response.robots[0].joint_state.velocity) EXPECT_EQ(v, 0.0);
+  // Statics: the actuators' torques and the contact's hold the arm against gravity,
+  // tau + J^T F = g(q).
+  ASSERT_EQ(response.robots[0].contact_joint_torques.size(), kJoints.size());
+  for (std::size_t j = 0; j < kJoints.size(); ++j) {
+    EXPECT_NEAR(tau(j) + response.robots[0].contact_joint_torques[j], gravity_torques(j), 1e-9)
+        << kJoints[j];
+  }
 
   robot.joint_torques = cr::RobotState::JOINT_TORQUES_GRAVITY_COMPENSATION;
   response = call(srv);

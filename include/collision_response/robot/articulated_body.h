@@ -104,6 +104,11 @@ class ArticulatedBody final : public core::BodyModel {
   Eigen::VectorXd generalizedImpulse(const Eigen::VectorXd& velocity_change) const {
     return mass_matrix_ * velocity_change;
   }
+  /// The generalized force a force F [N] applied at world p on `link` exerts on every joint, J(p)^T
+  /// F over all joints (locked ones included: what their brake or controller holds), joint order [N
+  /// m revolute, N prismatic]. The same for an impulse [N s] gives N m s | N s.
+  Eigen::VectorXd jointTorquesOf(int link, const Eigen::Vector3d& point,
+                                 const Eigen::Vector3d& force) const;
   /// Kinetic energy (1/2) v_all^T M_all v_all of the whole robot, locked joints included [J].
   double kineticEnergy() const;
   /// Total linear [N s] and angular momentum about the world origin [N m s], world.
