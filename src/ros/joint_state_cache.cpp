@@ -32,6 +32,7 @@ void JointStateCache::update(const sensor_msgs::JointState& message, const ros::
     if (effort) {
       sample.effort = message.effort[k];
       sample.has_effort = true;
+      sample.effort_stamp = stamp;
     }
     sample.stamp = stamp;
   }

@@ -33,10 +33,11 @@ void requireFinite(const Eigen::Vector3d& v, double limit, const std::string& fi
   }
 }
 
-// Throws naming `field` if the sample (`what` on `topic`) is older than `timeout` [s] at `now`.
-void requireRecent(const JointStateCache::Sample& sample, const ros::Time& now, double timeout,
+// Throws naming `field` if a value stamped `stamp` (`what` on `topic`) is older than `timeout` [s]
+// at `now`.
+void requireRecent(const ros::Time& stamp, const ros::Time& now, double timeout,
                    const std::string& field, const std::string& what, const std::string& topic) {
-  const double age = (now - sample.stamp).toSec();
+  const double age = (now - stamp).toSec();
   if (age > timeout) {
     throw core::InvalidInput(field, "the latest " + what + " on " + topic + " is " +
                                         std::to_string(age) +
@@ -61,7 +62,10 @@ Eigen::VectorXd requestEfforts(const ServedRobot& robot, const RobotState& msg,
   Eigen::VectorXd torques = Eigen::VectorXd::Zero(joints);
   std::vector<bool> has_effort(joints, false);
   for (std::size_t k = 0; k < given.effort.size(); ++k) {
-    const int joint = robot.jointIndex(given.name[k], indexed(field + ".joint_state.name", k));
+    const std::string name_field = indexed(field + ".joint_state.name", k);
+    const int joint = robot.jointIndex(given.name[k], name_field);
+    if (has_effort[joint])
+      throw core::InvalidInput(name_field, "repeats joint '" + given.name[k] + "'");
     requireFiniteWithin(given.effort[k], Limits::kForce, indexed(effort_field, k), "N m or N");
     torques(joint) = given.effort[k];
     has_effort[joint] = true;
@@ -80,8 +84,13 @@ Eigen::VectorXd requestEfforts(const ServedRobot& robot, const RobotState& msg,
                                                  "none received on " +
                                                  topic);
     }
-    requireRecent(sample, now, timeout, effort_field, "effort of joint '" + name + "'", topic);
-    requireFiniteWithin(sample.effort, Limits::kForce, effort_field, "N m or N");
+    requireRecent(sample.effort_stamp, now, timeout, effort_field, "effort of joint '" + name + "'",
+                  topic);
+    if (!std::isfinite(sample.effort) || std::abs(sample.effort) > Limits::kForce) {
+      throw core::InvalidInput(effort_field, "the latest effort of joint '" + name + "' on " +
+                                                 topic + " is not finite or beyond " +
+                                                 std::to_string(Limits::kForce) + " N m or N");
+    }
     torques(joint) = sample.effort;
   }
   return torques;
@@ -201,7 +210,8 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
                                                   "none received on " +
                                                   topic);
       }
-      requireRecent(sample, now, timeout, state_field, "state of joint '" + name + "'", topic);
+      requireRecent(sample.stamp, now, timeout, state_field, "state of joint '" + name + "'",
+                    topic);
       if (!has_position[joint]) {
         requireFiniteWithin(sample.position, Limits::kLength, state_field, "rad or m");
         q(joint) = sample.position;

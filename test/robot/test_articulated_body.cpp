@@ -225,6 +225,53 @@ TEST(ArticulatedBody, Arm7PointAccelerationIsTheDerivativeOfItsVelocity) {
   }
 }
 
+// A floating arm moving freely (random joint rates, torques and base twist) under gravity alone:
+// its joint torques are internal, so its linear momentum changes at m_total g (Newton's second law
+// for the system). The rate is the central difference of momentum() over states 1e-5 s apart along
+// the free acceleration (joints q +- qdot dt + qddot dt^2 / 2; base origin likewise; base rotation
+// exp(+-w dt + alpha dt^2 / 2)); it checks the floating base's unknowns, h's base rows and the
+// Coriolis terms of moving joints together.
+TEST(ArticulatedBody, FloatingArmMomentumChangesByItsWeight) {
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7, rb::BaseType::kFloating);
+  const Vector3d g(0.6, -1.1, -9.81);
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double dt = 1e-5;
+  for (int trial = 0; trial < 5; ++trial) {
+    VectorXd q(9), qdot(9), tau(9);
+    for (int i = 0; i < 9; ++i) {
+      q(i) = 3 * u(rng);
+      qdot(i) = u(rng);
+      tau(i) = 5 * u(rng);
+    }
+    q(7) = q(8) = 0.02;
+    const Vector3d v_b(u(rng), u(rng), u(rng)), w(u(rng), u(rng), u(rng));
+    Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+    base.translation() = Vector3d(0.3, -0.2, 0.5);
+    base.linear() = Eigen::AngleAxisd(1.0, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    arm.setLoads(tau, g);
+    arm.setState(q, qdot, base, v_b, w);
+    const double mass = arm.massMatrix()(0, 0);  // the base's translation moves every link
+    const VectorXd vdot = arm.freeAcceleration();
+    const Vector3d a_b = vdot.head<3>(), alpha = vdot.segment<3>(3);
+    VectorXd qddot = vdot.tail(9);
+    Vector3d momentum[2];
+    for (int side = 0; side < 2; ++side) {
+      const double h = side == 0 ? -dt : dt;
+      Eigen::Isometry3d pose = base;
+      const Vector3d turn = w * h + 0.5 * alpha * h * h;
+      pose.linear() = Eigen::AngleAxisd(turn.norm(), turn.normalized()) * base.linear();
+      pose.translation() = base.translation() + v_b * h + 0.5 * a_b * h * h;
+      arm.setState(q + qdot * h + 0.5 * qddot * h * h, qdot + qddot * h, pose, v_b + a_b * h,
+                   w + alpha * h);
+      momentum[side] = arm.momentum().head<3>();
+    }
+    const Vector3d rate = (momentum[1] - momentum[0]) / (2 * dt);
+    EXPECT_LE((rate - mass * g).norm(), 1e-5 * mass * g.norm())
+        << "trial " << trial << ": " << rate.transpose() << " against " << (mass * g).transpose();
+  }
+}
+
 // Armature: a single joint's M is I_hinge + I_a; locking the joint removes the unknown.
 TEST(ArticulatedBody, JointModels) {
   rb::ArticulatedBody rod = rb::robotFromUrdfFile(kDir + "/pendulum.urdf");

@@ -384,18 +384,21 @@ TEST_F(RobotNodeTest, BadRobotInputIsNamed) {
 }
 
 // Resting contacts through the node: the arm at rest at the published positions, its hand on a
-// table (n = +z, request frame "world"), gravity -z. Its joint torques (joint_state.effort under
-// JOINT_TORQUES_EFFORT) are gravity compensation plus the torques of a push F0 = 20 N into the
-// table, tau = g(q) - J(p)^T n F0 (from the reference model): the table pushes back with exactly
-// F0 (statics), and no velocity changes. Gravity compensation alone (the default) rests the hand
-// on the table without pressing. Bad values are named.
+// table (n = +z, request frame "world"), gravity mostly along -z. Its joint torques
+// (joint_state.effort under JOINT_TORQUES_EFFORT) are gravity compensation plus the torques of a
+// push F0 = 20 N into the table, tau = g(q) - J(p)^T n F0 (from the reference model): the table
+// pushes back with exactly F0 (statics), and no velocity changes. Gravity compensation alone (the
+// default) rests the hand on the table without pressing. Bad values are named.
 TEST_F(RobotNodeTest, HandPushingOnATableFeelsItsOwnPush) {
   cr::robot::ArticulatedBody arm = referenceArm();
   const Eigen::VectorXd q = vector(kPublishedPositions);
   arm.setState(q, Eigen::VectorXd::Zero(q.size()), worldToBase());
   const int hand = arm.linkIndex("hand");
   const Eigen::Vector3d p = arm.linkPose(hand) * Eigen::Vector3d(0, 0, 0.03);
-  arm.setLoads(Eigen::VectorXd::Zero(q.size()), Eigen::Vector3d(0, 0, -9.81));
+  // Gravity oblique to the base's axes (the base is turned about z): a mix-up of the request frame
+  // and the base frame would show.
+  const Eigen::Vector3d gravity(1.2, -0.7, -9.7);
+  arm.setLoads(Eigen::VectorXd::Zero(q.size()), gravity);
   const double f0 = 20.0;
   const Eigen::VectorXd gravity_torques = arm.gravityTorques();
   const Eigen::VectorXd tau =
@@ -416,7 +419,7 @@ TEST_F(RobotNodeTest, HandPushingOnATableFeelsItsOwnPush) {
   robot.joint_state.position = kPublishedPositions;
   robot.joint_state.velocity.assign(kJoints.size(), 0.0);
   robot.joint_state.effort.assign(tau.data(), tau.data() + tau.size());
-  robot.gravity.z = -9.81;
+  robot.gravity = toVector3(gravity);
   robot.joint_torques = cr::RobotState::JOINT_TORQUES_EFFORT;
   auto response = call(srv);
   ASSERT_TRUE(response.success) << response.message;

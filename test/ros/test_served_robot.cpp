@@ -142,6 +142,44 @@ TEST_F(RobotStateTest, TheRequestOverridesTheLatestPerJoint) {
   EXPECT_EQ(given.jointVelocities(), Eigen::Vector2d(3.0, 4.0));
 }
 
+// JOINT_TORQUES_EFFORT: tau from the request's effort, else the topic's. An effort is as old as the
+// message that gave it: a newer positions-only message does not refresh it.
+TEST_F(RobotStateTest, EffortsFromTheRequestOrTheTopicWithTheirOwnAge) {
+  const auto& joints = served_.model().jointNames();
+  cr::RobotState msg;
+  msg.name = "arm";
+  msg.joint_state.name = joints;
+  msg.joint_state.position = {0.1, 0.2};
+  msg.joint_state.velocity = {0.0, 0.0};
+  msg.joint_torques = cr::RobotState::JOINT_TORQUES_EFFORT;
+  msg.gravity.y = -9.81;
+  msg.joint_state.effort = {1.5, -0.5};
+  EXPECT_EQ(at(msg).jointTorques(), Eigen::Vector2d(1.5, -0.5));
+  msg.joint_state.effort.clear();
+  expectField([&] { at(msg); }, "robots[0].joint_state.effort", "has no effort");
+  sensor_msgs::JointState efforts;
+  efforts.header.stamp = now_;
+  efforts.name = joints;
+  efforts.effort = {2.0, 3.0};
+  served_.jointStates().update(efforts, now_);
+  EXPECT_EQ(at(msg).jointTorques(), Eigen::Vector2d(2.0, 3.0));
+  sensor_msgs::JointState positions;  // 1 s later, positions only
+  positions.header.stamp = now_ + ros::Duration(1.0);
+  positions.name = joints;
+  positions.position = {0.1, 0.2};
+  served_.jointStates().update(positions, positions.header.stamp);
+  expectField([&] { at(msg, 1.0); }, "robots[0].joint_state.effort", "~joint_state_timeout");
+  // Gravity compensation (the default) and none need no effort.
+  msg.joint_torques = cr::RobotState::JOINT_TORQUES_NONE;
+  EXPECT_EQ(at(msg, 1.0).jointTorques(), Eigen::Vector2d::Zero());
+  msg.joint_torques = cr::RobotState::JOINT_TORQUES_GRAVITY_COMPENSATION;
+  const cr::robot::ArticulatedBody held = at(msg, 1.0);
+  EXPECT_EQ(held.jointTorques(), held.gravityTorques());
+  EXPECT_GT(held.jointTorques().norm(), 1.0);
+  msg.joint_torques = 3;
+  expectField([&] { at(msg); }, "robots[0].joint_torques");
+}
+
 TEST_F(RobotStateTest, BadValuesAreNamed) {
   const auto& joints = served_.model().jointNames();
   cr::RobotState msg;

@@ -56,7 +56,8 @@ class BodyModel {
   /// the material point of `part` (-1: the body's own) at world p under the body's own loads alone
   /// (no contact force): what its wrench, gravity or actuators give, with the velocity-product
   /// terms (w x (w x r) of a rigid body, J-dot v of a robot). The default, for a model that knows
-  /// of no load, is 0.
+  /// of no load, is 0. A model may compute it on first use and keep it (a robot does): like the
+  /// setters, not to be called on one object from several threads at once.
   virtual Eigen::Vector3d partPointFreeAcceleration(int /*part*/,
                                                     const Eigen::Vector3d& /*point*/) const {
     return Eigen::Vector3d::Zero();

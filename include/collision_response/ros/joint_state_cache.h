@@ -26,6 +26,7 @@ class JointStateCache {
     bool has_velocity = false;
     bool has_effort = false;
     ros::Time stamp;
+    ros::Time effort_stamp;  ///< the stamp of the message that gave `effort` (publishers differ)
   };
 
   /// The joints to keep, in the model's order (ArticulatedBody::jointNames()).
