@@ -31,6 +31,23 @@ namespace {
 const std::string kDir = ROBOT_TEST_DIR;
 const std::string kArm7 = ARM7_URDF;  // the shipped arm, urdf/arm7.urdf
 
+// A random state of the whole arm (9 joints): q in [-3, 3] rad (fingers 0.02 m open), qdot in
+// [-1, 1] rad/s, joint torques in [-5, 5] N m.
+struct ArmMotion {
+  VectorXd q = VectorXd(9), qdot = VectorXd(9), tau = VectorXd(9);
+};
+ArmMotion randomArmMotion(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  ArmMotion out;
+  for (int i = 0; i < 9; ++i) {
+    out.q(i) = 3 * u(rng);
+    out.qdot(i) = u(rng);
+    out.tau(i) = 5 * u(rng);
+  }
+  out.q(7) = out.q(8) = 0.02;
+  return out;
+}
+
 }  // namespace
 
 // Pendulum: one unknown, M = I_hinge = m L^2 / 3 = 2/3 kg m^2; at q = 0 the point (d, 0, 0) of the
@@ -193,13 +210,8 @@ TEST(ArticulatedBody, Arm7PointAccelerationIsTheDerivativeOfItsVelocity) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const double dt = 1e-5;
   for (int trial = 0; trial < 5; ++trial) {
-    VectorXd q(9), qdot(9), tau(9);
-    for (int i = 0; i < 9; ++i) {
-      q(i) = 3 * u(rng);
-      qdot(i) = u(rng);
-      tau(i) = 5 * u(rng);
-    }
-    q(7) = q(8) = 0.02;
+    const ArmMotion motion = randomArmMotion(rng);
+    const VectorXd &q = motion.q, &qdot = motion.qdot, &tau = motion.tau;
     arm.setLoads(tau, Vector3d(0, 0, -9.81));
     arm.setState(q, qdot);
     VectorXd qddot = VectorXd::Zero(9);  // the locked joint's stays 0
@@ -238,13 +250,8 @@ TEST(ArticulatedBody, FloatingArmMomentumChangesByItsWeight) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const double dt = 1e-5;
   for (int trial = 0; trial < 5; ++trial) {
-    VectorXd q(9), qdot(9), tau(9);
-    for (int i = 0; i < 9; ++i) {
-      q(i) = 3 * u(rng);
-      qdot(i) = u(rng);
-      tau(i) = 5 * u(rng);
-    }
-    q(7) = q(8) = 0.02;
+    const ArmMotion motion = randomArmMotion(rng);
+    const VectorXd &q = motion.q, &qdot = motion.qdot, &tau = motion.tau;
     const Vector3d v_b(u(rng), u(rng), u(rng)), w(u(rng), u(rng), u(rng));
     Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
     base.translation() = Vector3d(0.3, -0.2, 0.5);
