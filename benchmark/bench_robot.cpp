@@ -80,8 +80,7 @@ void BM_Arm7RestsOnTable(benchmark::State& state) {
   for (auto _ : state) {
     arm.setState(q, rest);
     if (compensation) {
-      arm.setLoads(rest, g);
-      arm.setLoads(arm.gravityTorques(), g);
+      arm.setGravityCompensation(g);
     } else {
       arm.setLoads(push, g);
     }

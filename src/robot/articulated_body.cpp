@@ -406,6 +406,22 @@ Eigen::VectorXd ArticulatedBody::jointTorquesOf(int link, const Eigen::Vector3d&
   return torques;
 }
 
+Eigen::VectorXd ArticulatedBody::restingContactTorques(
+    int self, const std::vector<core::ContactPoint>& contacts,
+    const std::vector<core::ContactImpulse>& answers) const {
+  Eigen::VectorXd torques;
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const core::ContactPoint& contact = contacts[c];
+    if (!answers[c].resting || (contact.body_a != self && contact.body_b != self)) continue;
+    if (torques.size() == 0) torques.setZero(jointCount());
+    const Eigen::Vector3d force =
+        answers[c].normal_force * contact.normal + answers[c].friction_force;
+    if (contact.body_a == self) torques -= jointTorquesOf(contact.part_a, contact.point, force);
+    if (contact.body_b == self) torques += jointTorquesOf(contact.part_b, contact.point, force);
+  }
+  return torques;
+}
+
 double ArticulatedBody::kineticEnergy() const {
   double energy = 0.0;
   for (const Link& link : links_) {
@@ -431,7 +447,19 @@ void ArticulatedBody::setLoads(const Eigen::VectorXd& joint_torques,
   }
   torques_ = joint_torques;
   gravity_ = gravity;
+  gravity_compensation_ = false;
   free_accelerations_valid_ = false;
+}
+
+void ArticulatedBody::setGravityCompensation(const Eigen::Vector3d& gravity) {
+  torques_.setZero(jointCount());
+  gravity_ = gravity;
+  gravity_compensation_ = true;
+  free_accelerations_valid_ = false;
+}
+
+Eigen::VectorXd ArticulatedBody::jointTorques() const {
+  return gravity_compensation_ ? gravityTorques() : torques_;
 }
 
 void ArticulatedBody::inverseDynamics(const Eigen::VectorXd& joint_accelerations,
@@ -520,9 +548,10 @@ Eigen::VectorXd ArticulatedBody::freeAcceleration() const {
   if (unknowns_ == 0) return Eigen::VectorXd();
   requireRegular();
   Eigen::VectorXd rhs = -biasForces();
+  const Eigen::VectorXd torques = jointTorques();
   for (int k = 0; k < unknowns_; ++k) {
     const int joint = joint_of_unknown_[k];
-    if (joint >= 0) rhs(k) += torques_(joint);
+    if (joint >= 0) rhs(k) += torques(joint);
   }
   return factor_.solve(rhs);
 }

@@ -538,28 +538,13 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
     response.impulses.push_back(toMsg(impulse));
   for (const core::SolveReport& island : result.islands) response.islands.push_back(toMsg(island));
   response.effective_masses = result.effective_masses;
-  // Resting contacts on a robot: the joint torques of their forces (+F on b, -F on a).
-  std::vector<Eigen::VectorXd> contact_torques(robots.size());
-  for (std::size_t c = 0; c < points.size(); ++c) {
-    const core::ContactImpulse& impulse = result.impulses[c];
-    if (!impulse.resting) continue;
-    const Eigen::Vector3d force = impulse.normal_force * points[c].normal + impulse.friction_force;
-    const auto add = [&](int body, int part, const Eigen::Vector3d& on_body) {
-      if (body < rigid_count) return;
-      const robot::ArticulatedBody& model = *robots[body - rigid_count].model;
-      Eigen::VectorXd& torques = contact_torques[body - rigid_count];
-      if (torques.size() == 0) torques.setZero(model.jointCount());
-      torques += model.jointTorquesOf(part, points[c].point, on_body);
-    };
-    add(points[c].body_a, points[c].part_a, -force);
-    add(points[c].body_b, points[c].part_b, force);
-  }
   response.robots.reserve(robots.size());
   for (std::size_t r = 0; r < robots.size(); ++r) {
     const RequestRobot& robot = robots[r];
     response.robots.push_back(toMsg(robot.served->name(), *robot.model, robot.velocity_before,
                                     robot.energy_before, robot.base_pose, request.header));
-    const Eigen::VectorXd& torques = contact_torques[r];
+    const Eigen::VectorXd torques = robot.model->restingContactTorques(
+        rigid_count + static_cast<int>(r), points, result.impulses);
     response.robots.back().contact_joint_torques.assign(torques.data(),
                                                         torques.data() + torques.size());
     energy_after += response.robots.back().kinetic_energy_after;

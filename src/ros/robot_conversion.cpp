@@ -97,7 +97,7 @@ Eigen::VectorXd requestEfforts(const ServedRobot& robot, const RobotState& msg,
 }
 
 // The loads of a resting analysis (RobotState.gravity and joint_torques). Gravity compensation
-// costs an inverse-dynamics pass only when there is gravity.
+// is the model's own (computed only if a resting island needs it).
 void setRestingLoads(const ServedRobot& robot, const RobotState& msg, const ros::Time& now,
                      double timeout, const std::string& field, robot::ArticulatedBody& model) {
   const Eigen::Vector3d gravity = toEigen(msg.gravity);
@@ -105,11 +105,8 @@ void setRestingLoads(const ServedRobot& robot, const RobotState& msg, const ros:
   Eigen::VectorXd torques = Eigen::VectorXd::Zero(model.jointCount());
   switch (msg.joint_torques) {
     case RobotState::JOINT_TORQUES_GRAVITY_COMPENSATION:
-      if (!gravity.isZero(0.0)) {
-        model.setLoads(torques, gravity);
-        torques = model.gravityTorques();
-      }
-      break;
+      model.setGravityCompensation(gravity);
+      return;
     case RobotState::JOINT_TORQUES_EFFORT:
       torques = requestEfforts(robot, msg, model, now, timeout, field);
       break;

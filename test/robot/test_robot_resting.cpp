@@ -261,8 +261,7 @@ TEST(RobotResting, BoxWeighsOnTheArmsHand) {
   rb::ArticulatedBody locked = arm;
   for (int j = 0; j < locked.jointCount(); ++j) locked.setJointModel(j, rb::JointModel::kLocked);
   locked.setState(q, VectorXd::Zero(9));
-  arm.setLoads(VectorXd::Zero(9), Vector3d(0, 0, -kG));
-  arm.setLoads(arm.gravityTorques(), Vector3d(0, 0, -kG));
+  arm.setGravityCompensation(Vector3d(0, 0, -kG));
   const auto J = arm.linkPointJacobian(hand, p);
   // The box's point at lever arm r = (0, 0, -0.05) m from its centre: I3 / m - [r]x I^-1 [r]x.
   const Vector3d r(0, 0, -0.05);

@@ -61,6 +61,16 @@ Eigen::VectorXd vector(const std::vector<double>& values) {
   return Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<int>(values.size()));
 }
 
+// Robot "arm" at rest at positions q (kJoints order), its whole joint state in the request.
+cr::RobotState armAtRest(const std::vector<double>& q) {
+  cr::RobotState robot;
+  robot.name = "arm";
+  robot.joint_state.name = kJoints;
+  robot.joint_state.position = q;
+  robot.joint_state.velocity.assign(kJoints.size(), 0.0);
+  return robot;
+}
+
 // The core's answer for the same arm state, box and contact.
 struct Reference {
   cr::robot::ArticulatedBody arm;
@@ -412,12 +422,8 @@ TEST_F(RobotNodeTest, HandPushingOnATableFeelsItsOwnPush) {
   srv.request.bodies = {table};
   srv.request.contacts = {
       contact("table", "arm/hand", p.x(), p.y(), p.z(), 0, 0, 1, 0.0, 0.5, 0.5)};
-  srv.request.robots.resize(1);
+  srv.request.robots = {armAtRest(kPublishedPositions)};
   cr::RobotState& robot = srv.request.robots[0];
-  robot.name = "arm";
-  robot.joint_state.name = kJoints;
-  robot.joint_state.position = kPublishedPositions;
-  robot.joint_state.velocity.assign(kJoints.size(), 0.0);
   robot.joint_state.effort.assign(tau.data(), tau.data() + tau.size());
   robot.gravity = toVector3(gravity);
   robot.joint_torques = cr::RobotState::JOINT_TORQUES_EFFORT;
@@ -582,12 +588,8 @@ TEST_F(RobotNodeTest, FingerPadsOnATableFromTheUrdfGeometry) {
   srv.request.bodies = {table};
   srv.request.detection.mode = cr::DetectionOptions::MODE_ALWAYS;
   srv.request.detection.restitution = 0.3;
-  srv.request.robots.resize(1);
+  srv.request.robots = {armAtRest(q)};
   cr::RobotState& robot = srv.request.robots[0];
-  robot.name = "arm";
-  robot.joint_state.name = kJoints;
-  robot.joint_state.position = q;
-  robot.joint_state.velocity.assign(kJoints.size(), 0.0);
   const Eigen::Quaterniond base_rotation(base.linear());
   robot.base_pose =
       pose(base.translation().x(), base.translation().y(), base.translation().z(), base_rotation);

@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "collision_response/core/body_model.h"
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/contact_point.h"
 
 namespace collision_response::robot {
 
@@ -109,6 +111,12 @@ class ArticulatedBody final : public core::BodyModel {
   /// m revolute, N prismatic]. The same for an impulse [N s] gives N m s | N s.
   Eigen::VectorXd jointTorquesOf(int link, const Eigen::Vector3d& point,
                                  const Eigen::Vector3d& force) const;
+  /// The joint torques that the resting contact forces exert on this robot, body `self` of the
+  /// contact list: sum of jointTorquesOf() over the contacts with a side on it whose answer is
+  /// resting, with the force normal_force n + friction_force (+ on b, - on a). Empty if no resting
+  /// contact touches the robot.
+  Eigen::VectorXd restingContactTorques(int self, const std::vector<core::ContactPoint>& contacts,
+                                        const std::vector<core::ContactImpulse>& answers) const;
   /// Kinetic energy (1/2) v_all^T M_all v_all of the whole robot, locked joints included [J].
   double kineticEnergy() const;
   /// Total linear [N s] and angular momentum about the world origin [N m s], world.
@@ -120,7 +128,13 @@ class ArticulatedBody final : public core::BodyModel {
   /// acceleration g [m/s^2], world (e.g. (0, 0, -9.81) for a z-up world). Default: zero torques,
   /// no gravity. Kept across setState(). Throws std::invalid_argument on a wrong size.
   void setLoads(const Eigen::VectorXd& joint_torques, const Eigen::Vector3d& gravity);
-  const Eigen::VectorXd& jointTorques() const { return torques_; }
+  /// Gravity g [m/s^2], world, and actuators that hold the robot against it at whatever state it
+  /// takes: tau = gravityTorques(), computed only when a resting query needs it (impacts pay
+  /// nothing). Kept across setState() until setLoads().
+  void setGravityCompensation(const Eigen::Vector3d& gravity);
+  bool gravityCompensated() const { return gravity_compensation_; }
+  /// The actuators' torques: those of setLoads(), or g(q) under gravity compensation.
+  Eigen::VectorXd jointTorques() const;
   const Eigen::Vector3d& gravity() const { return gravity_; }
   /// The joint torques that hold the robot still against gravity at its configuration, g(q)
   /// (every joint, locked ones included) [N m | N]: gravity compensation.
@@ -239,7 +253,8 @@ class ArticulatedBody final : public core::BodyModel {
   Eigen::MatrixXd mass_matrix_;
   Eigen::LLT<Eigen::MatrixXd> factor_;
   std::string singular_;
-  Eigen::VectorXd torques_;                            // tau, joint order
+  Eigen::VectorXd torques_;                            // tau, joint order (setLoads())
+  bool gravity_compensation_ = false;                  // tau = g(q) instead
   Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();  // g, world
   // Links' accelerations under the loads alone (partPointFreeAcceleration()), valid if the flag.
   mutable std::vector<Acceleration> free_accelerations_;
