@@ -36,6 +36,7 @@
 #include "collision_response/core/friction_disk.h"
 #include "collision_response/core/least_norm.h"
 #include "collision_response/core/single_contact.h"
+#include "collision_response/core/stick_approach.h"
 
 namespace collision_response::core {
 namespace {
@@ -305,6 +306,122 @@ bool approachStick(const Problem& pr, State& st) {
   return advanceLinear(pr, st, -pr.mu_d * s_mean, piece);
 }
 
+/// Root y in [0, hi] of a value v(y) falling in y, v(hi) < 0 <= v(0), to |v| <= v_tol or a
+/// bracket of relative width 1e-15: Newton's method, kept in the bracket by bisection (every
+/// fourth step, and whenever Newton's step leaves it). `value` returns v and sets dv/dy.
+/// Returns -1 if v is still negative at y = 1e-12 hi: the event lies where the slip direction has
+/// settled to within 1e-12 rad, and its y is not resolved in floating point (a slip that hardly
+/// slows, m << 1); the stepping takes such events.
+template <class Value>
+double fallingRoot(double hi, double v_tol, Value value) {
+  const double width = 1e-15 * hi;
+  double lo = 0.0, y = hi, slope;
+  if (value(1e-12 * hi, slope) < 0.0) return -1.0;
+  for (int i = 0; i < 200; ++i) {
+    const double v = value(y, slope);
+    if (std::abs(v) <= v_tol) return y;
+    if (v < 0.0) {
+      hi = y;
+    } else {
+      lo = y;
+    }
+    if (hi - lo <= width) break;
+    double next = slope < 0.0 ? y - v / slope : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi) || i % 4 == 3) next = 0.5 * (lo + hi);
+    y = next;
+  }
+  return lo;  // v(lo) >= 0: the event has happened
+}
+
+/// The rest of a rotating slip to its stop in closed form (stick_approach.h), with the events on
+/// the way (maximum compression, the end of the impact) located on the same path. Returns true
+/// with the state at the end of the impact (done) or at the stop (`stuck`). Returns false
+/// (integrate on instead) if the series do not converge at the slip's current angle to the
+/// tolerance, if their stop does not cancel the slip, or if an event lies where the slip
+/// direction has settled (fallingRoot()); the state may then have advanced along the path (to
+/// maximum compression).
+bool seriesToStop(const Problem& pr, State& st, StickApproach& approach, bool& stuck) {
+  const Vec2 u_t = pr.slip(st.p, st.P_t);
+  const double sigma = u_t.norm();
+  const double x = approach.distance(u_t / sigma);
+  if (x < 0.0 || !approach.converged(x, 0.01 * pr.tol)) return false;
+  double log_scale = approach.logScale(x, sigma);
+  StickApproach::Remaining rest = approach.remaining(x, log_scale);
+  // The series' error is relative to what remains; the tolerance is relative to the impulse
+  // scale J and the work scale V J: a long way to the stop (a slip that hardly slows while it
+  // turns, events long before the stop) needs the series that much closer.
+  double u_n_stop = pr.normal(st.p + rest.p, st.P_t + rest.P_t);
+  const double size =
+      std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V * pr.J));
+  if (size > 1.0) {
+    if (!approach.converged(x, 0.01 * pr.tol / size)) return false;
+    log_scale = approach.logScale(x, sigma);
+    rest = approach.remaining(x, log_scale);
+    u_n_stop = pr.normal(st.p + rest.p, st.P_t + rest.P_t);
+  }
+  if ((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() > pr.tol * pr.V) return false;
+  // The stop, and the state at angle distance y along the path to it.
+  const double p_stop = st.p + rest.p;
+  const Vec2 P_stop = st.P_t + rest.P_t;
+  const double W_stop = st.W + u_n_stop * rest.p - rest.work_drop;
+  const double m = approach.exponent();
+  const auto remainingAt = [&](double y) {
+    return approach.remaining(y, log_scale + m * std::log(y / x));
+  };
+  const auto setAt = [&](double y) {
+    const StickApproach::Remaining r = remainingAt(y);
+    st.p = p_stop - r.p;
+    st.P_t = P_stop - r.P_t;
+    st.W = W_stop - (u_n_stop * r.p - r.work_drop);
+  };
+  double y_now = x;
+  while (true) {
+    double y;
+    if (!st.restitution) {
+      if (u_n_stop < 0.0) break;  // compression goes on past the stop
+      y = fallingRoot(y_now, 1e-15 * pr.V, [&](double z, double& slope) {
+        const StickApproach::Remaining r = remainingAt(z);
+        slope = -(pr.c - pr.mu_d * pr.b.dot(r.direction)) * r.rate;
+        return u_n_stop - r.u_n_rise;
+      });
+      if (y < 0.0) return false;
+      setAt(y);
+      beginRestitution(pr, st);
+      if (st.done) return true;
+      y_now = y;
+      continue;
+    }
+    if (pr.stronge) {
+      if (W_stop < st.W_end) break;
+      y = fallingRoot(y_now, 1e-15 * pr.V * pr.J, [&](double z, double& slope) {
+        const StickApproach::Remaining r = remainingAt(z);
+        slope = -(u_n_stop - r.u_n_rise) * r.rate;
+        return W_stop - (u_n_stop * r.p - r.work_drop) - st.W_end;
+      });
+      if (y < 0.0) return false;
+      setAt(y);
+      st.W = st.W_end;
+    } else {
+      if (p_stop < st.p_end) break;
+      y = fallingRoot(y_now, 1e-15 * pr.J, [&](double z, double& slope) {
+        const StickApproach::Remaining r = remainingAt(z);
+        slope = -r.rate;
+        return p_stop - r.p - st.p_end;
+      });
+      if (y < 0.0) return false;
+      setAt(y);
+      st.p = st.p_end;
+    }
+    st.done = true;
+    return true;
+  }
+  st.p = p_stop;
+  st.P_t = P_stop;
+  st.W = W_stop;
+  stuck = true;
+  return true;
+}
+
 /// x^(-1/5) for the step-size control, x > 0 finite: a first guess from the exponent bits (the
 /// bit pattern of a double is close to 2^52 (log2 x + 1023)), then three Newton steps on
 /// y^5 x = 1 (relative error below 3e-6 from 1e-12 to 1e12). std::pow costs several times more,
@@ -331,7 +448,27 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
   Vec4 y = st.vec();
   Vec4 f = slipField(pr, y);
   double h = std::min(h_max, 0.05 * pr.J / std::max(f[0], kStickSpeed * pr.V));
+  // The closed-form approach to stop, tried again each time the slip has turned 30 % closer to
+  // its final direction.
+  StickApproach approach;
+  bool series = approach.build(pr.A, pr.b, pr.c, pr.mu_d, pr.slip(st.p, st.P_t).normalized());
+  double retry_below = kInf;
   while (true) {
+    if (series) {
+      const Vec2 u_t = pr.slip(st.p, st.P_t);
+      const double x = approach.distance(u_t.normalized());
+      if (x < 0.0) {
+        series = false;
+      } else if (x < retry_below) {
+        if (seriesToStop(pr, st, approach, stuck)) {
+          stats.series_order = static_cast<std::size_t>(approach.order());
+          return true;
+        }
+        retry_below = 0.7 * x;
+        y = st.vec();
+        f = slipField(pr, y);
+      }
+    }
     if (approachStick(pr, st)) {
       stuck = true;
       return true;

@@ -4,6 +4,7 @@
 // convergence with the tolerance.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
@@ -674,6 +675,125 @@ TEST(ImpulseSpaceIntegrator, ErrorWithinToleranceOfIndependentReference) {
               sum6 / sum8);
   EXPECT_GT(sum6, 30.0 * sum8);
   EXPECT_LE(skipped, scenes / 20);
+}
+
+// A central impact (K_tn = 0: the normal through a free body's centre of mass, the box struck by a
+// locked arm) on an anisotropic body. Slip and normal decouple: u_n = u0_n + c p, so both laws end
+// at p = (1 + e) p_c, and in the clock xi (dp/dxi = |u_t|) the slip is linear, u_t(xi) =
+// exp(-mu A xi) u0_t, so that P_t(xi) = A^-1 (u_t(xi) - u0_t) and p(xi) = integral_0^xi |u_t|.
+// The reference takes A's eigenvectors and Simpson's rule on p(xi) with bisection for the end;
+// the slip's angle turns all the way (stop before the end) or part of it (end while sliding), and
+// the integrator must take the closed-form approach to stop (stick_approach.h) to within the
+// tolerance.
+TEST(ImpulseSpaceIntegrator, CentralImpactOnAnisotropicBodyFollowsMatrixExponential) {
+  std::mt19937_64 rng(kSeed + 7);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const double tol = 1e-10;
+  int by_series = 0, cases = 0, stopped = 0;
+  for (int i = 0; i < 40; ++i) {
+    const double angle = 2.0 * kPi * uni(rng);
+    Eigen::Matrix2d R;
+    R << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+    const Eigen::Vector2d lambda(0.5 + uni(rng), 0.5 + 4.0 * uni(rng));  // [1/kg]
+    const Eigen::Matrix2d A = R * lambda.asDiagonal() * R.transpose();
+    const double c = 0.3 + uni(rng), mu = 0.2 + 0.6 * uni(rng), e = uni(rng);
+    const double slip_angle = 2.0 * kPi * uni(rng);
+    // Slip speed: from a fifth of the one that stops within the impact to twice it.
+    const double speed = (0.2 + 1.8 * uni(rng)) * mu * lambda.minCoeff() / c * 2.0;
+    const Eigen::Vector2d u0_t =
+        speed * Eigen::Vector2d(std::cos(slip_angle), std::sin(slip_angle));
+    const double u0_n = -1.0;
+    Matrix3d K = Matrix3d::Zero();
+    K.topLeftCorner<2, 2>() = A;
+    K(2, 2) = c;
+    cr::ProblemContact contact;
+    contact.normal = Vector3d::UnitZ();
+    contact.tangent1 = Vector3d::UnitX();
+    contact.tangent2 = Vector3d::UnitY();
+    contact.delassus = K;
+    contact.restitution = e;
+    contact.static_friction = mu;
+    contact.dynamic_friction = mu;
+    const Vector3d u(u0_t.x(), u0_t.y(), u0_n);
+    // Reference.
+    const double p_end = (1.0 + e) * -u0_n / c;
+    const Eigen::Vector2d w = R.transpose() * u0_t;  // slip in A's eigenvectors
+    const auto slip = [&](double xi) {
+      return Eigen::Vector2d(w.x() * std::exp(-mu * lambda.x() * xi),
+                             w.y() * std::exp(-mu * lambda.y() * xi));
+    };
+    const auto speedAt = [&](double xi) { return slip(xi).norm(); };
+    const double h = 1e-3 / (mu * lambda.maxCoeff());
+    const auto simpson = [&](double a, double b) {
+      return (b - a) / 6.0 * (speedAt(a) + 4.0 * speedAt(0.5 * (a + b)) + speedAt(b));
+    };
+    double xi = 0.0, p = 0.0;
+    const double xi_far = 60.0 / (mu * lambda.minCoeff());  // |u_t| below 1e-26 |u0_t|
+    while (xi < xi_far) {
+      const double step = simpson(xi, xi + h);
+      if (p + step >= p_end) break;
+      p += step;
+      xi += h;
+    }
+    Eigen::Vector2d P_t_ref;
+    if (xi >= xi_far) {
+      P_t_ref = -A.inverse() * u0_t;  // stopped: u_t' = 0
+      ++stopped;
+    } else {
+      double lo = 0.0, hi = h;
+      for (int k = 0; k < 100; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (p + simpson(xi, xi + mid) < p_end ? lo : hi) = mid;
+      }
+      P_t_ref = A.inverse() * (R * slip(xi + lo) - u0_t);
+    }
+    const double J = u.norm() / c;
+    for (cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+      ++cases;
+      cr::ImpulseSpaceDetail detail;
+      const cr::ContactImpulse imp = cr::integrateSingleContact(contact, u, law, tol, &detail);
+      by_series += detail.series_order > 0;
+      EXPECT_NEAR(imp.normal_impulse, p_end, 10.0 * tol * J) << "case " << i;
+      EXPECT_LE((imp.friction_impulse.head<2>() - P_t_ref).norm(), 10.0 * tol * J)
+          << "case " << i << " " << cr::toString(law) << " series order " << detail.series_order
+          << " steps " << detail.steps;
+    }
+  }
+  std::printf("central anisotropic: %d cases, %d stopped before the end, %d by the series\n", cases,
+              2 * stopped, by_series);
+  EXPECT_GE(stopped, 10);
+  EXPECT_LE(stopped, 30);
+  EXPECT_GE(by_series, cases / 2);
+}
+
+// The robot benchmark's impact (benchmark/robot_scene.h, every joint free): a nearly isotropic
+// K_tt with a small K_tn, the slip turning as it stops early in compression. Against the
+// independent reference, at the default tolerance, by the closed-form approach to stop.
+TEST(ImpulseSpaceIntegrator, ArmStrikingBoxAgreesWithReference) {
+  Matrix3d K;
+  K << 1.2901048492109406, -0.02415525228546242, 0.082023639452016184, -0.02415525228546242,
+      1.409852394609822, 0.084363170271659793, 0.082023639452016184, 0.084363170271659793,
+      0.93222161974540341;
+  const Vector3d u(0.22557361705653528, -0.086619672600669551, -2.0449119452646021);
+  cr::ProblemContact contact;
+  contact.normal = Vector3d::UnitZ();
+  contact.tangent1 = Vector3d::UnitX();
+  contact.tangent2 = Vector3d::UnitY();
+  contact.delassus = K;
+  contact.restitution = 0.5;
+  contact.static_friction = 0.6;
+  contact.dynamic_friction = 0.5;
+  const double J = u.norm() / K(2, 2), tol = 1e-10;
+  for (cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    const Reference ref =
+        referenceImpulse(K, contact.normal, u, 0.5, 0.6, 0.5, law == cr::ImpactLaw::kStronge);
+    ASSERT_TRUE(ref.ok);
+    cr::ImpulseSpaceDetail detail;
+    const cr::ContactImpulse imp = cr::integrateSingleContact(contact, u, law, tol, &detail);
+    EXPECT_GT(detail.series_order, 0u);
+    EXPECT_TRUE(imp.sticking);
+    EXPECT_LE((imp.total(contact.normal) - ref.P).norm(), 10.0 * tol * J) << cr::toString(law);
+  }
 }
 
 }  // namespace

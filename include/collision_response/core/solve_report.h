@@ -36,6 +36,9 @@ struct ImpulseSpaceDetail {
   double error_estimate = 0.0;
   double compression_impulse = 0.0;  ///< p_c, the normal impulse at maximum compression [N s]
   double compression_work = 0.0;     ///< W_c = integral of u_n dp over [0, p_c] [J], <= 0
+  /// Order of the power series that took the slip to its stop in closed form (stick_approach.h),
+  /// 0 if the slip was not finished that way.
+  std::size_t series_order = 0;
   /// The integration hit its segment or step budget (or a contact that cannot end compression):
   /// the rest of the impact was replaced by the perfectly plastic sticking impulse -K^+ u.
   bool fallback = false;

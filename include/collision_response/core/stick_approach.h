@@ -1,0 +1,85 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+
+namespace collision_response::core {
+
+/// Rotating slip that settles into stick, in closed form (docs/physics.md, "Approach to stick in
+/// closed form"). One frictional contact, in its contact basis (t1, t2, n) as in
+/// impulse_space_integrator.cpp: K = [A b; b^T c] (A = K_tt, b = K_tn, c = K_nn) [1/kg],
+/// u_t the slip velocity [m/s] with speed sigma and direction s = (cos theta, sin theta) in
+/// (t1, t2), p the normal impulse [N s]. While sliding, du_t/dp = F(s) = b - mu_d A s.
+///
+/// With the clock xi (dp/dxi = sigma), the angle obeys an equation of its own,
+/// dtheta/dxi = g(theta) = s_perp . F(s), and ln sigma follows, dln(sigma)/dxi = f(theta) = s .
+/// F(s). The slip direction turns monotonically to the nearest zero theta* of g ahead of it; when
+/// that direction attracts (g'(theta*) < 0) and slows the slip (f(theta*) < 0), the slip stops
+/// there at a finite impulse. With y = |theta - theta*| every remaining quantity to the stop is
+/// sigma e^-S(y) times a power series in y (S, H below analytic in y), here summed to the
+/// tolerance:
+///   p_rem = sigma e^-S Ip(y),  P_t,rem = -mu_d sigma e^-S (s* Ic(y) + eps s*_perp Is(y)),
+///   W_rem = u_n,stop p_rem - (sigma e^-S)^2 DH2(y)   (work of the normal impulse [J]).
+/// The series converge for y below the distance from theta* to the next zero of g (real or
+/// complex); converged() says whether they do to a tolerance at a given y.
+class StickApproach {
+ public:
+  /// The approach from slip direction s0 (unit): theta*, the side eps and the leading orders.
+  /// False (no closed form; integrate instead) if the slip does not turn to an attracting
+  /// direction that stops it, if it starts more than a quarter turn away from it, or if
+  /// c <= mu_d |b| (u_n could then fall while sliding, and events need not be monotone).
+  bool build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, double c, double mu_d,
+             const Eigen::Vector2d& s0);
+
+  /// y = |theta(s) - theta*| of a slip direction on the approach's side [rad], or -1 if s lies
+  /// beyond theta* (on the other side).
+  double distance(const Eigen::Vector2d& s) const;
+
+  /// Extends the series until, at y, each converges with a remainder below `relative` times its
+  /// leading term; false if they do not within the order limit (y too far from theta*).
+  bool converged(double y, double relative);
+
+  /// Remaining quantities from angle distance y to the stop, for scale sigma e^-S(y) given as
+  /// log_scale = ln(sigma) - S(y) (see logScale()).
+  struct Remaining {
+    double p = 0.0;                                 ///< normal impulse to the stop [N s]
+    Eigen::Vector2d P_t = Eigen::Vector2d::Zero();  ///< friction impulse to the stop [N s]
+    double u_n_rise = 0.0;   ///< rise of u_n to the stop, b . P_t + c p [m/s]
+    double work_drop = 0.0;  ///< (sigma e^-S)^2 DH2(y) [J]: W_rem = u_n,stop p - work_drop
+    double rate = 0.0;       ///< d p_rem / dy [N s / rad]
+    Eigen::Vector2d direction = Eigen::Vector2d::Zero();  ///< s at y
+  };
+  Remaining remaining(double y, double log_scale) const;
+
+  /// ln(sigma e^-S(y)) of the slip at y with speed sigma; the scale at another y' of the same
+  /// path is this plus m ln(y' / y).
+  double logScale(double y, double sigma) const;
+
+  /// The exponent m = f(theta*) / g'(theta*) > 0: sigma ~ y^m near the stop.
+  double exponent() const { return m_; }
+  /// Highest order of the series computed so far.
+  int order() const { return order_; }
+  /// The highest order converged() computes.
+  static constexpr int kMaxOrder = 48;
+
+ private:
+  /// Appends order k = order() + 1 of every series.
+  void extend();
+  /// gamma(y) = dy/dxi in closed form (y in rad, xi in N s / (m/s)).
+  double gammaAt(double y) const;
+
+  Eigen::Vector2d s_star_, s_perp_;  ///< s at theta*, and s rotated by +90 degrees
+  double eps_ = 1.0;                 ///< theta = theta* + eps y
+  double mu_ = 0.0, c_ = 0.0, m_ = 0.0;
+  double fb_star_ = 0.0, fb_perp_ = 0.0;         ///< b . s*, b . s*_perp
+  double a_ss_ = 0.0, a_sp_ = 0.0, a_pp_ = 0.0;  ///< s*^T A s*, s*^T A s*_perp, s*_perp^T A s*_perp
+  // Taylor coefficients in y: Gamma = gamma / y, phi = f - m Gamma - y Gamma', H = -e^S / Gamma
+  // (dp/dy's regular part, from y Gamma H' = H phi), and the sums' coefficients Ip = H / (m + k),
+  // Ic = (H cos y)_k / (m + k), Is likewise, D = c Ip - mu (b.s*) Ic - mu eps (b.s*_perp) Is,
+  // DH2 = (D H)_k / (2m + k).
+  using Series = std::array<double, kMaxOrder + 1>;
+  int order_ = -1;
+  Series Gamma_, phi_, H_, Ip_, Ic_, Is_, D_, DH2_;
+};
+
+}  // namespace collision_response::core
