@@ -306,45 +306,58 @@ bool approachStick(const Problem& pr, State& st) {
   return advanceLinear(pr, st, -pr.mu_d * s_mean, piece);
 }
 
-/// Root y in [0, hi] of a value v(y) falling in y, v(hi) < 0 <= v(0), to |v| <= v_tol or a
-/// bracket of relative width 1e-15: Newton's method, kept in the bracket by bisection (every
-/// fourth step, and whenever Newton's step leaves it). `value` returns v and sets dv/dy.
-/// Returns -1 if v is still negative at y = 1e-12 hi: the event lies where the slip direction has
-/// settled to within 1e-12 rad, and its y is not resolved in floating point (a slip that hardly
-/// slows, m << 1); the stepping takes such events.
+/// Root y in [0, hi] of a value v(y) falling in y, v(hi) < 0 <= v(0), to |v| <= v_tol.
+/// Near the stop the path's quantities go as y^m, so Newton's method runs in w = y^m, where they
+/// are nearly linear; it bisects instead whenever Newton's step would leave the bracket or not
+/// halve the step before last (as rtsafe does). `value` returns v and sets dv/dy. Returns -1 if v
+/// is still negative at
+/// y = 1e-12 hi: the event lies where the slip direction has settled to within 1e-12 rad, and its
+/// y is not resolved in floating point (a slip that hardly slows, m << 1); the stepping takes
+/// such events.
 template <class Value>
-double fallingRoot(double hi, double v_tol, Value value) {
-  const double width = 1e-15 * hi;
-  double lo = 0.0, y = hi, slope;
+double fallingRoot(double hi, double m, double v_tol, Value value) {
+  double slope;
   if (value(1e-12 * hi, slope) < 0.0) return -1.0;
-  for (int i = 0; i < 200; ++i) {
+  const double w_top = std::pow(hi, m);
+  double lo = 0.0, w_hi = w_top, w = w_top, y = hi;
+  double step = w_top, step_before = w_top;
+  for (int i = 0; i < 100; ++i) {
     const double v = value(y, slope);
     if (std::abs(v) <= v_tol) return y;
     if (v < 0.0) {
-      hi = y;
+      w_hi = w;
     } else {
-      lo = y;
+      lo = w;
     }
-    if (hi - lo <= width) break;
-    double next = slope < 0.0 ? y - v / slope : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi) || i % 4 == 3) next = 0.5 * (lo + hi);
-    y = next;
+    const double slope_w = slope * y / (m * w);  // dv/dw
+    const double newton = slope_w < 0.0 ? w - v / slope_w : -1.0;
+    step_before = step;
+    if (newton > lo && newton < w_hi && std::abs(2.0 * (newton - w)) <= step_before) {
+      step = std::abs(newton - w);
+      w = newton;
+    } else {
+      step = 0.5 * (w_hi - lo);
+      w = lo + step;
+    }
+    y = std::pow(w, 1.0 / m);
+    if (step <= 1e-15 * w_top) return y;  // Newton has converged, or the bracket has closed
   }
-  return lo;  // v(lo) >= 0: the event has happened
+  return std::pow(lo, 1.0 / m);  // v >= 0 there: the event has happened
 }
 
 /// The rest of a rotating slip to its stop in closed form (stick_approach.h), with the events on
-/// the way (maximum compression, the end of the impact) located on the same path. Returns true
-/// with the state at the end of the impact (done) or at the stop (`stuck`). Returns false
-/// (integrate on instead) if the series do not converge at the slip's current angle to the
-/// tolerance, if their stop does not cancel the slip, or if an event lies where the slip
-/// direction has settled (fallingRoot()); the state may then have advanced along the path (to
-/// maximum compression).
-bool seriesToStop(const Problem& pr, State& st, StickApproach& approach, bool& stuck) {
+/// the way (maximum compression, the end of the impact) located on the same path. kTaken: the
+/// state is at the end of the impact (done) or at the stop (`stuck`). Otherwise integrate on:
+/// kNotConverged, the series do not converge at the slip's current angle to the tolerance, or
+/// their stop does not cancel the slip (try again closer); kUnresolvedEvent, an event lies where
+/// the slip direction has settled (fallingRoot(): a slip that hardly slows, do not try again),
+/// and the state may have advanced along the path (to maximum compression).
+enum class SeriesResult { kTaken, kNotConverged, kUnresolvedEvent };
+SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach, bool& stuck) {
   const Vec2 u_t = pr.slip(st.p, st.P_t);
   const double sigma = u_t.norm();
   const double x = approach.distance(u_t / sigma);
-  if (x < 0.0 || !approach.converged(x, 0.01 * pr.tol)) return false;
+  if (x < 0.0 || !approach.converged(x, 0.01 * pr.tol)) return SeriesResult::kNotConverged;
   double log_scale = approach.logScale(x, sigma);
   StickApproach::Remaining rest = approach.remaining(x, log_scale);
   // The series' error is relative to what remains; the tolerance is relative to the impulse
@@ -354,12 +367,14 @@ bool seriesToStop(const Problem& pr, State& st, StickApproach& approach, bool& s
   const double size =
       std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V * pr.J));
   if (size > 1.0) {
-    if (!approach.converged(x, 0.01 * pr.tol / size)) return false;
+    if (!approach.converged(x, 0.01 * pr.tol / size)) return SeriesResult::kNotConverged;
     log_scale = approach.logScale(x, sigma);
     rest = approach.remaining(x, log_scale);
     u_n_stop = pr.normal(st.p + rest.p, st.P_t + rest.P_t);
   }
-  if ((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() > pr.tol * pr.V) return false;
+  if ((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() > pr.tol * pr.V) {
+    return SeriesResult::kNotConverged;
+  }
   // The stop, and the state at angle distance y along the path to it.
   const double p_stop = st.p + rest.p;
   const Vec2 P_stop = st.P_t + rest.P_t;
@@ -379,47 +394,47 @@ bool seriesToStop(const Problem& pr, State& st, StickApproach& approach, bool& s
     double y;
     if (!st.restitution) {
       if (u_n_stop < 0.0) break;  // compression goes on past the stop
-      y = fallingRoot(y_now, 1e-15 * pr.V, [&](double z, double& slope) {
+      y = fallingRoot(y_now, m, 1e-3 * pr.tol * pr.V, [&](double z, double& slope) {
         const StickApproach::Remaining r = remainingAt(z);
         slope = -(pr.c - pr.mu_d * pr.b.dot(r.direction)) * r.rate;
         return u_n_stop - r.u_n_rise;
       });
-      if (y < 0.0) return false;
+      if (y < 0.0) return SeriesResult::kUnresolvedEvent;
       setAt(y);
       beginRestitution(pr, st);
-      if (st.done) return true;
+      if (st.done) return SeriesResult::kTaken;
       y_now = y;
       continue;
     }
     if (pr.stronge) {
       if (W_stop < st.W_end) break;
-      y = fallingRoot(y_now, 1e-15 * pr.V * pr.J, [&](double z, double& slope) {
+      y = fallingRoot(y_now, m, 1e-3 * pr.tol * pr.V * pr.J, [&](double z, double& slope) {
         const StickApproach::Remaining r = remainingAt(z);
         slope = -(u_n_stop - r.u_n_rise) * r.rate;
         return W_stop - (u_n_stop * r.p - r.work_drop) - st.W_end;
       });
-      if (y < 0.0) return false;
+      if (y < 0.0) return SeriesResult::kUnresolvedEvent;
       setAt(y);
       st.W = st.W_end;
     } else {
       if (p_stop < st.p_end) break;
-      y = fallingRoot(y_now, 1e-15 * pr.J, [&](double z, double& slope) {
+      y = fallingRoot(y_now, m, 1e-3 * pr.tol * pr.J, [&](double z, double& slope) {
         const StickApproach::Remaining r = remainingAt(z);
         slope = -r.rate;
         return p_stop - r.p - st.p_end;
       });
-      if (y < 0.0) return false;
+      if (y < 0.0) return SeriesResult::kUnresolvedEvent;
       setAt(y);
       st.p = st.p_end;
     }
     st.done = true;
-    return true;
+    return SeriesResult::kTaken;
   }
   st.p = p_stop;
   st.P_t = P_stop;
   st.W = W_stop;
   stuck = true;
-  return true;
+  return SeriesResult::kTaken;
 }
 
 /// x^(-1/5) for the step-size control, x > 0 finite: a first guess from the exponent bits (the
@@ -449,22 +464,24 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
   Vec4 f = slipField(pr, y);
   double h = std::min(h_max, 0.05 * pr.J / std::max(f[0], kStickSpeed * pr.V));
   // The closed-form approach to stop, tried again each time the slip has turned 30 % closer to
-  // its final direction.
+  // its final direction s* (the cosine of the angle to it above retry_cos).
   StickApproach approach;
   bool series = approach.build(pr.A, pr.b, pr.c, pr.mu_d, pr.slip(st.p, st.P_t).normalized());
-  double retry_below = kInf;
+  double retry_cos = -2.0;
   while (true) {
     if (series) {
       const Vec2 u_t = pr.slip(st.p, st.P_t);
-      const double x = approach.distance(u_t.normalized());
-      if (x < 0.0) {
-        series = false;
-      } else if (x < retry_below) {
-        if (seriesToStop(pr, st, approach, stuck)) {
+      if (approach.direction().dot(u_t) > retry_cos * u_t.norm()) {
+        bool stuck_now = false;
+        const SeriesResult result = seriesToStop(pr, st, approach, stuck_now);
+        if (result == SeriesResult::kTaken) {
+          stuck = stuck_now;
           stats.series_order = static_cast<std::size_t>(approach.order());
           return true;
         }
-        retry_below = 0.7 * x;
+        series = result == SeriesResult::kNotConverged;
+        const Vec2 u_now = pr.slip(st.p, st.P_t);
+        retry_cos = std::cos(0.7 * approach.distance(u_now.normalized()));
         y = st.vec();
         f = slipField(pr, y);
       }

@@ -21,24 +21,33 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-/// Taylor coefficients of cos y and sin y, (-1)^(k/2) / k! and (-1)^((k-1)/2) / k!, interleaved:
-/// trig[k] is cos's for even k and sin's for odd k (the other is zero).
+/// Taylor coefficients of cos y and sin y: (-1)^(k/2) / k! for even k (cos), (-1)^((k-1)/2) / k!
+/// for odd k (sin), 0 otherwise.
 struct TrigTable {
   double v[StickApproach::kMaxOrder + 2];
-  constexpr TrigTable() : v() {
+  constexpr explicit TrigTable(int parity) : v() {
     double x = 1.0;
     for (int k = 0; k < StickApproach::kMaxOrder + 2; ++k) {
       if (k > 0) x /= k;
-      v[k] = (k / 2) % 2 ? -x : x;
+      v[k] = k % 2 != parity ? 0.0 : ((k / 2) % 2 ? -x : x);
     }
   }
 };
-constexpr TrigTable kTrig;
+constexpr TrigTable kCos(0), kSin(1);
+/// 2^k.
+struct TwoPowTable {
+  double v[StickApproach::kMaxOrder + 2];
+  constexpr TwoPowTable() : v() {
+    double x = 1.0;
+    for (int k = 0; k < StickApproach::kMaxOrder + 2; ++k, x *= 2.0) v[k] = x;
+  }
+};
+constexpr TwoPowTable kTwoPow;
 double cosCoef(int k) {
-  return k % 2 ? 0.0 : kTrig.v[k];
+  return kCos.v[k];
 }
 double sinCoef(int k) {
-  return k % 2 ? kTrig.v[k] : 0.0;
+  return kSin.v[k];
 }
 
 /// Horner sum of c[0..n] at y.
@@ -49,56 +58,69 @@ double sum(const Array& c, int n, double y) {
   return v;
 }
 
+/// s rotated by the angle a (|a| <= pi/8) with sin and cos from their Taylor series (error below
+/// 1e-16 there, and no library call), renormalised.
+Eigen::Vector2d rotated(const Eigen::Vector2d& s, double a) {
+  const double a2 = a * a;
+  const double sn =
+      a * (1 - a2 / 6 * (1 - a2 / 20 * (1 - a2 / 42 * (1 - a2 / 72 * (1 - a2 / 110)))));
+  const double cs = 1 - a2 / 2 * (1 - a2 / 12 * (1 - a2 / 30 * (1 - a2 / 56 * (1 - a2 / 90))));
+  const Eigen::Vector2d r(cs * s.x() - sn * s.y(), sn * s.x() + cs * s.y());
+  return r / r.norm();
+}
+
 }  // namespace
 
 bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, double c, double mu_d,
                           const Eigen::Vector2d& s0) {
   order_ = -1;
   if (!(mu_d > 0.0) || !(c > mu_d * b.norm())) return false;
-  // g(theta) = s_perp . (b - mu A s) and its derivative; the slip direction turns towards the
+  // g = s_perp . (b - mu A s) and dg/dtheta at direction s; the slip direction turns towards the
   // first zero of g ahead of it, in the direction of g's sign.
-  const auto g = [&](double t, double& dg) {
-    const Eigen::Vector2d s(std::cos(t), std::sin(t)), sp(-s.y(), s.x());
+  const auto g = [&](const Eigen::Vector2d& s, double& dg) {
+    const Eigen::Vector2d sp(-s.y(), s.x());
     dg = -s.dot(b) - mu_d * (sp.dot(A * sp) - s.dot(A * s));
     return sp.dot(b) - mu_d * sp.dot(A * s);
   };
-  const double theta0 = std::atan2(s0.y(), s0.x());
   double dg;
-  const double g0 = g(theta0, dg);
+  const double g0 = g(s0, dg);
   if (g0 == 0.0) return false;  // already along a fixed direction: the linear closed form
   const double dir = g0 > 0.0 ? 1.0 : -1.0;
   // Bracket the zero by steps of pi/16 up to a quarter turn (beyond, the series could not reach
   // the start anyway: another zero of g lies within a half turn of theta*).
   constexpr int kSteps = 8;
-  double lo = theta0, hi = theta0;
+  constexpr double kStep = kPi / 16;
+  Eigen::Vector2d s_lo = s0;
   bool found = false;
   for (int i = 1; i <= kSteps && !found; ++i) {
-    hi = theta0 + dir * i * (kPi / 16);
-    if (dir * g(hi, dg) <= 0.0) {
+    const Eigen::Vector2d s_hi = rotated(s_lo, dir * kStep);
+    if (dir * g(s_hi, dg) <= 0.0) {
       found = true;
     } else {
-      lo = hi;
+      s_lo = s_hi;
     }
   }
   if (!found) return false;
-  // Newton on g, safeguarded by bisection; g(lo) has g0's sign, g(hi) the other (or is 0).
-  double t = 0.5 * (lo + hi);
+  // Newton on g in the angle t past s_lo, safeguarded by bisection: g(t = lo) has g0's sign,
+  // g(t = hi) the other (or is 0).
+  double lo = 0.0, hi = kStep, t = 0.5 * kStep;
+  Eigen::Vector2d s = rotated(s_lo, dir * t);
   for (int i = 0; i < 100; ++i) {
-    const double v = g(t, dg);
+    const double v = g(s, dg);
     if (dir * v > 0.0) {
       lo = t;
     } else {
       hi = t;
     }
-    double next = dg != 0.0 ? t - v / dg : 0.5 * (lo + hi);
-    if (!((next - lo) * (next - hi) < 0.0)) next = 0.5 * (lo + hi);
-    const bool done = std::abs(next - t) <= 1e-15 * (1.0 + std::abs(t));
+    double next = dg != 0.0 ? t - dir * v / dg : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    const bool done = std::abs(next - t) <= 1e-16;
+    s = rotated(s, dir * (next - t));
     t = next;
     if (done) break;
   }
-  g(t, dg);
-  const double theta_star = t;
-  s_star_ = Eigen::Vector2d(std::cos(theta_star), std::sin(theta_star));
+  g(s, dg);
+  s_star_ = s;
   s_perp_ = Eigen::Vector2d(-s_star_.y(), s_star_.x());
   eps_ = -dir;  // the start lies behind theta* in the direction of turning
   mu_ = mu_d;
@@ -129,9 +151,14 @@ double StickApproach::gammaAt(double y) const {
 void StickApproach::extend() {
   const int k = ++order_;
   const double ck = cosCoef(k + 1), sk = sinCoef(k + 1);
-  const double c2 = std::ldexp(ck, k + 1), s2 = std::ldexp(sk, k + 1);
+  const double c2 = ck * kTwoPow.v[k + 1], s2 = sk * kTwoPow.v[k + 1];  // cos 2y, sin 2y
   Gamma_[k] =
       eps_ * fb_perp_ * ck - fb_star_ * sk - mu_ * (eps_ * a_sp_ * c2 + 0.5 * (a_pp_ - a_ss_) * s2);
+  // One pass over the earlier orders for every convolution of order k (independent sums, so the
+  // processor overlaps them):
+  //   y Gamma H' = H phi (phi_0 = 0):  k Gamma_0 H_k = sum_j<k H_j phi_k-j - j H_j Gamma_k-j,
+  //   (H cos y)_k, (H sin y)_k, and (D H)_k without its j = 0 and j = k terms.
+  double h_phi = 0.0, h_gamma = 0.0, hc = 0.0, hs = 0.0, dh = 0.0;
   if (k == 0) {
     const double f0 = fb_star_ - mu_ * a_ss_;
     m_ = f0 / Gamma_[0];
@@ -141,35 +168,29 @@ void StickApproach::extend() {
     const double fc = cosCoef(k), fs = sinCoef(k);
     const double f_k =
         fb_star_ * fc + eps_ * fb_perp_ * fs -
-        mu_ * (0.5 * (a_ss_ - a_pp_) * std::ldexp(fc, k) + eps_ * a_sp_ * std::ldexp(fs, k));
+        mu_ * (0.5 * (a_ss_ - a_pp_) * fc * kTwoPow.v[k] + eps_ * a_sp_ * fs * kTwoPow.v[k]);
     phi_[k] = f_k - (m_ + k) * Gamma_[k];
-    // y Gamma H' = H phi, order k (phi_0 = 0): k Gamma_0 H_k = sum_j<k H_j (phi_k-j - j Gamma_k-j).
-    double h0 = 0.0, h1 = 0.0;
-    int j = 0;
-    for (; j + 1 < k; j += 2) {
-      h0 += H_[j] * (phi_[k - j] - j * Gamma_[k - j]);
-      h1 += H_[j + 1] * (phi_[k - j - 1] - (j + 1) * Gamma_[k - j - 1]);
+    h_phi = H_[0] * phi_[k];
+    hc = H_[0] * kCos.v[k];
+    hs = H_[0] * kSin.v[k];
+    for (int j = 1; j < k; ++j) {
+      h_phi += H_[j] * phi_[k - j];
+      h_gamma += jH_[j] * Gamma_[k - j];
+      hc += H_[j] * kCos.v[k - j];
+      hs += H_[j] * kSin.v[k - j];
+      dh += D_[j] * H_[k - j];
     }
-    if (j < k) h0 += H_[j] * (phi_[k - j] - j * Gamma_[k - j]);
-    H_[k] = (h0 + h1) / (k * Gamma_[0]);
+    H_[k] = (h_phi - h_gamma) / (k * Gamma_[0]);
   }
-  // H cos y and H sin y: kTrig holds cos's even and sin's odd coefficients.
-  double hc = 0.0, hs = 0.0;
-  for (int i = 0; i <= k; i += 2) hc += H_[k - i] * kTrig.v[i];
-  for (int i = 1; i <= k; i += 2) hs += H_[k - i] * kTrig.v[i];
+  jH_[k] = k * H_[k];
+  hc += H_[k];  // cos y's order 0
   const double w = 1.0 / (m_ + k);
   Ip_[k] = H_[k] * w;
   Ic_[k] = hc * w;
   Is_[k] = hs * w;
   D_[k] = c_ * Ip_[k] - mu_ * (fb_star_ * Ic_[k] + eps_ * fb_perp_ * Is_[k]);
-  double d0 = 0.0, d1 = 0.0;
-  int j = 0;
-  for (; j + 1 <= k; j += 2) {
-    d0 += D_[j] * H_[k - j];
-    d1 += D_[j + 1] * H_[k - j - 1];
-  }
-  if (j == k) d0 += D_[k] * H_[0];
-  DH2_[k] = (d0 + d1) / (2.0 * m_ + k);
+  dh += D_[0] * H_[k] + (k > 0 ? D_[k] * H_[0] : 0.0);
+  DH2_[k] = dh / (2.0 * m_ + k);
 }
 
 bool StickApproach::converged(double y, double relative) {
@@ -181,7 +202,7 @@ bool StickApproach::converged(double y, double relative) {
   Series t;
   double power = 1.0;
   const auto term = [&](int k) {
-    t[k] = (std::max({std::abs(Ip_[k]), std::abs(Ic_[k]), std::abs(Is_[k])}) * scale_p +
+    t[k] = (std::max(std::max(std::abs(Ip_[k]), std::abs(Ic_[k])), std::abs(Is_[k])) * scale_p +
             std::abs(DH2_[k]) * scale_w) *
            power;
     power *= y;
@@ -194,12 +215,14 @@ bool StickApproach::converged(double y, double relative) {
     const double pair = t[k] + t[k - 1], before = t[k - 2] + t[k - 3];
     if (pair <= 0.5 * relative && pair <= 0.5 * before) return true;
     if (k >= kMaxOrder) return false;
-    if (k >= 12) {
-      // Give up as soon as the decay so far (ratio r per order) cannot reach the tolerance
-      // within kMaxOrder: extending further would be wasted.
-      const double r2 = pair / before;
-      if (!(r2 < 1.0) ||
-          (pair > relative && k + std::log(relative / pair) / (0.5 * std::log(r2)) > kMaxOrder))
+    // Give up early where extending would be wasted: terms growing (y beyond the radius of
+    // convergence), or a decay over the last 8 orders, r per order, too slow to reach the
+    // tolerance by kMaxOrder even if it doubles its pace (the decay quickens with the order as
+    // the algebraic factors of the singularities fade).
+    if (k >= 12 && k % 4 == 0 && !(pair < before)) return false;
+    if (k >= 16 && k % 8 == 0 && pair > relative) {
+      const double r8 = pair / (t[k - 8] + t[k - 9]);
+      if (!(r8 < 1.0) || k + 4.0 * std::log(relative / pair) / std::log(r8) > kMaxOrder)
         return false;
     }
     extend();

@@ -55,12 +55,14 @@ class StickApproach {
   /// path is this plus m ln(y' / y).
   double logScale(double y, double sigma) const;
 
+  /// s*, the unit slip direction at the stop, in (t1, t2).
+  const Eigen::Vector2d& direction() const { return s_star_; }
   /// The exponent m = f(theta*) / g'(theta*) > 0: sigma ~ y^m near the stop.
   double exponent() const { return m_; }
   /// Highest order of the series computed so far.
   int order() const { return order_; }
   /// The highest order converged() computes.
-  static constexpr int kMaxOrder = 48;
+  static constexpr int kMaxOrder = 64;
 
  private:
   /// Appends order k = order() + 1 of every series.
@@ -79,7 +81,7 @@ class StickApproach {
   // DH2 = (D H)_k / (2m + k).
   using Series = std::array<double, kMaxOrder + 1>;
   int order_ = -1;
-  Series Gamma_, phi_, H_, Ip_, Ic_, Is_, D_, DH2_;
+  Series Gamma_, phi_, H_, jH_, Ip_, Ic_, Is_, D_, DH2_;  // jH_k = k H_k
 };
 
 }  // namespace collision_response::core
