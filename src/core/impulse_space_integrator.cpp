@@ -306,6 +306,33 @@ bool approachStick(const Problem& pr, State& st) {
   return advanceLinear(pr, st, -pr.mu_d * s_mean, piece);
 }
 
+/// A central contact (K_tn = 0, to 1e-12 of trace K: the normal through a free body's centre of
+/// mass, a box struck by a locked robot) whose slip surely stops within the impact, in closed form.
+/// With K_tn = 0 the normal motion ignores friction, u_n = u0_n + c p, so both laws end at
+/// p_end = (1 + e) p_c (Stronge's work is Poisson's); the slip slows at
+/// d|u_t|/dp = -mu_d s^T A s <= -mu_d lambda_min(A), so it stops by |u0_t| / (mu_d lambda_min),
+/// and once that is within p_end the friction impulse is the one that stops it, -A^-1 u0_t, after
+/// which the contact sticks (the sticking rate -A^-1 K_tn is 0). Returns false (integrate
+/// instead) if the contact is not central or the bound exceeds p_end.
+bool centralStop(const Problem& pr, State& st) {
+  const double trace = pr.A.trace();
+  if (!(pr.b.norm() <= 1e-12 * (trace + pr.c)) || !(pr.mu_d > 0.0)) return false;
+  const double half_gap = std::hypot(0.5 * (pr.A(0, 0) - pr.A(1, 1)), pr.A(0, 1));
+  const double lambda_min = 0.5 * trace - half_gap;
+  if (!(lambda_min > kSingularRelative * trace)) return false;
+  const double p_c = -pr.u0_n / pr.c;
+  const double p_end = (1.0 + pr.e) * p_c;
+  if (!(pr.u0_t.norm() <= pr.mu_d * lambda_min * p_end)) return false;
+  st.p_c = p_c;
+  st.W_c = 0.5 * pr.u0_n * p_c;  // integral of u0_n + c p over [0, p_c]
+  st.p = p_end;
+  st.P_t = -pr.A.inverse() * pr.u0_t;
+  st.W = (1.0 - pr.e * pr.e) * st.W_c;
+  st.restitution = true;
+  st.done = true;
+  return true;
+}
+
 /// Root y in [0, hi] of a value v(y) falling in y, v(hi) < 0 <= v(0), to |v| <= v_tol.
 /// Near the stop the path's quantities go as y^m, so Newton's method runs in w = y^m, where they
 /// are nearly linear; it bisects instead whenever Newton's step would leave the bracket or not
@@ -349,25 +376,43 @@ double fallingRoot(double hi, double m, double v_tol, Value value) {
 /// the way (maximum compression, the end of the impact) located on the same path. kTaken: the
 /// state is at the end of the impact (done) or at the stop (`stuck`). Otherwise integrate on:
 /// kNotConverged, the series do not converge at the slip's current angle to the tolerance, or
-/// their stop does not cancel the slip (try again closer); kUnresolvedEvent, an event lies where
-/// the slip direction has settled (fallingRoot(): a slip that hardly slows, do not try again),
-/// and the state may have advanced along the path (to maximum compression).
-enum class SeriesResult { kTaken, kNotConverged, kUnresolvedEvent };
+/// their stop does not cancel the slip (try again closer); kIllConditioned, a slip that hardly
+/// slows as it turns (m << 1: the stop is far, and the sums cancel beyond the tolerance, or an
+/// event lies where the slip direction has settled, fallingRoot()), do not try again; the state
+/// may then have advanced along the path (to maximum compression).
+enum class SeriesResult { kTaken, kNotConverged, kIllConditioned };
 SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach, bool& stuck) {
   const Vec2 u_t = pr.slip(st.p, st.P_t);
   const double sigma = u_t.norm();
   const double x = approach.distance(u_t / sigma);
-  if (x < 0.0 || !approach.converged(x, 0.01 * pr.tol)) return SeriesResult::kNotConverged;
+  if (x < 0.0) return SeriesResult::kNotConverged;
+  // The tolerance is on the impulse (scale J) and the work (scale V J), so each series needs
+  // its sums only to the tolerance over its share of them: 0.05 tol J / p_rem for the impulses
+  // (also through u_n,stop p_rem in the work), 0.05 tol V J / work_drop for the work. First
+  // from estimates (the linear stop sigma / -sigma', u_n rising at most (c + mu_d |b|) per unit
+  // impulse, each taken 4x), then checked against the sums themselves.
+  const Vec2 s = u_t / sigma;
+  const double rate = s.dot(pr.b - pr.mu_d * (pr.A * s));
+  const double rise = pr.c + pr.mu_d * pr.b.norm();
+  const double p_guess = rate < 0.0 ? std::min(4.0 * sigma / -rate, 1e6 * pr.J) : pr.J;
+  const double u_n_now = std::abs(pr.normal(st.p, st.P_t));
+  const auto share = [&](double p_rem, double u_n_stop, double work_drop, double& rel_p,
+                         double& rel_w) {
+    const double budget = 0.05 * pr.tol;
+    rel_p = std::min(
+        {1e-3, budget * pr.J / p_rem, budget * pr.V * pr.J / (std::abs(u_n_stop) * p_rem)});
+    rel_w = std::min(1e-3, budget * pr.V * pr.J / work_drop);
+  };
+  double rel_p, rel_w;
+  share(p_guess, u_n_now + rise * p_guess, rise * p_guess * p_guess, rel_p, rel_w);
+  if (!approach.converged(x, rel_p, rel_w)) return SeriesResult::kNotConverged;
   double log_scale = approach.logScale(x, sigma);
   StickApproach::Remaining rest = approach.remaining(x, log_scale);
-  // The series' error is relative to what remains; the tolerance is relative to the impulse
-  // scale J and the work scale V J: a long way to the stop (a slip that hardly slows while it
-  // turns, events long before the stop) needs the series that much closer.
   double u_n_stop = pr.normal(st.p + rest.p, st.P_t + rest.P_t);
-  const double size =
-      std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V * pr.J));
-  if (size > 1.0) {
-    if (!approach.converged(x, 0.01 * pr.tol / size)) return SeriesResult::kNotConverged;
+  double need_p, need_w;
+  share(rest.p, u_n_stop, rest.work_drop, need_p, need_w);
+  if (need_p < rel_p || need_w < rel_w) {
+    if (!approach.converged(x, need_p, need_w)) return SeriesResult::kNotConverged;
     log_scale = approach.logScale(x, sigma);
     rest = approach.remaining(x, log_scale);
     u_n_stop = pr.normal(st.p + rest.p, st.P_t + rest.P_t);
@@ -375,6 +420,12 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
   if ((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() > pr.tol * pr.V) {
     return SeriesResult::kNotConverged;
   }
+  // A slip that hardly slows as it turns (m << 1) is far from its stop: the path's states are
+  // then differences of sums much larger than the impulse and work scales, and their round-off
+  // must stay within the tolerance too.
+  const double magnitude =
+      std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V * pr.J));
+  if (1e-15 * magnitude > 0.05 * pr.tol) return SeriesResult::kIllConditioned;
   // The stop, and the state at angle distance y along the path to it.
   const double p_stop = st.p + rest.p;
   const Vec2 P_stop = st.P_t + rest.P_t;
@@ -399,7 +450,7 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
         slope = -(pr.c - pr.mu_d * pr.b.dot(r.direction)) * r.rate;
         return u_n_stop - r.u_n_rise;
       });
-      if (y < 0.0) return SeriesResult::kUnresolvedEvent;
+      if (y < 0.0) return SeriesResult::kIllConditioned;
       setAt(y);
       beginRestitution(pr, st);
       if (st.done) return SeriesResult::kTaken;
@@ -413,7 +464,7 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
         slope = -(u_n_stop - r.u_n_rise) * r.rate;
         return W_stop - (u_n_stop * r.p - r.work_drop) - st.W_end;
       });
-      if (y < 0.0) return SeriesResult::kUnresolvedEvent;
+      if (y < 0.0) return SeriesResult::kIllConditioned;
       setAt(y);
       st.W = st.W_end;
     } else {
@@ -423,7 +474,7 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
         slope = -r.rate;
         return p_stop - r.p - st.p_end;
       });
-      if (y < 0.0) return SeriesResult::kUnresolvedEvent;
+      if (y < 0.0) return SeriesResult::kIllConditioned;
       setAt(y);
       st.p = st.p_end;
     }
@@ -584,6 +635,10 @@ ContactImpulse integrateSingleContact(const ProblemContact& contact, const Eigen
   State st;
   bool stuck = false;
   bool ok = true;
+  if (pr.u0_t.norm() > kStickSpeed * pr.V && centralStop(pr, st)) {
+    impulse.sticking = true;
+    st_out.segments = 2;  // slip to its stop, then stick
+  }
   while (!st.done && ok) {
     if (++st_out.segments > kMaxSegments) {
       ok = false;

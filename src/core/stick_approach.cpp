@@ -15,11 +15,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace collision_response::core {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 /// Taylor coefficients of cos y and sin y: (-1)^(k/2) / k! for even k (cos), (-1)^((k-1)/2) / k!
 /// for odd k (sin), 0 otherwise.
@@ -59,14 +61,13 @@ double sum(const Array& c, int n, double y) {
 }
 
 /// s rotated by the angle a (|a| <= pi/8) with sin and cos from their Taylor series (error below
-/// 1e-16 there, and no library call), renormalised.
+/// 1e-16 there, and no library call; the rotation keeps |s| to round-off).
 Eigen::Vector2d rotated(const Eigen::Vector2d& s, double a) {
   const double a2 = a * a;
   const double sn =
       a * (1 - a2 / 6 * (1 - a2 / 20 * (1 - a2 / 42 * (1 - a2 / 72 * (1 - a2 / 110)))));
   const double cs = 1 - a2 / 2 * (1 - a2 / 12 * (1 - a2 / 30 * (1 - a2 / 56 * (1 - a2 / 90))));
-  const Eigen::Vector2d r(cs * s.x() - sn * s.y(), sn * s.x() + cs * s.y());
-  return r / r.norm();
+  return Eigen::Vector2d(cs * s.x() - sn * s.y(), sn * s.x() + cs * s.y());
 }
 
 }  // namespace
@@ -92,8 +93,10 @@ bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, do
   constexpr double kStep = kPi / 16;
   Eigen::Vector2d s_lo = s0;
   bool found = false;
+  const double c_step = std::cos(kStep), s_step = dir * std::sin(kStep);
   for (int i = 1; i <= kSteps && !found; ++i) {
-    const Eigen::Vector2d s_hi = rotated(s_lo, dir * kStep);
+    const Eigen::Vector2d s_hi(c_step * s_lo.x() - s_step * s_lo.y(),
+                               s_step * s_lo.x() + c_step * s_lo.y());
     if (dir * g(s_hi, dg) <= 0.0) {
       found = true;
     } else {
@@ -114,11 +117,12 @@ bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, do
     }
     double next = dg != 0.0 ? t - dir * v / dg : 0.5 * (lo + hi);
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    const bool done = std::abs(next - t) <= 1e-16;
+    const bool done = std::abs(next - t) <= 1e-15;
     s = rotated(s, dir * (next - t));
     t = next;
     if (done) break;
   }
+  s /= s.norm();
   g(s, dg);
   s_star_ = s;
   s_perp_ = Eigen::Vector2d(-s_star_.y(), s_star_.x());
@@ -193,12 +197,15 @@ void StickApproach::extend() {
   DH2_[k] = dh / (2.0 * m_ + k);
 }
 
-bool StickApproach::converged(double y, double relative) {
+bool StickApproach::converged(double y, double relative_impulse, double relative_work) {
   if (order_ < 0) return false;
   if (y == 0.0) return true;
   while (order_ < 3) extend();
-  const double scale_p = 1.0 / std::abs(Ip_[0]), scale_w = 1.0 / std::abs(DH2_[0]);
-  // Terms relative to the leading ones, at y: t[k] = max over the series of |c_k| y^k / |c_0|.
+  const double scale_p = 1.0 / (std::abs(Ip_[0]) * relative_impulse);
+  const double scale_w = 1.0 / (std::abs(DH2_[0]) * relative_work);
+  const double relative = 1.0;
+  // Terms at y relative to the leading ones and to their series' share of the tolerance:
+  // t[k] = max over the series of |c_k| y^k / (|c_0| share).
   Series t;
   double power = 1.0;
   const auto term = [&](int k) {
@@ -208,21 +215,23 @@ bool StickApproach::converged(double y, double relative) {
     power *= y;
   };
   for (int k = 0; k <= order_; ++k) term(k);
-  // Geometric decay: the last two terms below the share of the tolerance, and falling at least
-  // twofold over two orders (then the rest sums to less than they do).
+  // Geometric decay: the last four terms below the share of the tolerance, and falling at least
+  // twofold over four orders (then the rest sums to less than they do; four, not two, so that
+  // coefficients that oscillate, from complex singularities, cannot pass by a chance small pair).
   for (;;) {
     const int k = order_;
-    const double pair = t[k] + t[k - 1], before = t[k - 2] + t[k - 3];
-    if (pair <= 0.5 * relative && pair <= 0.5 * before) return true;
+    const double last = t[k] + t[k - 1] + t[k - 2] + t[k - 3];
+    const double earlier = k >= 7 ? t[k - 4] + t[k - 5] + t[k - 6] + t[k - 7] : kInfinity;
+    if (last <= 0.5 * relative && last <= 0.5 * earlier) return true;
     if (k >= kMaxOrder) return false;
     // Give up early where extending would be wasted: terms growing (y beyond the radius of
     // convergence), or a decay over the last 8 orders, r per order, too slow to reach the
     // tolerance by kMaxOrder even if it doubles its pace (the decay quickens with the order as
     // the algebraic factors of the singularities fade).
-    if (k >= 12 && k % 4 == 0 && !(pair < before)) return false;
-    if (k >= 16 && k % 8 == 0 && pair > relative) {
-      const double r8 = pair / (t[k - 8] + t[k - 9]);
-      if (!(r8 < 1.0) || k + 4.0 * std::log(relative / pair) / std::log(r8) > kMaxOrder)
+    if (k >= 12 && k % 4 == 0 && !(last < earlier)) return false;
+    if (k >= 16 && k % 8 == 0 && last > relative) {
+      const double r8 = last / (t[k - 8] + t[k - 9] + t[k - 10] + t[k - 11]);
+      if (!(r8 < 1.0) || k + 4.0 * std::log(relative / last) / std::log(r8) > kMaxOrder)
         return false;
     }
     extend();

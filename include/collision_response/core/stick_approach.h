@@ -35,9 +35,11 @@ class StickApproach {
   /// beyond theta* (on the other side).
   double distance(const Eigen::Vector2d& s) const;
 
-  /// Extends the series until, at y, each converges with a remainder below `relative` times its
-  /// leading term; false if they do not within the order limit (y too far from theta*).
-  bool converged(double y, double relative);
+  /// Extends the series until, at y, each converges with a remainder below its share times its
+  /// leading term: relative_impulse for the impulses (Ip, Ic, Is), relative_work for the work
+  /// (DH2). False if they do not within kMaxOrder (y too far from theta*), or if their decay so far
+  /// shows that they will not.
+  bool converged(double y, double relative_impulse, double relative_work);
 
   /// Remaining quantities from angle distance y to the stop, for scale sigma e^-S(y) given as
   /// log_scale = ln(sigma) - S(y) (see logScale()).
