@@ -390,11 +390,11 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
   // its sums only to the tolerance over its share of them: 0.05 tol J / p_rem for the impulses
   // (also through u_n,stop p_rem in the work), 0.05 tol V J / work_drop for the work. First
   // from estimates (the linear stop sigma / -sigma', u_n rising at most (c + mu_d |b|) per unit
-  // impulse, each taken 4x), then checked against the sums themselves.
+  // impulse), then checked against the sums themselves (the series extended if they need more).
   const Vec2 s = u_t / sigma;
   const double rate = s.dot(pr.b - pr.mu_d * (pr.A * s));
   const double rise = pr.c + pr.mu_d * pr.b.norm();
-  const double p_guess = rate < 0.0 ? std::min(4.0 * sigma / -rate, 1e6 * pr.J) : pr.J;
+  const double p_guess = rate < 0.0 ? std::min(sigma / -rate, 1e6 * pr.J) : pr.J;
   const double u_n_now = std::abs(pr.normal(st.p, st.P_t));
   const auto share = [&](double p_rem, double u_n_stop, double work_drop, double& rel_p,
                          double& rel_w) {

@@ -201,27 +201,33 @@ bool StickApproach::converged(double y, double relative_impulse, double relative
   if (order_ < 0) return false;
   if (y == 0.0) return true;
   while (order_ < 3) extend();
-  const double scale_p = 1.0 / (std::abs(Ip_[0]) * relative_impulse);
-  const double scale_w = 1.0 / (std::abs(DH2_[0]) * relative_work);
-  const double relative = 1.0;
-  // Terms at y relative to the leading ones and to their series' share of the tolerance:
-  // t[k] = max over the series of |c_k| y^k / (|c_0| share).
-  Series t;
-  double power = 1.0;
+  // Terms at y: tp[k] the largest of the impulse series', tw[k] the work series'. They are judged
+  // against the sums themselves (partial sums so far), not the leading terms: with alternating
+  // coefficients a sum can be much smaller than its terms, and the share is of the sum.
+  Series tp, tw;
+  double power = 1.0, sum_p = 0.0, sum_w = 0.0;
   const auto term = [&](int k) {
-    t[k] = (std::max(std::max(std::abs(Ip_[k]), std::abs(Ic_[k])), std::abs(Is_[k])) * scale_p +
-            std::abs(DH2_[k]) * scale_w) *
-           power;
+    tp[k] = std::max(std::max(std::abs(Ip_[k]), std::abs(Ic_[k])), std::abs(Is_[k])) * power;
+    tw[k] = std::abs(DH2_[k]) * power;
+    sum_p += Ip_[k] * power;
+    sum_w += DH2_[k] * power;
     power *= y;
   };
   for (int k = 0; k <= order_; ++k) term(k);
+  const double relative = 1.0;
   // Geometric decay: the last four terms below the share of the tolerance, and falling at least
   // twofold over four orders (then the rest sums to less than they do; four, not two, so that
   // coefficients that oscillate, from complex singularities, cannot pass by a chance small pair).
   for (;;) {
     const int k = order_;
-    const double last = t[k] + t[k - 1] + t[k - 2] + t[k - 3];
-    const double earlier = k >= 7 ? t[k - 4] + t[k - 5] + t[k - 6] + t[k - 7] : kInfinity;
+    const double np = 1.0 / (std::abs(sum_p) * relative_impulse);
+    const double nw = 1.0 / (std::abs(sum_w) * relative_work);
+    const auto four = [&](int top) {  // normalised terms top - 3 .. top
+      return (tp[top] + tp[top - 1] + tp[top - 2] + tp[top - 3]) * np +
+             (tw[top] + tw[top - 1] + tw[top - 2] + tw[top - 3]) * nw;
+    };
+    const double last = four(k);
+    const double earlier = k >= 7 ? four(k - 4) : kInfinity;
     if (last <= 0.5 * relative && last <= 0.5 * earlier) return true;
     if (k >= kMaxOrder) return false;
     // Give up early where extending would be wasted: terms growing (y beyond the radius of
@@ -230,7 +236,7 @@ bool StickApproach::converged(double y, double relative_impulse, double relative
     // the algebraic factors of the singularities fade).
     if (k >= 12 && k % 4 == 0 && !(last < earlier)) return false;
     if (k >= 16 && k % 8 == 0 && last > relative) {
-      const double r8 = last / (t[k - 8] + t[k - 9] + t[k - 10] + t[k - 11]);
+      const double r8 = last / four(k - 8);
       if (!(r8 < 1.0) || k + 4.0 * std::log(relative / last) / std::log(r8) > kMaxOrder)
         return false;
     }
