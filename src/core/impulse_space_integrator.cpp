@@ -417,7 +417,8 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
     rest = approach.remaining(x, log_scale);
     u_n_stop = pr.normal(st.p + rest.p, st.P_t + rest.P_t);
   }
-  if ((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() > pr.tol * pr.V) {
+  // (Written so that a NaN, from sums that went wrong, fails too.)
+  if (!((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() <= pr.tol * pr.V)) {
     return SeriesResult::kNotConverged;
   }
   // A slip that hardly slows as it turns (m << 1) is far from its stop: the path's states are
@@ -425,7 +426,7 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
   // must stay within the tolerance too.
   const double magnitude =
       std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V * pr.J));
-  if (1e-15 * magnitude > 0.05 * pr.tol) return SeriesResult::kIllConditioned;
+  if (!(1e-15 * magnitude <= 0.05 * pr.tol)) return SeriesResult::kIllConditioned;
   // The stop, and the state at angle distance y along the path to it.
   const double p_stop = st.p + rest.p;
   const Vec2 P_stop = st.P_t + rest.P_t;

@@ -694,7 +694,8 @@ TEST(ImpulseSpaceIntegrator, CentralImpactOnAnisotropicBodyFollowsMatrixExponent
     const double angle = 2.0 * kPi * uni(rng);
     Eigen::Matrix2d R;
     R << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
-    const Eigen::Vector2d lambda(0.5 + uni(rng), 0.5 + 4.0 * uni(rng));  // [1/kg]
+    const double lambda_1 = 0.5 + uni(rng), lambda_2 = 0.5 + 4.0 * uni(rng);  // [1/kg]
+    const Eigen::Vector2d lambda(lambda_1, lambda_2);  // (drawn in this order on every compiler)
     const Eigen::Matrix2d A = R * lambda.asDiagonal() * R.transpose();
     const double c = 0.3 + uni(rng), mu = 0.2 + 0.6 * uni(rng), e = uni(rng);
     const double slip_angle = 2.0 * kPi * uni(rng);
