@@ -9,11 +9,10 @@
 namespace collision_response::core {
 
 Eigen::Vector2d slipDirection(const Eigen::Matrix2d& M, const Eigen::Vector2d& b) {
-  const double mean = 0.5 * M.trace();
-  const double half = std::hypot(0.5 * (M(0, 0) - M(1, 1)), M(0, 1));
+  const Eigen::Vector2d eigenvalues = symmetricEigenvalues(M);
   const double b_norm = b.norm();
-  double lo = std::max(0.0, b_norm - (mean + half));
-  double hi = std::max(lo, b_norm - (mean - half));
+  double lo = std::max(0.0, b_norm - eigenvalues(1));
+  double hi = std::max(lo, b_norm - eigenvalues(0));
   auto solve = [&](double lambda) {
     Eigen::Matrix2d L = M;
     L.diagonal().array() += lambda;

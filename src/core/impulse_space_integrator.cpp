@@ -317,8 +317,7 @@ bool approachStick(const Problem& pr, State& st) {
 bool centralStop(const Problem& pr, State& st) {
   const double trace = pr.A.trace();
   if (!(pr.b.norm() <= 1e-12 * (trace + pr.c)) || !(pr.mu_d > 0.0)) return false;
-  const double half_gap = std::hypot(0.5 * (pr.A(0, 0) - pr.A(1, 1)), pr.A(0, 1));
-  const double lambda_min = 0.5 * trace - half_gap;
+  const double lambda_min = symmetricEigenvalues(pr.A)(0);
   if (!(lambda_min > kSingularRelative * trace)) return false;
   const double p_c = -pr.u0_n / pr.c;
   const double p_end = (1.0 + pr.e) * p_c;

@@ -33,6 +33,12 @@ Eigen::Vector3d solveSymmetricLeastNorm(const Eigen::Matrix3d& K, const Eigen::V
   return symmetricPseudoInverse(K) * rhs;
 }
 
+Eigen::Vector2d symmetricEigenvalues(const Eigen::Matrix2d& A) {
+  const double mean = 0.5 * A.trace();
+  const double half_gap = std::hypot(0.5 * (A(0, 0) - A(1, 1)), A(0, 1));
+  return Eigen::Vector2d(mean - half_gap, mean + half_gap);
+}
+
 Eigen::Matrix2d symmetricPseudoInverse(const Eigen::Matrix2d& A) {
   const double trace = A(0, 0) + A(1, 1);
   const double det = A(0, 0) * A(1, 1) - A(0, 1) * A(1, 0);

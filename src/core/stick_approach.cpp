@@ -45,12 +45,6 @@ struct TwoPowTable {
   }
 };
 constexpr TwoPowTable kTwoPow;
-double cosCoef(int k) {
-  return kCos.v[k];
-}
-double sinCoef(int k) {
-  return kSin.v[k];
-}
 
 /// Horner sum of c[0..n] at y.
 template <class Array>
@@ -154,7 +148,7 @@ double StickApproach::gammaAt(double y) const {
 
 void StickApproach::extend() {
   const int k = ++order_;
-  const double ck = cosCoef(k + 1), sk = sinCoef(k + 1);
+  const double ck = kCos.v[k + 1], sk = kSin.v[k + 1];
   const double c2 = ck * kTwoPow.v[k + 1], s2 = sk * kTwoPow.v[k + 1];  // cos 2y, sin 2y
   Gamma_[k] =
       eps_ * fb_perp_ * ck - fb_star_ * sk - mu_ * (eps_ * a_sp_ * c2 + 0.5 * (a_pp_ - a_ss_) * s2);
@@ -169,7 +163,7 @@ void StickApproach::extend() {
     phi_[0] = 0.0;
     H_[0] = -1.0 / Gamma_[0];
   } else {
-    const double fc = cosCoef(k), fs = sinCoef(k);
+    const double fc = kCos.v[k], fs = kSin.v[k];
     const double f_k =
         fb_star_ * fc + eps_ * fb_perp_ * fs -
         mu_ * (0.5 * (a_ss_ - a_pp_) * fc * kTwoPow.v[k] + eps_ * a_sp_ * fs * kTwoPow.v[k]);

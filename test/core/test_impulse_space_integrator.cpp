@@ -677,6 +677,20 @@ TEST(ImpulseSpaceIntegrator, ErrorWithinToleranceOfIndependentReference) {
   EXPECT_LE(skipped, scenes / 20);
 }
 
+/// A problem entry given in its own contact basis (t1, t2, n) = (x, y, z): Delassus block K [1/kg],
+/// restitution e, friction mu_s, mu_d.
+cr::ProblemContact contactInBasis(const Matrix3d& K, double e, double mu_s, double mu_d) {
+  cr::ProblemContact contact;
+  contact.normal = Vector3d::UnitZ();
+  contact.tangent1 = Vector3d::UnitX();
+  contact.tangent2 = Vector3d::UnitY();
+  contact.delassus = K;
+  contact.restitution = e;
+  contact.static_friction = mu_s;
+  contact.dynamic_friction = mu_d;
+  return contact;
+}
+
 // A central impact (K_tn = 0: the normal through a free body's centre of mass, the box struck by a
 // locked arm) on an anisotropic body. Slip and normal decouple: u_n = u0_n + c p, so both laws end
 // at p = (1 + e) p_c, and in the clock xi (dp/dxi = |u_t|) the slip is linear, u_t(xi) =
@@ -707,14 +721,7 @@ TEST(ImpulseSpaceIntegrator, CentralImpactOnAnisotropicBodyFollowsMatrixExponent
     Matrix3d K = Matrix3d::Zero();
     K.topLeftCorner<2, 2>() = A;
     K(2, 2) = c;
-    cr::ProblemContact contact;
-    contact.normal = Vector3d::UnitZ();
-    contact.tangent1 = Vector3d::UnitX();
-    contact.tangent2 = Vector3d::UnitY();
-    contact.delassus = K;
-    contact.restitution = e;
-    contact.static_friction = mu;
-    contact.dynamic_friction = mu;
+    const cr::ProblemContact contact = contactInBasis(K, e, mu, mu);
     const Vector3d u(u0_t.x(), u0_t.y(), u0_n);
     // Reference.
     const double p_end = (1.0 + e) * -u0_n / c;
@@ -781,14 +788,7 @@ TEST(ImpulseSpaceIntegrator, ArmStrikingBoxAgreesWithReference) {
       1.409852394609822, 0.084363170271659793, 0.082023639452016184, 0.084363170271659793,
       0.93222161974540341;
   const Vector3d u(0.22557361705653528, -0.086619672600669551, -2.0449119452646021);
-  cr::ProblemContact contact;
-  contact.normal = Vector3d::UnitZ();
-  contact.tangent1 = Vector3d::UnitX();
-  contact.tangent2 = Vector3d::UnitY();
-  contact.delassus = K;
-  contact.restitution = 0.5;
-  contact.static_friction = 0.6;
-  contact.dynamic_friction = 0.5;
+  const cr::ProblemContact contact = contactInBasis(K, 0.5, 0.6, 0.5);
   const double J = u.norm() / K(2, 2), tol = 1e-10;
   for (cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
     const Reference ref =

@@ -19,6 +19,10 @@ Eigen::Vector3d solveSymmetricLeastNorm(const Eigen::Matrix3d& K, const Eigen::V
 /// trace(A)^2, otherwise the pseudo-inverse (the rank-one part, or 0).
 Eigen::Matrix2d symmetricPseudoInverse(const Eigen::Matrix2d& A);
 
+/// Eigenvalues of a symmetric 2x2 A in closed form, ascending: trace/2 -+ hypot((a00 - a11)/2,
+/// a01).
+Eigen::Vector2d symmetricEigenvalues(const Eigen::Matrix2d& A);
+
 /// A^+ for a symmetric positive semi-definite 3x3 A (eigen-decomposition, same threshold).
 Eigen::Matrix3d symmetricPseudoInverse(const Eigen::Matrix3d& A);
 

@@ -132,7 +132,6 @@ class ArticulatedBody final : public core::BodyModel {
   /// takes: tau = gravityTorques(), computed only when a resting query needs it (impacts pay
   /// nothing). Kept across setState() until setLoads().
   void setGravityCompensation(const Eigen::Vector3d& gravity);
-  bool gravityCompensated() const { return gravity_compensation_; }
   /// The actuators' torques: those of setLoads(), or g(q) under gravity compensation.
   Eigen::VectorXd jointTorques() const;
   const Eigen::Vector3d& gravity() const { return gravity_; }
