@@ -36,15 +36,26 @@ struct TrigTable {
   }
 };
 constexpr TrigTable kCos(0), kSin(1);
-/// 2^k.
-struct TwoPowTable {
+/// Taylor coefficients of cos y + sin y (E1) and of cos 2y + sin 2y (E2): the even orders are
+/// the cosine's, the odd ones the sine's.
+struct TrigSumTable {
   double v[StickApproach::kMaxOrder + 2];
-  constexpr TwoPowTable() : v() {
-    double x = 1.0;
-    for (int k = 0; k < StickApproach::kMaxOrder + 2; ++k, x *= 2.0) v[k] = x;
+  constexpr explicit TrigSumTable(double frequency) : v() {
+    double scale = 1.0;
+    for (int k = 0; k < StickApproach::kMaxOrder + 2; ++k, scale *= frequency)
+      v[k] = scale * (kCos.v[k] + kSin.v[k]);
   }
 };
-constexpr TwoPowTable kTwoPow;
+constexpr TrigSumTable kE1(1.0), kE2(2.0);
+/// 1 / k (0 for k = 0): the recurrence multiplies by it rather than divide, since each order
+/// waits for the one before.
+struct InverseTable {
+  double v[StickApproach::kMaxOrder + 1];
+  constexpr InverseTable() : v() {
+    for (int k = 1; k <= StickApproach::kMaxOrder; ++k) v[k] = 1.0 / k;
+  }
+};
+constexpr InverseTable kInverse;
 
 /// Horner sum of c[0..n] at y.
 template <class Array>
@@ -148,47 +159,69 @@ double StickApproach::gammaAt(double y) const {
 
 void StickApproach::extend() {
   const int k = ++order_;
-  const double ck = kCos.v[k + 1], sk = kSin.v[k + 1];
-  const double c2 = ck * kTwoPow.v[k + 1], s2 = sk * kTwoPow.v[k + 1];  // cos 2y, sin 2y
-  Gamma_[k] =
-      eps_ * fb_perp_ * ck - fb_star_ * sk - mu_ * (eps_ * a_sp_ * c2 + 0.5 * (a_pp_ - a_ss_) * s2);
-  // One pass over the earlier orders for every convolution of order k (independent sums, so the
-  // processor overlaps them):
-  //   y Gamma H' = H phi (phi_0 = 0):  k Gamma_0 H_k = sum_j<k H_j phi_k-j - j H_j Gamma_k-j,
-  //   (H cos y)_k, (H sin y)_k, and (D H)_k without its j = 0 and j = k terms.
-  double h_phi = 0.0, h_gamma = 0.0, hc = 0.0, hs = 0.0, dh = 0.0;
   if (k == 0) {
-    const double f0 = fb_star_ - mu_ * a_ss_;
-    m_ = f0 / Gamma_[0];
-    phi_[0] = 0.0;
-    H_[0] = -1.0 / Gamma_[0];
-  } else {
-    const double fc = kCos.v[k], fs = kSin.v[k];
-    const double f_k =
-        fb_star_ * fc + eps_ * fb_perp_ * fs -
-        mu_ * (0.5 * (a_ss_ - a_pp_) * fc * kTwoPow.v[k] + eps_ * a_sp_ * fs * kTwoPow.v[k]);
-    phi_[k] = f_k - (m_ + k) * Gamma_[k];
-    h_phi = H_[0] * phi_[k];
-    hc = H_[0] * kCos.v[k];
-    hs = H_[0] * kSin.v[k];
-    for (int j = 1; j < k; ++j) {
-      h_phi += H_[j] * phi_[k - j];
-      h_gamma += jH_[j] * Gamma_[k - j];
-      hc += H_[j] * kCos.v[k - j];
-      hs += H_[j] * kSin.v[k - j];
-      dh += D_[j] * H_[k - j];
-    }
-    H_[k] = (h_phi - h_gamma) / (k * Gamma_[0]);
+    // Gamma_0 = gamma'(0) and f_0 = f(0): m = f_0 / Gamma_0 (and H_0 = -1 / Gamma_0 below).
+    const double gamma0 = -fb_star_ - mu_ * (a_pp_ - a_ss_);
+    inverse_gamma0_ = 1.0 / gamma0;
+    m_ = (fb_star_ - mu_ * a_ss_) / gamma0;
   }
-  jH_[k] = k * H_[k];
-  hc += H_[k];  // cos y's order 0
-  const double w = 1.0 / (m_ + k);
+  // The weights of the sums' coefficients, first: their divisions then run alongside the pass
+  // below instead of holding up the next order.
+  const double w = 1.0 / (m_ + k), w_work = 1.0 / (2.0 * m_ + k);
+  // The recurrence, from y Gamma H' = H phi with phi = f - m Gamma - y Gamma' and Gamma = gamma/y:
+  //   (H f)_k = (m + k) (H Gamma)_k = (m + k) (H gamma)_(k+1),
+  // whose H_k terms give k Gamma_0 H_k = [(H f)_k - (m + k) (H gamma)_(k+1)] over j < k. f and
+  // gamma are combinations of cos y, sin y, cos 2y, sin 2y, so both sums are combinations of four
+  // convolutions of H with trig series, taken over j < k at the indices k and k + 1. Those at k
+  // are the ones at k + 1 from the order before, plus its H_(k-1) term; those at k + 1 come from
+  // one pass over j < k, with E1 = cos + sin and E2 = cos 2y + sin 2y: their even orders are the
+  // cosine's and their odd ones the sine's, so the parity of j says which a term belongs to.
+  // (H cos y)_k, (H sin y)_k, (H cos 2y)_k, (H sin 2y)_k over j < k:
+  double pc = 0.0, ps = 0.0, qc = 0.0, qs = 0.0;
+  if (k > 0) {
+    pc = next_c1_;
+    ps = next_s1_ + H_[k - 1];  // sin y's order 1
+    qc = next_c2_;
+    qs = next_s2_ + 2.0 * H_[k - 1];  // sin 2y's order 1
+  }
+  // The pass over j < k: the convolutions with E1 and E2 at k + 1, and (D H)_k without its j = 0
+  // and j = k terms, two terms a step (j, then j - 1 of the other parity) in six independent sums
+  // that the processor overlaps.
+  H_[k] = 0.0;  // the step at j = 1 reads D_0 H_k: that term is added below
+  double c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0, dh_a = 0.0, dh_b = 0.0;
+  int j = k - 1;
+  for (; j >= 1; j -= 2) {  // order k + 1 - j even (the cosines'), then odd for j - 1
+    const int i = k + 1 - j;
+    c1 += H_[j] * kE1.v[i];
+    c2 += H_[j] * kE2.v[i];
+    dh_a += D_[j] * H_[k - j];
+    s1 += H_[j - 1] * kE1.v[i + 1];
+    s2 += H_[j - 1] * kE2.v[i + 1];
+    dh_b += D_[j - 1] * H_[k - j + 1];
+  }
+  if (j == 0) {
+    c1 += H_[0] * kE1.v[k + 1];
+    c2 += H_[0] * kE2.v[k + 1];
+  }
+  next_c1_ = c1;
+  next_s1_ = s1;
+  next_c2_ = c2;
+  next_s2_ = s2;
+  if (k == 0) {
+    H_[0] = -inverse_gamma0_;
+  } else {
+    const double hf = fb_star_ * pc + eps_ * fb_perp_ * ps -
+                      mu_ * (0.5 * (a_ss_ - a_pp_) * qc + eps_ * a_sp_ * qs);
+    const double hgamma = eps_ * fb_perp_ * c1 - fb_star_ * s1 -
+                          mu_ * (eps_ * a_sp_ * c2 + 0.5 * (a_pp_ - a_ss_) * s2);
+    H_[k] = (hf - (m_ + k) * hgamma) * (kInverse.v[k] * inverse_gamma0_);
+  }
   Ip_[k] = H_[k] * w;
-  Ic_[k] = hc * w;
-  Is_[k] = hs * w;
+  Ic_[k] = (pc + H_[k]) * w;  // cos y's order 0
+  Is_[k] = ps * w;
   D_[k] = c_ * Ip_[k] - mu_ * (fb_star_ * Ic_[k] + eps_ * fb_perp_ * Is_[k]);
-  dh += D_[0] * H_[k] + (k > 0 ? D_[k] * H_[0] : 0.0);
-  DH2_[k] = dh / (2.0 * m_ + k);
+  const double d_h = dh_a + dh_b + D_[0] * H_[k] + (k > 0 ? D_[k] * H_[0] : 0.0);
+  DH2_[k] = d_h * w_work;
 }
 
 bool StickApproach::converged(double y, double relative_impulse, double relative_work) {

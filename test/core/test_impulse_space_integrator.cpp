@@ -8,7 +8,6 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -457,33 +456,6 @@ TEST(ImpulseSpaceIntegrator, ErrorShrinksWithTolerance) {
   EXPECT_LT(median9, 1e-8);
   EXPECT_LE(outliers6, cases / 100);
   EXPECT_LE(outliers9, cases / 100);
-}
-
-TEST(ImpulseSpaceIntegrator, Timing) {
-  std::mt19937_64 rng(kSeed + 4);
-  std::vector<RandomCase> cases;
-  for (int i = 0; i < 2000; ++i) cases.push_back(randomCase(rng));
-  for (cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
-    double sink = 0.0;
-    std::size_t steps = 0;
-    const auto t0 = std::chrono::steady_clock::now();
-    const int reps = 20;
-    for (int r = 0; r < reps; ++r) {
-      for (const RandomCase& c : cases) {
-        cr::ImpulseSpaceDetail stats;
-        sink +=
-            cr::integrateSingleContact(c.a.body, c.b.body, c.row, law, 1e-9, &stats).normal_impulse;
-        steps += stats.steps;
-      }
-    }
-    const double ns =
-        std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count() /
-        (reps * cases.size());
-    std::printf(
-        "timing %s, tol 1e-9, random 3D (incl. closed-form cases): %.0f ns per contact, "
-        "%.2f RK steps per contact (sink %g)\n",
-        cr::toString(law), ns, double(steps) / (reps * cases.size()), sink);
-  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -77,13 +77,17 @@ class StickApproach {
   double mu_ = 0.0, c_ = 0.0, m_ = 0.0;
   double fb_star_ = 0.0, fb_perp_ = 0.0;         ///< b . s*, b . s*_perp
   double a_ss_ = 0.0, a_sp_ = 0.0, a_pp_ = 0.0;  ///< s*^T A s*, s*^T A s*_perp, s*_perp^T A s*_perp
-  // Taylor coefficients in y: Gamma = gamma / y, phi = f - m Gamma - y Gamma', H = -e^S / Gamma
-  // (dp/dy's regular part, from y Gamma H' = H phi), and the sums' coefficients Ip = H / (m + k),
+  // Taylor coefficients in y: H = -e^S / Gamma with Gamma = gamma / y (dp/dy's regular part,
+  // from y Gamma H' = H (f - m Gamma - y Gamma')), and the sums' coefficients Ip = H / (m + k),
   // Ic = (H cos y)_k / (m + k), Is likewise, D = c Ip - mu (b.s*) Ic - mu eps (b.s*_perp) Is,
   // DH2 = (D H)_k / (2m + k).
   using Series = std::array<double, kMaxOrder + 1>;
   int order_ = -1;
-  Series Gamma_, phi_, H_, jH_, Ip_, Ic_, Is_, D_, DH2_;  // jH_k = k H_k
+  double inverse_gamma0_ = 0.0;  ///< 1 / Gamma(0) = 1 / g'(theta*) < 0
+  /// (H cos y), (H sin y), (H cos 2y), (H sin 2y) at index order() + 1 over j <= order() - 1
+  /// (extend()'s sums at the next order, but for their last terms).
+  double next_c1_ = 0.0, next_s1_ = 0.0, next_c2_ = 0.0, next_s2_ = 0.0;
+  Series H_, Ip_, Ic_, Is_, D_, DH2_;
 };
 
 }  // namespace collision_response::core

@@ -1,0 +1,105 @@
+// Tests of StickApproach, the rotating slip's approach to stick in closed form (docs/physics.md,
+// "Approach to stick in closed form"), on its own: the integrator checks the series' answers and
+// falls back to its steps when they are wrong, so its own tests would pass with wrong series, only
+// slower. Here every remaining quantity from the series is compared with an independent classical
+// RK4 integration of the sliding equations with a small fixed step.
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "collision_response/core/stick_approach.h"
+
+namespace cr = collision_response::core;
+using Eigen::Matrix2d;
+using Eigen::Vector2d;
+
+namespace {
+
+/// What remains of a slip from direction s0 and speed 1 to its stop, by RK4 in the clock xi
+/// (dp/dxi = |u_t|, in which the stop is an exponentially attracting equilibrium) up to
+/// |u_t| < 1e-14: du_t/dxi = b |u_t| - mu A u_t, dp/dxi = |u_t|, dP_t/dxi = -mu u_t, and the rise
+/// of u_n, d(rise)/dxi = b . dP_t/dxi + c dp/dxi, with the integral of the rise over p.
+struct Reference {
+  double p = 0.0;
+  Vector2d P_t = Vector2d::Zero();
+  double rise = 0.0;
+  double rise_integral = 0.0;  // integral of rise(p) dp
+};
+
+Reference integrate(const Matrix2d& A, const Vector2d& b, double c, double mu, const Vector2d& s0,
+                    double h) {
+  using State = Eigen::Matrix<double, 7, 1>;  // u_t (2), p, P_t (2), rise, rise integral
+  const auto rate = [&](const State& x) {
+    const Vector2d u = x.head<2>();
+    const double sigma = u.norm();
+    State d;
+    d.head<2>() = b * sigma - mu * A * u;
+    d(2) = sigma;
+    d.segment<2>(3) = -mu * u;
+    d(5) = b.dot(d.segment<2>(3)) + c * sigma;
+    d(6) = x(5) * sigma;
+    return d;
+  };
+  State x = State::Zero();
+  x.head<2>() = s0;
+  for (int i = 0; i < 10000000 && x.head<2>().norm() > 1e-14; ++i) {
+    const State k1 = rate(x), k2 = rate(x + 0.5 * h * k1), k3 = rate(x + 0.5 * h * k2),
+                k4 = rate(x + h * k3);
+    x += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+  }
+  Reference out;
+  out.p = x(2);
+  out.P_t = x.segment<2>(3);
+  out.rise = x(5);
+  out.rise_integral = x(6);
+  return out;
+}
+
+// Random anisotropic K_tt, coupling K_tn and friction; every slip that turns to a direction that
+// stops it, starting where the series converge, against the reference: impulses, friction impulse,
+// rise of u_n and the work's drop to 1e-9 of the impulse scale (the reference's error is ~1e-12).
+TEST(StickApproach, RemainingAgreesWithIndependentIntegration) {
+  std::mt19937_64 rng(20261124);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.0, 1.0);
+  int compared = 0, tried = 0;
+  for (int i = 0; i < 400 && compared < 40; ++i) {
+    const double angle = 3.14159265358979 * positive(rng);
+    const Vector2d e1(std::cos(angle), std::sin(angle)), e2(-e1.y(), e1.x());
+    const double l1 = 0.3 + 2.7 * positive(rng), l2 = 0.3 + 2.7 * positive(rng);
+    const Matrix2d A = l1 * e1 * e1.transpose() + l2 * e2 * e2.transpose();  // [1/kg]
+    const Vector2d b(0.4 * unit(rng), 0.4 * unit(rng));
+    const double c = 1.5, mu = 0.2 + 0.8 * positive(rng);
+    const double theta0 = 3.14159265358979 * unit(rng);
+    const Vector2d s0(std::cos(theta0), std::sin(theta0));
+    cr::StickApproach approach;
+    if (!approach.build(A, b, c, mu, s0)) continue;
+    ++tried;
+    const double y0 = approach.distance(s0);
+    ASSERT_GE(y0, 0.0);
+    if (!approach.converged(y0, 1e-12, 1e-12)) continue;
+    const cr::StickApproach::Remaining got = approach.remaining(y0, approach.logScale(y0, 1.0));
+    // The step: a thousandth of the fastest rate of the equations (mu times A's largest
+    // eigenvalue, plus |b|).
+    const Reference ref = integrate(A, b, c, mu, s0, 1e-3 / (mu * std::max(l1, l2) + b.norm()));
+    const double scale = ref.p;
+    const double work_drop = ref.rise * ref.p - ref.rise_integral;
+    EXPECT_NEAR(got.p, ref.p, 1e-9 * scale) << "case " << i;
+    EXPECT_LE((got.P_t - ref.P_t).norm(), 1e-9 * scale) << "case " << i;
+    EXPECT_NEAR(got.u_n_rise, ref.rise, 1e-9 * ref.rise) << "case " << i;
+    EXPECT_NEAR(got.work_drop, work_drop, 1e-9 * ref.rise * ref.p) << "case " << i;
+    EXPECT_LE((got.direction - s0).norm(), 1e-12) << "case " << i;
+    // s* is a fixed direction of the slip: du_t/dp = b - mu A s* is along s*.
+    const Vector2d s_star = approach.direction(), s_star_perp(-s_star.y(), s_star.x());
+    EXPECT_NEAR(s_star_perp.dot(b - mu * A * s_star), 0.0, 1e-12) << "case " << i;
+    ++compared;
+  }
+  std::printf("stick approach: %d slips stopping, %d compared with the series converged\n", tried,
+              compared);
+  EXPECT_GE(compared, 20);
+}
+
+}  // namespace
