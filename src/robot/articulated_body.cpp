@@ -1,6 +1,7 @@
 #include "collision_response/robot/articulated_body.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
 
@@ -306,30 +307,29 @@ void ArticulatedBody::factorise() {
   const int n = unknowns_;
   singular_.clear();
   if (n == 0) return;
-  factor_.compute(mass_matrix_);
+  // M = L L^T by Cholesky's algorithm, L in the lower triangle of cholesky_ (plain loops: for a
+  // few unknowns a fraction of the cost of Eigen's LLT, whose column updates are general matrix
+  // products). Its pivots come in unknown order: the pivot of unknown k is that of M's leading
+  // (k+1) block, so the first one that vanishes (below kSingularPivot times M's largest diagonal
+  // entry) names the first unknown whose motion moves no mass the others do not.
   const double scale = mass_matrix_.diagonal().maxCoeff();
-  // Cholesky pivots in unknown order: the pivot of unknown k is that of M's leading (k+1) block, so
-  // the first zero pivot names the first unknown whose motion moves no mass the others do not.
-  const auto pivot_ok = [&](int k, const Eigen::MatrixXd& l) {
-    return l(k, k) * l(k, k) > kSingularPivot * scale;
-  };
-  int bad = -1;
-  if (factor_.info() == Eigen::Success && scale > 0.0) {
-    // matrixLLT(): the factor in place (its lower triangle and diagonal are L's), no copy.
-    for (int k = 0; k < n && bad < 0; ++k) {
-      if (!pivot_ok(k, factor_.matrixLLT())) bad = k;
+  cholesky_ = mass_matrix_;
+  int bad = scale > 0.0 ? -1 : 0;
+  for (int j = 0; j < n && bad < 0; ++j) {
+    double pivot = cholesky_(j, j);
+    for (int k = 0; k < j; ++k) pivot -= cholesky_(j, k) * cholesky_(j, k);
+    if (!(pivot > kSingularPivot * scale)) {
+      bad = j;
+      break;
     }
-  } else {
-    bad = n - 1;
-    for (int k = 0; k < n; ++k) {
-      Eigen::LLT<Eigen::MatrixXd> lead(mass_matrix_.topLeftCorner(k + 1, k + 1));
-      if (lead.info() != Eigen::Success || !(scale > 0.0) || !pivot_ok(k, lead.matrixLLT())) {
-        bad = k;
-        break;
-      }
+    const double l = std::sqrt(pivot), inverse = 1.0 / l;
+    cholesky_(j, j) = l;
+    for (int i = j + 1; i < n; ++i) {
+      double v = cholesky_(i, j);
+      for (int k = 0; k < j; ++k) v -= cholesky_(i, k) * cholesky_(j, k);
+      cholesky_(i, j) = v * inverse;
     }
   }
-  singular_.clear();
   if (bad >= 0) {
     const int joint = joint_of_unknown_[bad];
     singular_ =
@@ -394,7 +394,7 @@ Eigen::Matrix<double, Eigen::Dynamic, 3> ArticulatedBody::partInverseMassJacobia
   requireRegular();
   // M^-1 J^T by forward and back substitution with M = L L^T, three columns at once: for a few
   // unknowns, plain loops cost a fraction of Eigen's blocked triangular solves for matrices.
-  const Eigen::MatrixXd& L = factor_.matrixLLT();  // L in the lower triangle
+  const Eigen::MatrixXd& L = cholesky_;  // L in the lower triangle
   Eigen::Matrix<double, Eigen::Dynamic, 3> x = partPointJacobian(part, point).transpose();
   const int n = unknowns_;
   for (int i = 0; i < n; ++i) {  // L y = J^T
@@ -567,7 +567,10 @@ Eigen::VectorXd ArticulatedBody::freeAcceleration() const {
     const int joint = joint_of_unknown_[k];
     if (joint >= 0) rhs(k) += torques(joint);
   }
-  return factor_.solve(rhs);
+  const auto L = cholesky_.triangularView<Eigen::Lower>();
+  L.solveInPlace(rhs);
+  L.adjoint().solveInPlace(rhs);
+  return rhs;  // M^-1 (tau - h)
 }
 
 void ArticulatedBody::updateFreeAccelerations() const {

@@ -1,6 +1,5 @@
 #pragma once
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <kdl/frames.hpp>
@@ -250,7 +249,7 @@ class ArticulatedBody final : public core::BodyModel {
   Eigen::Vector3d base_angular_velocity_ = Eigen::Vector3d::Zero();
   KDL::Twist base_axes_[6];
   Eigen::MatrixXd mass_matrix_;
-  Eigen::LLT<Eigen::MatrixXd> factor_;
+  Eigen::MatrixXd cholesky_;  // M = L L^T: L in the lower triangle (factorise())
   std::string singular_;
   Eigen::VectorXd torques_;                            // tau, joint order (setLoads())
   bool gravity_compensation_ = false;                  // tau = g(q) instead
