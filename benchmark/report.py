@@ -82,10 +82,9 @@ WHY_MISSED_ROBOT = {
     "(docs/physics.md, \"Approach to stick in closed form\"): no Runge-Kutta step, but about 50 "
     "orders at the default tolerance 1e-10, because the start lies 0.97 rad from the sticking "
     "direction and the series' radius is 2.5 rad (the next zero of the angle's rate). The "
-    "coefficients cost O(order^2), three products a term (d97d9fb; five before): in one "
-    "interleaved A/B on 2026-11-24 the best repetition went from 5.78 to 5.27 us, on a day "
-    "when the Newton row ran 7 % slower than in the run before. The series still take about "
-    "half the time, as much as the robot part.",
+    "coefficients cost O(order^2), three products a term (d97d9fb; five before). With the "
+    "robot's own Cholesky factor (277d89c) the row went from 5.79 to 4.55 us (best repetitions "
+    "of one interleaved A/B on 2026-11-24); the series are still about half of it.",
     "BM_Arm7LockedStrikesBox/0": "a central contact (the box's centre on the normal): the slip "
     "surely stops within the impact, and the answer is in closed form (centralStop()); what "
     "remains is the arm's state update, as for the Newton row.",
