@@ -23,27 +23,16 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
-/// Taylor coefficients of cos y and sin y: (-1)^(k/2) / k! for even k (cos), (-1)^((k-1)/2) / k!
-/// for odd k (sin), 0 otherwise.
-struct TrigTable {
-  double v[StickApproach::kMaxOrder + 2];
-  constexpr explicit TrigTable(int parity) : v() {
-    double x = 1.0;
-    for (int k = 0; k < StickApproach::kMaxOrder + 2; ++k) {
-      if (k > 0) x /= k;
-      v[k] = k % 2 != parity ? 0.0 : ((k / 2) % 2 ? -x : x);
-    }
-  }
-};
-constexpr TrigTable kCos(0), kSin(1);
-/// Taylor coefficients of cos y + sin y (E1) and of cos 2y + sin 2y (E2): the even orders are
-/// the cosine's, the odd ones the sine's.
+/// Taylor coefficients of cos wy + sin wy (E1: w = 1, E2: w = 2): w^k (-1)^(k/2) / k! at even k
+/// (the cosine's), w^k (-1)^((k-1)/2) / k! at odd k (the sine's).
 struct TrigSumTable {
   double v[StickApproach::kMaxOrder + 2];
   constexpr explicit TrigSumTable(double frequency) : v() {
-    double scale = 1.0;
-    for (int k = 0; k < StickApproach::kMaxOrder + 2; ++k, scale *= frequency)
-      v[k] = scale * (kCos.v[k] + kSin.v[k]);
+    double x = 1.0, power = 1.0;  // 1 / k!, w^k
+    for (int k = 0; k < StickApproach::kMaxOrder + 2; ++k, power *= frequency) {
+      if (k > 0) x /= k;
+      v[k] = power * ((k / 2) % 2 ? -x : x);
+    }
   }
 };
 constexpr TrigSumTable kE1(1.0), kE2(2.0);
@@ -241,7 +230,6 @@ bool StickApproach::converged(double y, double relative_impulse, double relative
     power *= y;
   };
   for (int k = 0; k <= order_; ++k) term(k);
-  const double relative = 1.0;
   // Geometric decay: the last four terms below the share of the tolerance, and falling at least
   // twofold over four orders (then the rest sums to less than they do; four, not two, so that
   // coefficients that oscillate, from complex singularities, cannot pass by a chance small pair).
@@ -252,8 +240,8 @@ bool StickApproach::converged(double y, double relative_impulse, double relative
     // and the give-ups look only every fourth order.
     const double four_p = tp[k] + tp[k - 1] + tp[k - 2] + tp[k - 3];
     const double four_w = tw[k] + tw[k - 1] + tw[k - 2] + tw[k - 3];
-    const bool may_accept = four_p <= 0.5 * relative * std::abs(sum_p) * relative_impulse &&
-                            four_w <= 0.5 * relative * std::abs(sum_w) * relative_work;
+    const bool may_accept = four_p <= 0.5 * std::abs(sum_p) * relative_impulse &&
+                            four_w <= 0.5 * std::abs(sum_w) * relative_work;
     if (may_accept || k % 4 == 0) {
       const double np = 1.0 / (std::abs(sum_p) * relative_impulse);
       const double nw = 1.0 / (std::abs(sum_w) * relative_work);
@@ -263,17 +251,16 @@ bool StickApproach::converged(double y, double relative_impulse, double relative
       };
       const double last = four(k);
       const double earlier = k >= 7 ? four(k - 4) : kInfinity;
-      if (last <= 0.5 * relative && last <= 0.5 * earlier) return true;
+      if (last <= 0.5 && last <= 0.5 * earlier) return true;
       if (k >= kMaxOrder) return false;
       // Give up early where extending would be wasted: terms growing (y beyond the radius of
       // convergence), or a decay over the last 8 orders, r per order, too slow to reach the
       // tolerance by kMaxOrder even if it doubles its pace (the decay quickens with the order as
       // the algebraic factors of the singularities fade).
       if (k >= 12 && k % 4 == 0 && !(last < earlier)) return false;
-      if (k >= 16 && k % 8 == 0 && last > relative) {
+      if (k >= 16 && k % 8 == 0 && last > 1.0) {
         const double r8 = last / four(k - 8);
-        if (!(r8 < 1.0) || k + 4.0 * std::log(relative / last) / std::log(r8) > kMaxOrder)
-          return false;
+        if (!(r8 < 1.0) || k + 4.0 * -std::log(last) / std::log(r8) > kMaxOrder) return false;
       }
     } else if (k >= kMaxOrder) {
       return false;

@@ -35,6 +35,24 @@ Eigen::Vector3d velocityAt(const KDL::Twist& twist, const Eigen::Vector3d& p) {
 // counts as singular (a free joint that moves no mass).
 constexpr double kSingularPivot = 1e-12;
 
+/// x <- M^-1 x for M = L L^T (L in the lower triangle of `lower`, n x n), by forward and back
+/// substitution, all columns of x at once: for a few unknowns, plain loops cost a fraction of
+/// Eigen's blocked triangular solves.
+template <class Matrix>
+void solveWithCholesky(const Eigen::MatrixXd& lower, int n, Matrix& x) {
+  using Row = Eigen::Matrix<double, 1, Matrix::ColsAtCompileTime>;
+  for (int i = 0; i < n; ++i) {  // L y = x
+    Row r = x.row(i);
+    for (int k = 0; k < i; ++k) r -= lower(i, k) * x.row(k);
+    x.row(i) = r / lower(i, i);
+  }
+  for (int i = n - 1; i >= 0; --i) {  // L^T x = y
+    Row r = x.row(i);
+    for (int k = i + 1; k < n; ++k) r -= lower(k, i) * x.row(k);
+    x.row(i) = r / lower(i, i);
+  }
+}
+
 // The momentum (linear [N s], angular about the origin [N m s]) of a body of spatial inertia
 // (m, h, I_o) moving with the twist (v at the origin, w): (m v - h x w, I_o w + h x v).
 struct Momentum {
@@ -392,21 +410,8 @@ Eigen::Matrix<double, Eigen::Dynamic, 3> ArticulatedBody::partInverseMassJacobia
     int part, const Eigen::Vector3d& point) const {
   if (unknowns_ == 0) return Eigen::Matrix<double, Eigen::Dynamic, 3>(0, 3);
   requireRegular();
-  // M^-1 J^T by forward and back substitution with M = L L^T, three columns at once: for a few
-  // unknowns, plain loops cost a fraction of Eigen's blocked triangular solves for matrices.
-  const Eigen::MatrixXd& L = cholesky_;  // L in the lower triangle
   Eigen::Matrix<double, Eigen::Dynamic, 3> x = partPointJacobian(part, point).transpose();
-  const int n = unknowns_;
-  for (int i = 0; i < n; ++i) {  // L y = J^T
-    Eigen::RowVector3d r = x.row(i);
-    for (int k = 0; k < i; ++k) r -= L(i, k) * x.row(k);
-    x.row(i) = r / L(i, i);
-  }
-  for (int i = n - 1; i >= 0; --i) {  // L^T x = y
-    Eigen::RowVector3d r = x.row(i);
-    for (int k = i + 1; k < n; ++k) r -= L(k, i) * x.row(k);
-    x.row(i) = r / L(i, i);
-  }
+  solveWithCholesky(cholesky_, unknowns_, x);
   return x;
 }
 
@@ -567,9 +572,7 @@ Eigen::VectorXd ArticulatedBody::freeAcceleration() const {
     const int joint = joint_of_unknown_[k];
     if (joint >= 0) rhs(k) += torques(joint);
   }
-  const auto L = cholesky_.triangularView<Eigen::Lower>();
-  L.solveInPlace(rhs);
-  L.adjoint().solveInPlace(rhs);
+  solveWithCholesky(cholesky_, unknowns_, rhs);
   return rhs;  // M^-1 (tau - h)
 }
 

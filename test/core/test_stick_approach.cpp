@@ -19,6 +19,8 @@ using Eigen::Vector2d;
 
 namespace {
 
+constexpr double kPi = 3.14159265358979323846;
+
 /// What remains of a slip from direction s0 and speed 1 to its stop, by RK4 in the clock xi
 /// (dp/dxi = |u_t|, in which the stop is an exponentially attracting equilibrium) up to
 /// |u_t| < 1e-14: du_t/dxi = b |u_t| - mu A u_t, dp/dxi = |u_t|, dP_t/dxi = -mu u_t, and the rise
@@ -67,13 +69,13 @@ TEST(StickApproach, RemainingAgreesWithIndependentIntegration) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.0, 1.0);
   int compared = 0, tried = 0;
   for (int i = 0; i < 400 && compared < 40; ++i) {
-    const double angle = 3.14159265358979 * positive(rng);
+    const double angle = kPi * positive(rng);
     const Vector2d e1(std::cos(angle), std::sin(angle)), e2(-e1.y(), e1.x());
     const double l1 = 0.3 + 2.7 * positive(rng), l2 = 0.3 + 2.7 * positive(rng);
     const Matrix2d A = l1 * e1 * e1.transpose() + l2 * e2 * e2.transpose();  // [1/kg]
     const Vector2d b(0.4 * unit(rng), 0.4 * unit(rng));
     const double c = 1.5, mu = 0.2 + 0.8 * positive(rng);
-    const double theta0 = 3.14159265358979 * unit(rng);
+    const double theta0 = kPi * unit(rng);
     const Vector2d s0(std::cos(theta0), std::sin(theta0));
     cr::StickApproach approach;
     if (!approach.build(A, b, c, mu, s0)) continue;
