@@ -54,6 +54,17 @@ constexpr double kStickSpeed = 1e-14;
 constexpr double kParallel = 1e-12;
 /// Share of the tolerance allowed to the local error of one step (errors of successive steps add).
 constexpr double kStepShare = 0.3;
+/// The closed-form approach to stop (stick_approach.h) is tried only on slips whose exponent m
+/// (sigma ~ y^m near the stop) is at least this. The turning rate dy/dp ~ y^(1 - m) then grows
+/// without bound as the slip stops, and the steps shrink with it: the slips the series shortens
+/// most. Where m is smaller the steps to the stop are few and the series' set-up and orders cost
+/// more than they save (docs/physics.md, "When the series is used", has the measurements).
+constexpr double kSeriesExponent = 2.0;
+/// ... and first when the slip's angle distance to its stop is below this fraction of the
+/// series' radius of convergence (StickApproach::radius()): further out the terms fall too slowly
+/// for the series to converge within StickApproach::kMaxOrder (on random 3D contacts no attempt
+/// beyond 0.7 of the radius converged, and those beyond 0.5 needed 45 to 64 orders).
+constexpr double kSeriesReach = 0.5;
 
 double cross2(const Vec2& x, const Vec2& y) {
   return x.x() * y.y() - x.y() * y.x();
@@ -514,11 +525,14 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
   Vec4 y = st.vec();
   Vec4 f = slipField(pr, y);
   double h = std::min(h_max, 0.05 * pr.J / std::max(f[0], kStickSpeed * pr.V));
-  // The closed-form approach to stop, tried again each time the slip has turned 30 % closer to
-  // its final direction s* (the cosine of the angle to it above retry_cos).
+  // The closed-form approach to stop (stick_approach.h), tried on a slip with m >=
+  // kSeriesExponent once within kSeriesReach of the series' radius of its final direction s*,
+  // and again each time it has turned 30 % closer (the cosine of the angle to s* above
+  // retry_cos).
   StickApproach approach;
-  bool series = approach.build(pr.A, pr.b, pr.c, pr.mu_d, pr.slip(st.p, st.P_t).normalized());
-  double retry_cos = -2.0;
+  bool series = approach.build(pr.A, pr.b, pr.c, pr.mu_d, pr.slip(st.p, st.P_t).normalized()) &&
+                approach.exponent() >= kSeriesExponent;
+  double retry_cos = series ? std::cos(std::min(3.0, kSeriesReach * approach.radius())) : 2.0;
   while (true) {
     if (series) {
       const Vec2 u_t = pr.slip(st.p, st.P_t);

@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <limits>
 
 namespace collision_response::core {
@@ -22,6 +23,27 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// Complex arithmetic for radius(), without the library's general division (a call per use)
+// and its hypot-based modulus: the values are far from overflow.
+using Complex = std::complex<double>;
+double modulus(const Complex& z) {
+  return std::sqrt(std::norm(z));
+}
+Complex divide(const Complex& x, const Complex& y) {
+  return x * std::conj(y) / std::norm(y);
+}
+/// The principal square root, each part from the larger of |z| +- Re z (no cancellation).
+Complex squareRoot(const Complex& z) {
+  const double r = modulus(z);
+  if (r == 0.0) return Complex(0.0);
+  if (z.real() >= 0.0) {
+    const double re = std::sqrt(0.5 * (r + z.real()));
+    return Complex(re, 0.5 * z.imag() / re);
+  }
+  const double im = std::copysign(std::sqrt(0.5 * (r - z.real())), z.imag());
+  return Complex(0.5 * z.imag() / im, im);
+}
 
 /// Taylor coefficients of cos wy + sin wy (E1: w = 1, E2: w = 2): w^k (-1)^(k/2) / k! at even k
 /// (the cosine's), w^k (-1)^((k-1)/2) / k! at odd k (the sine's).
@@ -110,8 +132,14 @@ bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, do
       hi = t;
     }
     double next = dg != 0.0 ? t - dir * v / dg : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    const bool done = std::abs(next - t) <= 1e-15;
+    bool newton = true;
+    if (!(next > lo && next < hi)) {
+      next = 0.5 * (lo + hi);
+      newton = false;
+    }
+    // Newton converges quadratically: after a step below 1e-8 rad the error is of order 1e-16
+    // times g''/g' (order 1), so that step is the last one needed.
+    const bool done = std::abs(next - t) <= (newton ? 1e-8 : 1e-15);
     s = rotated(s, dir * (next - t));
     t = next;
     if (done) break;
@@ -144,6 +172,61 @@ double StickApproach::distance(const Eigen::Vector2d& s) const {
 double StickApproach::gammaAt(double y) const {
   return eps_ * fb_perp_ * std::cos(y) - fb_star_ * std::sin(y) -
          mu_ * (eps_ * a_sp_ * std::cos(2 * y) + 0.5 * (a_pp_ - a_ss_) * std::sin(2 * y));
+}
+
+double StickApproach::radius() const {
+  // gamma(y) = A1 cos y + B1 sin y + A2 cos 2y + B2 sin 2y; with z = e^(iy), 2 z^2 gamma is the
+  // quartic a z^4 + b z^3 + conj(b) z + conj(a), a = A2 - i B2, b = A1 - i B1, and z = 1 (theta*)
+  // a root (A1 + A2 = gamma(0) = 0). Dividing it out leaves the cubic
+  //   a z^3 + (a + b) z^2 + (a + b) z + (a + b + conj(b)),
+  // whose roots z give y = arg z - i ln|z|, at distance |y| = sqrt(arg^2 z + ln^2 |z|) from
+  // theta* (arg in (-pi, pi]: the nearest of the 2 pi images). Called once per slip, so the
+  // complex arithmetic is spelled out (no library complex division, power or hypot).
+  const double A1 = eps_ * fb_perp_, B1 = -fb_star_;
+  const double A2 = -mu_ * eps_ * a_sp_, B2 = -0.5 * mu_ * (a_pp_ - a_ss_);
+  const Complex a(A2, -B2), b(A1, -B1);
+  const Complex q[4] = {a + b + std::conj(b), a + b, a + b, a};  // q[k]: coefficient of z^k
+  const double scale = modulus(q[0]) + modulus(q[1]) + modulus(q[3]);
+  Complex roots[3];
+  int count = 0;
+  if (modulus(q[3]) <= 1e-9 * scale) {
+    // a ~ 0 (nearly isotropic K_tt, or no friction term): the third root runs off to infinity
+    // (y to -i infinity, no singularity); the other two are the quadratic's.
+    if (modulus(q[2]) <= 1e-9 * scale) return kInfinity;
+    const Complex d = squareRoot(q[1] * q[1] - 4.0 * q[2] * q[0]);
+    const Complex big = -0.5 * (q[1] + (std::real(std::conj(q[1]) * d) >= 0.0 ? d : -d));
+    roots[count++] = divide(big, q[2]);
+    if (std::norm(big) > 0.0) roots[count++] = divide(q[0], big);
+  } else {
+    // Cardano on the monic cubic z^3 + B z^2 + C z + D, with z = t - B / 3: t^3 + P t + Q = 0.
+    const Complex inverse = divide(Complex(1.0), q[3]);
+    const Complex B = q[2] * inverse, C = q[1] * inverse, D = q[0] * inverse;
+    const Complex P = C - B * B / 3.0;
+    const Complex Q = 2.0 * B * B * B / 27.0 - B * C / 3.0 + D;
+    const Complex s = squareRoot(0.25 * Q * Q + P * P * P / 27.0);
+    const Complex w1 = -0.5 * Q + s, w2 = -0.5 * Q - s;
+    const Complex w = std::norm(w1) >= std::norm(w2) ? w1 : w2;
+    const double angle = std::atan2(w.imag(), w.real()) / 3.0;
+    const double length = std::cbrt(modulus(w));
+    const Complex omega(-0.5, 0.5 * std::sqrt(3.0));
+    Complex r(length * std::cos(angle), length * std::sin(angle));
+    for (int k = 0; k < 3; ++k, r = r * omega) {
+      roots[count++] = (std::norm(r) > 0.0 ? r - divide(P, 3.0 * r) : Complex(0.0)) - B / 3.0;
+    }
+  }
+  double nearest = kInfinity;
+  for (int k = 0; k < count; ++k) {
+    Complex z = roots[k];
+    // One Newton step on the cubic itself, against Cardano's cancellation.
+    const Complex value = ((q[3] * z + q[2]) * z + q[1]) * z + q[0];
+    const Complex slope = (3.0 * q[3] * z + 2.0 * q[2]) * z + q[1];
+    if (std::norm(slope) > 0.0) z -= divide(value, slope);
+    const double norm = std::norm(z);
+    if (!(norm > 0.0) || !std::isfinite(norm)) continue;
+    const double angle = std::atan2(z.imag(), z.real()), log_modulus = 0.5 * std::log(norm);
+    nearest = std::min(nearest, std::sqrt(angle * angle + log_modulus * log_modulus));
+  }
+  return nearest;
 }
 
 void StickApproach::extend() {

@@ -8,8 +8,11 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstdio>
+#include <limits>
 #include <random>
+#include <vector>
 
 #include "collision_response/core/stick_approach.h"
 
@@ -102,6 +105,75 @@ TEST(StickApproach, RemainingAgreesWithIndependentIntegration) {
   std::printf("stick approach: %d slips stopping, %d compared with the series converged\n", tried,
               compared);
   EXPECT_GE(compared, 20);
+}
+
+// radius() against the zeros of the angle equation found directly: g(theta) = s_perp . (b - mu A s)
+// with s = (cos theta, sin theta) continued to complex theta, its zeros by Newton's method from a
+// grid over one period and |Im theta| <= 4; the nearest other than theta* is the radius. And the
+// series diverge beyond it: converged() refuses y = 1.1 radius.
+TEST(StickApproach, RadiusIsTheDistanceToTheNearestOtherZeroOfTheAngleEquation) {
+  using Complex = std::complex<double>;
+  std::mt19937_64 rng(20261125);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.0, 1.0);
+  int compared = 0, beyond = 0;
+  for (int i = 0; i < 400 && compared < 60; ++i) {
+    const double angle = kPi * positive(rng);
+    const Vector2d e1(std::cos(angle), std::sin(angle)), e2(-e1.y(), e1.x());
+    // Every fourth case isotropic (A = l I: g has only its first harmonic, zeros a half turn
+    // apart).
+    const double l1 = 0.3 + 2.7 * positive(rng), l2 = i % 4 == 0 ? l1 : 0.3 + 2.7 * positive(rng);
+    const Matrix2d A = l1 * e1 * e1.transpose() + l2 * e2 * e2.transpose();  // [1/kg]
+    const Vector2d b(0.4 * unit(rng), 0.4 * unit(rng));
+    const double c = 1.5, mu = 0.2 + 0.8 * positive(rng);
+    const double theta0 = kPi * unit(rng);
+    cr::StickApproach approach;
+    if (!approach.build(A, b, c, mu, Vector2d(std::cos(theta0), std::sin(theta0)))) continue;
+    const double theta_star = std::atan2(approach.direction().y(), approach.direction().x());
+    const auto g = [&](Complex t, Complex& slope) {
+      const Complex cs = std::cos(t), sn = std::sin(t);
+      // s = (cs, sn), s_perp = (-sn, cs); g = s_perp . b - mu s_perp^T A s.
+      const Complex as0 = A(0, 0) * cs + A(0, 1) * sn, as1 = A(1, 0) * cs + A(1, 1) * sn;
+      const Complex das0 = -A(0, 0) * sn + A(0, 1) * cs, das1 = -A(1, 0) * sn + A(1, 1) * cs;
+      slope = -cs * b.x() - sn * b.y() - mu * (-cs * as0 - sn * as1 - sn * das0 + cs * das1);
+      return -sn * b.x() + cs * b.y() - mu * (-sn * as0 + cs * as1);
+    };
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int re = 0; re < 48; ++re) {
+      for (int im = -12; im <= 12; ++im) {
+        Complex t(theta_star - kPi + (re + 0.5) * 2.0 * kPi / 48, im / 3.0);
+        Complex slope;
+        for (int k = 0; k < 60; ++k) {
+          const Complex v = g(t, slope);
+          if (std::abs(slope) == 0.0) break;
+          t -= v / slope;
+          if (std::abs(t.imag()) > 8.0) break;
+        }
+        if (!(std::abs(g(t, slope)) < 1e-12) || std::abs(t.imag()) > 4.0) continue;
+        // The nearest 2 pi image of the zero; theta* itself (distance ~0) is not counted.
+        const double re_offset = std::remainder(t.real() - theta_star, 2.0 * kPi);
+        const double distance = std::hypot(re_offset, t.imag());
+        if (distance > 1e-6) nearest = std::min(nearest, distance);
+      }
+    }
+    const double radius = approach.radius();
+    if (std::isfinite(nearest)) {
+      EXPECT_NEAR(radius, nearest, 1e-9 * nearest) << "case " << i;
+    } else {
+      EXPECT_GT(radius, 4.0) << "case " << i;  // no zero within the searched strip
+    }
+    if (i % 4 == 0) {
+      EXPECT_NEAR(radius, kPi, 1e-9) << "case " << i;
+    }
+    if (std::isfinite(radius)) {
+      EXPECT_FALSE(approach.converged(1.1 * radius, 1e-6, 1e-6)) << "case " << i;
+      ++beyond;
+    }
+    ++compared;
+  }
+  std::printf("stick approach: radius compared in %d cases, divergence beyond it in %d\n", compared,
+              beyond);
+  EXPECT_GE(compared, 40);
+  EXPECT_GE(beyond, 40);
 }
 
 }  // namespace

@@ -57,6 +57,11 @@ class StickApproach {
   /// path is this plus m ln(y' / y).
   double logScale(double y, double sigma) const;
 
+  /// The series' radius of convergence in y [rad]: the distance from theta* to the nearest other
+  /// zero of g in the complex angle plane (a real one: another fixed direction; a complex pair:
+  /// where the flow's coefficients become singular off the real line). Infinite if there is none.
+  double radius() const;
+
   /// s*, the unit slip direction at the stop, in (t1, t2).
   const Eigen::Vector2d& direction() const { return s_star_; }
   /// The exponent m = f(theta*) / g'(theta*) > 0: sigma ~ y^m near the stop.
