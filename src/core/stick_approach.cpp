@@ -156,6 +156,10 @@ bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, do
   a_ss_ = s_star_.dot(A * s_star_);
   a_sp_ = s_star_.dot(A * s_perp_);
   a_pp_ = s_perp_.dot(A * s_perp_);
+  gamma_c1_ = eps_ * fb_perp_;
+  gamma_s1_ = -fb_star_;
+  gamma_c2_ = -mu_ * eps_ * a_sp_;
+  gamma_s2_ = -0.5 * mu_ * (a_pp_ - a_ss_);
   const double f_star = fb_star_ - mu_ * a_ss_;
   // Attracting (g' < 0) and slowing the slip (f < 0): the slip stops along s*.
   if (!(dg < 0.0) || !(f_star < 0.0)) return false;
@@ -170,21 +174,19 @@ double StickApproach::distance(const Eigen::Vector2d& s) const {
 }
 
 double StickApproach::gammaAt(double y) const {
-  return eps_ * fb_perp_ * std::cos(y) - fb_star_ * std::sin(y) -
-         mu_ * (eps_ * a_sp_ * std::cos(2 * y) + 0.5 * (a_pp_ - a_ss_) * std::sin(2 * y));
+  return gamma_c1_ * std::cos(y) + gamma_s1_ * std::sin(y) + gamma_c2_ * std::cos(2 * y) +
+         gamma_s2_ * std::sin(2 * y);
 }
 
 double StickApproach::radius() const {
-  // gamma(y) = A1 cos y + B1 sin y + A2 cos 2y + B2 sin 2y; with z = e^(iy), 2 z^2 gamma is the
-  // quartic a z^4 + b z^3 + conj(b) z + conj(a), a = A2 - i B2, b = A1 - i B1, and z = 1 (theta*)
-  // a root (A1 + A2 = gamma(0) = 0). Dividing it out leaves the cubic
+  // With z = e^(iy), 2 z^2 gamma is the quartic a z^4 + b z^3 + conj(b) z + conj(a),
+  // a = gamma_c2_ - i gamma_s2_, b = gamma_c1_ - i gamma_s1_, and z = 1 (theta*) a root
+  // (gamma_c1_ + gamma_c2_ = gamma(0) = 0). Dividing it out leaves the cubic
   //   a z^3 + (a + b) z^2 + (a + b) z + (a + b + conj(b)),
   // whose roots z give y = arg z - i ln|z|, at distance |y| = sqrt(arg^2 z + ln^2 |z|) from
   // theta* (arg in (-pi, pi]: the nearest of the 2 pi images). Called once per slip, so the
   // complex arithmetic is spelled out (no library complex division, power or hypot).
-  const double A1 = eps_ * fb_perp_, B1 = -fb_star_;
-  const double A2 = -mu_ * eps_ * a_sp_, B2 = -0.5 * mu_ * (a_pp_ - a_ss_);
-  const Complex a(A2, -B2), b(A1, -B1);
+  const Complex a(gamma_c2_, -gamma_s2_), b(gamma_c1_, -gamma_s1_);
   const Complex q[4] = {a + b + std::conj(b), a + b, a + b, a};  // q[k]: coefficient of z^k
   const double scale = modulus(q[0]) + modulus(q[1]) + modulus(q[3]);
   Complex roots[3];
@@ -233,7 +235,7 @@ void StickApproach::extend() {
   const int k = ++order_;
   if (k == 0) {
     // Gamma_0 = gamma'(0) and f_0 = f(0): m = f_0 / Gamma_0 (and H_0 = -1 / Gamma_0 below).
-    const double gamma0 = -fb_star_ - mu_ * (a_pp_ - a_ss_);
+    const double gamma0 = gamma_s1_ + 2.0 * gamma_s2_;
     inverse_gamma0_ = 1.0 / gamma0;
     m_ = (fb_star_ - mu_ * a_ss_) / gamma0;
   }
@@ -284,8 +286,7 @@ void StickApproach::extend() {
   } else {
     const double hf = fb_star_ * pc + eps_ * fb_perp_ * ps -
                       mu_ * (0.5 * (a_ss_ - a_pp_) * qc + eps_ * a_sp_ * qs);
-    const double hgamma = eps_ * fb_perp_ * c1 - fb_star_ * s1 -
-                          mu_ * (eps_ * a_sp_ * c2 + 0.5 * (a_pp_ - a_ss_) * s2);
+    const double hgamma = gamma_c1_ * c1 + gamma_s1_ * s1 + gamma_c2_ * c2 + gamma_s2_ * s2;
     H_[k] = (hf - (m_ + k) * hgamma) * (kInverse.v[k] * inverse_gamma0_);
   }
   Ip_[k] = H_[k] * w;

@@ -24,6 +24,27 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+/// A random slip's coefficients: A = K_tt with eigenvalues in [0.3, 3] 1/kg along a random angle
+/// (both equal if isotropic), b = K_tn with components in [-0.4, 0.4] 1/kg, mu_d in [0.2, 1].
+struct SlipCoefficients {
+  Matrix2d A;
+  Vector2d b;
+  double mu = 0.0;
+  double lambda_max = 0.0;  ///< A's larger eigenvalue [1/kg]
+};
+SlipCoefficients randomSlip(std::mt19937_64& rng, bool isotropic) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.0, 1.0);
+  const double angle = kPi * positive(rng);
+  const Vector2d e1(std::cos(angle), std::sin(angle)), e2(-e1.y(), e1.x());
+  const double l1 = 0.3 + 2.7 * positive(rng), l2 = isotropic ? l1 : 0.3 + 2.7 * positive(rng);
+  SlipCoefficients out;
+  out.A = l1 * e1 * e1.transpose() + l2 * e2 * e2.transpose();
+  out.b = Vector2d(0.4 * unit(rng), 0.4 * unit(rng));
+  out.mu = 0.2 + 0.8 * positive(rng);
+  out.lambda_max = std::max(l1, l2);
+  return out;
+}
+
 /// What remains of a slip from direction s0 and speed 1 to its stop, by RK4 in the clock xi
 /// (dp/dxi = |u_t|, in which the stop is an exponentially attracting equilibrium) up to
 /// |u_t| < 1e-14: du_t/dxi = b |u_t| - mu A u_t, dp/dxi = |u_t|, dP_t/dxi = -mu u_t, and the rise
@@ -69,15 +90,13 @@ Reference integrate(const Matrix2d& A, const Vector2d& b, double c, double mu, c
 // rise of u_n and the work's drop to 1e-9 of the impulse scale (the reference's error is ~1e-12).
 TEST(StickApproach, RemainingAgreesWithIndependentIntegration) {
   std::mt19937_64 rng(20261124);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
   int compared = 0, tried = 0;
   for (int i = 0; i < 400 && compared < 40; ++i) {
-    const double angle = kPi * positive(rng);
-    const Vector2d e1(std::cos(angle), std::sin(angle)), e2(-e1.y(), e1.x());
-    const double l1 = 0.3 + 2.7 * positive(rng), l2 = 0.3 + 2.7 * positive(rng);
-    const Matrix2d A = l1 * e1 * e1.transpose() + l2 * e2 * e2.transpose();  // [1/kg]
-    const Vector2d b(0.4 * unit(rng), 0.4 * unit(rng));
-    const double c = 1.5, mu = 0.2 + 0.8 * positive(rng);
+    const SlipCoefficients slip = randomSlip(rng, false);
+    const Matrix2d& A = slip.A;
+    const Vector2d& b = slip.b;
+    const double c = 1.5, mu = slip.mu;
     const double theta0 = kPi * unit(rng);
     const Vector2d s0(std::cos(theta0), std::sin(theta0));
     cr::StickApproach approach;
@@ -89,7 +108,7 @@ TEST(StickApproach, RemainingAgreesWithIndependentIntegration) {
     const cr::StickApproach::Remaining got = approach.remaining(y0, approach.logScale(y0, 1.0));
     // The step: a thousandth of the fastest rate of the equations (mu times A's largest
     // eigenvalue, plus |b|).
-    const Reference ref = integrate(A, b, c, mu, s0, 1e-3 / (mu * std::max(l1, l2) + b.norm()));
+    const Reference ref = integrate(A, b, c, mu, s0, 1e-3 / (mu * slip.lambda_max + b.norm()));
     const double scale = ref.p;
     const double work_drop = ref.rise * ref.p - ref.rise_integral;
     EXPECT_NEAR(got.p, ref.p, 1e-9 * scale) << "case " << i;
@@ -114,17 +133,15 @@ TEST(StickApproach, RemainingAgreesWithIndependentIntegration) {
 TEST(StickApproach, RadiusIsTheDistanceToTheNearestOtherZeroOfTheAngleEquation) {
   using Complex = std::complex<double>;
   std::mt19937_64 rng(20261125);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
   int compared = 0, beyond = 0;
   for (int i = 0; i < 400 && compared < 60; ++i) {
-    const double angle = kPi * positive(rng);
-    const Vector2d e1(std::cos(angle), std::sin(angle)), e2(-e1.y(), e1.x());
     // Every fourth case isotropic (A = l I: g has only its first harmonic, zeros a half turn
     // apart).
-    const double l1 = 0.3 + 2.7 * positive(rng), l2 = i % 4 == 0 ? l1 : 0.3 + 2.7 * positive(rng);
-    const Matrix2d A = l1 * e1 * e1.transpose() + l2 * e2 * e2.transpose();  // [1/kg]
-    const Vector2d b(0.4 * unit(rng), 0.4 * unit(rng));
-    const double c = 1.5, mu = 0.2 + 0.8 * positive(rng);
+    const SlipCoefficients slip = randomSlip(rng, i % 4 == 0);
+    const Matrix2d& A = slip.A;
+    const Vector2d& b = slip.b;
+    const double c = 1.5, mu = slip.mu;
     const double theta0 = kPi * unit(rng);
     cr::StickApproach approach;
     if (!approach.build(A, b, c, mu, Vector2d(std::cos(theta0), std::sin(theta0)))) continue;

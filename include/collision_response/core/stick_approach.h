@@ -82,6 +82,9 @@ class StickApproach {
   double mu_ = 0.0, c_ = 0.0, m_ = 0.0;
   double fb_star_ = 0.0, fb_perp_ = 0.0;         ///< b . s*, b . s*_perp
   double a_ss_ = 0.0, a_sp_ = 0.0, a_pp_ = 0.0;  ///< s*^T A s*, s*^T A s*_perp, s*_perp^T A s*_perp
+  /// gamma(y) = gamma_c1_ cos y + gamma_s1_ sin y + gamma_c2_ cos 2y + gamma_s2_ sin 2y [1/kg]
+  /// (gamma(0) = 0), from the members above: gammaAt(), the recurrence and radius() read them.
+  double gamma_c1_ = 0.0, gamma_s1_ = 0.0, gamma_c2_ = 0.0, gamma_s2_ = 0.0;
   // Taylor coefficients in y: H = -e^S / Gamma with Gamma = gamma / y (dp/dy's regular part,
   // from y Gamma H' = H (f - m Gamma - y Gamma')), and the sums' coefficients Ip = H / (m + k),
   // Ic = (H cos y)_k / (m + k), Is likewise, D = c Ip - mu (b.s*) Ic - mu eps (b.s*_perp) Is,
