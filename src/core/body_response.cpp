@@ -4,6 +4,7 @@
 #include <limits>
 #include <string>
 
+#include "collision_response/core/approach_warnings.h"
 #include "collision_response/core/contact_problem.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/island_solver.h"
@@ -115,6 +116,8 @@ BodyResponse computeBodyResponse(const std::vector<BodyModel*>& bodies,
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     result.impulses[c].normal_velocity_after = normalVelocity(bodies, contacts[c]);
   }
+  warnApproachingContacts(result.impulses, result.effective_masses, result.islands, options,
+                          result.warnings);
   return result;
 }
 

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "collision_response/core/approach_warnings.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/contact_problem.h"
 #include "collision_response/core/island_solver.h"
@@ -59,8 +60,10 @@ void addWarnings(const Scene& scene, const SolverOptions& options, CollisionResu
                                "separating at " +
                                    formatNumber("%+.3g", impulse.normal_velocity_before) +
                                    " m/s, no impulse (the normal must point from body_a '" +
-                                   contact.body_a + "' towards body_b '" + contact.body_b + "')"});
+                                   contact.body_a + "' towards body_b '" + contact.body_b + "')",
+                               Warning::Kind::kSeparating});
   }
+  warnApproachingContacts(result.impulses, {}, result.islands, options, result.warnings);
 }
 
 }  // namespace

@@ -44,6 +44,16 @@ core::InvalidInput inRequestTerms(const core::InvalidInput& error, std::size_t g
                                 "]");
 }
 
+// The warning's text as the request names the value (detected contacts as detected_contacts[i]).
+std::string inRequestTerms(const core::Warning& warning, std::size_t given) {
+  const std::size_t end = warning.field.find_first_of(".");
+  const std::string first = warning.field.substr(0, end);
+  if (!isDetectedContact(first, given)) return warning.text();
+  const std::string rest = end == std::string::npos ? "" : warning.field.substr(end);
+  return "detected_contacts[" + std::to_string(contactIndex(first) - given) + "]" + rest + ": " +
+         warning.reason;
+}
+
 }  // namespace
 
 ServerParameters CollisionResponseServer::readParameters(const ros::NodeHandle& private_node) {
@@ -306,10 +316,11 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     for (const core::Warning& warning : result.warnings) {
       // Detected contacts that separate are ordinary (neighbours moving apart); a given one that
       // separates may have its normal flipped.
-      if (isDetectedContact(warning.field.substr(0, warning.field.find('.')),
+      if (warning.kind == core::Warning::Kind::kSeparating &&
+          isDetectedContact(warning.field.substr(0, warning.field.find('.')),
                             request.contacts.size()))
         continue;
-      response.warnings.push_back(warning.text());
+      response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
     }
     response.success = true;
   } catch (const core::InvalidInput& e) {
@@ -538,6 +549,8 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
     response.impulses.push_back(toMsg(impulse));
   for (const core::SolveReport& island : result.islands) response.islands.push_back(toMsg(island));
   response.effective_masses = result.effective_masses;
+  for (const core::Warning& warning : result.warnings)
+    response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   response.robots.reserve(robots.size());
   for (std::size_t r = 0; r < robots.size(); ++r) {
     const RequestRobot& robot = robots[r];

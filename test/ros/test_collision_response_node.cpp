@@ -218,6 +218,42 @@ TEST_F(NodeTest, FlippedNormalWarns) {
       << response.warnings[0];
 }
 
+// A bar (1 kg, length 1 m, I_yy = m L^2 / 3 about its centre for half-length L = 0.5 m) lands
+// flat on both ends at 1 m/s, e = 0, no friction. Each end alone has W = 1/m + L^2/I = 4/m. The
+// one-pass law goes end by end: the left end's impulse m/4 stops it and drives the right end down
+// to -1.5 m/s; the right end's impulse 1.5 m/4 stops it and drives the left end down by
+// 1.5 (1/m - L^2/I) m/4 = -0.75 m/s. The answer leaves contacts[0] approaching: warned. Newton's
+// law (solved together) stops both ends: no warning.
+TEST_F(NodeTest, ContactLeftApproachingWarns) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  cr::BodyState bar = sphere("bar", 1.0, 0.1, pose(0, 0, 0));
+  bar.inertia.ixx = 0.001;
+  bar.inertia.iyy = bar.inertia.izz = 1.0 * 0.25 / 3.0;
+  bar.twist.linear.z = -1.0;
+  srv.request.bodies = {ground(), bar};
+  srv.request.contacts = {contact("ground", "bar", -0.5, 0, 0, 0, 0, 1, 0.0),
+                          contact("ground", "bar", 0.5, 0, 0, 0, 0, 1, 0.0)};
+  srv.request.options.law = cr::SolverOptions::LAW_SEED_ONE_PASS;
+  const auto one_pass = call(srv);
+  ASSERT_TRUE(one_pass.success) << one_pass.message;
+  EXPECT_NEAR(one_pass.impulses[0].normal_impulse, 0.25, kTolerance);
+  EXPECT_NEAR(one_pass.impulses[1].normal_impulse, 0.375, kTolerance);
+  EXPECT_NEAR(one_pass.impulses[0].normal_velocity_after, -0.75, kTolerance);
+  EXPECT_NEAR(one_pass.impulses[1].normal_velocity_after, 0.0, kTolerance);
+  ASSERT_EQ(one_pass.warnings.size(), 1u);
+  EXPECT_TRUE(hasWarning(one_pass.warnings, "contacts[0]: still approaching at -0.75 m/s"))
+      << one_pass.warnings[0];
+  EXPECT_NE(one_pass.warnings[0].find("seed_one_pass"), std::string::npos) << one_pass.warnings[0];
+
+  srv.request.options.law = cr::SolverOptions::LAW_NEWTON;
+  const auto newton = call(srv);
+  ASSERT_TRUE(newton.success) << newton.message;
+  EXPECT_NEAR(newton.impulses[0].normal_velocity_after, 0.0, kTolerance);
+  EXPECT_NEAR(newton.impulses[1].normal_velocity_after, 0.0, kTolerance);
+  EXPECT_TRUE(newton.warnings.empty()) << newton.warnings[0];
+}
+
 // An empty request frame takes ~default_frame ("world"): the answer, the published message and
 // the markers carry it.
 TEST_F(NodeTest, EmptyFrameTakesTheDefaultFrameAndWarns) {

@@ -84,6 +84,8 @@ Reference reference(cr::robot::ArticulatedBody arm, const cr::ComputeResponse& s
   state.mass = msg.inertia.m;
   state.inertia = Eigen::Vector3d(msg.inertia.ixx, msg.inertia.iyy, msg.inertia.izz).asDiagonal();
   state.position = toEigen(msg.pose.position);
+  state.linear_velocity = toEigen(msg.twist.linear);
+  state.angular_velocity = toEigen(msg.twist.angular);
   Reference ref{std::move(arm), cr::core::makeRigidBody(state), {}};
   const cr::Contact& c = srv.request.contacts[0];
   cr::core::ContactPoint point(0, 1, toEigen(c.point), toEigen(c.normal).normalized(),
@@ -112,8 +114,11 @@ void expectMatches(const cr::ComputeResponse::Response& response, const Referenc
   EXPECT_NEAR(response.impulses[0].normal_impulse, ref.response.impulses[0].normal_impulse, kExact);
   ASSERT_EQ(response.effective_masses.size(), 1u);
   EXPECT_NEAR(response.effective_masses[0], ref.response.effective_masses[0], kExact);
-  // The contact separates and the impact does not create energy.
+  // The contact separates (no warning that it is left approaching) and the impact does not create
+  // energy.
   EXPECT_GT(response.impulses[0].normal_velocity_after, 0.0);
+  for (const std::string& warning : response.warnings)
+    EXPECT_EQ(warning.find("still approaching"), std::string::npos) << warning;
   EXPECT_LE(response.kinetic_energy_after, response.kinetic_energy_before * (1 + 1e-12));
 }
 
@@ -391,6 +396,87 @@ TEST_F(RobotNodeTest, BadRobotInputIsNamed) {
     srv.request.robots[0].base_pose.orientation.w = 2.0;  // not unit
     expectRejected(srv, "robots[0].base_pose.orientation");
   }
+  {
+    // A position with the message's default (all-zero) quaternion: half a pose, refused rather
+    // than replaced by tf's base (an all-zero base_pose is "not given").
+    cr::ComputeResponse srv = strikeRequest(strike);
+    srv.request.robots.resize(1);
+    srv.request.robots[0].name = "arm";
+    srv.request.robots[0].base_pose.position.x = 0.5;
+    expectRejected(srv, "robots[0].base_pose.orientation");
+  }
+}
+
+// quiet_arm's topic never had a message: the request gives every position and no velocity. The
+// documented behaviour: the joints are taken at rest with a warning that says nothing was ever
+// received (no staleness check on a sample that never came). The answer is the core's for the arm
+// at rest at those positions.
+TEST_F(RobotNodeTest, VelocityNeverReceivedIsTakenAtRestWithAWarning) {
+  const std::vector<double> q = {-0.3, 0.4, 0.5, -0.9, -0.2, 1.1, -0.4, 0.0, 0.02};
+  cr::robot::ArticulatedBody arm = referenceArm();
+  arm.setState(vector(q), Eigen::VectorXd::Zero(arm.jointCount()), worldToBase());
+  // The arm at rest: the box comes at the hand along the hand's z axis.
+  const int hand = arm.linkIndex("hand");
+  const Strike strike{arm.linkPose(hand) * Eigen::Vector3d(0, 0, 0.04),
+                      arm.linkPose(hand).linear() * Eigen::Vector3d::UnitZ()};
+  cr::ComputeResponse srv = strikeRequest(strike, 1.0);
+  srv.request.contacts[0].body_a = "quiet_arm/hand";
+  srv.request.robots.resize(1);
+  srv.request.robots[0].name = "quiet_arm";
+  srv.request.robots[0].joint_state.name = kJoints;
+  srv.request.robots[0].joint_state.position = q;
+  srv.request.robots[0].base_pose =
+      pose(0.5, -0.2, 0.1, Eigen::Quaterniond(worldToBase().linear()));
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.warnings.size(), 1u);
+  EXPECT_NE(response.warnings[0].find("robots[0].joint_state: no velocity in the request, and "
+                                      "none ever received on /quiet_joint_states"),
+            std::string::npos)
+      << response.warnings[0];
+  EXPECT_EQ(response.warnings[0].find(" s old"), std::string::npos) << response.warnings[0];
+  const Reference ref = reference(arm, srv);
+  ASSERT_EQ(response.robots.size(), 1u);
+  for (int j = 0; j < ref.arm.jointCount(); ++j) {
+    EXPECT_EQ(response.robots[0].joint_state_before.velocity[j], 0.0) << j;
+    EXPECT_NEAR(response.robots[0].joint_state.velocity[j], ref.arm.jointVelocities()(j), kExact)
+        << j;
+  }
+  EXPECT_NEAR(response.impulses[0].normal_impulse, ref.response.impulses[0].normal_impulse, kExact);
+  EXPECT_GT(response.impulses[0].normal_velocity_after, 0.0);
+}
+
+// Every joint locked, the fixed-base arm moving into an immovable wall: no impulse can change the
+// hand's velocity along the normal (effective mass infinite), so the answer leaves the contact
+// approaching at the hand's own normal speed, -|v_hand| (the normal is along v_hand), and says so.
+TEST_F(RobotNodeTest, LockedArmIntoAWallIsLeftApproachingAndWarned) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  const double hand_speed =
+      arm.partPointVelocity(arm.linkIndex("hand"), strike.point).norm();  // v = J qdot
+  ASSERT_GT(hand_speed, 0.1);
+  cr::ComputeResponse srv = strikeRequest(strike);
+  srv.request.bodies[0].inertia = geometry_msgs::Inertia();  // the wall: immovable, at rest
+  srv.request.robots.resize(1);
+  srv.request.robots[0].name = "arm";
+  srv.request.robots[0].override_locked_joints = true;
+  srv.request.robots[0].locked_joints = kJoints;
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_EQ(response.impulses[0].normal_impulse, 0.0);
+  EXPECT_NEAR(response.impulses[0].normal_velocity_after, -hand_speed, 1e-12);
+  EXPECT_TRUE(std::isinf(response.effective_masses[0]));
+  ASSERT_EQ(response.warnings.size(), 1u);
+  EXPECT_EQ(response.warnings[0].rfind("contacts[0]: still approaching at", 0), 0u)
+      << response.warnings[0];
+  EXPECT_NE(response.warnings[0].find("no impulse along the normal can move it"), std::string::npos)
+      << response.warnings[0];
+  // Unlocked, the same strike is resolved: no warning.
+  srv.request.robots[0].override_locked_joints = false;
+  const auto unlocked = call(srv);
+  ASSERT_TRUE(unlocked.success) << unlocked.message;
+  EXPECT_GE(unlocked.impulses[0].normal_velocity_after, 0.0);
+  EXPECT_TRUE(unlocked.warnings.empty()) << unlocked.warnings[0];
 }
 
 // Resting contacts through the node: the arm at rest at the published positions, its hand on a

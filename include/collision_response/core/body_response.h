@@ -7,6 +7,7 @@
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/solve_report.h"
 #include "collision_response/core/solver_options.h"
+#include "collision_response/core/warning.h"
 
 namespace collision_response::core {
 
@@ -19,6 +20,8 @@ struct BodyResponse {
   std::vector<double> effective_masses;
   /// How each island of coupled contacts was solved (SolveReport::contacts: indices into contacts).
   std::vector<SolveReport> islands;
+  /// Contacts the answer leaves approaching (approach_warnings.h), in contact order.
+  std::vector<Warning> warnings;
 };
 
 /// The impact response of general bodies (body_model.h: free rigid bodies, robots, any model with

@@ -23,7 +23,8 @@ struct CollisionResult {
   /// Valid input that is usually a mistake, answered as given (see warning.h): a movable-looking
   /// body with mass 0 (a velocity or an inertia tensor but no mass: it is treated as immovable),
   /// and a contact separating faster than options.resting_velocity that gets no impulse (a normal
-  /// that points from b to a leaves approaching bodies untouched). In request order of the fields.
+  /// that points from b to a leaves approaching bodies untouched), then every contact the answer
+  /// leaves approaching faster than options.resting_velocity (approach_warnings.h).
   std::vector<Warning> warnings;
 };
 
