@@ -37,6 +37,10 @@ void requireFinite(const Eigen::Vector3d& v, double limit, const std::string& fi
 // at `now`.
 void requireRecent(const ros::Time& stamp, const ros::Time& now, double timeout,
                    const std::string& field, const std::string& what, const std::string& topic) {
+  if (stamp.isZero()) {
+    throw core::InvalidInput(
+        field, "no " + what + " was ever received on " + topic + "; give it in the request");
+  }
   const double age = (now - stamp).toSec();
   if (age > timeout) {
     throw core::InvalidInput(field, "the latest " + what + " on " + topic + " is " +
@@ -125,8 +129,17 @@ void setRestingLoads(const ServedRobot& robot, const RobotState& msg, const ros:
 
 std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const std::string& field) {
   const geometry_msgs::Quaternion& q = msg.base_pose.orientation;
-  if (q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w == 0.0) return std::nullopt;
+  const geometry_msgs::Point& p = msg.base_pose.position;
   const std::string pose_field = field + ".base_pose";
+  if (q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w == 0.0) {
+    // An all-zero pose is the message's default: not given (the base from tf). A position with
+    // the default quaternion is a pose half written: refused rather than replaced by tf's.
+    if (p.x == 0.0 && p.y == 0.0 && p.z == 0.0) return std::nullopt;
+    throw core::InvalidInput(pose_field + ".orientation",
+                             "is all zero while base_pose.position is given: set an orientation "
+                             "(w: 1 for none), or leave the whole base_pose zero to take the base "
+                             "from tf");
+  }
   requireFinite(toEigen(msg.base_pose.position), Limits::kLength, pose_field + ".position", "m");
   Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
   if (!rotation.coeffs().allFinite())
@@ -207,8 +220,13 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
                                                   "none received on " +
                                                   topic);
       }
-      requireRecent(sample.stamp, now, timeout, state_field, "state of joint '" + name + "'",
-                    topic);
+      // Only a value taken from the topic must be recent: a joint whose position the request gives
+      // and whose velocity was never received is at rest (below), whatever the topic's age.
+      const bool velocity_from_topic = !has_velocity[joint] && sample.has_velocity;
+      if (!has_position[joint] || velocity_from_topic) {
+        requireRecent(sample.stamp, now, timeout, state_field, "state of joint '" + name + "'",
+                      topic);
+      }
       if (!has_position[joint]) {
         requireFiniteWithin(sample.position, Limits::kLength, state_field, "rad or m");
         q(joint) = sample.position;
@@ -216,7 +234,7 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
       if (!has_velocity[joint]) {
         // Publishers of positions only (joint_state_publisher, many drivers): a joint whose
         // velocity nobody gives is at rest, said in a warning.
-        if (sample.has_velocity) {
+        if (velocity_from_topic) {
           requireFiniteWithin(sample.velocity, Limits::kSpeed, state_field, "rad/s or m/s");
           qdot(joint) = sample.velocity;
         } else {
@@ -230,8 +248,8 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
   if (!resting.empty() && warnings != nullptr) {
     std::string list;
     for (const std::string& name : resting) list += (list.empty() ? "'" : ", '") + name + "'";
-    warnings->push_back(state_field + ": no velocity in the request or on " +
-                        robot.parameters().joint_states_topic + " for " + list +
+    warnings->push_back(state_field + ": no velocity in the request, and none ever received on " +
+                        robot.parameters().joint_states_topic + ", for " + list +
                         ": taken as 0 (at rest)");
   }
   Eigen::Vector3d base_linear = Eigen::Vector3d::Zero(), base_angular = Eigen::Vector3d::Zero();
