@@ -143,6 +143,10 @@ ArticulatedBody::ArticulatedBody(const KDL::Tree& tree, BaseType base,
   }
   joint_models_.assign(joint_names_.size(), JointModel::kFree);
   armatures_.assign(joint_names_.size(), 0.0);
+  mimic_root_.resize(joint_names_.size());
+  for (int j = 0; j < jointCount(); ++j) mimic_root_[j] = j;
+  mimic_multiplier_.assign(joint_names_.size(), 1.0);
+  mimic_offset_.assign(joint_names_.size(), 0.0);
   default_link_ = linkCount() - 1;
   if (base_type_ == BaseType::kFloating) {
     double mass = base_inertia.getMass();
@@ -190,15 +194,94 @@ void ArticulatedBody::setJointModel(int joint, JointModel model, double armature
   rebuild();
 }
 
+void ArticulatedBody::setMimicJoints(const std::vector<MimicJoint>& mimics) {
+  // Each joint's direct leader (-1: none), then every chain followed to its root.
+  const int n = jointCount();
+  std::vector<int> leader(n, -1);
+  std::vector<double> multiplier(n, 1.0), offset(n, 0.0);
+  for (const MimicJoint& mimic : mimics) {
+    const auto find = [this](const std::string& name) {
+      const auto it = std::find(joint_names_.begin(), joint_names_.end(), name);
+      return it == joint_names_.end() ? -1 : static_cast<int>(it - joint_names_.begin());
+    };
+    const std::string what = "mimic joint '" + mimic.joint + "'";
+    const int joint = find(mimic.joint);
+    if (joint < 0)
+      throw std::invalid_argument(what + ": the robot has no such joint with a coordinate");
+    const int lead = find(mimic.leader);
+    if (lead < 0) {
+      throw std::invalid_argument(what + ": its leader '" + mimic.leader +
+                                  "' is not a joint of the robot with a coordinate");
+    }
+    if (leader[joint] >= 0) throw std::invalid_argument(what + ": given two leaders");
+    if (!std::isfinite(mimic.multiplier) || !std::isfinite(mimic.offset)) {
+      throw std::invalid_argument(what + ": its multiplier or offset is not finite");
+    }
+    leader[joint] = lead;
+    multiplier[joint] = mimic.multiplier;
+    offset[joint] = mimic.offset;
+  }
+  std::vector<int> root(n);
+  std::vector<double> root_multiplier(n), root_offset(n);
+  for (int j = 0; j < n; ++j) {
+    // q_j = m_j q_l + o_j, q_l = m_l q_r + o_l, ...: multipliers multiply, offsets compose.
+    int at = j, steps = 0;
+    double m = 1.0, o = 0.0;
+    while (leader[at] >= 0) {
+      if (++steps > n) {  // after n steps along the leaders, `at` lies on a cycle
+        std::string cycle = "'" + joint_names_[at] + "'";
+        for (int k = leader[at];; k = leader[k]) {
+          cycle += " -> '" + joint_names_[k] + "'";
+          if (k == at) break;
+        }
+        throw std::invalid_argument("mimic joint '" + joint_names_[j] +
+                                    "': its leaders form a cycle (" + cycle + ")");
+      }
+      o = o + m * offset[at];
+      m *= multiplier[at];
+      at = leader[at];
+    }
+    root[j] = at;
+    root_multiplier[j] = m;
+    root_offset[j] = o;
+  }
+  mimic_root_ = std::move(root);
+  mimic_multiplier_ = std::move(root_multiplier);
+  mimic_offset_ = std::move(root_offset);
+  has_mimics_ = false;
+  for (int j = 0; j < n; ++j) has_mimics_ |= mimic_root_[j] != j;
+  rebuild();
+}
+
+void ArticulatedBody::deriveMimicState() {
+  for (int j = 0; j < jointCount(); ++j) {
+    const int root = mimic_root_[j];
+    if (root == j) continue;
+    q_(j) = mimic_multiplier_[j] * q_(root) + mimic_offset_[j];
+    qdot_(j) = mimic_multiplier_[j] * qdot_(root);
+  }
+}
+
 void ArticulatedBody::rebuild() {
-  // Unknowns: the base twist first, then the joints that are not locked, in joint order.
+  // Unknowns: the base twist first, then the joints that are not locked, in joint order; a mimic
+  // joint shares its root's, and a group is locked if any of its joints that move with the root is.
   unknown_of_joint_.assign(jointCount(), -1);
   joint_of_unknown_.clear();
   if (base_type_ == BaseType::kFloating) joint_of_unknown_.assign(6, -1);
+  std::vector<bool> locked(jointCount(), false);
   for (int j = 0; j < jointCount(); ++j) {
-    if (joint_models_[j] == JointModel::kLocked) continue;
+    if (joint_models_[j] == JointModel::kLocked &&
+        (mimic_root_[j] == j || mimic_multiplier_[j] != 0.0))
+      locked[mimic_root_[j]] = true;
+  }
+  for (int j = 0; j < jointCount(); ++j) {
+    if (mimic_root_[j] != j || locked[j]) continue;
     unknown_of_joint_[j] = static_cast<int>(joint_of_unknown_.size());
     joint_of_unknown_.push_back(j);
+  }
+  if (has_mimics_) {
+    for (int j = 0; j < jointCount(); ++j) unknown_of_joint_[j] = unknown_of_joint_[mimic_root_[j]];
+    deriveMimicState();
   }
   unknowns_ = static_cast<int>(joint_of_unknown_.size());
   updateKinematics();
@@ -216,6 +299,7 @@ void ArticulatedBody::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& 
   }
   q_ = q;
   qdot_ = qdot;
+  if (has_mimics_) deriveMimicState();
   base_pose_ = toKdl(base_pose);
   if (base_type_ == BaseType::kFloating) {
     base_linear_velocity_ = base_linear_velocity;
@@ -295,6 +379,10 @@ void ArticulatedBody::updateMassMatrix() {
   for (std::size_t i = links_.size() - 1; i > 0; --i) {
     links_[links_[i].parent].composite += links_[i].composite;
   }
+  if (has_mimics_) {
+    updateMimicMassMatrix();
+    return;
+  }
   // M_jk = S_j . (Ic_k S_k) for j on the path from k's link to the base: the momentum of k's
   // subtree moving at a unit rate, seen by every joint that carries that subtree.
   const int base_unknowns = base_type_ == BaseType::kFloating ? 6 : 0;
@@ -315,6 +403,54 @@ void ArticulatedBody::updateMassMatrix() {
     }
     if (joint >= 0) mass_matrix_(k, k) += armatures_[joint];
   }
+}
+
+void ArticulatedBody::updateMimicMassMatrix() {
+  // M = T^T M_all T, where M_all is the inertia in the velocities of the base and of every joint
+  // that moves (a mimic's own included) and T maps the unknowns to them (entry multiplier_j in
+  // joint j's row, root's column). Each entry of M_all is visited once, a pair (j, k) with j on
+  // the path from k's link to the base, and added to the unknowns' entries with the multipliers.
+  const int base_unknowns = base_type_ == BaseType::kFloating ? 6 : 0;
+  for (int b = 0; b < base_unknowns; ++b) {  // the base's own block, as without mimics
+    const Momentum force = momentumOf(links_[0].composite, base_axes_[b]);
+    for (int c = 0; c <= b; ++c)
+      mass_matrix_(b, c) = mass_matrix_(c, b) = power(base_axes_[c], force);
+  }
+  for (int k = 0; k < jointCount(); ++k) {
+    const int u = unknown_of_joint_[k];
+    if (u < 0) continue;
+    const double mk = mimic_multiplier_[k];
+    const int own = link_of_joint_[k];
+    const Momentum force = momentumOf(links_[own].composite, links_[own].axis);
+    for (int l = own; l >= 0; l = links_[l].parent) {
+      if (l == 0) {
+        for (int b = 0; b < base_unknowns; ++b) {
+          const double value = mk * power(base_axes_[b], force);
+          mass_matrix_(b, u) += value;
+          mass_matrix_(u, b) += value;
+        }
+        continue;
+      }
+      const int j = links_[l].joint;
+      if (j < 0 || unknown_of_joint_[j] < 0) continue;
+      const int v = unknown_of_joint_[j];
+      const double value = mk * mimic_multiplier_[j] * power(links_[l].axis, force);
+      mass_matrix_(v, u) += value;
+      if (j != k) mass_matrix_(u, v) += value;
+    }
+    mass_matrix_(u, u) += mk * mk * armatures_[k];
+  }
+}
+
+Eigen::VectorXd ArticulatedBody::foldJointForces(
+    const Eigen::VectorXd& joint_forces, const Eigen::Matrix<double, 6, 1>& base_forces) const {
+  Eigen::VectorXd folded = Eigen::VectorXd::Zero(unknowns_);
+  if (base_type_ == BaseType::kFloating) folded.head<6>() = base_forces;
+  for (int j = 0; j < jointCount(); ++j) {
+    const int u = unknown_of_joint_[j];
+    if (u >= 0) folded(u) += mimic_multiplier_[j] * joint_forces(j);
+  }
+  return folded;
 }
 
 void ArticulatedBody::requireRegular() const {
@@ -368,6 +504,25 @@ Eigen::VectorXd ArticulatedBody::velocity() const {
 }
 
 void ArticulatedBody::addVelocityChange(const Eigen::Ref<const Eigen::VectorXd>& change) {
+  if (has_mimics_) {  // the roots take the change, their groups follow (exactly m qdot_root)
+    for (int j = 0; j < jointCount(); ++j) {
+      if (mimic_root_[j] == j && unknown_of_joint_[j] >= 0)
+        qdot_(j) += change(unknown_of_joint_[j]);
+    }
+    for (int j = 0; j < jointCount(); ++j) {
+      if (mimic_root_[j] != j && unknown_of_joint_[j] >= 0)
+        qdot_(j) = mimic_multiplier_[j] * qdot_(mimic_root_[j]);
+    }
+    for (int k = 0; k < unknowns_ && joint_of_unknown_[k] < 0; ++k) {
+      if (k < 3) {
+        base_linear_velocity_(k) += change(k);
+      } else {
+        base_angular_velocity_(k - 3) += change(k);
+      }
+    }
+    updateTwists();
+    return;
+  }
   for (int k = 0; k < unknowns_; ++k) {
     const int joint = joint_of_unknown_[k];
     if (joint >= 0) {
@@ -389,10 +544,20 @@ Eigen::Matrix<double, 3, Eigen::Dynamic> ArticulatedBody::linkPointJacobian(
     int link, const Eigen::Vector3d& point) const {
   Eigen::Matrix<double, 3, Eigen::Dynamic> jacobian =
       Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, unknowns_);
-  for (int l = checkLink(link); l > 0; l = links_[l].parent) {
-    const int j = links_[l].joint;
-    if (j >= 0 && unknown_of_joint_[j] >= 0) {
-      jacobian.col(unknown_of_joint_[j]) = velocityAt(links_[l].axis, point);
+  if (has_mimics_) {  // a mimic's column folds into its root's (two may share a path)
+    for (int l = checkLink(link); l > 0; l = links_[l].parent) {
+      const int j = links_[l].joint;
+      if (j >= 0 && unknown_of_joint_[j] >= 0) {
+        jacobian.col(unknown_of_joint_[j]) +=
+            mimic_multiplier_[j] * velocityAt(links_[l].axis, point);
+      }
+    }
+  } else {
+    for (int l = checkLink(link); l > 0; l = links_[l].parent) {
+      const int j = links_[l].joint;
+      if (j >= 0 && unknown_of_joint_[j] >= 0) {
+        jacobian.col(unknown_of_joint_[j]) = velocityAt(links_[l].axis, point);
+      }
     }
   }
   if (base_type_ == BaseType::kFloating) {
@@ -555,23 +720,14 @@ Eigen::VectorXd ArticulatedBody::biasForces() const {
   Eigen::Matrix<double, 6, 1> base;
   inverseDynamics(Eigen::VectorXd::Zero(jointCount()), Eigen::Matrix<double, 6, 1>::Zero(), true,
                   joint_forces, base, nullptr);
-  Eigen::VectorXd h(unknowns_);
-  for (int k = 0; k < unknowns_; ++k) {
-    const int joint = joint_of_unknown_[k];
-    h(k) = joint >= 0 ? joint_forces(joint) : base(k);
-  }
-  return h;
+  return foldJointForces(joint_forces, base);
 }
 
 Eigen::VectorXd ArticulatedBody::freeAcceleration() const {
   if (unknowns_ == 0) return Eigen::VectorXd();
   requireRegular();
-  Eigen::VectorXd rhs = -biasForces();
-  const Eigen::VectorXd torques = jointTorques();
-  for (int k = 0; k < unknowns_; ++k) {
-    const int joint = joint_of_unknown_[k];
-    if (joint >= 0) rhs(k) += torques(joint);
-  }
+  Eigen::VectorXd rhs =
+      foldJointForces(jointTorques(), Eigen::Matrix<double, 6, 1>::Zero()) - biasForces();
   solveWithCholesky(cholesky_, unknowns_, rhs);
   return rhs;  // M^-1 (tau - h)
 }
@@ -580,14 +736,11 @@ void ArticulatedBody::updateFreeAccelerations() const {
   const Eigen::VectorXd vdot = freeAcceleration();
   Eigen::VectorXd joint_accelerations = Eigen::VectorXd::Zero(jointCount());
   Eigen::Matrix<double, 6, 1> base = Eigen::Matrix<double, 6, 1>::Zero();
-  for (int k = 0; k < unknowns_; ++k) {
-    const int joint = joint_of_unknown_[k];
-    if (joint >= 0) {
-      joint_accelerations(joint) = vdot(k);
-    } else {
-      base(k) = vdot(k);
-    }
+  for (int j = 0; j < jointCount(); ++j) {
+    const int u = unknown_of_joint_[j];
+    if (u >= 0) joint_accelerations(j) = mimic_multiplier_[j] * vdot(u);
   }
+  for (int k = 0; k < unknowns_ && joint_of_unknown_[k] < 0; ++k) base(k) = vdot(k);
   Eigen::VectorXd joint_forces;
   Eigen::Matrix<double, 6, 1> base_forces;
   inverseDynamics(joint_accelerations, base, true, joint_forces, base_forces, &free_accelerations_);

@@ -5,6 +5,7 @@
 #include <kdl_parser/kdl_parser.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace collision_response::robot {
 namespace {
@@ -39,7 +40,22 @@ ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
     throw std::invalid_argument("URDF: kdl_parser could not build the tree of '" + model.getName() +
                                 "'");
   }
-  return ArticulatedBody(tree, base, root_inertia);
+  ArticulatedBody body(tree, base, root_inertia);
+  // <mimic>: KDL's tree has no couplings; the body takes them by joint name.
+  std::vector<MimicJoint> mimics;
+  for (const auto& [name, joint] : model.joints_) {
+    if (!joint || !joint->mimic) continue;
+    mimics.push_back(
+        {name, joint->mimic->joint_name, joint->mimic->multiplier, joint->mimic->offset});
+  }
+  if (!mimics.empty()) {
+    try {
+      body.setMimicJoints(mimics);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("URDF: ") + e.what());
+    }
+  }
+  return body;
 }
 
 ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base) {

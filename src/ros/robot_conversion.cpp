@@ -1,6 +1,7 @@
 #include "collision_response/ros/robot_conversion.h"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <vector>
 
@@ -12,6 +13,10 @@ namespace collision_response {
 namespace {
 
 using Limits = core::MagnitudeLimits;
+
+// A mimic joint's given position [rad | m] or velocity [rad/s | m/s] that differs from the one its
+// root's gives by more than this gets a warning (docs/robots.md, "Mimic joints").
+constexpr double kMimicTolerance = 1e-6;
 
 std::string indexed(const std::string& field, std::size_t k) {
   return field + "[" + std::to_string(k) + "]";
@@ -81,6 +86,14 @@ Eigen::VectorXd requestEfforts(const ServedRobot& robot, const RobotState& msg,
     if (latest.empty()) latest = robot.jointStates().snapshot();
     const JointStateCache::Sample& sample = latest[joint];
     const std::string& name = model.jointNames()[joint];
+    if (model.mimicRoot(joint) != joint) {
+      // A mimic joint needs no actuator of its own (the coupling drives it): its effort counts
+      // when it is given, recent and finite, and is 0 otherwise.
+      if (sample.has_effort && (now - sample.effort_stamp).toSec() <= timeout &&
+          std::isfinite(sample.effort) && std::abs(sample.effort) <= Limits::kForce)
+        torques(joint) = sample.effort;
+      continue;
+    }
     if (!sample.has_effort) {
       throw core::InvalidInput(effort_field, "joint '" + name +
                                                  "' has no effort (joint_torques is "
@@ -202,16 +215,19 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
     }
   }
 
-  // The rest from the latest joint-state messages, if recent enough.
+  // The rest from the latest joint-state messages, if recent enough. A mimic joint's state is
+  // derived from its root's (below): it needs none.
   std::vector<std::string> resting;  // joints whose velocity nobody gave
+  const auto isMimic = [&model](int joint) { return model.mimicRoot(joint) != joint; };
   bool complete = true;
   for (int joint = 0; joint < joints && complete; ++joint)
-    complete = has_position[joint] && has_velocity[joint];
+    complete = isMimic(joint) || (has_position[joint] && has_velocity[joint]);
+  std::vector<JointStateCache::Sample> latest;
+  if (!complete || model.hasMimicJoints()) latest = robot.jointStates().snapshot();
   if (!complete) {
-    const std::vector<JointStateCache::Sample> latest = robot.jointStates().snapshot();
     const std::string& topic = robot.parameters().joint_states_topic;
     for (int joint = 0; joint < joints; ++joint) {
-      if (has_position[joint] && has_velocity[joint]) continue;
+      if (isMimic(joint) || (has_position[joint] && has_velocity[joint])) continue;
       const JointStateCache::Sample& sample = latest[joint];
       const std::string& name = model.jointNames()[joint];
       if (!has_position[joint] && !sample.has_position) {
@@ -242,6 +258,38 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
           resting.push_back(name);
         }
       }
+    }
+  }
+
+  // Mimic joints: derived from their roots; a value given in the request, or recent on the topic,
+  // that differs is named in a warning (and not used).
+  for (int joint = 0; joint < joints && model.hasMimicJoints(); ++joint) {
+    if (!isMimic(joint)) continue;
+    const int root = model.mimicRoot(joint);
+    const double m = model.mimicMultiplier(joint);
+    const double derived[2] = {m * q(root) + model.mimicOffset(joint), m * qdot(root)};
+    const JointStateCache::Sample& sample = latest[joint];
+    const bool recent = (now - sample.stamp).toSec() <= timeout;
+    const bool from_request[2] = {has_position[joint], has_velocity[joint]};
+    const bool from_topic[2] = {!from_request[0] && recent && sample.has_position,
+                                !from_request[1] && recent && sample.has_velocity};
+    const double given[2] = {from_request[0] ? q(joint) : sample.position,
+                             from_request[1] ? qdot(joint) : sample.velocity};
+    static const char* const kWhat[2] = {"position", "velocity"};
+    for (int k = 0; k < 2; ++k) {
+      if (!(from_request[k] || from_topic[k]) ||
+          !(std::abs(given[k] - derived[k]) > kMimicTolerance))
+        continue;
+      if (warnings == nullptr) continue;
+      std::ostringstream text;
+      text.precision(9);
+      text << state_field << ": joint '" << model.jointNames()[joint] << "' mimics '"
+           << model.jointNames()[root] << "' (q = " << m << " q_leader + "
+           << model.mimicOffset(joint) << "): its " << kWhat[k] << " "
+           << (from_request[k] ? "in the request" : "on " + robot.parameters().joint_states_topic)
+           << ", " << given[k] << ", differs from the derived " << derived[k] << " by more than "
+           << kMimicTolerance << "; the derived one is used";
+      warnings->push_back(text.str());
     }
   }
 
@@ -288,11 +336,15 @@ RobotResult toMsg(const std::string& name, const robot::ArticulatedBody& after,
   result.joint_state_before.position = result.joint_state.position;
   result.joint_state_before.velocity = result.joint_state.velocity;  // locked joints keep theirs
   const Eigen::VectorXd impulse = after.generalizedImpulse(after.velocity() - velocity_before);
-  for (int k = 0; k < after.velocityCount(); ++k) {
-    const int joint = after.jointOfUnknown(k);
-    if (joint < 0) continue;
-    result.joint_state.effort[joint] = impulse(k);
-    result.joint_state_before.velocity[joint] = velocity_before(k);
+  for (int joint = 0; joint < joints; ++joint) {
+    const int k = after.unknownOfJoint(joint);
+    if (k < 0) continue;
+    // A mimic joint (multiplier m) shares its root's unknown: its velocity is m times the root's,
+    // and its entry is the group's generalized impulse in its own coordinate, Q_root / m (the
+    // same power Q qdot for every joint of the group; 0 when m = 0: it does not move).
+    const double m = after.mimicMultiplier(joint);
+    result.joint_state.effort[joint] = m == 0.0 ? 0.0 : impulse(k) / m;
+    result.joint_state_before.velocity[joint] = m * velocity_before(k);
   }
   result.floating = after.baseType() == robot::BaseType::kFloating;
   const Eigen::Quaterniond rotation(base_pose.linear());

@@ -22,6 +22,17 @@ enum class JointModel {
               ///< diagonal
 };
 
+/// A joint whose coordinate follows another's (URDF <mimic>, docs/robots.md, "Mimic joints"):
+/// q_joint = multiplier * q_leader + offset, qdot_joint = multiplier * qdot_leader. It adds no
+/// unknown: its motion folds into its leader's (through chains of mimics, into the first joint of
+/// the chain that mimics nothing, its root).
+struct MimicJoint {
+  std::string joint;        ///< the follower (a joint with a coordinate)
+  std::string leader;       ///< the joint it follows (URDF's <mimic joint="...">)
+  double multiplier = 1.0;  ///< dq_joint / dq_leader [1, or m/rad, rad/m between kinds]
+  double offset = 0.0;      ///< q_joint at q_leader = 0 [rad | m]
+};
+
 /// How the robot's base moves.
 enum class BaseType {
   kFixed,     ///< placed by a pose, immovable
@@ -31,7 +42,8 @@ enum class BaseType {
 /// A robot as a body of the contact problem (core::BodyModel, docs/robots.md): a kinematic tree of
 /// links (KDL::Tree; revolute, continuous, prismatic and fixed joints, limits unused) on a fixed or
 /// floating base. Velocity unknowns v = (base twist (v_o [m/s], w [rad/s]), world, if floating;
-/// the velocities of the free joints in joint order). Per state (setState()): the links' world
+/// the velocities of the free joints in joint order, a mimic joint folded into its root's:
+/// setMimicJoints()). Per state (setState()): the links' world
 /// frames (KDL's), the joint-space inertia M(q) by the composite-rigid-body algorithm (spatial
 /// inertias in the world frame about the world origin, Eigen fixed-size), its Cholesky factor
 /// M = L L^T, so that every M^-1 J(p)^T is two triangular solves. A robot without velocity
@@ -71,15 +83,39 @@ class ArticulatedBody final : public core::BodyModel {
 
   /// Joint model (and armature, for kArmature) of a joint; rebuilds the state's factorisation
   /// (a singular M is recorded, not thrown: locking joints one by one may pass through one).
+  /// Mimic joints: a group (a root and the joints that mimic it, directly or through a chain) is
+  /// one unknown, locked when its root is, or any of its joints whose multiplier (to the root) is
+  /// not 0 (a brake on one joint of a coupling holds them all); a follower's armature I_a adds
+  /// multiplier^2 I_a to its root's diagonal.
   void setJointModel(int joint, JointModel model, double armature = 0.0);
   JointModel jointModel(int joint) const { return joint_models_[joint]; }
+  /// Whether the joint keeps its velocity in an impact: its own model, or its mimic group's lock.
+  bool isLocked(int joint) const { return unknown_of_joint_[joint] < 0; }
+
+  /// The mimic joints (URDF <mimic>; urdf_loader.h passes them), replacing any set before: each
+  /// joint's coordinate then follows its root's, q = multiplier * q_root + offset with the
+  /// multipliers multiplied and the offsets composed along a chain (a mimic of a mimic). The
+  /// followers' positions and velocities are derived from their roots' now and at every
+  /// setState(). Throws std::invalid_argument naming the joint for a follower or a leader that is
+  /// not a joint with a coordinate, a joint given two leaders, a non-finite multiplier or offset,
+  /// and a cycle (a joint that mimics itself through its leaders). An empty list: no mimics.
+  void setMimicJoints(const std::vector<MimicJoint>& mimics);
+  bool hasMimicJoints() const { return has_mimics_; }
+  /// The independent joint a joint's coordinate follows (itself if it mimics nothing), and the
+  /// resolved multiplier and offset: q_joint = mimicMultiplier * q_root + mimicOffset (1 and 0 for
+  /// an independent joint).
+  int mimicRoot(int joint) const { return mimic_root_[joint]; }
+  double mimicMultiplier(int joint) const { return mimic_multiplier_[joint]; }
+  double mimicOffset(int joint) const { return mimic_offset_[joint]; }
 
   // --- State -------------------------------------------------------------------------------------
   /// Joint positions q [rad | m] and velocities [rad/s | m/s] (jointCount() each), base pose in
   /// the world and, for a floating base, its twist (velocity of the base origin, angular velocity,
-  /// world). Computes kinematics, M(q) and its factor. Throws std::invalid_argument on wrong sizes
-  /// and when M is singular (a free joint moving only massless links, or one whose motion the
-  /// floating base already gives them), naming the joint; the state is then kept (lock the joint).
+  /// world). A mimic joint's entries are not used: its position and velocity are derived from its
+  /// root's (mimicRoot()). Computes kinematics, M(q) and its factor. Throws std::invalid_argument
+  /// on wrong sizes and when M is singular (a free joint moving only massless links, or one whose
+  /// motion the floating base already gives them), naming the joint; the state is then kept (lock
+  /// the joint).
   void setState(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
                 const Eigen::Isometry3d& base_pose = Eigen::Isometry3d::Identity(),
                 const Eigen::Vector3d& base_linear_velocity = Eigen::Vector3d::Zero(),
@@ -93,15 +129,18 @@ class ArticulatedBody final : public core::BodyModel {
 
   /// M(q) in the velocity unknowns (velocityCount() square), with armature [kg, kg m, kg m^2].
   const Eigen::MatrixXd& massMatrix() const { return mass_matrix_; }
-  /// The joint of unknown k (-1 for the base twist's six).
+  /// The joint of unknown k (-1 for the base twist's six; a mimic group's root for its unknown).
   int jointOfUnknown(int k) const { return joint_of_unknown_[k]; }
-  /// Unknown of a joint, -1 for a locked one.
+  /// Unknown of a joint, -1 for a locked one; a mimic joint shares its root's (its velocity is
+  /// mimicMultiplier() times that unknown).
   int unknownOfJoint(int joint) const { return unknown_of_joint_[joint]; }
-  /// J(p) of the material point of `link` at world p, 3 x velocityCount().
+  /// J(p) of the material point of `link` at world p, 3 x velocityCount() (a mimic joint's column
+  /// folded into its root's: J_root += multiplier * J_joint).
   Eigen::Matrix<double, 3, Eigen::Dynamic> linkPointJacobian(int link,
                                                              const Eigen::Vector3d& point) const;
   /// Generalized impulse of a velocity change, M dv = sum of J^T P over the impulses that made it
-  /// [N s for base and prismatic unknowns, N m s for rotations].
+  /// [N s for base and prismatic unknowns, N m s for rotations]; a mimic group's entry is that of
+  /// its root's coordinate (the sum over the group of multiplier times each joint's J^T P).
   Eigen::VectorXd generalizedImpulse(const Eigen::VectorXd& velocity_change) const {
     return mass_matrix_ * velocity_change;
   }
@@ -227,6 +266,11 @@ class ArticulatedBody final : public core::BodyModel {
   void updateKinematics();
   void updateTwists();
   void updateMassMatrix();
+  void updateMimicMassMatrix();  // updateMassMatrix() for a robot with mimic joints
+  void deriveMimicState();       // the followers' q and qdot from their roots'
+  // Generalized forces per joint (and the base's 6) folded into the unknowns: T^T f.
+  Eigen::VectorXd foldJointForces(const Eigen::VectorXd& joint_forces,
+                                  const Eigen::Matrix<double, 6, 1>& base_forces) const;
   void factorise();
   // Motion of a unit value of unknown k (world twist at the origin).
   const KDL::Twist& unknownAxis(int k) const;
@@ -241,6 +285,11 @@ class ArticulatedBody final : public core::BodyModel {
   std::vector<int> unknown_of_joint_;
   std::vector<int> joint_of_unknown_;
   int unknowns_ = 0;
+  // Mimic joints, resolved to their roots (q_j = multiplier_j q_root_j + offset_j; j itself, 1, 0
+  // for an independent joint). Without mimics (has_mimics_ false) every path is the plain one.
+  std::vector<int> mimic_root_;
+  std::vector<double> mimic_multiplier_, mimic_offset_;
+  bool has_mimics_ = false;
   int default_link_ = 0;
 
   Eigen::VectorXd q_, qdot_;

@@ -9,8 +9,10 @@ namespace collision_response::robot {
 /// A robot from a URDF document (plain URDF, no xacro): urdf::Model and
 /// kdl_parser::treeFromUrdfModel give the KDL tree; the root link is the base and its <inertial>
 /// (which KDL's tree drops) becomes the base inertia for a floating base. Joint limits are not
-/// used. Throws std::invalid_argument with the parser's complaint for a document that does not
-/// parse.
+/// used. <mimic> joints become the body's mimic joints (ArticulatedBody::setMimicJoints()).
+/// Throws std::invalid_argument with the parser's complaint for a document that does not parse,
+/// and naming the joint for a <mimic> the body refuses ("URDF: mimic joint 'x': ...": a leader
+/// that is not a joint with a coordinate, a cycle of mimics).
 ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base = BaseType::kFixed);
 /// The same from a file; throws std::invalid_argument naming the file if it cannot be read.
 ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base = BaseType::kFixed);

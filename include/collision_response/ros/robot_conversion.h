@@ -31,7 +31,9 @@ std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const st
 /// ".locked_joints[k]" for an unknown joint and ".locked_joints" when the unlocked joints leave M
 /// singular. A joint whose velocity neither the request nor the topic gives (publishers of
 /// positions only, such as joint_state_publisher) is at rest, with a line in `warnings` (if not
-/// null). The loads of resting contacts (ArticulatedBody::setLoads()): msg.gravity (request frame;
+/// null). A mimic joint's position and velocity are derived from its root's (it needs none); one
+/// given in the request, or recent on the topic, that differs from the derived by more than 1e-6
+/// [rad | m, rad/s | m/s] gets a line in `warnings` naming it, and the derived one is used. The loads of resting contacts (ArticulatedBody::setLoads()): msg.gravity (request frame;
 /// ".gravity" if not finite or beyond 1e9 m/s^2) and the torques msg.joint_torques names: gravity
 /// compensation g(q), none, or joint_state.effort (".joint_state.effort" for an array neither empty
 /// nor as long as name, a value not finite, or a free joint whose effort is given nowhere or is
@@ -44,7 +46,8 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
 /// A robot's answer: `after` is the model after the impact, `velocity_before` its velocity
 /// unknowns (ArticulatedBody::velocity()) and `energy_before` its kinetic energy [J] before it.
 /// joint_state: the model's joints in order, positions unchanged, velocities post-impact, effort
-/// the generalized impulse M (v_after - v_before) per joint (0 for a locked one).
+/// the generalized impulse M (v_after - v_before) per joint (0 for a locked one; a mimic joint of
+/// multiplier m: its root's divided by m, the group's impulse in its own coordinate, 0 if m = 0).
 RobotResult toMsg(const std::string& name, const robot::ArticulatedBody& after,
                   const Eigen::VectorXd& velocity_before, double energy_before,
                   const Eigen::Isometry3d& base_pose, const std_msgs::Header& header);
