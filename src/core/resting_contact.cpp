@@ -1,5 +1,6 @@
 #include "collision_response/core/resting_contact.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "collision_response/core/iterative_solver.h"
@@ -7,6 +8,10 @@
 
 namespace collision_response::core {
 namespace {
+
+// A contact sticks if its tangential relative acceleration is at most this fraction of the
+// island's largest free relative acceleration (the iterative solver's slip tolerance).
+constexpr double kStickTolerance = 1e-9;
 
 // One resting contact in closed form: sticking or starting to slide by the Newton closed form
 // with e = 0, or sliding along an existing slip with F = f_n (n - mu_d s) and a'_n = 0.
@@ -41,6 +46,11 @@ SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& opt
   SolveReport report;
   forces.assign(problem.size(), ContactImpulse{});
   if (problem.empty()) return report;
+  // The scale of a slip: the island's largest free relative acceleration (before any force).
+  double reference = 0.0;
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    reference = std::max(reference, problem.relativeMotion(i).norm());
+  }
   // The solvers answer in ContactImpulse's impulse fields, which hold forces [N] here.
   std::vector<ContactImpulse> answer(problem.size());
   if (problem.size() == 1) {
@@ -55,12 +65,15 @@ SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& opt
     out.resting = true;
     out.normal_force = answer[i].normal_impulse;
     out.friction_force = answer[i].friction_impulse;
-    // Sticking: no slip now and no tangential relative acceleration left.
+    // Sticking: no slip now, not separating, and no tangential relative acceleration left (a
+    // touching contact that carries no force but does not slip, e.g. an unloaded corner of a
+    // stuck box, sticks too), to kStickTolerance of the island's largest free acceleration.
     const Eigen::Vector3d a = problem.relativeMotion(i);
-    const Eigen::Vector3d a_t = a - a.dot(c.normal) * c.normal;
-    const Eigen::Vector3d a_free = a - c.delassus * answer[i].total(c.normal);
-    out.sticking = c.slip_direction.isZero(0.0) && !c.frictionless() &&
-                   a_t.norm() <= 1e-9 * std::max(a_free.norm(), 1e-300);
+    const double a_n = a.dot(c.normal);
+    const Eigen::Vector3d a_t = a - a_n * c.normal;
+    const double tolerance = kStickTolerance * std::max(reference, 1e-300);
+    out.sticking = c.slip_direction.isZero(0.0) && !c.frictionless() && a_n <= tolerance &&
+                   a_t.norm() <= tolerance;
   }
   return report;
 }
