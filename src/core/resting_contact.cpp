@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "collision_response/core/friction_disk.h"
 #include "collision_response/core/iterative_solver.h"
 #include "collision_response/core/single_contact.h"
 
@@ -39,6 +40,70 @@ SolveReport restingClosedForm(ContactProblem& problem, ContactImpulse& force) {
   return report;
 }
 
+// Step 1 of docs/physics.md, "Static friction first": the all-stick problem on the static cones,
+// as the convex problem min F^T a + F^T W F / 2 over |F_t| <= mu_s F_n (a the free accelerations),
+// by block Gauss-Seidel, each contact's block solved exactly (solveFrictionCone()). Its minimizers
+// all leave the same accelerations a' = a + W F, and a stuck answer (F in the cones, a' = 0 where
+// F != 0, a'_n >= 0 elsewhere with a'_n >= mu_s |a'_t|) is one of them when one exists: so the
+// stuck answer exists iff the minimizer found is one. It is accepted (forces written to `answer`,
+// applied to the problem, true returned) only if it converged and is stuck; otherwise the problem
+// is restored and false returned. Only for islands without a contact already slipping.
+bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double reference,
+                   std::vector<ContactImpulse>& answer, SolveReport& report) {
+  const std::size_t size = problem.size();
+  for (std::size_t i = 0; i < size; ++i) {
+    if (!problem.contact(i).slip_direction.isZero(0.0)) return false;
+  }
+  const ContactProblem::State initial = problem.state();
+  std::vector<Eigen::Vector3d> F(size, Eigen::Vector3d::Zero());
+  bool converged = false;
+  std::size_t& sweeps = report.iterations;
+  for (sweeps = 1; sweeps <= options.max_iterations; ++sweeps) {
+    if (sweeps % 16 == 0) options.deadline.check("the resting all-stick solve");
+    double largest_change = 0.0, largest_force = 0.0;
+    for (std::size_t i = 0; i < size; ++i) {
+      const ProblemContact& c = problem.contact(i);
+      const Eigen::Vector3d b = problem.relativeMotion(i) - c.delassus * F[i];
+      const Eigen::Vector3d next =
+          solveFrictionCone(c.delassus, b, c.normal, c.tangent1, c.tangent2, c.static_friction);
+      problem.applyImpulse(i, next - F[i]);
+      largest_change = std::max(largest_change, (next - F[i]).norm());
+      largest_force = std::max(largest_force, next.norm());
+      F[i] = next;
+    }
+    if (!std::isfinite(largest_change)) break;
+    report.residual = largest_force > 0.0 ? largest_change / largest_force : largest_change;
+    if (report.residual <= options.tolerance) {
+      converged = true;
+      break;
+    }
+  }
+  sweeps = std::min(sweeps, options.max_iterations);
+  // Stuck? Every loaded contact stopped, every unloaded one touching without slip or separating.
+  const double tolerance = kStickTolerance * reference;
+  bool stuck = converged;
+  for (std::size_t i = 0; stuck && i < size; ++i) {
+    const ProblemContact& c = problem.contact(i);
+    const Eigen::Vector3d a = problem.relativeMotion(i);
+    const double a_n = a.dot(c.normal);
+    const double a_t = (a - a_n * c.normal).norm();
+    const bool loaded = F[i].dot(c.normal) > 0.0;
+    stuck =
+        a_n >= -tolerance && (loaded ? a.norm() <= tolerance : a_n > tolerance || a_t <= tolerance);
+  }
+  if (!stuck) {
+    problem.restore(initial);
+    return false;
+  }
+  for (std::size_t i = 0; i < size; ++i) {
+    const ProblemContact& c = problem.contact(i);
+    answer[i].normal_impulse = F[i].dot(c.normal);
+    answer[i].friction_impulse = F[i] - answer[i].normal_impulse * c.normal;
+  }
+  report.converged = true;
+  return true;
+}
+
 }  // namespace
 
 SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& options,
@@ -56,7 +121,15 @@ SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& opt
   if (problem.size() == 1) {
     report = restingClosedForm(problem, answer[0]);
   } else {
-    report = solveIterative(problem, options, answer);
+    // Static friction first (docs/physics.md): the all-stick answer if one exists, otherwise the
+    // sweeps on Coulomb's law, static cones first, sliding contacts moved to mu_d.
+    SolveReport stick;
+    if (!solveAllStick(problem, options, reference, answer, stick)) {
+      report = solveIterative(problem, options, answer);
+      report.iterations += stick.iterations;
+    } else {
+      report = stick;
+    }
     report.method = SolveMethod::kRestingIterative;
   }
   for (std::size_t i = 0; i < problem.size(); ++i) {
