@@ -389,11 +389,12 @@ TEST_F(NodeTest, RestingBallGetsContactForces) {
 }
 
 // A block resting on four corners with its tangential load in the band mu_d N < |L| <= mu_s N
-// (issue 22, docs/physics.md, "Resting contacts"): 2 kg, 0.2 m cube on the ground, weight
-// 19.62 N, pushed with 8 N along (3, 4)/5 through its centre; mu_s = 0.6 holds 11.77 N, mu_d = 0.3
-// only 5.886 N. Static friction holds it (one-body statics, by hand): every corner sticks within
-// its static cone, the corners carry sum N = 19.62 N and sum f = -8 N (3, 4)/5 (the block's
-// acceleration, from the reported forces, is zero), not the sliding answer 5.886 N.
+// (issue 22, docs/physics.md, "Static friction first"): 2 kg, 0.2 m cube on the ground, weight
+// 19.62 N, pushed with 11 N along y through its centre; mu_s = 0.6 holds 11.77 N, mu_d = 0.3 only
+// 5.886 N. Static friction holds it (one-body statics, by hand): every corner sticks within its
+// static cone and the corners carry sum N = 19.62 N and sum f = -11 N y, so the block's
+// acceleration from the reported forces is zero (before the fix: sliding at (11 - 5.886) / 2 =
+// 2.557 m/s^2).
 TEST_F(NodeTest, RestingBlockOnFourCornersSticksInTheFrictionBand) {
   cr::ComputeResponse srv;
   srv.request.header.frame_id = "world";
@@ -402,8 +403,7 @@ TEST_F(NodeTest, RestingBlockOnFourCornersSticksInTheFrictionBand) {
   block.inertia.m = 2.0;
   block.inertia.ixx = block.inertia.iyy = block.inertia.izz = 2.0 * 0.04 / 6.0;
   block.pose = pose(0, 0, 0.1);
-  block.wrench.force.x = 8.0 * 0.6;
-  block.wrench.force.y = 8.0 * 0.8;
+  block.wrench.force.y = 11.0;
   block.wrench.force.z = -2.0 * 9.81;
   srv.request.bodies = {ground(), block};
   for (const double x : {-0.1, 0.1}) {
