@@ -452,9 +452,13 @@ TEST(RestingBand, TurnedScenesAndOtherCoefficients) {
 // so it sticks (a_bottom = 0). With P = 10 N (< 11.77 N, and 10 N in the floor's band) both stick.
 // Neither tips (moments about the front edges: the drag 9.81 N x 0.2 m < 4 g x 0.1 m for the
 // bottom one, 16 N x 0.1 m < 2 g x 0.1 m for the top one, 10 N x 0.3 m < 6 g x 0.1 m for both).
+// Third case: the top block already slides along x at 0.5 m/s (the island then skips the all-stick
+// step: its corners get -mu_d F_n x), pushed with 10 N: a_top = (10 - 9.81) / 2 = 0.095 m/s^2, and
+// the bottom one, dragged with 9.81 N, still sticks.
 TEST(RestingBand, TopBlockSlidesWhileTheBottomOneSticksInItsBand) {
-  for (const double push : {16.0, 10.0}) {
-    SCOPED_TRACE("push " + std::to_string(push));
+  for (const auto& [push, already_sliding] :
+       {std::pair{16.0, false}, std::pair{10.0, false}, std::pair{10.0, true}}) {
+    SCOPED_TRACE("push " + std::to_string(push) + (already_sliding ? ", sliding" : ""));
     core::BodyState floor;
     floor.id = "floor";
     core::BodyState bottom;
@@ -469,6 +473,7 @@ TEST(RestingBand, TopBlockSlidesWhileTheBottomOneSticksInItsBand) {
     top.inertia = Eigen::Matrix3d::Identity() * (2.0 * 0.04 / 6.0);
     top.position = {0.0, 0.0, 0.3};
     top.force = {push, 0.0, -2.0 * kG};
+    if (already_sliding) top.linear_velocity = {0.5, 0.0, 0.0};
     core::Scene scene;
     scene.bodies = {floor, bottom, top};
     for (const double z : {0.0, 0.2}) {
@@ -484,7 +489,7 @@ TEST(RestingBand, TopBlockSlidesWhileTheBottomOneSticksInItsBand) {
         }
       }
     }
-    const bool top_slides = push > 0.6 * 2.0 * kG;
+    const bool top_slides = already_sliding || push > 0.6 * 2.0 * kG;
     core::SolverOptions options;
     options.tolerance = 1e-14;
     const core::CollisionResult result = core::computeResponse(scene, options);
