@@ -53,4 +53,69 @@ Eigen::Vector2d solveFrictionDisk(const Eigen::Matrix2d& K, const Eigen::Vector2
   return -radius * s;
 }
 
+Eigen::Vector3d solveFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3d& b,
+                                  const Eigen::Vector3d& n, const Eigen::Vector3d& t1,
+                                  const Eigen::Vector3d& t2, double mu) {
+  const double trace = A.trace();
+  if (!(trace > 0.0)) return Eigen::Vector3d::Zero();
+  if (mu == 0.0) {
+    const double a_nn = n.dot(A * n);
+    return a_nn > kSingularRelative * trace ? Eigen::Vector3d(std::max(0.0, -n.dot(b) / a_nn) * n)
+                                            : Eigen::Vector3d::Zero();
+  }
+  // Local frame (n, t1, t2).
+  Eigen::Matrix3d T;
+  T << n, t1, t2;
+  const Eigen::Matrix3d Al = T.transpose() * A * T;
+  const Eigen::Vector3d bl = T.transpose() * b;
+  // The unconstrained minimizer, if it reaches A x + b = 0 inside the cone.
+  const Eigen::Vector3d inside = -(symmetricPseudoInverse(Al) * bl);
+  if (inside.x() >= 0.0 && inside.tail<2>().norm() <= mu * inside.x() &&
+      (Al * inside + bl).norm() <= 1e-12 * bl.norm()) {
+    return T * inside;
+  }
+  // The surface: x = r d(theta), d = (1, mu cos, mu sin); for each theta the best r is
+  // max(0, -c / q) with c = b.d, q = d^T A d, worth -c^2 / (2 q) when c < 0.
+  const auto direction = [&](double theta) {
+    return Eigen::Vector3d(1.0, mu * std::cos(theta), mu * std::sin(theta));
+  };
+  const double tiny = kSingularRelative * trace * (1.0 + mu * mu);
+  const auto value = [&](double theta) {
+    const Eigen::Vector3d d = direction(theta);
+    const double c = bl.dot(d), q = d.dot(Al * d);
+    return c < 0.0 && q > tiny ? -c * c / (2.0 * q) : 0.0;
+  };
+  // sign of d(value)/dtheta where c < 0: the sign of 2 c' q - c q'.
+  const auto slope = [&](double theta) {
+    const Eigen::Vector3d d = direction(theta);
+    const Eigen::Vector3d dd(0.0, -mu * std::sin(theta), mu * std::cos(theta));
+    const double c = bl.dot(d), q = d.dot(Al * d);
+    return 2.0 * bl.dot(dd) * q - c * 2.0 * dd.dot(Al * d);
+  };
+  constexpr int kSamples = 72;
+  constexpr double kStep = 2.0 * 3.14159265358979323846 / kSamples;
+  int best = -1;
+  double best_value = 0.0;  // the apex
+  for (int k = 0; k < kSamples; ++k) {
+    const double v = value(k * kStep);
+    if (v < best_value) {
+      best_value = v;
+      best = k;
+    }
+  }
+  if (best < 0) return Eigen::Vector3d::Zero();
+  double lo = (best - 1) * kStep, hi = (best + 1) * kStep, theta = best * kStep;
+  if (value(lo) < 0.0 && value(hi) < 0.0 && slope(lo) < 0.0 && slope(hi) > 0.0) {
+    for (int i = 0; i < 100 && hi - lo > 1e-15; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (slope(mid) < 0.0 ? lo : hi) = mid;
+    }
+    const double refined = 0.5 * (lo + hi);
+    if (value(refined) <= best_value) theta = refined;
+  }
+  const Eigen::Vector3d d = direction(theta);
+  const double r = std::max(0.0, -bl.dot(d) / d.dot(Al * d));
+  return T * (r * d);
+}
+
 }  // namespace collision_response::core

@@ -96,14 +96,34 @@ double sweep(ContactProblem& problem, std::vector<ContactState>& state, bool fri
   return largest_change;
 }
 
-// Converged on the current cones: contacts that slide on their static cone move to the dynamic
-// one. True if any moved.
-bool switchStaticToDynamic(const ContactProblem& problem, std::vector<ContactState>& state) {
+// A contact slides if its tangential motion at convergence exceeds this fraction of the island's
+// largest relative motion before the solve (the exact solver's kSlipTolerance).
+constexpr double kSlipTolerance = 1e-9;
+
+// The largest |u| of the problem's contacts as they are now (before the solve: the scale of
+// kSlipTolerance).
+double largestMotion(const ContactProblem& problem) {
+  double largest = 0.0;
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    largest = std::max(largest, problem.relativeMotion(i).norm());
+  }
+  return largest;
+}
+
+// Converged on the current cones: contacts that still slip on their static cone move to the
+// dynamic one (docs/physics.md, "Static friction first"). A contact whose friction only reached the
+// rim of its static disk but whose slip is gone (|u'_t| <= kSlipTolerance * reference) sticks at
+// its limit and stays on mu_s: static friction holds it. True if any moved.
+bool switchStaticToDynamic(const ContactProblem& problem, std::vector<ContactState>& state,
+                           double reference) {
   bool moved = false;
   for (std::size_t i = 0; i < problem.size(); ++i) {
-    const double mu_d = problem.contact(i).dynamic_friction;
-    if (state[i].sliding && state[i].mu != mu_d) {
-      state[i].mu = mu_d;
+    const ProblemContact& c = problem.contact(i);
+    ContactState& s = state[i];
+    if (!s.sliding || s.mu == c.dynamic_friction) continue;
+    const Eigen::Vector3d u = problem.relativeMotion(i);
+    if ((u - u.dot(c.normal) * c.normal).norm() > kSlipTolerance * reference) {
+      s.mu = c.dynamic_friction;
       moved = true;
     }
   }
@@ -147,6 +167,7 @@ SolveReport solveIterative(ContactProblem& problem, const SolverOptions& options
   const bool friction_only = fixed_normal_impulses != nullptr;
   std::vector<ContactState> state = setUp(problem, fixed_normal_impulses);
   const ContactProblem::State initial = problem.state();  // to restore if the sweeps diverge
+  const double reference = largestMotion(problem);        // the scale of a slip
 
   SolveReport report;
   report.method = SolveMethod::kIterative;
@@ -169,7 +190,7 @@ SolveReport solveIterative(ContactProblem& problem, const SolverOptions& options
       break;
     }
     report.residual = largest_impulse > 0.0 ? largest_change / largest_impulse : largest_change;
-    if (report.residual <= options.tolerance && !switchStaticToDynamic(problem, state)) {
+    if (report.residual <= options.tolerance && !switchStaticToDynamic(problem, state, reference)) {
       report.converged = true;
       break;
     }

@@ -1,12 +1,18 @@
 #include "collision_response/core/resting_contact.h"
 
+#include <algorithm>
 #include <cmath>
 
+#include "collision_response/core/friction_disk.h"
 #include "collision_response/core/iterative_solver.h"
 #include "collision_response/core/single_contact.h"
 
 namespace collision_response::core {
 namespace {
+
+// A contact sticks if its tangential relative acceleration is at most this fraction of the
+// island's largest free relative acceleration (the iterative solver's slip tolerance).
+constexpr double kStickTolerance = 1e-9;
 
 // One resting contact in closed form: sticking or starting to slide by the Newton closed form
 // with e = 0, or sliding along an existing slip with F = f_n (n - mu_d s) and a'_n = 0.
@@ -34,6 +40,70 @@ SolveReport restingClosedForm(ContactProblem& problem, ContactImpulse& force) {
   return report;
 }
 
+// Step 1 of docs/physics.md, "Static friction first": the all-stick problem on the static cones,
+// as the convex problem min F^T a + F^T W F / 2 over |F_t| <= mu_s F_n (a the free accelerations),
+// by block Gauss-Seidel, each contact's block solved exactly (solveFrictionCone()). Its minimizers
+// all leave the same accelerations a' = a + W F, and a stuck answer (F in the cones, a' = 0 where
+// F != 0, a'_n >= 0 elsewhere with a'_n >= mu_s |a'_t|) is one of them when one exists: so the
+// stuck answer exists iff the minimizer found is one. It is accepted (forces written to `answer`,
+// applied to the problem, true returned) only if it converged and is stuck; otherwise the problem
+// is restored and false returned. Only for islands without a contact already slipping.
+bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double reference,
+                   std::vector<ContactImpulse>& answer, SolveReport& report) {
+  const std::size_t size = problem.size();
+  for (std::size_t i = 0; i < size; ++i) {
+    if (!problem.contact(i).slip_direction.isZero(0.0)) return false;
+  }
+  const ContactProblem::State initial = problem.state();
+  std::vector<Eigen::Vector3d> F(size, Eigen::Vector3d::Zero());
+  bool converged = false;
+  std::size_t& sweeps = report.iterations;
+  for (sweeps = 1; sweeps <= options.max_iterations; ++sweeps) {
+    if (sweeps % 16 == 0) options.deadline.check("the resting all-stick solve");
+    double largest_change = 0.0, largest_force = 0.0;
+    for (std::size_t i = 0; i < size; ++i) {
+      const ProblemContact& c = problem.contact(i);
+      const Eigen::Vector3d b = problem.relativeMotion(i) - c.delassus * F[i];
+      const Eigen::Vector3d next =
+          solveFrictionCone(c.delassus, b, c.normal, c.tangent1, c.tangent2, c.static_friction);
+      problem.applyImpulse(i, next - F[i]);
+      largest_change = std::max(largest_change, (next - F[i]).norm());
+      largest_force = std::max(largest_force, next.norm());
+      F[i] = next;
+    }
+    if (!std::isfinite(largest_change)) break;
+    report.residual = largest_force > 0.0 ? largest_change / largest_force : largest_change;
+    if (report.residual <= options.tolerance) {
+      converged = true;
+      break;
+    }
+  }
+  sweeps = std::min(sweeps, options.max_iterations);
+  // Stuck? Every loaded contact stopped, every unloaded one touching without slip or separating.
+  const double tolerance = kStickTolerance * reference;
+  bool stuck = converged;
+  for (std::size_t i = 0; stuck && i < size; ++i) {
+    const ProblemContact& c = problem.contact(i);
+    const Eigen::Vector3d a = problem.relativeMotion(i);
+    const double a_n = a.dot(c.normal);
+    const double a_t = (a - a_n * c.normal).norm();
+    const bool loaded = F[i].dot(c.normal) > 0.0;
+    stuck =
+        a_n >= -tolerance && (loaded ? a.norm() <= tolerance : a_n > tolerance || a_t <= tolerance);
+  }
+  if (!stuck) {
+    problem.restore(initial);
+    return false;
+  }
+  for (std::size_t i = 0; i < size; ++i) {
+    const ProblemContact& c = problem.contact(i);
+    answer[i].normal_impulse = F[i].dot(c.normal);
+    answer[i].friction_impulse = F[i] - answer[i].normal_impulse * c.normal;
+  }
+  report.converged = true;
+  return true;
+}
+
 }  // namespace
 
 SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& options,
@@ -41,12 +111,25 @@ SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& opt
   SolveReport report;
   forces.assign(problem.size(), ContactImpulse{});
   if (problem.empty()) return report;
+  // The scale of a slip: the island's largest free relative acceleration (before any force).
+  double reference = 0.0;
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    reference = std::max(reference, problem.relativeMotion(i).norm());
+  }
   // The solvers answer in ContactImpulse's impulse fields, which hold forces [N] here.
   std::vector<ContactImpulse> answer(problem.size());
   if (problem.size() == 1) {
     report = restingClosedForm(problem, answer[0]);
   } else {
-    report = solveIterative(problem, options, answer);
+    // Static friction first (docs/physics.md): the all-stick answer if one exists, otherwise the
+    // sweeps on Coulomb's law, static cones first, sliding contacts moved to mu_d.
+    SolveReport stick;
+    if (!solveAllStick(problem, options, reference, answer, stick)) {
+      report = solveIterative(problem, options, answer);
+      report.iterations += stick.iterations;
+    } else {
+      report = stick;
+    }
     report.method = SolveMethod::kRestingIterative;
   }
   for (std::size_t i = 0; i < problem.size(); ++i) {
@@ -55,12 +138,15 @@ SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& opt
     out.resting = true;
     out.normal_force = answer[i].normal_impulse;
     out.friction_force = answer[i].friction_impulse;
-    // Sticking: no slip now and no tangential relative acceleration left.
+    // Sticking: no slip now, not separating, and no tangential relative acceleration left (a
+    // touching contact that carries no force but does not slip, e.g. an unloaded corner of a
+    // stuck box, sticks too), to kStickTolerance of the island's largest free acceleration.
     const Eigen::Vector3d a = problem.relativeMotion(i);
-    const Eigen::Vector3d a_t = a - a.dot(c.normal) * c.normal;
-    const Eigen::Vector3d a_free = a - c.delassus * answer[i].total(c.normal);
-    out.sticking = c.slip_direction.isZero(0.0) && !c.frictionless() &&
-                   a_t.norm() <= 1e-9 * std::max(a_free.norm(), 1e-300);
+    const double a_n = a.dot(c.normal);
+    const Eigen::Vector3d a_t = a - a_n * c.normal;
+    const double tolerance = kStickTolerance * std::max(reference, 1e-300);
+    out.sticking = c.slip_direction.isZero(0.0) && !c.frictionless() && a_n <= tolerance &&
+                   a_t.norm() <= tolerance;
   }
   return report;
 }

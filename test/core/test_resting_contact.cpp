@@ -2,7 +2,10 @@
 // against closed forms.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
+#include <string>
+#include <utility>
 
 #include "collision_response/core/compute_response.h"
 
@@ -235,8 +238,8 @@ void expectBlockClosedForm(double theta, const Eigen::Vector3d& push, double mu_
 // The issue's incline: 20 degrees, push 15 N up the slope (-x). m g sin 20 = 6.710 N down the
 // slope, so the load is L = 6.710 - 15 = -8.290 N (up the slope); N = m g cos 20 = 18.437 N.
 // mu_s = 0.6 holds 11.06 N > 8.29 N: sticks, sum f = +8.290 N x. mu_s = mu_d = 0.3 holds 5.53 N
-// < 8.29 N: slides up the slope, sum f = +0.3 x 18.437 N = +5.531 N x (before the fix: reported sliding
-// with 6.33 N, each corner's force turned 24 degrees off the slip).
+// < 8.29 N: slides up the slope, sum f = +0.3 x 18.437 N = +5.531 N x (before the fix: reported
+// sliding with 6.33 N, each corner's force turned 24 degrees off the slip).
 TEST(RestingBlock, InclinePushedUpSlopeSticksOrSlides) {
   const double theta = 20.0 * M_PI / 180.0;
   expectBlockClosedForm(theta, Eigen::Vector3d(-15.0, 0.0, 0.0), 0.6, 0.6, true);
@@ -265,6 +268,254 @@ TEST(RestingBlock, InclinePushedSidewaysSticksOrSlides) {
 TEST(RestingBlock, FloorPushedObliquelySticksOrSlides) {
   expectBlockClosedForm(0.0, Eigen::Vector3d(3.0, 4.0, 0.0), 0.6, 0.6, true);
   expectBlockClosedForm(0.0, Eigen::Vector3d(6.0, 8.0, 0.0), 0.4, 0.3, false);
+}
+
+// --- The band mu_d N < |L| <= mu_s N (issue 22; docs/physics.md, "Resting contacts"): a block
+// at rest whose tangential load lies between what dynamic and what static friction can hold has
+// two answers that both satisfy the complementarity conditions, stuck (sum f = -L) and sliding
+// (sum f = -mu_d N L/|L|). Static friction holds it: it must stick, as the single-contact closed
+// form does. Every check below is Newton's second law for the block (m = 2 kg), from the one-body
+// closed form computed here by hand, against the acceleration that the reported corner forces
+// give it:
+//   a = (F_ext + sum_i (F_i n + f_i)) / m,  I alpha = sum_i r_i x (F_i n + f_i)  (F_ext through
+//   the centre, r_i from the centre to corner i);
+//   |L| <= mu_s N: a = 0 and alpha = 0, every corner sticking inside its static cone;
+//   |L| >  mu_s N: a = (|L| - mu_d N) / m along L/|L|, alpha = 0 (the argument above), every
+//                  loaded corner's friction mu_d F_i against L.
+// The whole scene may be turned by a rotation R (floor normal R z, corners R p, forces R F): the
+// closed form is the same in the turned frame.
+namespace {
+
+constexpr double kBlockMass = 2.0;
+constexpr double kBlockHalf = 0.1;  // half the edge of the 0.2 m cube
+
+struct BandCase {
+  double theta = 0.0;                              // incline angle [rad]
+  Eigen::Vector3d push = Eigen::Vector3d::Zero();  // through the centre, incline frame [N]
+  double mu_s = 0.6;
+  double mu_d = 0.3;
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  // R: the whole scene turned
+};
+
+// The loads of the one-body closed form in the incline frame: normal N (pressing into the
+// floor) and tangential L (in the plane).
+double normalLoad(const BandCase& c) {
+  return kBlockMass * kG * std::cos(c.theta) - c.push.z();
+}
+Eigen::Vector3d tangentialLoad(const BandCase& c) {
+  return Eigen::Vector3d(kBlockMass * kG * std::sin(c.theta) + c.push.x(), c.push.y(), 0.0);
+}
+
+core::Scene bandScene(const BandCase& c) {
+  core::Scene scene = blockOnIncline(c.theta, c.push, c.mu_s, c.mu_d);
+  core::BodyState& block = scene.bodies[1];
+  block.position = c.turn * block.position;
+  block.force = c.turn * block.force;
+  block.inertia = c.turn * block.inertia * c.turn.transpose();  // isotropic: unchanged
+  for (core::Contact& contact : scene.contacts) {
+    contact.point = c.turn * contact.point;
+    contact.normal = c.turn * contact.normal;
+  }
+  return scene;
+}
+
+// Runs the case and checks Newton's second law for the block against the closed form.
+void expectBandClosedForm(const BandCase& c, const std::string& label) {
+  SCOPED_TRACE(label);
+  const double N = normalLoad(c);
+  const Eigen::Vector3d L = tangentialLoad(c);
+  ASSERT_GT(N, 0.0);
+  const bool stick = L.norm() <= c.mu_s * N;
+  // Closed form, incline frame, then turned.
+  const Eigen::Vector3d want_acceleration =
+      stick ? Eigen::Vector3d::Zero()
+            : Eigen::Vector3d((L.norm() - c.mu_d * N) / kBlockMass * L.normalized());
+  const Eigen::Vector3d n = c.turn * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d slip = c.turn * L.normalized();
+
+  core::SolverOptions options;
+  options.tolerance = 1e-14;
+  const core::Scene scene = bandScene(c);
+  const core::CollisionResult result = core::computeResponse(scene, options);
+  ASSERT_EQ(result.islands.size(), 1u);
+  ASSERT_TRUE(result.islands[0].converged);
+  EXPECT_EQ(result.islands[0].methodName(), "resting_iterative");
+
+  const core::BodyState& block = scene.bodies[1];
+  Eigen::Vector3d total = block.force;
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < result.impulses.size(); ++i) {
+    const core::ContactImpulse& f = result.impulses[i];
+    const Eigen::Vector3d force = f.normal_force * n + f.friction_force;
+    total += force;
+    moment += (scene.contacts[i].point - block.position).cross(force);
+    EXPECT_TRUE(f.resting);
+    EXPECT_GE(f.normal_force, 0.0);
+    EXPECT_NEAR(f.friction_force.dot(n), 0.0, 1e-12 * kBlockMass * kG);
+    if (stick) {
+      EXPECT_TRUE(f.sticking) << "corner " << i;
+      EXPECT_LE(f.friction_force.norm(), c.mu_s * f.normal_force * (1.0 + 1e-9) + 1e-12)
+          << "corner " << i << " outside its static cone";
+    } else {
+      EXPECT_FALSE(f.sticking) << "corner " << i;
+      EXPECT_NEAR(f.friction_force.norm(), c.mu_d * f.normal_force, 1e-9 * kBlockMass * kG);
+      if (f.normal_force > 1e-9) {
+        EXPECT_NEAR(f.friction_force.normalized().dot(slip), -1.0, 1e-9) << "corner " << i;
+      }
+    }
+  }
+  const double tol = 1e-9 * kG;  // [m/s^2]
+  const Eigen::Vector3d acceleration = total / kBlockMass;
+  EXPECT_LE((acceleration - c.turn * want_acceleration).norm(), tol)
+      << "a = " << acceleration.transpose() << ", closed form "
+      << (c.turn * want_acceleration).transpose();
+  // alpha = I^-1 moment, I = m s^2 / 6 about every axis.
+  const Eigen::Vector3d alpha = moment / (kBlockMass * 4.0 * kBlockHalf * kBlockHalf / 6.0);
+  EXPECT_LE(alpha.norm(), tol / kBlockHalf) << "alpha = " << alpha.transpose();
+}
+
+// A load L = k N along the angle phi of the incline's plane, built by the push that gives it:
+// P = L - m g sin theta x (plus a normal part pz, which changes N first).
+BandCase loadCase(double theta, double k, double phi, double pz, double mu_s, double mu_d) {
+  BandCase c;
+  c.theta = theta;
+  c.mu_s = mu_s;
+  c.mu_d = mu_d;
+  c.push.z() = pz;
+  const double N = normalLoad(c);
+  c.push.x() = k * N * std::cos(phi) - kBlockMass * kG * std::sin(theta);
+  c.push.y() = k * N * std::sin(phi);
+  return c;
+}
+
+}  // namespace
+
+// The issue's case: on the floor, mu_s = 0.6, mu_d = 0.3 (N = 19.62 N holds 11.77 N statically,
+// 5.886 N dynamically), a push of 8 N along x: in the band, it must stick (a = 0, sum f = -8 N x),
+// not slide with 5.886 N (which would give a = 1.057 m/s^2).
+TEST(RestingBand, FourCornersInTheBandStick) {
+  BandCase c;
+  c.push = Eigen::Vector3d(8.0, 0.0, 0.0);
+  expectBandClosedForm(c, "floor, 8 N along x");
+  c.push = Eigen::Vector3d(0.0, 11.0, 0.0);  // near the static limit 11.77 N
+  expectBandClosedForm(c, "floor, 11 N along y");
+}
+
+// Below mu_d N (sticks), inside the band (sticks), above mu_s N (slides, a = (|L| - mu_d N)/m):
+// on the floor and on inclines of 10 and 25 degrees, the load along 8 directions of the plane
+// (up, down and across the slope, and between), with pushes that also press the block into the
+// incline (pz < 0, N grows) or pull it off (pz > 0, N shrinks).
+TEST(RestingBand, LoadsBelowInsideAndAboveTheBandOnFloorsAndInclines) {
+  const double mu_s = 0.6, mu_d = 0.3;
+  for (const double theta_deg : {0.0, 10.0, 25.0}) {
+    for (const double pz : {0.0, -6.0, 5.0}) {
+      for (int j = 0; j < 8; ++j) {
+        const double phi = j * M_PI / 4.0;
+        for (const double k : {0.5 * mu_d, 0.9 * mu_d, 1.1 * mu_d, 0.5 * (mu_s + mu_d), 0.95 * mu_s,
+                               1.05 * mu_s, 1.5 * mu_s}) {
+          const BandCase c = loadCase(theta_deg * M_PI / 180.0, k, phi, pz, mu_s, mu_d);
+          expectBandClosedForm(c, "theta " + std::to_string(theta_deg) + " deg, pz " +
+                                      std::to_string(pz) + " N, phi " + std::to_string(j) +
+                                      " x 45 deg, |L|/N " + std::to_string(k));
+        }
+      }
+    }
+  }
+}
+
+// The same closed form with the whole scene turned (the floor's normal not along z), and with
+// other coefficients (mu_s = 1.0, mu_d = 0.2: a wide band; mu_s = 0.35, mu_d = 0.3: a narrow one).
+TEST(RestingBand, TurnedScenesAndOtherCoefficients) {
+  const Eigen::Matrix3d turns[] = {
+      Eigen::Matrix3d::Identity(),
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, 2.0, -0.5).normalized()).toRotationMatrix(),
+      Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix(),  // floor upside down
+  };
+  for (const auto& [mu_s, mu_d] : {std::pair{1.0, 0.2}, std::pair{0.35, 0.3}}) {
+    for (const Eigen::Matrix3d& turn : turns) {
+      for (const double k : {0.5 * mu_d, 0.5 * (mu_s + mu_d), 0.98 * mu_s, 1.2 * mu_s}) {
+        BandCase c = loadCase(15.0 * M_PI / 180.0, k, 2.0, -3.0, mu_s, mu_d);
+        c.turn = turn;
+        expectBandClosedForm(c, "mu_s " + std::to_string(mu_s) + ", mu_d " + std::to_string(mu_d) +
+                                    ", |L|/N " + std::to_string(k));
+      }
+    }
+  }
+}
+
+// Mixed: a block (4 kg, 0.2 m cube) on the floor on four corners (mu_s = 0.5, mu_d = 0.1) and a
+// second one (2 kg, the same cube) on it on four corners (mu_s = 0.6, mu_d = 0.5), the top one
+// pushed with P = 16 N along x through its centre. One-body closed forms: the top one needs 16 N
+// > 0.6 x 2 g = 11.77 N to stick, so it slides with a_top = (16 - 0.5 x 2 g) / 2 = 3.095 m/s^2 and
+// drags the bottom one with 0.5 x 2 g = 9.81 N; the floor holds the bottom one (N = 6 g =
+// 58.86 N) with at most 0.5 N = 29.43 N, at least 0.1 N = 5.886 N sliding: 9.81 N is in its band,
+// so it sticks (a_bottom = 0). With P = 10 N (< 11.77 N, and 10 N in the floor's band) both stick.
+// Neither tips (moments about the front edges: the drag 9.81 N x 0.2 m < 4 g x 0.1 m for the
+// bottom one, 16 N x 0.1 m < 2 g x 0.1 m for the top one, 10 N x 0.3 m < 6 g x 0.1 m for both).
+// Third case: the top block already slides along x at 0.5 m/s (the island then skips the all-stick
+// step: its corners get -mu_d F_n x), pushed with 10 N: a_top = (10 - 9.81) / 2 = 0.095 m/s^2, and
+// the bottom one, dragged with 9.81 N, still sticks.
+TEST(RestingBand, TopBlockSlidesWhileTheBottomOneSticksInItsBand) {
+  for (const auto& [push, already_sliding] :
+       {std::pair{16.0, false}, std::pair{10.0, false}, std::pair{10.0, true}}) {
+    SCOPED_TRACE("push " + std::to_string(push) + (already_sliding ? ", sliding" : ""));
+    core::BodyState floor;
+    floor.id = "floor";
+    core::BodyState bottom;
+    bottom.id = "bottom";
+    bottom.mass = 4.0;
+    bottom.inertia = Eigen::Matrix3d::Identity() * (4.0 * 0.04 / 6.0);
+    bottom.position = {0.0, 0.0, 0.1};
+    bottom.force = {0.0, 0.0, -4.0 * kG};
+    core::BodyState top = bottom;
+    top.id = "top";
+    top.mass = 2.0;
+    top.inertia = Eigen::Matrix3d::Identity() * (2.0 * 0.04 / 6.0);
+    top.position = {0.0, 0.0, 0.3};
+    top.force = {push, 0.0, -2.0 * kG};
+    if (already_sliding) top.linear_velocity = {0.5, 0.0, 0.0};
+    core::Scene scene;
+    scene.bodies = {floor, bottom, top};
+    for (const double z : {0.0, 0.2}) {
+      for (const double x : {-0.1, 0.1}) {
+        for (const double y : {-0.1, 0.1}) {
+          core::Contact contact;
+          contact.body_a = z == 0.0 ? "floor" : "bottom";
+          contact.body_b = z == 0.0 ? "bottom" : "top";
+          contact.point = {x, y, z};
+          contact.static_friction = z == 0.0 ? 0.5 : 0.6;
+          contact.dynamic_friction = z == 0.0 ? 0.1 : 0.5;
+          scene.contacts.push_back(contact);
+        }
+      }
+    }
+    const bool top_slides = already_sliding || push > 0.6 * 2.0 * kG;
+    core::SolverOptions options;
+    options.tolerance = 1e-14;
+    const core::CollisionResult result = core::computeResponse(scene, options);
+    ASSERT_EQ(result.islands.size(), 1u);
+    ASSERT_TRUE(result.islands[0].converged);
+    // Newton for each block from the reported forces (+F on b, -F on a).
+    Eigen::Vector3d on_bottom = bottom.force, on_top = top.force;
+    for (std::size_t i = 0; i < 8; ++i) {
+      const core::ContactImpulse& f = result.impulses[i];
+      const Eigen::Vector3d force = f.normal_force * Eigen::Vector3d::UnitZ() + f.friction_force;
+      const bool lower = i < 4;
+      if (lower) {
+        on_bottom += force;
+        EXPECT_TRUE(f.sticking) << "floor corner " << i;
+        EXPECT_LE(f.friction_force.norm(), 0.5 * f.normal_force * (1.0 + 1e-9) + 1e-12);
+      } else {
+        on_bottom -= force;
+        on_top += force;
+        EXPECT_EQ(f.sticking, !top_slides) << "top corner " << i;
+      }
+    }
+    const double tol = 1e-9 * kG;
+    EXPECT_LE((on_bottom / 4.0).norm(), tol) << on_bottom.transpose();
+    const Eigen::Vector3d a_top(top_slides ? (push - 0.5 * 2.0 * kG) / 2.0 : 0.0, 0.0, 0.0);
+    EXPECT_LE((on_top / 2.0 - a_top).norm(), tol) << on_top.transpose();
+  }
 }
 
 }  // namespace

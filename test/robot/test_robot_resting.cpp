@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "collision_response/core/body_response.h"
@@ -289,6 +290,134 @@ TEST(RobotResting, BoxWeighsOnTheArmsHand) {
       EXPECT_TRUE(c.sticking);
       EXPECT_NEAR(c.normal_force, sticking.z(), 1e-10);
       EXPECT_LE((c.friction_force - Vector3d(sticking.x(), sticking.y(), 0)).norm(), 1e-10);
+    }
+  }
+}
+
+// --- The band mu_d N < |L| <= mu_s N for robots (issue 22; docs/physics.md, "Resting contacts"):
+// robots go through the same resting solve as rigid bodies, and static friction must hold them
+// there too.
+//
+// The 2R arm on a floating base, both joints locked (q = (0.3, 0.7) rad): one rigid body of 3 kg
+// (two_link::composite()), lying on a table (n = +z) on four points of its links (feet 0.3 m to
+// either side of each link's axis, 0.1 m along the upper link and 0.6 m along the forearm, 0.02 m
+// below the centre of mass, which they surround with 0.18 m to spare: it cannot tip), the table
+// inclined by turning gravity: g = 9.81 (sin theta cos phi, sin theta sin phi, -cos theta).
+// One-body closed form (Newton's second law for the composite body, by hand): N = m g cos theta,
+// the tangential load m g sin theta; with mu_s = 0.6 and mu_d = 0.3 it sticks while
+// tan theta <= 0.6 (a = 0, alpha = 0), otherwise it slides down the slope with
+// a = g (sin theta - mu_d cos theta), not turning. Each checked on the acceleration the reported
+// forces give the composite body: a = g + sum F_i / m, I alpha = sum (p_i - c) x F_i.
+// theta = 10 degrees (tan 0.176, below mu_d), 25 (0.466, in the band: must stick), 35 (0.700,
+// above mu_s: slides with a = 9.81 (0.5736 - 0.3 x 0.8192) = 3.216 m/s^2).
+TEST(RobotRestingBand, LockedFloatingArmOnAnInclinedTableSticksInTheBand) {
+  const double q1 = 0.3, q2 = 0.7, mu_s = 0.6, mu_d = 0.3;
+  const two_link::Composite body = two_link::composite(q1, q2);
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kDir + "/two_link.urdf", rb::BaseType::kFloating);
+  for (int j = 0; j < 2; ++j) arm.setJointModel(j, rb::JointModel::kLocked);
+  arm.setState(Vector2d(q1, q2), Vector2d::Zero(), Eigen::Isometry3d::Identity(), Vector3d::Zero(),
+               Vector3d::Zero());
+  const int upper = arm.linkIndex("upper"), fore = arm.linkIndex("fore");
+  const std::vector<std::pair<int, Vector3d>> points = {{upper, Vector3d(0.1, 0.3, -0.02)},
+                                                        {upper, Vector3d(0.1, -0.3, -0.02)},
+                                                        {fore, Vector3d(0.6, -0.3, -0.02)},
+                                                        {fore, Vector3d(0.6, 0.3, -0.02)}};
+  cr::RigidBody table;
+  std::vector<cr::ContactPoint> contacts;
+  for (const auto& [link, local] : points) {
+    cr::ContactPoint contact(0, 1, arm.linkPose(link) * local, Vector3d::UnitZ(), 0.0, mu_s, mu_d);
+    contact.part_b = link;
+    contacts.push_back(contact);
+  }
+  cr::SolverOptions options;
+  options.tolerance = 1e-14;
+  for (const double theta_deg : {10.0, 25.0, 35.0}) {
+    for (const double phi : {0.0, 1.0, 2.5, 4.0}) {
+      const double theta = theta_deg * M_PI / 180.0;
+      const Vector3d down_slope(std::cos(phi), std::sin(phi), 0.0);
+      const Vector3d g = kG * (std::sin(theta) * down_slope - std::cos(theta) * Vector3d::UnitZ());
+      const bool stick = std::tan(theta) <= mu_s;
+      const Vector3d want =
+          stick ? Vector3d::Zero()
+                : Vector3d(kG * (std::sin(theta) - mu_d * std::cos(theta)) * down_slope);
+      arm.setLoads(Vector2d::Zero(), g);
+      const cr::BodyResponse out = cr::computeBodyResponse({&table, &arm}, contacts, options);
+      SCOPED_TRACE("theta " + std::to_string(theta_deg) + " deg, phi " + std::to_string(phi));
+      ASSERT_EQ(out.islands.size(), 1u);
+      ASSERT_TRUE(out.islands[0].converged);
+      EXPECT_EQ(out.islands[0].method, cr::SolveMethod::kRestingIterative);
+      Vector3d total = Vector3d::Zero(), moment = Vector3d::Zero();
+      for (std::size_t i = 0; i < contacts.size(); ++i) {
+        const cr::ContactImpulse& c = out.impulses[i];
+        const Vector3d force = c.normal_force * Vector3d::UnitZ() + c.friction_force;
+        total += force;
+        moment += (contacts[i].point - body.com).cross(force);
+        EXPECT_TRUE(c.resting);
+        EXPECT_EQ(c.sticking, stick) << "point " << i;
+        if (stick) {
+          EXPECT_LE(c.friction_force.norm(), mu_s * c.normal_force * (1.0 + 1e-9) + 1e-12);
+        } else {
+          EXPECT_NEAR(c.friction_force.norm(), mu_d * c.normal_force, 1e-9 * kG);
+        }
+      }
+      const Vector3d a = g + total / body.mass;
+      EXPECT_LE((a - want).norm(), 1e-9 * kG)
+          << "a " << a.transpose() << ", closed form " << want.transpose();
+      EXPECT_LE((body.inertia.inverse() * moment).norm(), 1e-8 * kG) << "the body turns";
+    }
+  }
+}
+
+// The shipped arm (fixed base, at rest, gravity -z) presses its hand on a table at two points
+// 0.09 m apart (mu_s = 0.6, mu_d = 0.3), its actuators applying gravity compensation and the
+// torques of the forces f = F (n + k t) at each point, tau = g(q) - sum J_k^T f, for F = 15 N,
+// k = 0.2 (below mu_d), 0.45 and 0.58 (in the band), t a horizontal direction. Statics (by hand:
+// M qddot = tau - g + sum J_k^T f_k = 0): the forces f hold the arm still and lie in the static
+// cones, so it must stick, the table pushing back with sum f_k = 2 F (n + k t) (the split between
+// the points is not unique: a squeeze along the line between them changes nothing; the total is:
+// the hand's 6 x 7 Jacobian has full rank here).
+TEST(RobotRestingBand, ArmPressingSidewaysOnATableSticksInTheBand) {
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
+  VectorXd q(9);
+  q << 0.3, 0.8, -0.2, -1.4, 0.1, 1.0, 0.4, 0.02, 0.02;
+  arm.setState(q, VectorXd::Zero(9));
+  const int hand = arm.linkIndex("hand");
+  const Vector3d n = Vector3d::UnitZ();
+  const Vector3d g(0, 0, -kG);
+  arm.setLoads(VectorXd::Zero(9), g);
+  const VectorXd compensation = arm.gravityTorques();
+  const double F = 15.0, mu_s = 0.6, mu_d = 0.3;
+  cr::RigidBody table;
+  std::vector<cr::ContactPoint> contacts;
+  std::vector<Vector3d> points;
+  const Vector3d centre = arm.linkPose(hand) * Vector3d(0.0, 0.0, 0.03);
+  for (const double side : {-0.04, 0.04}) {
+    points.push_back(centre + Vector3d(side, side * 0.5, 0.0));
+    cr::ContactPoint contact(0, 1, points.back(), n, 0.0, mu_s, mu_d);
+    contact.part_b = hand;
+    contacts.push_back(contact);
+  }
+  cr::SolverOptions options;
+  options.tolerance = 1e-14;
+  for (const double k : {0.2, 0.45, 0.58}) {
+    for (const double angle : {0.0, 1.2, 2.4, 3.6, 4.8}) {
+      const Vector3d t(std::cos(angle), std::sin(angle), 0.0);
+      const Vector3d f = F * (n + k * t);
+      VectorXd tau = compensation;
+      for (const Vector3d& p : points) tau -= arm.linkPointJacobian(hand, p).transpose() * f;
+      arm.setLoads(tau, g);
+      const cr::BodyResponse out = cr::computeBodyResponse({&table, &arm}, contacts, options);
+      SCOPED_TRACE("k " + std::to_string(k) + ", angle " + std::to_string(angle));
+      ASSERT_TRUE(out.islands[0].converged);
+      Vector3d total = Vector3d::Zero();
+      for (const cr::ContactImpulse& c : out.impulses) {
+        EXPECT_TRUE(c.resting);
+        EXPECT_TRUE(c.sticking);
+        EXPECT_LE(c.friction_force.norm(), mu_s * c.normal_force * (1.0 + 1e-9) + 1e-12);
+        total += c.normal_force * n + c.friction_force;
+      }
+      EXPECT_LE((total - 2.0 * f).norm(), 1e-8 * F)
+          << "table force " << total.transpose() << ", statics " << (2.0 * f).transpose();
     }
   }
 }

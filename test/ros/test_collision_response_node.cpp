@@ -424,6 +424,47 @@ TEST_F(NodeTest, RestingBallGetsContactForces) {
   EXPECT_NEAR(response.bodies[1].wrench.force.z, -9.81, kTolerance);
 }
 
+// A block resting on four corners with its tangential load in the band mu_d N < |L| <= mu_s N
+// (issue 22, docs/physics.md, "Static friction first"): 2 kg, 0.2 m cube on the ground, weight
+// 19.62 N, pushed with 11 N along y through its centre; mu_s = 0.6 holds 11.77 N, mu_d = 0.3 only
+// 5.886 N. Static friction holds it (one-body statics, by hand): every corner sticks within its
+// static cone and the corners carry sum N = 19.62 N and sum f = -11 N y, so the block's
+// acceleration from the reported forces is zero (before the fix: sliding at (11 - 5.886) / 2 =
+// 2.557 m/s^2).
+TEST_F(NodeTest, RestingBlockOnFourCornersSticksInTheFrictionBand) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  cr::BodyState block;
+  block.id = "block";
+  block.inertia.m = 2.0;
+  block.inertia.ixx = block.inertia.iyy = block.inertia.izz = 2.0 * 0.04 / 6.0;
+  block.pose = pose(0, 0, 0.1);
+  block.wrench.force.y = 11.0;
+  block.wrench.force.z = -2.0 * 9.81;
+  srv.request.bodies = {ground(), block};
+  for (const double x : {-0.1, 0.1}) {
+    for (const double y : {-0.1, 0.1}) {
+      srv.request.contacts.push_back(contact("ground", "block", x, y, 0, 0, 0, 1, 0.0, 0.6, 0.3));
+    }
+  }
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.islands.size(), 1u);
+  EXPECT_EQ(response.islands[0].method, "resting_iterative");
+  EXPECT_TRUE(response.islands[0].converged);
+  Eigen::Vector3d total(block.wrench.force.x, block.wrench.force.y, block.wrench.force.z);
+  for (const auto& corner : response.impulses) {
+    EXPECT_TRUE(corner.resting);
+    EXPECT_TRUE(corner.sticking);
+    const Eigen::Vector3d friction(corner.friction_force.x, corner.friction_force.y,
+                                   corner.friction_force.z);
+    EXPECT_GE(corner.normal_force, 0.0);
+    EXPECT_LE(friction.norm(), 0.6 * corner.normal_force * (1.0 + 1e-9) + 1e-12);
+    total += friction + corner.normal_force * Eigen::Vector3d::UnitZ();
+  }
+  EXPECT_LE(total.norm() / 2.0, 1e-6) << "the block accelerates at " << (total / 2.0).transpose();
+}
+
 // Random off-centre frictional impacts between two free bodies through the service: momentum is
 // conserved, no contact is left approaching, impulses lie in the cone, and under the default
 // (Stronge) law no energy is gained.

@@ -27,4 +27,16 @@ Eigen::Vector2d slipDirection(const Eigen::Matrix2d& M, const Eigen::Vector2d& b
 Eigen::Vector2d solveFrictionDisk(const Eigen::Matrix2d& K, const Eigen::Vector2d& u0,
                                   double radius, bool& sticking);
 
+/// One contact's block of the all-stick problem of the resting contacts (docs/physics.md, "Static
+/// friction first"): the force x (world frame) in the friction cone |x_t| <= mu x_n (x_n = n.x,
+/// x_t its part along t1, t2) that minimizes x^T b + x^T A x / 2, for the contact's 3x3 Delassus
+/// block A [1/kg] (symmetric positive semi-definite) and b [m/s^2] the relative acceleration it
+/// would have without its own force. Inside the cone the minimizer leaves A x + b = 0 (the contact
+/// stopped); on the cone's surface x = r (n + mu e(theta)), the angle found by bisection on the
+/// sign of the derivative around the best of 72 samples; the apex x = 0 when nothing better.
+/// mu = 0: the force along n alone, max(0, -n.b / n^T A n) n.
+Eigen::Vector3d solveFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3d& b,
+                                  const Eigen::Vector3d& n, const Eigen::Vector3d& t1,
+                                  const Eigen::Vector3d& t2, double mu);
+
 }  // namespace collision_response::core

@@ -20,8 +20,10 @@ namespace collision_response::core {
 /// |P_t| <= mu_s P_n, otherwise sliding with |P_t| = mu_d P_n exactly opposite to the slip u'_t
 /// (each contact's friction solved on its own disk with its own K_tt, maximal dissipation:
 /// solveFrictionDisk(), friction_disk.h). Static and dynamic: sweeps run on the static cones to
-/// convergence; contacts that slide on theirs then move to the dynamic cone and the sweeps
-/// continue, until no contact moves (the exact solver's rule). A resting problem
+/// convergence; contacts that still slip on theirs (|u'_t| above 1e-9 of the problem's largest
+/// |u| before the solve; reaching the rim of the disk with the slip gone is sticking at the limit)
+/// then move to the dynamic cone and the sweeps continue, until no contact moves (the exact
+/// solver's rule). A resting problem
 /// (ProblemLevel::kAcceleration) is solved the same way on accelerations and forces, a contact with
 /// a slip_direction getting the friction -mu_d F_n along it.
 ///

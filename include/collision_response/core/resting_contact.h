@@ -22,11 +22,18 @@ namespace collision_response::core {
 ///   slip).
 /// It is the plastic Newton problem of the impact solvers on accelerations instead of velocities,
 /// with the same Delassus operator: one resting contact is solved in closed form
-/// (solveSingleContact(), whose singular-W rule applies), several by the iterative solver (its
-/// rule too). Writes forces[i] (resting, normal_force, friction_force, sticking) for problem
-/// contact i (resized to the problem); the forces are applied to the problem's accelerations,
-/// never to the bodies. Report: kRestingClosedForm or kRestingIterative (kNone if empty); a
-/// sliding single contact whose force cannot keep a'_n = 0 (Painleve) is not converged.
+/// (solveSingleContact(), whose singular-W rule applies). Several: static friction first
+/// (docs/physics.md, "Static friction first"): if no contact slips already, the all-stick problem
+/// on the mu_s cones (min F.a + F^T W F / 2 over the cones, block Gauss-Seidel with
+/// solveFrictionCone()) is solved, and its answer kept if it is stuck (every loaded contact left
+/// with a' = 0, every unloaded one touching without slip or separating, to 1e-9 of the island's
+/// largest free relative acceleration): some split of the forces within the static cones holds
+/// the island. Otherwise the iterative solver (its singular-W rule applies), whose contacts move
+/// to mu_d only if they still slip on their static cone. `sticking`: no slip, not separating and
+/// a'_t = 0 to that tolerance. Writes forces[i] (resting, normal_force, friction_force, sticking)
+/// for problem contact i (resized to the problem); the forces are applied to the problem's
+/// accelerations, never to the bodies. Report: kRestingClosedForm or kRestingIterative (kNone if
+/// empty); a sliding single contact whose force cannot keep a'_n = 0 (Painleve) is not converged.
 SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& options,
                                std::vector<ContactImpulse>& forces);
 
