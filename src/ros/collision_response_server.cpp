@@ -67,6 +67,7 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
       default_options_(parameters_.solver),
       contact_tolerance_(parameters_.contact_tolerance),
       tf_timeout_(parameters_.tf_timeout),
+      batch_pool_(parameters_.threads),
       tf_listener_(tf_buffer_, node) {
   loadRobots(node);
   responses_ = private_node.advertise<CollisionResponse>("responses", 10);
@@ -577,20 +578,20 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
     recordCalls(1, 0, 0, 0.0, 0.0);
     return true;
   }
-  std::size_t failures = 0;
-  double max_solve_time = 0.0;
+  // The scenes are independent: solved across the batch pool (~threads), each by solve() as a
+  // single request, into its own result.
   response.results.resize(request.scenes.size());
-  ComputeResponse::Request single;
-  ComputeResponse::Response answer;
-  for (std::size_t i = 0; i < request.scenes.size(); ++i) {
+  std::vector<char> failed(request.scenes.size(), 0);
+  batch_pool_.parallelFor(request.scenes.size(), [&](std::size_t i) {
     Scene& scene = request.scenes[i];
+    ComputeResponse::Request single;
+    ComputeResponse::Response answer;
     single.header = scene.header.frame_id.empty() ? request.header : scene.header;
     single.bodies = std::move(scene.bodies);
     single.contacts = std::move(scene.contacts);
     single.options = scene.options;
     single.detection = scene.detection;
     single.robots = std::move(scene.robots);
-    answer = ComputeResponse::Response();
     const std::optional<core::InvalidInput> field_error = solve(single, answer);
     SceneResult& result = response.results[i];
     result.success = answer.success;
@@ -599,7 +600,7 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
       const std::string scene_field = "scenes[" + std::to_string(i) + "]";
       result.message = field_error ? field_error->prefixed(scene_field).what()
                                    : scene_field + ": " + answer.message;
-      ++failures;
+      failed[i] = 1;
     }
     result.bodies = std::move(answer.bodies);
     result.impulses = std::move(answer.impulses);
@@ -612,8 +613,13 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
     result.solve_time = answer.solve_time;
     result.robots = std::move(answer.robots);
     result.effective_masses = std::move(answer.effective_masses);
-    response.solve_time += answer.solve_time;
-    max_solve_time = std::max(max_solve_time, answer.solve_time);
+  });
+  std::size_t failures = 0;
+  double max_solve_time = 0.0;
+  for (std::size_t i = 0; i < response.results.size(); ++i) {
+    failures += failed[i];
+    response.solve_time += response.results[i].solve_time;
+    max_solve_time = std::max(max_solve_time, response.results[i].solve_time);
   }
   response.success = true;
   recordCalls(1, request.scenes.size(), failures, response.solve_time, max_solve_time);

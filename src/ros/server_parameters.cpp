@@ -237,7 +237,10 @@ ServerParameters loadServerParameters(const XmlRpc::XmlRpcValue& values) {
       readPositive(values, "marker_velocity_scale", p.marker_scales.velocity);
   p.default_frame = readString(values, "default_frame", p.default_frame);
   if (p.default_frame.empty()) throw core::InvalidInput("~default_frame", "must not be empty");
-  p.threads = static_cast<int>(readCount(values, "threads", static_cast<std::size_t>(p.threads)));
+  const std::size_t threads = readCount(values, "threads", static_cast<std::size_t>(p.threads));
+  if (threads > 256)
+    throw core::InvalidInput("~threads", "must be at most 256 (" + std::to_string(threads) + ")");
+  p.threads = static_cast<int>(threads);
   p.robots = readRobots(values);
   p.joint_state_timeout = readPositive(values, "joint_state_timeout", p.joint_state_timeout);
   return p;

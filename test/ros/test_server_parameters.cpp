@@ -100,6 +100,7 @@ TEST(ServerParameters, BadValuesAreRejectedNamingTheParameter) {
   expectRejected(with("marker_velocity_scale", 0.0), "~marker_velocity_scale");
   expectRejected(with("default_frame", ""), "~default_frame");
   expectRejected(with("threads", 0), "~threads");
+  expectRejected(with("threads", 257), "~threads");
   XmlRpcValue unknown_member;
   unknown_member["materials"][0]["a"] = "steel";
   unknown_member["materials"][0]["b"] = "steel";

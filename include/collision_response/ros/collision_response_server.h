@@ -16,6 +16,7 @@
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
 #include "collision_response/core/validation.h"
+#include "collision_response/core/worker_pool.h"
 #include "collision_response/detection/contact_detector.h"
 #include "collision_response/detection/detect_contacts.h"
 #include "collision_response/detection/materials.h"
@@ -139,6 +140,8 @@ class CollisionResponseServer {
   std::mutex detectors_mutex_;
   std::vector<std::unique_ptr<detection::ContactDetector>> idle_detectors_;
   std::vector<std::unique_ptr<ServedRobot>> robots_;  // ~robots, in order
+  /// The scenes of a batch are solved across these threads (~threads, the calling one included).
+  core::WorkerPool batch_pool_;
   std::vector<ros::Subscriber> joint_state_subscribers_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;

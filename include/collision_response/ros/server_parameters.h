@@ -48,8 +48,9 @@ struct ServerParameters {
   /// ~marker_impulse_scale [m per N s], ~marker_velocity_scale [m per m/s]: arrow lengths.
   MarkerScales marker_scales;
   std::string default_frame = "world";  ///< ~default_frame: requests with an empty frame
-  int threads =
-      2;  ///< ~threads: requests served concurrently (the node; a nodelet uses its manager's)
+  /// ~threads [1, 256]: requests served concurrently (the node; a nodelet uses its manager's), and
+  /// the threads a batch's scenes are spread over (node and nodelet alike).
+  int threads = 2;
   /// ~robots: [{name, description_param, joint_states_topic, floating, base_frame, locked_joints,
   /// armature}], the robots requests may name (none by default).
   std::vector<RobotParameters> robots;
