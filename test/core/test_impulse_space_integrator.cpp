@@ -533,9 +533,7 @@ Reference referenceRun(const Matrix3d& K_in, const Vector3d& n_in, const Vector3
     return stronge ? y[3] - W_end : n.dot(y.head<3>()) - p_end;
   };
   // d|u_t|/dp along the slip direction s: s.(K_tn - mu_d K_tt s).
-  const auto slipRate = [&](const Vec3R& s) {
-    return s.dot(K * n) - Real(mu_d) * s.dot(K * s);
-  };
+  const auto slipRate = [&](const Vec3R& s) { return s.dot(K * n) - Real(mu_d) * s.dot(K * s); };
   Real stop = 0.0;  // slip speed that counts as stopped, set at each step's start
   const auto slipEvent = [&](const Y& y) { return stop - slipOf(y).norm(); };
   const Real h_slide = h_scale * std::min(1.0L / (K.norm() * (1.0L + mu_d)), 10.0L * J_low / V);
@@ -861,9 +859,9 @@ CheckedReference checkedReference(const Matrix3d& K, const Vector3d& n, const Ve
 
 /// A random off-centre frictional contact with mu_s > mu_d (mu_d from 0.1 to 0.95 of mu_s), and
 /// an approach speed |u_n| a log-uniform fraction 1e-4 .. 100 of the slip |u_t| (grazing contacts,
-/// whose impulse is far below |u0| / K_nn, and slips that stop, stick or resume). planar: both bodies move in the x-y plane
-/// (rotating about z, a principal axis of each), with the contact point and normal in it, so the
-/// slip keeps its direction (the integrator's closed-form segments).
+/// whose impulse is far below |u0| / K_nn, and slips that stop, stick or resume). planar: both
+/// bodies move in the x-y plane (rotating about z, a principal axis of each), with the contact
+/// point and normal in it, so the slip keeps its direction (the integrator's closed-form segments).
 RandomCase offCentreCase(std::mt19937_64& rng, bool planar) {
   std::uniform_real_distribution<double> unit(0.0, 1.0), mass(0.1, 10.0);
   const auto body = [&](bool immovable_body) {
@@ -939,10 +937,12 @@ TEST(ImpulseSpaceIntegrator, ImpulseWithinToleranceOfItselfStaticAboveDynamic) {
   for (std::size_t k = 0; k < tols.size(); ++k) {
     std::printf(
         "impulse suite (mu_s > mu_d), tol %.0e: %d scenes (%d planar, %d grazing with |u_n| < "
-        "0.01 |u|, %d sticking, %d resumed; %d skipped), error / |P| / tol: median %.3g, 99th percentile %.3g, "
+        "0.01 |u|, %d sticking, %d resumed; %d skipped), error / |P| / tol: median %.3g, 99th "
+        "percentile %.3g, "
         "max %.3g; reference's own error below %.2g |P|\n",
-        tols[k], scenes, planar_scenes, grazing, sticking, resumed, skipped, quantile(ratios[k], 0.5),
-        quantile(ratios[k], 0.99), quantile(ratios[k], 1.0), worst_reference);
+        tols[k], scenes, planar_scenes, grazing, sticking, resumed, skipped,
+        quantile(ratios[k], 0.5), quantile(ratios[k], 0.99), quantile(ratios[k], 1.0),
+        worst_reference);
   }
   EXPECT_LE(skipped, scenes / 20);
   EXPECT_GE(grazing, scenes / 10);
@@ -994,9 +994,8 @@ TEST(ImpulseSpaceIntegrator, Issue22GrazingStrongeContactImpulseWithinTolerance)
   const Vector3d u = body.linear_velocity + body.angular_velocity.cross(r);
   ASSERT_LT(u.dot(n), 0.0);
   EXPECT_LT(-u.dot(n), 2e-3 * u.norm());  // grazing
-  const CheckedReference ref = checkedReference(K, n, u, contact.restitution,
-                                                contact.static_friction, contact.dynamic_friction,
-                                                true);
+  const CheckedReference ref = checkedReference(
+      K, n, u, contact.restitution, contact.static_friction, contact.dynamic_friction, true);
   ASSERT_TRUE(ref.ok);
   const double size = ref.P.norm();
   EXPECT_LE(ref.error, 1e-13 * size);
@@ -1004,7 +1003,7 @@ TEST(ImpulseSpaceIntegrator, Issue22GrazingStrongeContactImpulseWithinTolerance)
   const Vector3d v_ref = body.linear_velocity + ref.P / body.mass;
   const Vector3d w_ref = body.angular_velocity + inverse_inertia * r.cross(ref.P);
   for (const double tol : {cr::SolverOptions().integration_tolerance, 1e-12}) {
-    SCOPED_TRACE("integration_tolerance " + std::to_string(tol));
+    SCOPED_TRACE(::testing::Message() << "integration_tolerance " << tol);
     cr::SolverOptions options;
     options.law = cr::ImpactLaw::kStronge;
     options.integration_tolerance = tol;
