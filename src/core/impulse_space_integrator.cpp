@@ -80,8 +80,12 @@ struct Problem {
   double mu_s;
   double mu_d;
   bool stronge;
-  double J;    ///< impulse scale |u0| / c [N s]
-  double V;    ///< velocity scale |u0| [m/s]
+  /// Impulse scale [N s]: |u0_n| / (c + max(mu_s, mu_d) |b|), a lower bound of the normal impulse
+  /// (u_n rises at most that fast per unit normal impulse, whatever friction does), so that an
+  /// error within tol J is within tol of the impulse itself (docs/physics.md, "Guarantee").
+  double J;
+  double V;    ///< slip scale |u0| [m/s]: a slip below kStickSpeed V counts as stopped
+  double V_n;  ///< normal velocity scale |u0_n| [m/s]; the work's scale is V_n J [J]
   double tol;  ///< relative error tolerance
 
   Vec2 slip(double p, const Vec2& P_t) const { return u0_t + A * P_t + b * p; }
@@ -223,7 +227,7 @@ inline Vec4 slipField(const Problem& pr, const Vec4& y) {
 }
 
 /// One Dormand-Prince step of size h from (y, f = F(y)); returns y1, f1 = F(y1) and the error
-/// estimate (max norm, scaled by the impulse scale J and the work scale V J).
+/// estimate (max norm, scaled by the impulse scale J and the work scale V_n J).
 double dopriStep(const Problem& pr, const Vec4& y, const Vec4& f, double h, Vec4& y1, Vec4& f1) {
   const Vec4& k1 = f;
   const Vec4 k2 = slipField(pr, y + h * (a21 * k1));
@@ -235,7 +239,7 @@ double dopriStep(const Problem& pr, const Vec4& y, const Vec4& f, double h, Vec4
   f1 = slipField(pr, y1);
   Vec4 err = h * (e1 * k1 + e3 * k3 + e4 * k4 + e5 * k5 + e6 * k6 + e7 * f1);
   err.head<3>() /= pr.J;
-  err[3] /= pr.J * pr.V;
+  err[3] /= pr.J * pr.V_n;
   return err.cwiseAbs().maxCoeff();
 }
 
@@ -396,9 +400,9 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
   const double sigma = u_t.norm();
   const double x = approach.distance(u_t / sigma);
   if (x < 0.0) return SeriesResult::kNotConverged;
-  // The tolerance is on the impulse (scale J) and the work (scale V J), so each series needs
+  // The tolerance is on the impulse (scale J) and the work (scale V_n J), so each series needs
   // its sums only to the tolerance over its share of them: 0.05 tol J / p_rem for the impulses
-  // (also through u_n,stop p_rem in the work), 0.05 tol V J / work_drop for the work. First
+  // (also through u_n,stop p_rem in the work), 0.05 tol V_n J / work_drop for the work. First
   // from estimates (the linear stop sigma / -sigma', u_n rising at most (c + mu_d |b|) per unit
   // impulse), then checked against the sums themselves (the series extended if they need more).
   const Vec2 s = u_t / sigma;
@@ -410,8 +414,8 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
                          double& rel_w) {
     const double budget = 0.05 * pr.tol;
     rel_p = std::min(
-        {1e-3, budget * pr.J / p_rem, budget * pr.V * pr.J / (std::abs(u_n_stop) * p_rem)});
-    rel_w = std::min(1e-3, budget * pr.V * pr.J / work_drop);
+        {1e-3, budget * pr.J / p_rem, budget * pr.V_n * pr.J / (std::abs(u_n_stop) * p_rem)});
+    rel_w = std::min(1e-3, budget * pr.V_n * pr.J / work_drop);
   };
   double rel_p, rel_w;
   share(p_guess, u_n_now + rise * p_guess, rise * p_guess * p_guess, rel_p, rel_w);
@@ -428,14 +432,14 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
     u_n_stop = pr.normal(st.p + rest.p, st.P_t + rest.P_t);
   }
   // (Written so that a NaN, from sums that went wrong, fails too.)
-  if (!((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() <= pr.tol * pr.V)) {
+  if (!((u_t + pr.A * rest.P_t + pr.b * rest.p).norm() <= pr.tol * pr.V_n)) {
     return SeriesResult::kNotConverged;
   }
   // A slip that hardly slows as it turns (m << 1) is far from its stop: the path's states are
   // then differences of sums much larger than the impulse and work scales, and their round-off
   // must stay within the tolerance too.
   const double magnitude =
-      std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V * pr.J));
+      std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V_n * pr.J));
   if (!(1e-15 * magnitude <= 0.05 * pr.tol)) return SeriesResult::kIllConditioned;
   // The stop, and the state at angle distance y along the path to it.
   const double p_stop = st.p + rest.p;
@@ -456,7 +460,7 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
     double y;
     if (!st.restitution) {
       if (u_n_stop < 0.0) break;  // compression goes on past the stop
-      y = fallingRoot(y_now, m, 1e-3 * pr.tol * pr.V, [&](double z, double& slope) {
+      y = fallingRoot(y_now, m, 1e-3 * pr.tol * pr.V_n, [&](double z, double& slope) {
         const StickApproach::Remaining r = remainingAt(z);
         slope = -(pr.c - pr.mu_d * pr.b.dot(r.direction)) * r.rate;
         return u_n_stop - r.u_n_rise;
@@ -470,7 +474,7 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
     }
     if (pr.stronge) {
       if (W_stop < st.W_end) break;
-      y = fallingRoot(y_now, m, 1e-3 * pr.tol * pr.V * pr.J, [&](double z, double& slope) {
+      y = fallingRoot(y_now, m, 1e-3 * pr.tol * pr.V_n * pr.J, [&](double z, double& slope) {
         const StickApproach::Remaining r = remainingAt(z);
         slope = -(u_n_stop - r.u_n_rise) * r.rate;
         return W_stop - (u_n_stop * r.p - r.work_drop) - st.W_end;
@@ -643,7 +647,8 @@ ContactImpulse integrateSingleContact(const ProblemContact& contact, const Eigen
   pr.mu_d = contact.dynamic_friction;
   pr.stronge = law == ImpactLaw::kStronge;
   pr.V = u.norm();
-  pr.J = pr.V / pr.c;
+  pr.V_n = -u_n;
+  pr.J = pr.V_n / (pr.c + std::max(pr.mu_s, pr.mu_d) * pr.b.norm());
   pr.tol = std::max(tolerance, 1e-15);
 
   State st;
