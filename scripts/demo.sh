@@ -27,11 +27,12 @@ echo "demo: ROS master at $ROS_MASTER_URI"
 if [ "$robot" = yes ]; then
   LAUNCH_FILE=robot.launch launch_node
   # The request takes the joint positions from /joint_states: wait for joint_state_publisher.
-  timeout 30 rostopic echo -n 1 /joint_states >/dev/null
+  timeout 30 rostopic echo -n 1 /joint_states >/dev/null ||
+    { echo "demo: nothing on /joint_states after 30 s (joint_state_publisher: $ROS_HOME/log)" >&2; exit 1; }
   request=scripts/robot_request.yaml
 else
   launch_node
-  rostopic echo -n 1 /collision_response/responses >"$ROS_HOME/published.out" 2>&1 &
+  timeout 30 rostopic echo -n 1 /collision_response/responses >"$ROS_HOME/published.out" 2>&1 &
   echo_pid=$!
   ros_pids+=("$echo_pid")
   sleep 1  # let the subscriber connect before the call
@@ -47,7 +48,7 @@ else
   /usr/bin/python3 scripts/summarize_response.py "$ROS_HOME/answer.yaml" "$request"
 fi
 [ "$robot" = yes ] && exit 0
-wait "$echo_pid" || true
+wait "$echo_pid" || echo "demo: nothing received on /collision_response/responses within 30 s"
 echo "demo: published on /collision_response/responses ($(grep -c . "$ROS_HOME/published.out") lines, first lines):"
 head -n 6 "$ROS_HOME/published.out"
 echo "demo: the whole answer: scripts/demo.sh --raw"

@@ -21,12 +21,17 @@ packages=(
 )
 scripts/install_packages.sh "${packages[@]}"
 
-# roslaunch always starts its nodes on the machine named "localhost"; minimal roots (debootstrap,
-# some containers) have no /etc/hosts entry for it.
-if ! getent hosts localhost >/dev/null; then
-  echo "setup: adding '127.0.0.1 localhost' to /etc/hosts (roslaunch needs it)"
-  if [ "$(id -u)" -eq 0 ]; then echo "127.0.0.1 localhost" >>/etc/hosts; else echo "127.0.0.1 localhost" | sudo tee -a /etc/hosts >/dev/null; fi
-fi
+# roslaunch always starts its nodes on the machine named "localhost", and every ROS node announces
+# itself under the machine's host name (unless ROS_HOSTNAME or ROS_IP say otherwise): both must
+# resolve. Minimal roots (debootstrap, some containers) have no /etc/hosts entry for them; add
+# them for the loopback address, as Debian's installer does for the host name.
+add_host() {
+  getent hosts "$1" >/dev/null && return 0
+  echo "setup: adding '127.0.0.1 $1' to /etc/hosts (ROS nodes need their host name to resolve)"
+  if [ "$(id -u)" -eq 0 ]; then echo "127.0.0.1 $1" >>/etc/hosts; else echo "127.0.0.1 $1" | sudo tee -a /etc/hosts >/dev/null; fi
+}
+add_host localhost
+add_host "$(uname -n)"
 
 source scripts/build_dirs.sh
 # /usr/bin/python3: catkin needs Debian's python (with catkin_pkg), not one first on PATH.
@@ -40,11 +45,3 @@ make -C "$build_dir" -j"$(nproc)" --no-print-directory all "$@" >"$log" 2>&1 || 
   echo "setup: build failed, see $log" >&2
   exit 1
 }
-# catkin snapshots the environment that `make run_tests` uses at configure time, and takes only
-# directories that exist then: on a first configure the devel space's Python path (the generated
-# messages) and library path are missing, so the Python nodes and clients of the rostests could not
-# import them. One configure more, now that they exist, fixes the snapshot.
-if ! grep -q "$(realpath -m "$devel_dir")/lib/python3/dist-packages" \
-  "$build_dir/catkin_generated/setup_cached.sh"; then
-  cmake "$build_dir" >/dev/null
-fi

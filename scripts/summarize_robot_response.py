@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """Prints a robot answer of /collision_response/compute (rosservice's YAML) in a few lines: each
-robot's joint-velocity jump, the bodies' post-impact velocities and the mass each contact reflects
-along its normal (docs/robots.md). Usage: summarize_robot_response.py ANSWER.yaml"""
+robot's joint-velocity jump, the bodies' post-impact velocities, and the contacts on the robots'
+links with their impulses and effective masses: 1 / (n^T W n), the mass of the contact's two bodies
+together along its normal (the robot's reflected mass and the struck body's combined as
+1 / (1/m_robot + 1/m_body), not the robot's own; docs/robots.md). Usage:
+summarize_robot_response.py ANSWER.yaml"""
 import math
 import sys
 
@@ -35,15 +38,34 @@ def main():
     contacts = answer["detected_contacts"]
     masses = answer["effective_masses"]
     impulses = answer["impulses"]
-    print("contacts: %d found from the shapes" % len(contacts))
-    for k, (c, m, j) in enumerate(zip(contacts, masses, impulses)):
-        if not any(b.startswith(r["name"] + "/") for r in answer["robots"]
-                   for b in (c["body_a"], c["body_b"])):
-            continue
+    robots = [r["name"] + "/" for r in answer["robots"]]
+
+    def on_robot(c):
+        return any(b.startswith(r) for r in robots for b in (c["body_a"], c["body_b"]))
+
+    listed = [k for k, c in enumerate(contacts) if on_robot(c)]
+    others = {}
+    for c in contacts:
+        if not on_robot(c):
+            pair = "%s - %s" % (c["body_a"], c["body_b"])
+            others[pair] = others.get(pair, 0) + 1
+    print("contacts: %d found from the shapes (where a face touches a face: one per corner of the"
+          " touching area)" % len(contacts))
+    if others:
+        print("  %s: not listed (no robot link)" %
+              ", ".join("%d %s" % (n, pair) for pair, n in sorted(others.items())))
+    print("  %d on the robot's links, each with its effective mass 1 / (n^T W n): the mass of both"
+          " bodies together along the normal, not the robot's own reflected mass:" % len(listed))
+    for k in listed:
+        c, m, j = contacts[k], masses[k], impulses[k]
         mass = "inf" if isinstance(m, str) or math.isinf(m) else "%.3f kg" % m
-        print("  %s - %s: reflected mass %s, normal impulse %.4f N s, normal velocity %+.3f -> %+.3f m/s" %
+        print("    %s - %s: effective mass %s, normal impulse %.4f N s, normal velocity %+.3f -> %+.3f m/s" %
               (c["body_a"], c["body_b"], mass, j["normal_impulse"], j["normal_velocity_before"],
                j["normal_velocity_after"]))
+    idle = sum(1 for k in listed if impulses[k]["normal_impulse"] == 0)
+    if idle:
+        print("  %d of them carry no impulse: the impulses at the others make them separate anyway"
+              % idle)
     return 0
 
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <kdl/chain.hpp>
 #include <kdl/chaindynparam.hpp>
 #include <kdl/chainidsolver_recursive_newton_euler.hpp>
@@ -14,6 +15,7 @@
 #include <kdl/tree.hpp>
 #include <kdl_parser/kdl_parser.hpp>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -133,7 +135,7 @@ TEST(ArticulatedBody, Arm7MassAndJacobiansEqualKdlChainSolvers) {
 TEST(ArticulatedBody, Arm7TreeEnergyMatchesMassMatrix) {
   rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
   ASSERT_EQ(arm.jointCount(), 9);
-  ASSERT_EQ(arm.linkCount(), 11);  // base, 7 links, hand, 2 fingers
+  ASSERT_EQ(arm.linkCount(), 12);  // base, its inertia, 7 links, hand, 2 fingers
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int trial = 0; trial < 10; ++trial) {
@@ -146,6 +148,80 @@ TEST(ArticulatedBody, Arm7TreeEnergyMatchesMassMatrix) {
     const MatrixXd& M = arm.massMatrix();
     EXPECT_LE((M - M.transpose()).cwiseAbs().maxCoeff(), 0.0);
     EXPECT_NEAR(0.5 * qdot.dot(M * qdot), arm.kineticEnergy(), 1e-12);
+  }
+}
+
+// The shipped arm's root link base_link has no <inertial> (kdl_parser, hence robot_state_publisher,
+// warns about a root inertia it cannot use on every launch): the base's 4 kg are on
+// base_link_inertia, fixed to base_link at its frame. Written the other way, the inertial on the
+// root link (which the loader hands to the body itself), it is the same body: for a fixed base
+// (which nothing moves) and a floating one (base and inertia one rigid body), the mass matrices,
+// the kinetic energies, the momenta and the links' poses are equal at random states.
+TEST(ArticulatedBody, Arm7BaseInertiaOnAFixedChildIsTheSameBody) {
+  std::ifstream file(kArm7);
+  std::stringstream buffer;
+  buffer << file.rdbuf();
+  const std::string shipped = buffer.str();
+  const auto block = [](const std::string& text, const std::string& open,
+                        const std::string& close) {
+    const std::size_t begin = text.find(open);
+    const std::size_t end = text.find(close, begin);
+    EXPECT_NE(begin, std::string::npos) << open;
+    EXPECT_NE(end, std::string::npos) << close;
+    return std::make_pair(begin, end + close.size());
+  };
+  const auto root = block(shipped, "<link name=\"base_link\">", "</link>");
+  EXPECT_EQ(shipped.substr(root.first, root.second - root.first).find("<inertial>"),
+            std::string::npos)
+      << "the root link has an inertial again";
+  // The same arm with the inertial on the root: base_link_inertia and its joint removed.
+  std::string on_root = shipped;
+  const auto child = block(on_root, "<link name=\"base_link_inertia\">", "</link>");
+  const std::string link = on_root.substr(child.first, child.second - child.first);
+  const auto inertial = block(link, "<inertial>", "</inertial>");
+  on_root.erase(child.first, child.second - child.first);
+  const auto joint = block(on_root, "<joint name=\"base_inertia_joint\"", "</joint>");
+  on_root.erase(joint.first, joint.second - joint.first);
+  const std::string root_open = "<link name=\"base_link\">";
+  on_root.insert(on_root.find(root_open) + root_open.size(),
+                 link.substr(inertial.first, inertial.second - inertial.first));
+
+  for (const rb::BaseType base_type : {rb::BaseType::kFixed, rb::BaseType::kFloating}) {
+    rb::ArticulatedBody arm = rb::robotFromUrdfString(shipped, base_type);
+    rb::ArticulatedBody reference = rb::robotFromUrdfString(on_root, base_type);
+    ASSERT_EQ(arm.linkCount(), reference.linkCount() + 1);
+    ASSERT_EQ(arm.velocityCount(), reference.velocityCount());
+    std::mt19937 rng(41);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int trial = 0; trial < 5; ++trial) {
+      const ArmMotion motion = randomArmMotion(rng);
+      Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+      base.translation() = Vector3d(u(rng), u(rng), u(rng));
+      base.linear() = Eigen::AngleAxisd(3 * u(rng), Vector3d(u(rng), u(rng), 1).normalized())
+                          .toRotationMatrix();
+      const Vector3d v_b(u(rng), u(rng), u(rng)), w(u(rng), u(rng), u(rng));
+      arm.setState(motion.q, motion.qdot, base, v_b, w);
+      reference.setState(motion.q, motion.qdot, base, v_b, w);
+      const double scale = reference.massMatrix().cwiseAbs().maxCoeff();
+      EXPECT_LE((arm.massMatrix() - reference.massMatrix()).cwiseAbs().maxCoeff(), 1e-13 * scale)
+          << "trial " << trial;
+      EXPECT_NEAR(arm.kineticEnergy(), reference.kineticEnergy(), 1e-13 * scale);
+      EXPECT_LE((arm.momentum() - reference.momentum()).cwiseAbs().maxCoeff(), 1e-13 * scale);
+      for (const char* name : {"base_link", "link4", "left_finger"}) {
+        EXPECT_LE((arm.linkPose(arm.linkIndex(name)).matrix() -
+                   reference.linkPose(reference.linkIndex(name)).matrix())
+                      .cwiseAbs()
+                      .maxCoeff(),
+                  1e-14)
+            << name;
+      }
+    }
+    // The fixed-base arm's total mass does not enter its mass matrix; the floating one's does.
+    if (base_type == rb::BaseType::kFloating) {
+      arm.setState(VectorXd::Zero(9), VectorXd::Zero(9));
+      EXPECT_NEAR(arm.massMatrix()(0, 0), 4.0 + 4.0 + 3.5 + 3.0 + 2.5 + 2.0 + 1.5 + 1.0 + 0.6 + 0.2,
+                  1e-12);
+    }
   }
 }
 
