@@ -42,8 +42,8 @@ ctest --test-dir "$build_dir" -j "$jobs" --timeout 3600 2>&1 | tee "$log" |
     printf 'test: %7s %s %s: %s (%.1f s)\n' "$progress" "$kind" "${name%.test}" "$verdict" "$time"
   done || true
 echo "test: tests ran in $(since "$tests_start"); slowest:" \
-  "$(sed -nE 's/^ *[0-9]+\/[0-9]+ Test +#[0-9]+: _ctest_collision_response_[a-z]+_([^ ]+) .* ([0-9.]+) sec$/\2 \1/p' "$log" |
-    sort -rn | head -n 4 | awk '{printf "%s%s %.0f s", (NR > 1 ? ", " : ""), $2, $1}')"
+  "$(sed -nE 's/^ *[0-9]+\/[0-9]+ Test +#[0-9]+: _ctest_collision_response_([a-z]+)_([^ ]+) .* ([0-9.]+) sec$/\3 \1 \2/p' "$log" |
+    sort -rn | head -n 4 | awk '{sub(/\.test$/, "", $3); printf "%s%s %s %.0f s", (NR > 1 ? ", " : ""), $2, $3, $1}')"
 
 status=0
 summary=$(catkin_test_results --verbose "$build_dir/test_results") || status=$?
