@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Builds the package with what its tests run (core, ROS layer, node, nodelet, example client, unit
 # tests, rostests; not the benchmarks) with AddressSanitizer and UndefinedBehaviorSanitizer into a
-# second build directory and runs every test through scripts/test.sh (several at a time). Fails if any test fails or if any process (unit test, node, rostest client)
-# wrote a sanitizer report: memory error, undefined behaviour, or a leak not suppressed by
-# test/sanitizer/lsan.supp (third-party frames only).
+# second build directory and runs every test through scripts/test.sh (several at a time). Fails if
+# any test fails or if any process (unit test, node, rostest client) wrote a sanitizer report:
+# memory error, undefined behaviour, or a leak not suppressed by test/sanitizer/lsan.supp
+# (third-party frames only).
 #
 # Environment: BUILD_DIR (default build/asan: below build/, whose programs rosrun skips, so that
 # `rosrun collision_response collision_response_node` stays unambiguous). The flags go in through CMAKE_ARGS as an initial
