@@ -45,8 +45,14 @@ echo "test: tests ran in $(since "$tests_start"); slowest:" \
   "$(sed -nE 's/^ *[0-9]+\/[0-9]+ Test +#[0-9]+: _ctest_collision_response_([a-z]+)_([^ ]+) .* ([0-9.]+) sec$/\3 \1 \2/p' "$log" |
     sort -rn | head -n 4 | awk '{sub(/\.test$/, "", $3); printf "%s%s %s %.0f s", (NR > 1 ? ", " : ""), $2, $3, $1}')"
 
+# Every test CTest knows must have run to the end (CTest itself stopped early: a failure too).
+ran=$(grep -cE '^ *[0-9]+/[0-9]+ Test +#' "$log" || true)
 status=0
-summary=$(catkin_test_results --verbose "$build_dir/test_results") || status=$?
+if [ "$ran" != "${count:-}" ]; then
+  echo "test: only $ran of ${count:-?} tests ran to the end; see $log"
+  status=1
+fi
+summary=$(catkin_test_results --verbose "$build_dir/test_results") || status=1
 echo "$summary" | grep -vE '^\s*$|^Summary:' | tail -n 40
 # The closing line CI reads, counted from the <testcase> elements of the result files (the totals
 # of catkin_test_results count every gtest case twice): N passed, N failed, N skipped.
