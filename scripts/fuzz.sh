@@ -42,12 +42,24 @@ build_dir=${BUILD_DIR:-build-fuzz}
 mkdir -p "$build_dir"
 target="$build_dir/fuzz_compute_response"
 sources=(src/core/*.cpp src/detection/*.cpp test/fuzz/fuzz_compute_response.cpp)
-# Rebuild when any source or header is newer than the binary.
+# Rebuild when any source or header is newer than the binary: every source compiled to its own object,
+# as many at once as there are cores, then linked.
 if [ ! -x "$target" ] || [ -n "$(find src include test/fuzz -newer "$target" -type f -print -quit)" ]; then
-  echo "fuzz: building $target"
-  clang++-14 -std=c++17 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
-    -fno-omit-frame-pointer -O1 -g -Iinclude -isystem /usr/include/eigen3 \
-    "${sources[@]}" "${link_libs[@]}" -o "$target.tmp" 2>"$build_dir/build.log" || {
+  echo "fuzz: building $target (${#sources[@]} sources, $(nproc) at a time)"
+  objects="$build_dir/objects"
+  rm -rf "$objects"
+  for source in "${sources[@]}"; do mkdir -p "$objects/$(dirname "$source")"; done
+  flags=(-std=c++17 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
+    -fno-omit-frame-pointer -O1 -g -Iinclude -isystem /usr/include/eigen3)
+  objs=()
+  for source in "${sources[@]}"; do objs+=("$objects/$source.o"); done
+  # xargs appends the source to the flags: the compiler's log goes beside its object.
+  export FUZZ_OBJECTS=$objects
+  printf '%s\0' "${sources[@]}" |
+    xargs -0 -n 1 -P "$(nproc)" bash -c 'src=${!#}; log=$FUZZ_OBJECTS/$src.log
+      clang++-14 "${@:1:$#-1}" -c "$src" -o "$FUZZ_OBJECTS/$src.o" 2>"$log" || { cat "$log"; exit 1; }' \
+      compile "${flags[@]}" >"$build_dir/build.log" 2>&1 &&
+    clang++-14 "${flags[@]}" "${objs[@]}" "${link_libs[@]}" -o "$target.tmp" >>"$build_dir/build.log" 2>&1 || {
     head -n 40 "$build_dir/build.log"
     echo "fuzz: build failed, see $build_dir/build.log" >&2
     exit 1

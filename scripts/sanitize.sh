@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Builds the whole package (core, ROS layer, unit tests, rostests) with AddressSanitizer and
-# UndefinedBehaviorSanitizer into a second build directory and runs every test through
-# scripts/test.sh. Fails if any test fails or if any process (unit test, node, rostest client)
-# wrote a sanitizer report: memory error, undefined behaviour, or a leak not suppressed by
-# test/sanitizer/lsan.supp (third-party frames only).
+# Builds the package with what its tests run (core, ROS layer, node, nodelet, example client, unit
+# tests, rostests; not the benchmarks) with AddressSanitizer and UndefinedBehaviorSanitizer into a
+# second build directory and runs every test through scripts/test.sh (several at a time). Fails if
+# any test fails or if any process (unit test, node, rostest client) wrote a sanitizer report:
+# memory error, undefined behaviour, or a leak not suppressed by test/sanitizer/lsan.supp
+# (third-party frames only).
 #
 # Environment: BUILD_DIR (default build/asan: below build/, whose programs rosrun skips, so that
 # `rosrun collision_response collision_response_node` stays unambiguous). The flags go in through CMAKE_ARGS as an initial
@@ -31,7 +32,16 @@ set(CMAKE_CXX_FLAGS "$flags" CACHE STRING "" FORCE)
 set(CMAKE_EXE_LINKER_FLAGS "-fsanitize=address,undefined" CACHE STRING "" FORCE)
 set(CMAKE_SHARED_LINKER_FLAGS "-fsanitize=address,undefined" CACHE STRING "" FORCE)
 set(CMAKE_MODULE_LINKER_FLAGS "-fsanitize=address,undefined" CACHE STRING "" FORCE)
+# RelWithDebInfo with -g1: line tables and inlined frames, which is what a report's stack trace
+# shows, without the variables' and types' descriptions, which cost compile and link time here.
+set(CMAKE_C_FLAGS_RELWITHDEBINFO "-O2 -g1 -DNDEBUG" CACHE STRING "" FORCE)
+set(CMAKE_CXX_FLAGS_RELWITHDEBINFO "-O2 -g1 -DNDEBUG" CACHE STRING "" FORCE)
+# Only what the tests run: no Google Benchmark binaries.
+set(COLLISION_RESPONSE_BENCH_BINARIES OFF CACHE BOOL "" FORCE)
 EOF
+# The messages in C++ (the programs) and Python (the Python clients and nodes of the rostests) only:
+# no Lisp. Read when CMake configures.
+export ROS_LANG_DISABLE=genlisp
 
 # Every instrumented process writes its reports to files here (catkin's run_tests.py and roslaunch
 # do not fail a test whose process reports a leak at exit after its results were written).
@@ -57,7 +67,7 @@ export CXXFLAGS="$flags" LDFLAGS="-fsanitize=address,undefined"
 CR_NODELET_PREFIX="env LD_PRELOAD=$(g++ -print-file-name=libasan.so)"
 export CR_NODELET_PREFIX
 
-echo "sanitize: building into $build_dir with $flags (RelWithDebInfo)"
+echo "sanitize: building into $build_dir with $flags (RelWithDebInfo, -O2 -g1)"
 status=0
 # The README's command blocks check the documentation, not memory (they start the node with rosrun,
 # which finds the normal build's program): skipped here, run by scripts/test.sh.
