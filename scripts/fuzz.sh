@@ -23,8 +23,8 @@
 # Environment: BUILD_DIR (default build-fuzz; corpora, crash artifacts and logs live there, out of
 # git), FUZZ_TARGETS (default "core robot"), FUZZ_SECONDS (default 120: the time cap of the whole
 # run, split between the targets by FUZZ_ROBOT_SHARE), FUZZ_RUNS (the executions of the whole run,
-# split the same way; unset: no cap), FUZZ_ROBOT_SHARE (the robot target's share of both, in
-# percent; default 50), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
+# split by FUZZ_ROBOT_RUNS_SHARE; unset: no cap), FUZZ_ROBOT_SHARE and FUZZ_ROBOT_RUNS_SHARE (the
+# robot target's share of the time and of the runs, in percent; default 50 and 25), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
 # fixed seed and FUZZ_RUNS, and an empty corpus, a run is reproducible, as CI's is), FUZZ_ARGS
 # (extra libFuzzer flags), FUZZ_PRINT=1 (print each decoded request and its outcome; useful with
 # --replay), FUZZ_SKIP_EXTREME=1 (core target: excuse non-finite answers to requests holding finite
@@ -191,17 +191,24 @@ fi
 count() { find "$1" -maxdepth 1 -type f | wc -l; }
 total_seconds=${FUZZ_SECONDS:-120}
 robot_share=${FUZZ_ROBOT_SHARE:-50}
+# A robot input costs many core inputs (a URDF parsed, a KDL tree built, meshes read), so the robot
+# target gets a quarter of the runs in half of the time.
+robot_runs_share=${FUZZ_ROBOT_RUNS_SHARE:-25}
 target_count=$(echo $targets | wc -w)
 status=0
 for name in $targets; do
   # This target's share of the time and of the runs (all of them for a single target).
-  share=100
+  share=100 runs_share=100
   if [ "$target_count" -gt 1 ]; then
-    if [ "$name" = robot ]; then share=$robot_share; else share=$((100 - robot_share)); fi
+    if [ "$name" = robot ]; then
+      share=$robot_share runs_share=$robot_runs_share
+    else
+      share=$((100 - robot_share)) runs_share=$((100 - robot_runs_share))
+    fi
   fi
   seconds=$((total_seconds * share / 100))
   runs=-1
-  [ -n "${FUZZ_RUNS:-}" ] && runs=$((FUZZ_RUNS * share / 100))
+  [ -n "${FUZZ_RUNS:-}" ] && runs=$((FUZZ_RUNS * runs_share / 100))
   target=$(executable "$name")
   # Seeds: valid, solvable inputs the target finds itself, rewritten each run; the corpus grows
   # across runs.

@@ -91,7 +91,7 @@ void emitSeeds(const std::string& dir) {
   // Text mode: each document with random request bytes; then generated documents.
   for (std::size_t d = 0; d <= documents.size(); ++d) {
     const bool generated = d == documents.size();
-    for (int attempt = 0; attempt < (generated ? 20000 : 3000); ++attempt) {
+    for (int attempt = 0; attempt < (generated ? 3000 : 400); ++attempt) {
       std::vector<std::uint8_t> bytes;
       if (generated) {
         bytes.resize(16 + rng() % 700);
