@@ -73,6 +73,10 @@ void requireUsableModel(const urdf::Model& model) {
     const urdf::Vector3& a = joint->axis;
     requireUsable(std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z), element,
                   "<axis> must be finite");
+    if (joint->mimic) {
+      requireUsable(std::isfinite(joint->mimic->multiplier) && std::isfinite(joint->mimic->offset),
+                    element, "<mimic> multiplier and offset must be finite");
+    }
   }
 }
 

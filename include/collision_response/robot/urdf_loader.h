@@ -11,8 +11,8 @@ namespace collision_response::robot {
 /// (which KDL's tree drops) becomes the base inertia for a floating base. Joint limits are not
 /// used. Throws std::invalid_argument with the parser's complaint for a document that does not
 /// parse, and naming the link or joint for a number the model cannot take: a link's <inertial>
-/// origin, mass or inertia, or a joint's <origin> or <axis>, not finite or beyond the core's
-/// MagnitudeLimits (1e7 m, 1e15 kg, 1e30 kg m^2).
+/// origin, mass or inertia, a joint's <origin> or <axis> (not finite or beyond the core's
+/// MagnitudeLimits: 1e7 m, 1e15 kg, 1e30 kg m^2), or its <mimic> multiplier or offset (not finite).
 ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base = BaseType::kFixed);
 /// The same from a file; throws std::invalid_argument naming the file if it cannot be read.
 ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base = BaseType::kFixed);
