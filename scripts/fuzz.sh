@@ -1,23 +1,37 @@
 #!/usr/bin/env bash
-# Fuzzes the core's request path (core::computeResponse) with libFuzzer, AddressSanitizer and
-# UndefinedBehaviorSanitizer: builds test/fuzz/fuzz_compute_response.cpp with the core sources
-# (src/core and src/detection, no ROS, no catkin) using clang-14, seeds a corpus with valid scenes that the target
-# writes itself, and fuzzes for a bounded time. Exits non-zero if libFuzzer finds a crash, a
-# sanitizer report, an unexpected exception or a non-finite answer (test/fuzz/scene_decoder.h).
+# Fuzzes the request paths with libFuzzer, AddressSanitizer and UndefinedBehaviorSanitizer, one
+# target after the other, no ROS master, no catkin (clang-14):
+#  - core:  test/fuzz/fuzz_compute_response.cpp, rigid-body requests through core::computeResponse
+#           (src/core, src/detection); inputs decoded by test/fuzz/scene_decoder.h.
+#  - robot: test/fuzz/fuzz_robot_request.cpp, what robot users send (a URDF, generated or given
+#           as text, with <mimic> tags; a ~robots entry; joint-state messages; a RobotState with
+#           locked joints, base pose and twist, gravity and torques; contacts on links) through
+#           the node's robot path (ServedRobot, robotAtRequestState(), core::computeBodyResponse(),
+#           toMsg(); src/core, src/detection, src/robot and the ROS-free part of src/ros, with the
+#           messages' headers generated here by gencpp); inputs decoded by test/fuzz/robot_decoder.h.
+# Each target seeds its corpus with inputs it writes itself (the robot target from the package's
+# URDFs, test/robot/*.urdf and urdf/arm7.urdf, and generated ones), and fuzzes for its share of the
+# time and runs. Exits non-zero if libFuzzer finds a crash, a sanitizer report, an unexpected
+# exception or a non-finite answer.
 #
-#   scripts/fuzz.sh                      fuzz for FUZZ_SECONDS (default 120)
-#   scripts/fuzz.sh --replay PATH...     run the given inputs (files or directories) once each
+#   scripts/fuzz.sh                      fuzz every target of FUZZ_TARGETS
+#   scripts/fuzz.sh --replay PATH...     run the given inputs (files or directories) once each, on
+#                                        the robot target if a path is one of its (crash files
+#                                        robot-crash-*, corpus-robot/, test/fuzz/regressions/robot/),
+#                                        on the core target otherwise (FUZZ_TARGETS overrides)
 #
-# Environment: BUILD_DIR (default build-fuzz; corpus, crash artifacts and log live there, out of
-# git), FUZZ_SECONDS (default 120: the time cap), FUZZ_RUNS (stop after this many executions;
-# unset: no cap), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
+# Environment: BUILD_DIR (default build-fuzz; corpora, crash artifacts and logs live there, out of
+# git), FUZZ_TARGETS (default "core robot"), FUZZ_SECONDS (default 120: the time cap of the whole
+# run, split between the targets by FUZZ_ROBOT_SHARE), FUZZ_RUNS (the executions of the whole run,
+# split by FUZZ_ROBOT_RUNS_SHARE; unset: no cap), FUZZ_ROBOT_SHARE and FUZZ_ROBOT_RUNS_SHARE (the
+# robot target's share of the time and of the runs, in percent; default 50 and 25), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
 # fixed seed and FUZZ_RUNS, and an empty corpus, a run is reproducible, as CI's is), FUZZ_ARGS
-# (extra libFuzzer flags), FUZZ_PRINT=1 (print each
-# decoded request and its outcome; useful with --replay), FUZZ_SKIP_EXTREME=1 (excuse non-finite
-# answers to requests holding finite but extreme magnitudes, |x| > 1e20 or < 1e-20: a known
-# overflow class; set it to look past it).
+# (extra libFuzzer flags), FUZZ_PRINT=1 (print each decoded request and its outcome; useful with
+# --replay), FUZZ_SKIP_EXTREME=1 (core target: excuse non-finite answers to requests holding finite
+# but extreme magnitudes, |x| > 1e20 or < 1e-20: a known overflow class; set it to look past it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+root=$(pwd)
 
 mode=fuzz
 replay=()
@@ -31,52 +45,135 @@ elif [ $# -gt 0 ]; then
   exit 2
 fi
 
-packages=(clang-14 libclang-rt-14-dev libeigen3-dev)
-# The target links the detection library's sources too (the request path can detect contacts),
-# and with them FCL.
-packages+=(libfcl-dev)
-link_libs=(-lfcl -lccd)
+targets=${FUZZ_TARGETS:-core robot}
+if [ "$mode" = replay ] && [ -z "${FUZZ_TARGETS:-}" ]; then
+  case "${replay[*]}" in */robot-* | robot-* | *regressions/robot* | *-robot*) targets=robot ;; *) targets=core ;; esac
+fi
+want_robot=false
+case " $targets " in *" robot "*) want_robot=true ;; esac
+
+# The core target links the detection library's sources too (the request path can detect contacts),
+# and with them FCL; the robot target KDL, urdf, resource_retriever and geometric_shapes (the links'
+# collision geometry), and the headers of the ROS messages it uses (generated below).
+packages=(clang-14 libclang-rt-14-dev libeigen3-dev libfcl-dev)
+if $want_robot; then
+  packages+=(liborocos-kdl-dev libkdl-parser-dev liburdf-dev libresource-retriever-dev
+    libgeometric-shapes-dev libroscpp-core-dev libroslib-dev libconsole-bridge-dev python3-gencpp
+    libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libshape-msgs-dev ros-std-msgs
+    ros-geometry-msgs ros-sensor-msgs ros-shape-msgs)
+fi
 scripts/install_packages.sh "${packages[@]}"
 
 build_dir=${BUILD_DIR:-build-fuzz}
-mkdir -p "$build_dir"
-target="$build_dir/fuzz_compute_response"
-sources=(src/core/*.cpp src/detection/*.cpp test/fuzz/fuzz_compute_response.cpp)
-# Rebuild when any source or header is newer than the binary: every source compiled to its own object,
-# as many at once as there are cores, then linked.
-if [ ! -x "$target" ] || [ -n "$(find src include test/fuzz -newer "$target" -type f -print -quit)" ]; then
-  echo "fuzz: building $target (${#sources[@]} sources, $(nproc) at a time)"
-  objects="$build_dir/objects"
-  rm -rf "$objects"
-  for source in "${sources[@]}"; do mkdir -p "$objects/$(dirname "$source")"; done
-  flags=(-std=c++17 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
-    -fno-omit-frame-pointer -O1 -g -Iinclude -isystem /usr/include/eigen3)
-  objs=()
-  for source in "${sources[@]}"; do objs+=("$objects/$source.o"); done
-  # xargs appends the source to the flags: the compiler's log goes beside its object.
-  export FUZZ_OBJECTS=$objects
-  printf '%s\0' "${sources[@]}" |
-    xargs -0 -n 1 -P "$(nproc)" bash -c 'src=${!#}; log=$FUZZ_OBJECTS/$src.log
-      clang++-14 "${@:1:$#-1}" -c "$src" -o "$FUZZ_OBJECTS/$src.o" 2>"$log" || { cat "$log"; exit 1; }' \
-      compile "${flags[@]}" >"$build_dir/build.log" 2>&1 &&
-    clang++-14 "${flags[@]}" "${objs[@]}" "${link_libs[@]}" -o "$target.tmp" >>"$build_dir/build.log" 2>&1 || {
-    head -n 40 "$build_dir/build.log"
-    echo "fuzz: build failed, see $build_dir/build.log" >&2
-    exit 1
-  }
-  mv "$target.tmp" "$target"
+mkdir -p "$build_dir/obj"
+build_dir=$(cd "$build_dir" && pwd)
+flags=(-std=c++17 -fsanitize=address,undefined -fno-sanitize-recover=undefined
+  -fno-omit-frame-pointer -O1 -g)
+includes=(-Iinclude -I"$build_dir/gen" -isystem /usr/include/eigen3)
+cxx=(clang++-14)
+command -v ccache >/dev/null && cxx=(ccache clang++-14)
+
+# The messages' C++ headers (what catkin's generate_messages() writes to devel/include), from
+# msg/ and srv/ with gencpp.
+if $want_robot; then
+  gen="$build_dir/gen/collision_response"
+  if [ ! -f "$gen/RobotState.h" ] || [ -n "$(find msg srv -newer "$gen/RobotState.h" -type f -print -quit)" ]; then
+    mkdir -p "$gen"
+    for file in msg/*.msg srv/*.srv; do
+      /usr/bin/python3 /usr/lib/gencpp/gen_cpp.py "$file" -Icollision_response:msg \
+        -Istd_msgs:/usr/share/std_msgs/msg -Igeometry_msgs:/usr/share/geometry_msgs/msg \
+        -Ishape_msgs:/usr/share/shape_msgs/msg -Isensor_msgs:/usr/share/sensor_msgs/msg \
+        -p collision_response -o "$gen" -e /usr/share/gencpp >/dev/null
+    done
+  fi
 fi
+
+# Objects of the library sources (fuzzer-instrumented, shared by the targets), rebuilt when the
+# source or any header is newer; then each target linked with its main source.
+compile() {  # source -> object; prints the object
+  local source=$1 object headers=(include)
+  object="$build_dir/obj/$(echo "$source" | tr / _).o"
+  case "$source" in
+    test/fuzz/*) headers+=(test/fuzz "$build_dir/gen") ;;
+    src/ros/*) headers+=("$build_dir/gen") ;;
+  esac
+  if [ ! -f "$object" ] || [ "$source" -nt "$object" ] ||
+    [ -n "$(find "${headers[@]}" -newer "$object" -type f -print -quit 2>/dev/null)" ]; then
+    echo "$source" >>"$build_dir/compile.list"
+  fi
+  echo "$object"
+}
+core_sources=(src/core/*.cpp src/detection/*.cpp)
+robot_sources=(src/robot/*.cpp src/ros/message_conversion.cpp src/ros/joint_state_cache.cpp
+  src/ros/served_robot.cpp src/ros/robot_conversion.cpp src/ros/robot_geometry.cpp)
+build_target() {  # name main-source sources... -- libraries...
+  local name=$1 main=$2 target="$build_dir/$1"
+  shift 2
+  local sources=() libs=() objects=()
+  while [ $# -gt 0 ] && [ "$1" != "--" ]; do sources+=("$1"); shift; done
+  [ $# -gt 0 ] && shift
+  libs=("$@")
+  rm -f "$build_dir/compile.list"
+  for source in "${sources[@]}" "$main"; do objects+=("$(compile "$source")"); done
+  if [ -f "$build_dir/compile.list" ] || [ ! -x "$target" ]; then
+    echo "fuzz: building $target"
+    if [ -f "$build_dir/compile.list" ]; then
+      # Two at a time (the machines that run this have two cores).
+      # shellcheck disable=SC2016
+      xargs -P 2 -I{} sh -c 'exec "$@" -c {} -o "$0/obj/$(echo {} | tr / _).o"' "$build_dir" \
+        "${cxx[@]}" -fsanitize=fuzzer-no-link "${flags[@]}" "${includes[@]}" \
+        <"$build_dir/compile.list" 2>"$build_dir/build.log" || {
+        head -n 40 "$build_dir/build.log"
+        echo "fuzz: build failed, see $build_dir/build.log" >&2
+        exit 1
+      }
+    fi
+    clang++-14 -fsanitize=fuzzer "${flags[@]}" "${objects[@]}" "${libs[@]}" -o "$target.tmp" \
+      2>"$build_dir/link.log" || {
+      head -n 40 "$build_dir/link.log"
+      echo "fuzz: linking $target failed, see $build_dir/link.log" >&2
+      exit 1
+    }
+    mv "$target.tmp" "$target"
+  fi
+}
+for name in $targets; do
+  case "$name" in
+    core)
+      build_target fuzz_compute_response test/fuzz/fuzz_compute_response.cpp "${core_sources[@]}" \
+        -- -lfcl -lccd
+      ;;
+    robot)
+      build_target fuzz_robot_request test/fuzz/fuzz_robot_request.cpp "${core_sources[@]}" \
+        "${robot_sources[@]}" -- -lfcl -lccd -lorocos-kdl -lkdl_parser -lurdf -lurdfdom_model \
+        -lresource_retriever -lgeometric_shapes -lroslib -lrostime -lroscpp_serialization \
+        -lconsole_bridge
+      ;;
+    *)
+      echo "fuzz: unknown target '$name' in FUZZ_TARGETS (core, robot)" >&2
+      exit 2
+      ;;
+  esac
+done
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+# Third-party leaks only (urdfdom on URDFs whose joints form a loop): test/fuzz/lsan.supp.
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$root/test/fuzz/lsan.supp:print_suppressions=0}
+# package:// mesh URLs of the URDFs (urdf/arm7.urdf's hand) resolve to this package only.
+export ROS_PACKAGE_PATH="$root"
 artifacts="$build_dir/artifacts"
 mkdir -p "$artifacts"
+
+executable() {
+  case "$1" in core) echo "$build_dir/fuzz_compute_response" ;; robot) echo "$build_dir/fuzz_robot_request" ;; esac
+}
 
 if [ "$mode" = replay ]; then
   files=()
   for path in "${replay[@]}"; do
     if [ -d "$path" ]; then
-      while IFS= read -r -d '' file; do files+=("$file"); done < <(find "$path" -type f ! -name '.*' ! -name '*.md' -print0 | sort -z)
+      while IFS= read -r -d '' file; do files+=("$file"); done < <(find "$path" -maxdepth 1 -type f ! -name '.*' ! -name '*.md' -print0 | sort -z)
     elif [ -f "$path" ]; then
       files+=("$path")
     else
@@ -85,46 +182,72 @@ if [ "$mode" = replay ]; then
     fi
   done
   [ ${#files[@]} -gt 0 ] || { echo "fuzz: nothing to replay" >&2; exit 2; }
-  echo "fuzz: replaying ${#files[@]} input(s)"
+  echo "fuzz: replaying ${#files[@]} input(s) on the $targets target"
   # Given files (not directories), libFuzzer runs each once and stops at the first failure.
   # shellcheck disable=SC2086
-  "$target" -timeout=10 -rss_limit_mb=2048 ${FUZZ_ARGS:-} "${files[@]}"
+  "$(executable "$targets")" -timeout=10 -rss_limit_mb=2048 ${FUZZ_ARGS:-} "${files[@]}"
   echo "fuzz: replay passed"
   exit 0
 fi
 
-# Seeds: valid, solvable scenes that the target finds itself (one per law, solver and island
-# method met), rewritten each run; the corpus grows across runs.
-seeds="$build_dir/seeds"
-corpus="$build_dir/corpus"
-rm -rf "$seeds"
-mkdir -p "$seeds" "$corpus"
-FUZZ_EMIT_SEEDS="$seeds" "$target" >"$build_dir/seeds.log" 2>&1 || {
-  tail -n 40 "$build_dir/seeds.log"
-  echo "fuzz: writing the seeds failed (a bug on a seed scene?), see $build_dir/seeds.log" >&2
-  exit 1
-}
 count() { find "$1" -maxdepth 1 -type f | wc -l; }
-seconds=${FUZZ_SECONDS:-120}
-log="$build_dir/fuzz.log"
-echo "fuzz: $(count "$seeds") seeds, corpus $corpus ($(count "$corpus") inputs), ${seconds} s at most, ${FUZZ_RUNS:-unlimited} runs, seed ${FUZZ_SEED:-random} (log: $log)"
+total_seconds=${FUZZ_SECONDS:-120}
+robot_share=${FUZZ_ROBOT_SHARE:-50}
+# A robot input costs many core inputs (a URDF parsed, a KDL tree built, meshes read), so the robot
+# target gets a quarter of the runs in half of the time.
+robot_runs_share=${FUZZ_ROBOT_RUNS_SHARE:-25}
+target_count=$(echo $targets | wc -w)
 status=0
-# shellcheck disable=SC2086
-# Inputs slower than 3 s are saved as $artifacts/slow-unit-* (not a failure; worth a look).
-"$target" -max_total_time="$seconds" -runs="${FUZZ_RUNS:--1}" -seed="${FUZZ_SEED:-0}" \
-  -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-  -report_slow_units=3 -artifact_prefix="$artifacts/" ${FUZZ_ARGS:-} "$corpus" "$seeds" >"$log" 2>&1 || status=$?
-executions=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
-if [ -z "$executions" ]; then  # no final stats after a crash: the last progress line
-  executions=$(grep -oE '^#[0-9]+' "$log" | tail -n 1 | tr -d '#')
-fi
-echo "fuzz: ${executions:-0} executions in ${seconds} s at most; corpus now $(count "$corpus") inputs"
-slow=$(grep -c "^slow input:" "$log" || true)
-[ "$slow" -eq 0 ] || echo "fuzz: $slow input(s) ran past their 5 s solver budget (SolverTimeout); slow units: $artifacts/slow-unit-*"
-if [ "$status" -ne 0 ]; then
-  grep -E "BUG:|ERROR: |SUMMARY: |runtime error|Test unit written|==[0-9]+==" "$log" | head -n 20
-  echo "fuzz: FAILED (status $status): see $log; the input is in $artifacts/;"
-  echo "fuzz: replay it with: FUZZ_PRINT=1 scripts/fuzz.sh --replay $artifacts/<crash-file>"
-  exit "$status"
-fi
+for name in $targets; do
+  # This target's share of the time and of the runs (all of them for a single target).
+  share=100 runs_share=100
+  if [ "$target_count" -gt 1 ]; then
+    if [ "$name" = robot ]; then
+      share=$robot_share runs_share=$robot_runs_share
+    else
+      share=$((100 - robot_share)) runs_share=$((100 - robot_runs_share))
+    fi
+  fi
+  seconds=$((total_seconds * share / 100))
+  runs=-1
+  [ -n "${FUZZ_RUNS:-}" ] && runs=$((FUZZ_RUNS * runs_share / 100))
+  target=$(executable "$name")
+  # Seeds: valid, solvable inputs the target finds itself, rewritten each run; the corpus grows
+  # across runs.
+  seeds="$build_dir/seeds-$name"
+  corpus="$build_dir/corpus-$name"
+  [ "$name" = core ] && corpus="$build_dir/corpus"  # where earlier runs kept it
+  rm -rf "$seeds"
+  mkdir -p "$seeds" "$corpus"
+  FUZZ_SEED_URDFS="$(ls test/robot/*.urdf urdf/arm7.urdf | tr '\n' ':')" FUZZ_EMIT_SEEDS="$seeds" \
+    "$target" >"$build_dir/seeds-$name.log" 2>&1 || {
+    tail -n 40 "$build_dir/seeds-$name.log"
+    echo "fuzz: $name: writing the seeds failed (a bug on a seed input?), see $build_dir/seeds-$name.log" >&2
+    exit 1
+  }
+  log="$build_dir/fuzz-$name.log"
+  prefix="$artifacts/"
+  [ "$name" = robot ] && prefix="$artifacts/robot-"
+  echo "fuzz: $name: $(count "$seeds") seeds, corpus $corpus ($(count "$corpus") inputs), ${seconds} s at most, $([ "$runs" -ge 0 ] && echo "$runs" || echo unlimited) runs, seed ${FUZZ_SEED:-random} (log: $log)"
+  target_status=0
+  # Inputs slower than 3 s are saved as ${prefix}slow-unit-* (not a failure; worth a look).
+  # shellcheck disable=SC2086
+  "$target" -max_total_time="$seconds" -runs="$runs" -seed="${FUZZ_SEED:-0}" \
+    -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+    -report_slow_units=3 -artifact_prefix="$prefix" ${FUZZ_ARGS:-} "$corpus" "$seeds" >"$log" 2>&1 || target_status=$?
+  executions=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
+  if [ -z "$executions" ]; then  # no final stats after a crash: the last progress line
+    executions=$(grep -oE '^#[0-9]+' "$log" | tail -n 1 | tr -d '#')
+  fi
+  echo "fuzz: $name: ${executions:-0} executions in ${seconds} s at most; corpus now $(count "$corpus") inputs"
+  slow=$(grep -c "^slow input:" "$log" || true)
+  [ "$slow" -eq 0 ] || echo "fuzz: $name: $slow input(s) ran past their 5 s solver budget (SolverTimeout); slow units: ${prefix}slow-unit-*"
+  if [ "$target_status" -ne 0 ]; then
+    grep -E "BUG:|ERROR: |SUMMARY: |runtime error|Test unit written|==[0-9]+==" "$log" | head -n 20
+    echo "fuzz: $name: FAILED (status $target_status): see $log; the input is in $artifacts/;"
+    echo "fuzz: replay it with: FUZZ_PRINT=1 scripts/fuzz.sh --replay ${prefix}<crash-file>"
+    status=$target_status
+  fi
+done
+[ "$status" -eq 0 ] || exit "$status"
 echo "fuzz: no failure found"

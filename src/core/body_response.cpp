@@ -92,6 +92,20 @@ BodyResponse computeBodyResponse(const std::vector<BodyModel*>& bodies,
   workspace.views.assign(bodies.begin(), bodies.end());
   ContactProblem& problem = workspace.problem;
   for (Island& island : findIslands(bodies, contact_bodies)) {
+    // An island between bodies without velocity unknowns (a fixed-base robot with every joint
+    // locked, immovable bodies): nothing can move, no impulse and no force (effective masses
+    // infinite); the solvers need at least one unknown.
+    bool movable = false;
+    for (const int c : island.contacts) {
+      movable |= bodies[contacts[c].body_a]->velocityCount() > 0 ||
+                 bodies[contacts[c].body_b]->velocityCount() > 0;
+    }
+    if (!movable) {
+      SolveReport report;
+      report.contacts = std::move(island.contacts);
+      result.islands.push_back(std::move(report));
+      continue;
+    }
     problem.buildImpact(workspace.views, contacts, island.contacts);
     for (std::size_t i = 0; i < problem.size(); ++i) {
       const double w = problem.contact(i).normalDelassus();

@@ -158,7 +158,9 @@ bool advanceLinear(const Problem& pr, State& st, const Vec2& r, double x_max) {
     } else {
       x = std::max(0.0, st.p_end - st.p);
     }
-    const bool event = x <= x_max;
+    // No event within reach (x infinite: a rate that never ends compression, such as sticking at
+    // a contact whose K is singular, h = c - b^T A^+ b = 0, a one-joint robot): a jam.
+    const bool event = x <= x_max && x < kInf;
     if (!event) {
       if (x_max == kInf) return false;
       x = x_max;

@@ -1,11 +1,16 @@
 #include "collision_response/robot/urdf_loader.h"
 
 #include <urdf/model.h>
+
+#include <cmath>
 #include <fstream>
 #include <kdl_parser/kdl_parser.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 #include <vector>
+
+#include "collision_response/core/validation.h"
 
 namespace collision_response::robot {
 namespace {
@@ -26,11 +31,62 @@ KDL::RigidBodyInertia rootInertia(const urdf::Model& model) {
                       KDL::RotationalInertia(in.ixx, in.iyy, in.izz, in.ixy, in.ixz, in.iyz));
 }
 
+// Refuses a number of the model that the kinematics and M(q) cannot take (not finite, or beyond the
+// core's magnitude limits: they overflow there), naming the element.
+void requireUsable(bool ok, const std::string& element, const std::string& what) {
+  if (!ok) throw std::invalid_argument("URDF: " + element + ": " + what);
+}
+
+void requireUsablePose(const urdf::Pose& pose, const std::string& element) {
+  using Limits = core::MagnitudeLimits;
+  const urdf::Vector3& p = pose.position;
+  requireUsable(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
+                    std::abs(p.x) <= Limits::kLength && std::abs(p.y) <= Limits::kLength &&
+                    std::abs(p.z) <= Limits::kLength,
+                element,
+                "<origin> xyz must be finite and within " + std::to_string(Limits::kLength) + " m");
+  const urdf::Rotation& r = pose.rotation;
+  requireUsable(
+      std::isfinite(r.x) && std::isfinite(r.y) && std::isfinite(r.z) && std::isfinite(r.w), element,
+      "<origin> rpy must be finite");
+}
+
+void requireUsableModel(const urdf::Model& model) {
+  using Limits = core::MagnitudeLimits;
+  for (const auto& [name, link] : model.links_) {
+    if (!link || !link->inertial) continue;
+    const urdf::Inertial& in = *link->inertial;
+    const std::string element = "link '" + name + "' <inertial>";
+    requireUsablePose(in.origin, element);
+    requireUsable(
+        std::isfinite(in.mass) && in.mass >= 0.0 && in.mass <= Limits::kMass[1], element,
+        "<mass> must be finite, >= 0 and at most " + std::to_string(Limits::kMass[1]) + " kg");
+    for (const double value : {in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz}) {
+      requireUsable(std::isfinite(value) && std::abs(value) <= Limits::kInertia[1], element,
+                    "<inertia> entries must be finite and within " +
+                        std::to_string(Limits::kInertia[1]) + " kg m^2");
+    }
+  }
+  for (const auto& [name, joint] : model.joints_) {
+    if (!joint) continue;
+    const std::string element = "joint '" + name + "'";
+    requireUsablePose(joint->parent_to_joint_origin_transform, element);
+    const urdf::Vector3& a = joint->axis;
+    requireUsable(std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z), element,
+                  "<axis> must be finite");
+    if (joint->mimic) {
+      requireUsable(std::isfinite(joint->mimic->multiplier) && std::isfinite(joint->mimic->offset),
+                    element, "<mimic> multiplier and offset must be finite");
+    }
+  }
+}
+
 }  // namespace
 
 ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
   urdf::Model model;
   if (!model.initString(xml)) throw std::invalid_argument("URDF: the document does not parse");
+  requireUsableModel(model);
   const KDL::RigidBodyInertia root_inertia = rootInertia(model);
   // kdl_parser drops a root link's inertia with a warning that KDL cannot use it; ours is passed
   // to the body (a floating base uses it), so the root is handed to kdl_parser without one.

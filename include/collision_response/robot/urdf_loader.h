@@ -10,9 +10,12 @@ namespace collision_response::robot {
 /// kdl_parser::treeFromUrdfModel give the KDL tree; the root link is the base and its <inertial>
 /// (which KDL's tree drops) becomes the base inertia for a floating base. Joint limits are not
 /// used. <mimic> joints become the body's mimic joints (ArticulatedBody::setMimicJoints()).
-/// Throws std::invalid_argument with the parser's complaint for a document that does not parse,
-/// and naming the joint for a <mimic> the body refuses ("URDF: mimic joint 'x': ...": a leader
-/// that is not a joint with a coordinate, a cycle of mimics).
+/// Throws std::invalid_argument with the parser's complaint for a document that does not parse;
+/// naming the joint for a <mimic> the body refuses ("URDF: mimic joint 'x': ...": a leader that is
+/// not a joint with a coordinate, a cycle of mimics); and naming the link or joint for a number
+/// the model cannot take: a link's <inertial> origin, mass or inertia, a joint's <origin> or
+/// <axis> (not finite or beyond the core's MagnitudeLimits: 1e7 m, 1e15 kg, 1e30 kg m^2), or its
+/// <mimic> multiplier or offset (not finite).
 ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base = BaseType::kFixed);
 /// The same from a file; throws std::invalid_argument naming the file if it cannot be read.
 ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base = BaseType::kFixed);
