@@ -224,10 +224,11 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
         }
         continue;
       }
-      // Active: the targets must be reached (a singular K solved in least squares may not).
+      // Active: the targets must be reached (a singular K solved in least squares may not; its
+      // impulses still guide the repairs below, and an unchanged mode ends the search).
       if (std::abs(u.x() - c.target) > tolerance_v ||
           (c.mode == ContactMode::kSticking && u_t.norm() > tolerance_v)) {
-        return -tried;
+        fits = false;
       }
       if (c.P.x() < -tolerance_P) {
         fits = false;
