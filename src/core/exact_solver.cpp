@@ -149,7 +149,8 @@ class IslandLcp {
   // Small islands: the frame Delassus matrix and each contact's mode (warm start, answer).
   bool small_ = false;
   bool small_assembled_ = false;
-  bool modes_warm_ = false;  // modes_ hold a warm start
+  bool modes_warm_ = false;    // modes_ hold a warm start
+  bool inconsistent_ = false;  // the last all-sticking impulses missed the targets in body space
   Index frame_unknowns_ = 0;
   ModeMatrix small_A_;
   std::array<ModeContact, kModeSolverMaxUnknowns> modes_;
@@ -332,6 +333,20 @@ bool IslandLcp::solveByModes(std::size_t& work) {
     c.P_t = c.directions.rightCols<kD>() * c.beta;
   }
   velocityChanges();
+  // The frame matrix's answer, checked in body space: every active contact at its target, no
+  // contact approaching beyond it (an ill-conditioned island may lose digits in the frame solve;
+  // Lemke decides then).
+  const double tolerance = 1e-10 * speed;
+  for (int i = 0; i < count; ++i) {
+    const LcpContact& c = contacts_[i];
+    const double u_n = c.u.dot(c.entry->normal) + velocityChangeAt(c).dot(c.entry->normal);
+    const bool active = modes_[i].mode != ContactMode::kSeparating;
+    if (u_n < c.target_u_n - tolerance || (active && u_n > c.target_u_n + tolerance)) {
+      for (LcpContact& reset : contacts_)
+        reset.P_n = 0.0, reset.beta.setZero(), reset.P_t.setZero();
+      return false;
+    }
+  }
   return true;
 }
 
@@ -415,7 +430,11 @@ bool IslandLcp::solveAllSticking() {
       }
     }
     modes_warm_ = P.allFinite();
-    return acceptSticking(P.data(), first, rhs.data(), rhs.cwiseAbs().maxCoeff());
+    inconsistent_ = false;
+    if (acceptSticking(P.data(), first, rhs.data(), rhs.cwiseAbs().maxCoeff())) return true;
+    // Admissible but short of the targets in body space: an ill-conditioned Delassus matrix
+    // (mass ratios of 1e12) the frame solve lost digits on; the general path below decides.
+    if (!inconsistent_) return false;
   }
   // Unknowns: P_n per contact, and (t1, t2) components for frictional ones.
   std::vector<Index> first(contacts_.size());
@@ -475,6 +494,7 @@ bool IslandLcp::acceptSticking(const double* P, const Index* first, const double
     const Eigen::Vector3d change = stickingDirections(c).transpose() * velocityChangeAt(c);
     for (Index j = 0; j < k; ++j) {
       if (std::abs(change(j) - rhs[first[i] + j]) > tolerance) {
+        inconsistent_ = true;
         for (LcpContact& reset : contacts_) reset.P_n = 0.0, reset.P_t.setZero();
         return false;
       }
