@@ -411,9 +411,18 @@ bool IslandLcp::solveAllSticking() {
       rhs.segment(m.first, k) = -m.u.head(k);  // to u' = 0 ...
       rhs(m.first) += m.target;                // ... but u'_n = -e u_n
     }
-    ModeMatrix K = small_A_;
-    ModeVector b = rhs;
-    solveLeastNorm(K, b, P);
+    // More unknowns than the bodies' freedoms (redundant contacts, as under a box): the 6 x 6
+    // body-space solve is cheaper than the frame matrix's; otherwise the frame matrix.
+    Eigen::VectorXd body_space;
+    const std::vector<Index> starts(first, first + contacts_.size());
+    if (n > problem_.unknowns() && problem_.bodies().size() == 1 &&
+        stickingInBodySpace<6>(contacts_, problem_.bodies(), starts, rhs, body_space)) {
+      P = body_space;
+    } else {
+      ModeMatrix K = small_A_;
+      ModeVector b = rhs;
+      solveLeastNorm(K, b, P);
+    }
     // Warm start of the modes, should these impulses not be the answer: a contact they pull
     // separates, one outside its static cone slides along the pyramid direction nearest them.
     for (std::size_t i = 0; i < contacts_.size(); ++i) {
