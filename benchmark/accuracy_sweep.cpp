@@ -5,7 +5,10 @@
 // at 1..256 iterations) and Simbody (one SemiExplicitEulerTimeStepper step: PLUS, and PGS at
 // 1..256 iterations, each with Poisson and with Newton restitution). Writes one CSV row per
 // (scene, method, setting).
-//   accuracy_sweep [--out FILE] [--reps N]
+//   accuracy_sweep [--out FILE] [--reps N] [--scenes NAME,NAME,...] [--calls N]
+// --scenes: only the named scenes (default: all). --calls N: no timing, no peers, no CSV: runs our
+// newton_exact N times on each instance of the scenes (for callgrind: --toggle-collect on
+// collision_response::core::solveIsland*).
 // Timing: steady_clock, warm cache, median over repetitions of a block of calls on pre-built
 // inputs (ours: the solver call alone; peers: their contact-resolving step alone), averaged over
 // the instances of a batch. Errors: bench_metrics.h, the largest over the instances.
@@ -264,9 +267,38 @@ struct Writer {
 int main(int argc, char** argv) {
   std::string out_path = "benchmark/results.csv";
   int reps = 15;
+  int profile_calls = 0;
+  std::string only;  // ",name,name," or empty for every scene
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--out") && i + 1 < argc) out_path = argv[++i];
     if (!std::strcmp(argv[i], "--reps") && i + 1 < argc) reps = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--scenes") && i + 1 < argc)
+      only = "," + std::string(argv[++i]) + ",";
+    if (!std::strcmp(argv[i], "--calls") && i + 1 < argc) profile_calls = std::atoi(argv[++i]);
+  }
+  const auto selected = [&only](const std::string& name) {
+    return only.empty() || only.find("," + name + ",") != std::string::npos;
+  };
+  if (profile_calls > 0) {
+    const std::vector<OurMethod> methods = ourMethods();
+    const auto exact = std::find_if(methods.begin(), methods.end(),
+                                    [](const OurMethod& m) { return m.curve == "newton_exact"; });
+    for (const auto& s : bench::makeScenes()) {
+      if (!selected(s.name)) continue;
+      for (const auto& inst : s.instances) {
+        const Prepared p = prepare(inst);
+        std::vector<core::RigidBody> work = p.bodies;
+        std::vector<core::ContactImpulse> impulses(p.rows.size());
+        for (int call = 0; call < profile_calls; ++call) {
+          work = p.bodies;
+          exact->solve(p, work, impulses);
+          keep(work);
+        }
+      }
+      std::fprintf(stderr, "accuracy_sweep: %s, newton_exact x %d\n", s.name.c_str(),
+                   profile_calls);
+    }
+    return 0;
   }
   FILE* f = std::fopen(out_path.c_str(), "w");
   if (!f) {
@@ -278,6 +310,7 @@ int main(int argc, char** argv) {
   const std::vector<bench::BenchScene> scenes = bench::makeScenes();
   const std::vector<OurMethod> methods = ourMethods();
   for (const auto& s : scenes) {
+    if (!selected(s.name)) continue;
     std::fprintf(stderr, "accuracy_sweep: %s (%zu contacts x %zu instances)\n", s.name.c_str(),
                  s.contactsPerInstance(), s.instances.size());
     std::vector<Prepared> prepared;

@@ -20,6 +20,7 @@
 #include <cmath>
 
 #include "collision_response/core/lcp.h"
+#include "collision_response/core/mode_solver.h"
 
 namespace collision_response::core {
 namespace {
@@ -56,7 +57,7 @@ struct LcpContact {
   const ProblemContact* entry = nullptr;
   int index = 0;  // in the problem
   // n, then d_1..d_D: only n is set for a frictionless contact, whose other columns are unused.
-  Eigen::Matrix<double, 3, kD + 1> directions;
+  Eigen::Matrix<double, 3, kD + 1> directions = Eigen::Matrix<double, 3, kD + 1>::Zero();
   Index columns = 1;                            // unknowns with a column of J^T: 1 or 1 + D
   Index offset = 0;                             // first LCP unknown (P_n)
   int local[2] = {-1, -1};                      // problem body of a, b (-1: no unknowns)
@@ -94,8 +95,9 @@ constexpr double kRegularPivot = 1e-10;
 // The LCP of one island's contact problem and what is needed to read its solution.
 class IslandLcp {
  public:
-  /// Step 1 of the construction: directions, targets and the LCP layout of every contact.
-  explicit IslandLcp(const ContactProblem& problem);
+  /// Step 1 of the construction: directions, targets and the LCP layout of every contact, in
+  /// `storage` (a per-thread workspace whose capacity is kept from one solve to the next).
+  IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& storage);
 
   /// Largest pre-impact |u| [m/s].
   double speed() const { return u_reference_; }
@@ -110,7 +112,10 @@ class IslandLcp {
   /// touching bodies struck at one end.
   bool solveAllSticking();
   /// Solves the LCP with the current coefficients and reads the impulses; false if not solved.
-  bool solve(std::size_t& pivots, const Deadline& deadline);
+  /// Small islands (at most kModeSolverMaxUnknowns frame unknowns) first by their modes
+  /// (mode_solver.h, warm-started from the all-sticking impulses and then from the previous
+  /// answer), Lemke only if no mode fits. `work`: Lemke pivots plus modes checked.
+  bool solve(std::size_t& work, const Deadline& deadline);
   /// Moves the contacts still on mu_s that slide after the current impulses to mu_d. True if any.
   bool switchSlidingToDynamic();
   /// Change of the relative velocity at contact c that the current impulses make [m/s].
@@ -119,9 +124,17 @@ class IslandLcp {
   }
 
  private:
+  /// The all-sticking answer P (frame unknowns, contact i's from first[i]) if it is admissible
+  /// and consistent (solveAllSticking()): then read, and true.
+  bool acceptSticking(const double* P, const Index* first, const double* rhs, double rhs_scale);
   /// The all-sticking impulses from the Delassus matrix (least-norm if singular).
   Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
                                      const Eigen::VectorXd& rhs) const;
+  /// Small islands: the frame Delassus matrix S^T W S into small_A_ and the contacts' frame
+  /// data into modes_.
+  void assembleSmall();
+  /// The LCP by modes (small islands); false if no mode fitted (nothing changed then).
+  bool solveByModes(std::size_t& work);
   /// Step 2, only when Lemke runs: the rest of each friction pyramid.
   void completePyramids();
   /// Step 3: M's A part from the problem's Delassus blocks, A_ij = D_i^T W_ij D_j.
@@ -132,7 +145,15 @@ class IslandLcp {
   void velocityChanges();
 
   const ContactProblem& problem_;
-  std::vector<LcpContact> contacts_;
+  std::vector<LcpContact>& contacts_;
+  // Small islands: the frame Delassus matrix and each contact's mode (warm start, answer).
+  bool small_ = false;
+  bool small_assembled_ = false;
+  bool modes_warm_ = false;    // modes_ hold a warm start
+  bool inconsistent_ = false;  // the last all-sticking impulses missed the targets in body space
+  Index frame_unknowns_ = 0;
+  ModeMatrix small_A_;
+  std::array<ModeContact, kModeSolverMaxUnknowns> modes_;
   Eigen::MatrixXd M_;
   Eigen::VectorXd q_;
   Eigen::VectorXd velocity_changes_;  // of the problem's unknowns
@@ -205,10 +226,13 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
   return true;
 }
 
-IslandLcp::IslandLcp(const ContactProblem& problem) : problem_(problem), contacts_(problem.size()) {
+IslandLcp::IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& storage)
+    : problem_(problem), contacts_(storage) {
+  contacts_.resize(problem.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < problem.size(); ++i) {
     LcpContact& c = contacts_[i];
+    c = LcpContact();
     const ProblemContact& entry = problem.contact(i);
     c.entry = &entry;
     c.index = static_cast<int>(i);
@@ -236,9 +260,94 @@ IslandLcp::IslandLcp(const ContactProblem& problem) : problem_(problem), contact
     }
     c.offset = unknowns;
     unknowns += c.frictional ? c.columns + 1 : 1;
+    frame_unknowns_ += c.frictional ? 3 : 1;
   }
   unknowns_ = unknowns;
+  small_ = frame_unknowns_ <= kModeSolverMaxUnknowns;
   velocity_changes_.setZero(problem.unknowns());
+}
+
+void IslandLcp::assembleSmall() {
+  small_A_.setZero(frame_unknowns_, frame_unknowns_);
+  Index first = 0;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const LcpContact& c = contacts_[i];
+    const Index k = c.frictional ? 3 : 1;
+    const Eigen::Matrix3d S = stickingDirections(c);
+    small_A_.block(first, first, k, k) =
+        (S.transpose() * c.entry->delassus * S).topLeftCorner(k, k);
+    ModeContact& m = modes_[i];
+    m.frictional = c.frictional;
+    m.first = static_cast<int>(first);
+    m.u = S.transpose() * c.u;
+    if (!c.frictional) m.u.tail<2>().setZero();
+    m.target = c.target_u_n;
+    first += k;
+  }
+  for (const auto& [i, j] : problem_.couplings()) {
+    const LcpContact& ci = contacts_[i];
+    const LcpContact& cj = contacts_[j];
+    const Index ki = ci.frictional ? 3 : 1, kj = cj.frictional ? 3 : 1;
+    const Eigen::Matrix3d block =
+        stickingDirections(ci).transpose() * problem_.delassusBlock(i, j) * stickingDirections(cj);
+    small_A_.block(modes_[i].first, modes_[j].first, ki, kj) = block.topLeftCorner(ki, kj);
+    small_A_.block(modes_[j].first, modes_[i].first, kj, ki) =
+        block.topLeftCorner(ki, kj).transpose();
+  }
+  small_assembled_ = true;
+}
+
+bool IslandLcp::solveByModes(std::size_t& work) {
+  if (!small_assembled_) assembleSmall();
+  const int count = static_cast<int>(contacts_.size());
+  double speed = u_reference_;
+  for (int i = 0; i < count; ++i) {
+    ModeContact& m = modes_[i];
+    m.mu = contacts_[i].mu();
+    speed = std::max(speed, std::abs(m.target));
+    if (modes_warm_) continue;
+    // No all-sticking impulses to start from: active if approaching or touching, sticking.
+    m.mode = m.u.x() > m.target ? ContactMode::kSeparating : ContactMode::kSticking;
+  }
+  const int tried = core::solveByModes(small_A_, modes_.data(), count, speed, 2 * count + 4);
+  work += static_cast<std::size_t>(std::abs(tried));
+  if (tried <= 0) return false;
+  modes_warm_ = true;  // the next round (mu_d for contacts found sliding) starts here
+  completePyramids();  // the pyramid's directions, for the residual check
+  for (int i = 0; i < count; ++i) {
+    LcpContact& c = contacts_[i];
+    const ModeContact& m = modes_[i];
+    c.P_n = m.P.x();
+    c.beta.setZero();
+    c.P_t.setZero();
+    if (!c.frictional) continue;
+    if (m.mode == ContactMode::kSliding) {
+      c.beta(m.direction) = c.mu() * c.P_n;
+    } else if (m.mode == ContactMode::kSticking) {
+      int k;
+      Eigen::Vector2d beta;
+      pyramidGauge(m.P.tail<2>(), k, beta);
+      c.beta(k) = std::max(beta(0), 0.0);
+      c.beta((k + 1) % kD) = std::max(beta(1), 0.0);
+    }
+    c.P_t = c.directions.rightCols<kD>() * c.beta;
+  }
+  velocityChanges();
+  // The frame matrix's answer, checked in body space: every active contact at its target, no
+  // contact approaching beyond it (an ill-conditioned island may lose digits in the frame solve;
+  // Lemke decides then).
+  const double tolerance = 1e-10 * speed;
+  for (int i = 0; i < count; ++i) {
+    const LcpContact& c = contacts_[i];
+    const double u_n = c.u.dot(c.entry->normal) + velocityChangeAt(c).dot(c.entry->normal);
+    const bool active = modes_[i].mode != ContactMode::kSeparating;
+    if (u_n < c.target_u_n - tolerance || (active && u_n > c.target_u_n + tolerance)) {
+      for (LcpContact& reset : contacts_)
+        reset.P_n = 0.0, reset.beta.setZero(), reset.P_t.setZero();
+      return false;
+    }
+  }
+  return true;
 }
 
 void IslandLcp::completePyramids() {
@@ -287,6 +396,55 @@ void IslandLcp::assembleFrictionRows() {
 }
 
 bool IslandLcp::solveAllSticking() {
+  if (small_) {
+    // Small islands: the frame Delassus matrix (needed by the modes anyway), solved on the stack
+    // (least-norm if singular: the same impulses as the body-space solve or the complete
+    // orthogonal decomposition below).
+    assembleSmall();
+    const Index n = frame_unknowns_;
+    Index first[kModeSolverMaxUnknowns];
+    ModeVector rhs(n), P;
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      const ModeContact& m = modes_[i];
+      first[i] = m.first;
+      const Index k = m.frictional ? 3 : 1;
+      rhs.segment(m.first, k) = -m.u.head(k);  // to u' = 0 ...
+      rhs(m.first) += m.target;                // ... but u'_n = -e u_n
+    }
+    // More unknowns than the bodies' freedoms (redundant contacts, as under a box): the 6 x 6
+    // body-space solve is cheaper than the frame matrix's; otherwise the frame matrix.
+    Eigen::VectorXd body_space;
+    const std::vector<Index> starts(first, first + contacts_.size());
+    if (n > problem_.unknowns() && problem_.bodies().size() == 1 &&
+        stickingInBodySpace<6>(contacts_, problem_.bodies(), starts, rhs, body_space)) {
+      P = body_space;
+    } else {
+      ModeMatrix K = small_A_;
+      ModeVector b = rhs;
+      solveLeastNorm(K, b, P);
+    }
+    // Warm start of the modes, should these impulses not be the answer: a contact they pull
+    // separates, one outside its static cone slides along the pyramid direction nearest them.
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      ModeContact& m = modes_[i];
+      const double P_n = P(m.first);
+      m.mode = ContactMode::kSticking;
+      if (!(P_n >= 0.0)) {
+        m.mode = ContactMode::kSeparating;
+      } else if (m.frictional &&
+                 P.segment<2>(m.first + 1).norm() > contacts_[i].entry->static_friction * P_n) {
+        const double angle = std::atan2(P(m.first + 2), P(m.first + 1));
+        m.mode = ContactMode::kSliding;
+        m.direction = (static_cast<int>(std::lround(angle * kD / (2.0 * kPi))) + kD) % kD;
+      }
+    }
+    modes_warm_ = P.allFinite();
+    inconsistent_ = false;
+    if (acceptSticking(P.data(), first, rhs.data(), rhs.cwiseAbs().maxCoeff())) return true;
+    // Admissible but short of the targets in body space: an ill-conditioned Delassus matrix
+    // (mass ratios of 1e12) the frame solve lost digits on; the general path below decides.
+    if (!inconsistent_) return false;
+  }
   // Unknowns: P_n per contact, and (t1, t2) components for frictional ones.
   std::vector<Index> first(contacts_.size());
   Index unknowns = 0;
@@ -310,35 +468,45 @@ bool IslandLcp::solveAllSticking() {
            ? stickingInBodySpace<6>(contacts_, problem_.bodies(), first, rhs, P)
            : stickingInBodySpace<Eigen::Dynamic>(contacts_, problem_.bodies(), first, rhs, P));
   if (!in_body_space) P = stickingByDelassus(first, rhs);
-  if (!P.allFinite()) return false;
+  return acceptSticking(P.data(), first.data(), rhs.data(), rhs.cwiseAbs().maxCoeff());
+}
 
+bool IslandLcp::acceptSticking(const double* P, const Index* first, const double* rhs,
+                               double rhs_scale) {
+  for (Index i = 0; i < frame_unknowns_; ++i) {
+    if (!std::isfinite(P[i])) return false;
+  }
   // Admissible: compressive and inside the static cones.
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const LcpContact& c = contacts_[i];
-    const double P_n = P(first[i]);
+    const double P_n = P[first[i]];
     if (!(P_n >= 0.0)) return false;
-    if (c.frictional && P.segment<2>(first[i] + 1).norm() > c.entry->static_friction * P_n)
+    if (c.frictional &&
+        std::hypot(P[first[i] + 1], P[first[i] + 2]) > c.entry->static_friction * P_n)
       return false;
   }
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     LcpContact& c = contacts_[i];
-    c.P_n = P(first[i]);
+    c.P_n = P[first[i]];
     c.beta.setZero();
-    c.P_t = c.frictional
-                ? Eigen::Vector3d(stickingDirections(c).rightCols<2>() * P.segment<2>(first[i] + 1))
-                : Eigen::Vector3d::Zero();
+    c.P_t = c.frictional ? Eigen::Vector3d(stickingDirections(c).rightCols<2>() *
+                                           Eigen::Vector2d(P[first[i] + 1], P[first[i] + 2]))
+                         : Eigen::Vector3d::Zero();
   }
   velocityChanges();
   // Consistent: the velocity changes these impulses make reach every target (A P = rhs), to
   // round-off of the island's scale. Otherwise the targets are not reachable together.
-  const double tolerance = 1e-10 * std::max(u_reference_, rhs.cwiseAbs().maxCoeff());
+  const double tolerance = 1e-10 * std::max(u_reference_, rhs_scale);
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const LcpContact& c = contacts_[i];
     const Index k = c.frictional ? 3 : 1;
     const Eigen::Vector3d change = stickingDirections(c).transpose() * velocityChangeAt(c);
-    if ((change.head(k) - rhs.segment(first[i], k)).cwiseAbs().maxCoeff() > tolerance) {
-      for (LcpContact& reset : contacts_) reset.P_n = 0.0, reset.P_t.setZero();
-      return false;
+    for (Index j = 0; j < k; ++j) {
+      if (std::abs(change(j) - rhs[first[i] + j]) > tolerance) {
+        inconsistent_ = true;
+        for (LcpContact& reset : contacts_) reset.P_n = 0.0, reset.P_t.setZero();
+        return false;
+      }
     }
   }
   return true;
@@ -376,7 +544,8 @@ Eigen::VectorXd IslandLcp::stickingByDelassus(const std::vector<Index>& first,
   return A.completeOrthogonalDecomposition().solve(rhs);
 }
 
-bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
+bool IslandLcp::solve(std::size_t& work, const Deadline& deadline) {
+  if (small_ && solveByModes(work)) return true;
   if (!assembled_) {  // only when the all-sticking guess did not answer
     completePyramids();
     assembleDelassus();
@@ -386,7 +555,7 @@ bool IslandLcp::solve(std::size_t& pivots, const Deadline& deadline) {
   LcpOptions lcp_options;
   lcp_options.deadline = deadline;
   const LcpResult lcp = solveLcp(M_, q_, lcp_options);
-  pivots += lcp.pivots;
+  work += lcp.pivots;
   if (lcp.status != LcpStatus::kSolved) return false;
   for (LcpContact& c : contacts_) {
     c.P_n = lcp.z(c.offset);
@@ -417,7 +586,7 @@ bool IslandLcp::switchSlidingToDynamic() {
     const Eigen::Vector3d u_t = u - u.dot(entry.normal) * entry.normal;
     if (u_t.norm() > kSlipTolerance * u_reference_) {
       c.dynamic = true;
-      M_(c.lambda(), c.offset) = c.mu();
+      if (assembled_) M_(c.lambda(), c.offset) = c.mu();
       changed = true;
     }
   }
@@ -461,7 +630,8 @@ SolveReport solveExact(ContactProblem& problem, const SolverOptions& options,
                        std::vector<ContactImpulse>& impulses) {
   SolveReport report;
   report.method = SolveMethod::kExact;
-  IslandLcp lcp(problem);
+  thread_local std::vector<LcpContact> storage;  // per-thread workspace: no allocation per solve
+  IslandLcp lcp(problem, storage);
   const bool all_sticking = lcp.solveAllSticking();  // checked against its targets already
   bool solved = all_sticking;
   while (!solved && lcp.solve(report.iterations, options.deadline)) {

@@ -64,8 +64,10 @@ double pyramidFactor();
 /// velocity unknowns when the contacts outnumber them) are compressive and inside the static
 /// Coulomb cones, they are the answer (every contact active and sticking; the cone, not the
 /// pyramid, bounds them), with no pivot: a box landing flat, a row of touching bodies struck at
-/// one end. Otherwise Lemke. Where Coulomb friction admits several answers, this sticking one is
-/// the one given.
+/// one end. Otherwise Lemke; small islands (at most kModeSolverMaxUnknowns frame unknowns) first
+/// try their modes in closed form (mode_solver.h), each round's answer then being Lemke's where the
+/// round's LCP has one solution, and Lemke runs only if no mode fits. Where Coulomb friction admits
+/// several answers, this sticking one is the one given.
 ///
 /// On success the impulses are applied to the problem (ContactProblem::applyImpulse()) and
 /// impulses[i] (normal_impulse, friction_impulse, sticking) is written for problem contact i
@@ -73,9 +75,9 @@ double pyramidFactor();
 /// or its answer violates the conditions above by more than 1e-3 of the island's largest
 /// pre-impact |u| (round-off of extreme mass ratios stays below 2e-5), zero impulses are written
 /// and applied, and the report is not converged. Report: method kExact, iterations = Lemke pivots
-/// summed over the solves (0 for the all-sticking answer), residual = the largest complementarity
-/// violation from the final velocities, relative to the largest pre-impact |u|.
-/// Of `options` only the deadline is used (the law is Newton's, the restitution is in the
+/// plus modes checked, summed over the solves (0 for the all-sticking answer), residual = the
+/// largest complementarity violation from the final velocities, relative to the largest pre-impact
+/// |u|. Of `options` only the deadline is used (the law is Newton's, the restitution is in the
 /// problem's targets; the pivot cap is lcp.h's default, 50 (n + 1) for n unknowns: 1 per
 /// frictionless contact, D + 2 per frictional one).
 ///

@@ -1,0 +1,278 @@
+// The pyramid LCP of a small island solved by its modes (mode_solver.h).
+//
+// A mode gives each contact a state: separating (no unknowns), sticking (P_n, or P_n, P_t1, P_t2
+// if frictional) or sliding along the pyramid direction d_k (P_n, with P = P_n (n + mu d_k)). Its
+// active contacts' conditions (u'_n = target; sticking: u'_t = 0) are a square linear system K x =
+// rhs in those unknowns, K built from the columns of the frame Delassus matrix A. It is solved by
+// Gaussian elimination with complete pivoting on the stack; a rank-deficient K (redundant
+// contacts) gets the least-norm solution of its consistent part, x = x_b - N (N^T N)^-1 N^T x_b
+// with x_b the basic solution and N the null space read off the factors.
+#include "collision_response/core/mode_solver.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "collision_response/core/exact_solver.h"
+
+namespace collision_response::core {
+namespace {
+
+constexpr int kD = kPyramidDirections;
+constexpr double kPi = 3.14159265358979323846;
+
+// The pyramid's directions d_k and the normals of its facets (between d_k and d_(k+1)), in (t1,
+// t2).
+struct Pyramid {
+  std::array<Eigen::Vector2d, kD> direction;
+  std::array<Eigen::Vector2d, kD> facet;
+  double facet_distance;  // cos(pi / D): the facets' distance from the origin for unit d_k
+  double sector_sine;     // sin(2 pi / D) = d_k x d_(k+1)
+  Pyramid() {
+    for (int k = 0; k < kD; ++k) {
+      const double angle = 2.0 * kPi * k / kD;
+      direction[k] = Eigen::Vector2d(std::cos(angle), std::sin(angle));
+      facet[k] = Eigen::Vector2d(std::cos(angle + kPi / kD), std::sin(angle + kPi / kD));
+    }
+    facet_distance = std::cos(kPi / kD);
+    sector_sine = std::sin(2.0 * kPi / kD);
+  }
+};
+const Pyramid kPyramid;
+
+int argmax(const Eigen::Vector2d& v, const std::array<Eigen::Vector2d, kD>& table) {
+  int best = 0;
+  double value = table[0].dot(v);
+  for (int k = 1; k < kD; ++k) {
+    const double d = table[k].dot(v);
+    if (d > value) value = d, best = k;
+  }
+  return best;
+}
+
+}  // namespace
+
+void solveLeastNorm(ModeMatrix& K, ModeVector& rhs, ModeVector& x) {
+  const int m = static_cast<int>(K.rows());
+  int column_of[kModeSolverMaxUnknowns];
+  for (int i = 0; i < m; ++i) column_of[i] = i;
+  // Elimination with complete pivoting, in place: K = P^T L U Q^T; rhs becomes L^-1 P rhs.
+  int rank = 0;
+  double first_pivot = 0.0;
+  const double relative = m * std::numeric_limits<double>::epsilon();
+  for (; rank < m; ++rank) {
+    Eigen::Index r, c;
+    const double pivot = K.bottomRightCorner(m - rank, m - rank).cwiseAbs().maxCoeff(&r, &c);
+    if (rank == 0) first_pivot = pivot;
+    if (!(pivot > relative * first_pivot) || pivot == 0.0) break;
+    r += rank, c += rank;
+    if (r != rank) K.row(r).swap(K.row(rank)), std::swap(rhs(r), rhs(rank));
+    if (c != rank) K.col(c).swap(K.col(rank)), std::swap(column_of[c], column_of[rank]);
+    const double inverse = 1.0 / K(rank, rank);
+    for (int i = rank + 1; i < m; ++i) {
+      const double factor = K(i, rank) * inverse;
+      if (factor == 0.0) continue;
+      K.row(i).tail(m - rank - 1) -= factor * K.row(rank).tail(m - rank - 1);
+      rhs(i) -= factor * rhs(rank);
+    }
+  }
+  // y (x in pivoted column order): the basic solution U11 y1 = c1, y2 = 0.
+  ModeVector y = ModeVector::Zero(m);
+  for (int i = rank - 1; i >= 0; --i) {
+    const double sum = K.row(i).segment(i + 1, rank - i - 1).dot(y.segment(i + 1, rank - i - 1));
+    y(i) = (rhs(i) - sum) / K(i, i);
+  }
+  if (rank < m) {
+    // Null space N = [-U11^-1 U12; I]; y -= N (N^T N)^-1 N^T y.
+    const int free = m - rank;
+    ModeMatrix N = ModeMatrix::Zero(m, free);
+    for (int j = 0; j < free; ++j) {
+      N(rank + j, j) = 1.0;
+      for (int i = rank - 1; i >= 0; --i) {
+        const double sum =
+            K.row(i).segment(i + 1, rank - i - 1).dot(N.col(j).segment(i + 1, rank - i - 1));
+        N(i, j) = -(K(i, rank + j) + sum) / K(i, i);
+      }
+    }
+    const ModeMatrix G = N.transpose() * N;
+    const ModeVector g = N.transpose() * y;
+    const Eigen::LDLT<ModeMatrix> ldlt(G);
+    y -= N * ldlt.solve(g);
+  }
+  x.resize(m);
+  for (int i = 0; i < m; ++i) x(column_of[i]) = y(i);
+}
+
+namespace {
+
+std::uint64_t signature(const ModeContact* contacts, int count) {
+  std::uint64_t s = 0;
+  for (int i = 0; i < count; ++i) {
+    const ModeContact& c = contacts[i];
+    const std::uint64_t code = c.mode == ContactMode::kSeparating ? 0
+                               : c.mode == ContactMode::kSticking ? 1
+                                                                  : 2 + c.direction;
+    s = (s << 4) | code;
+  }
+  return s;
+}
+
+}  // namespace
+
+double pyramidGauge(const Eigen::Vector2d& P_t, int& k, Eigen::Vector2d& beta) {
+  k = argmax(P_t, kPyramid.facet);
+  const Eigen::Vector2d& a = kPyramid.direction[k];
+  const Eigen::Vector2d& b = kPyramid.direction[(k + 1) % kD];
+  // P_t = beta_0 a + beta_1 b: Cramer's rule with a x b = sin(2 pi / D).
+  beta(0) = (P_t.x() * b.y() - P_t.y() * b.x()) / kPyramid.sector_sine;
+  beta(1) = (a.x() * P_t.y() - a.y() * P_t.x()) / kPyramid.sector_sine;
+  return beta.sum();
+}
+
+int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double speed, int max_modes,
+                 double tolerance) {
+  const double tolerance_v = tolerance * speed;
+  static_assert(kModeSolverMaxUnknowns * 4 <= 64, "a mode's signature holds 4 bits per contact");
+  std::uint64_t seen[64];
+  const int n = static_cast<int>(A.rows());
+  max_modes = std::min(max_modes, 64);
+  for (int tried = 1; tried <= max_modes; ++tried) {
+    const std::uint64_t mode = signature(contacts, count);
+    for (int s = 0; s < tried - 1; ++s) {
+      if (seen[s] == mode) return -(tried - 1);  // a cycle: no mode found this way
+    }
+    seen[tried - 1] = mode;
+
+    // The unknowns (columns of K) and equations (rows), contact by contact.
+    int columns[kModeSolverMaxUnknowns];  // the frame row of each equation
+    int m = 0;
+    for (int i = 0; i < count; ++i) {
+      const ModeContact& c = contacts[i];
+      if (c.mode == ContactMode::kSeparating) continue;
+      columns[m++] = c.first;
+      if (c.mode == ContactMode::kSticking && c.frictional) {
+        columns[m++] = c.first + 1;
+        columns[m++] = c.first + 2;
+      }
+    }
+    ModeMatrix K(m, m);
+    ModeVector rhs(m), x;
+    for (int i = 0, j = 0; i < count; ++i) {
+      const ModeContact& c = contacts[i];
+      if (c.mode == ContactMode::kSeparating) continue;
+      if (c.mode == ContactMode::kSliding) {
+        const Eigen::Vector2d& d = kPyramid.direction[c.direction];
+        for (int r = 0; r < m; ++r) {
+          const int row = columns[r];
+          K(r, j) =
+              A(row, c.first) + c.mu * (d.x() * A(row, c.first + 1) + d.y() * A(row, c.first + 2));
+        }
+        rhs(j++) = c.target - c.u.x();
+        continue;
+      }
+      const int k = c.frictional ? 3 : 1;
+      for (int l = 0; l < k; ++l, ++j) {
+        for (int r = 0; r < m; ++r) K(r, j) = A(columns[r], c.first + l);
+        rhs(j) = (l == 0 ? c.target : 0.0) - c.u(l);
+      }
+    }
+    if (m > 0) solveLeastNorm(K, rhs, x);
+
+    // The frame impulses and velocities of the mode.
+    ModeVector P = ModeVector::Zero(n);
+    double largest = 0.0;
+    for (int i = 0, j = 0; i < count; ++i) {
+      ModeContact& c = contacts[i];
+      c.P.setZero();
+      if (c.mode == ContactMode::kSeparating) continue;
+      if (c.mode == ContactMode::kSliding) {
+        const Eigen::Vector2d& d = kPyramid.direction[c.direction];
+        c.P = x(j) * Eigen::Vector3d(1.0, c.mu * d.x(), c.mu * d.y());
+        ++j;
+      } else if (c.frictional) {
+        c.P = x.segment<3>(j);
+        j += 3;
+      } else {
+        c.P.x() = x(j++);
+      }
+      P.segment(c.first, c.frictional ? 3 : 1) = c.P.head(c.frictional ? 3 : 1);
+      largest = std::max(largest, std::abs(c.P.x()));
+    }
+    if (!P.allFinite()) return -tried;
+    const ModeVector change = A * P;
+    const double tolerance_P = tolerance * largest;
+
+    // Check every contact; repair those that fail.
+    bool fits = true;
+    for (int i = 0; i < count; ++i) {
+      ModeContact& c = contacts[i];
+      Eigen::Vector3d u = c.u;
+      u.head(c.frictional ? 3 : 1) += change.segment(c.first, c.frictional ? 3 : 1);
+      const Eigen::Vector2d u_t =
+          c.frictional ? Eigen::Vector2d(u.tail<2>()) : Eigen::Vector2d::Zero();
+      if (c.mode == ContactMode::kSeparating) {
+        if (u.x() >= c.target - tolerance_v) continue;
+        fits = false;
+        if (c.frictional && u_t.norm() > tolerance_v) {
+          c.mode = ContactMode::kSliding;
+          c.direction = argmax(-u_t, kPyramid.direction);
+        } else {
+          c.mode = ContactMode::kSticking;
+        }
+        continue;
+      }
+      // Active: the targets must be reached (a singular K solved in least squares may not; its
+      // impulses still guide the repairs below, and an unchanged mode ends the search).
+      if (std::abs(u.x() - c.target) > tolerance_v ||
+          (c.mode == ContactMode::kSticking && u_t.norm() > tolerance_v)) {
+        fits = false;
+      }
+      if (c.P.x() < -tolerance_P) {
+        fits = false;
+        c.mode = ContactMode::kSeparating;
+        continue;
+      }
+      if (!c.frictional) continue;
+      if (c.mode == ContactMode::kSticking) {
+        int k;
+        Eigen::Vector2d beta;
+        if (pyramidGauge(c.P.tail<2>(), k, beta) <= c.mu * std::max(c.P.x(), 0.0) + tolerance_P)
+          continue;
+        fits = false;
+        c.mode = ContactMode::kSliding;
+        c.direction = argmax(c.P.tail<2>(), kPyramid.direction);
+        continue;
+      }
+      // Sliding along d_k: the slip must be opposed by d_k, the most opposing direction.
+      const Eigen::Vector2d& d = kPyramid.direction[c.direction];
+      const int opposing = argmax(-u_t, kPyramid.direction);
+      if (d.dot(u_t) <= kPyramid.direction[opposing].dot(u_t) + tolerance_v) continue;
+      fits = false;
+      if (d.dot(u_t) > 0.0) {
+        c.mode = ContactMode::kSticking;  // friction reversed the slip: too strong to slide
+      } else {
+        c.direction = opposing;
+      }
+    }
+    if (!fits) continue;
+    // A solution: impulses within round-off of the bounds are put on them exactly.
+    for (int i = 0; i < count; ++i) {
+      ModeContact& c = contacts[i];
+      if (c.mode == ContactMode::kSeparating) continue;
+      if (c.P.x() < 0.0) c.P.setZero();
+      if (c.mode != ContactMode::kSticking || !c.frictional) continue;
+      int k;
+      Eigen::Vector2d beta;
+      const double gauge = pyramidGauge(c.P.tail<2>(), k, beta);
+      const double limit = c.mu * c.P.x();
+      if (gauge > limit) c.P.tail<2>() *= gauge > 0.0 ? limit / gauge : 0.0;
+    }
+    return tried;
+  }
+  return -max_modes;
+}
+
+}  // namespace collision_response::core
