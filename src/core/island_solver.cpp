@@ -68,6 +68,9 @@ SolveReport solveNewton(SolverMethod method, ContactProblem& problem, const Solv
 // (ContactProblem::kineticEnergyChange()).
 class TwoPhase {
  public:
+  // Relative to the Stronge bound e_max^2 D_c: an excess of round-off.
+  static constexpr double kEnergyRoundOff = 1e-12;
+
   TwoPhase(SolverMethod method, ContactProblem& problem, const SolverOptions& options)
       : method_(method), problem_(problem), options_(options), restitution_(problem.size()) {
     for (std::size_t i = 0; i < problem.size(); ++i) {
@@ -100,17 +103,26 @@ class TwoPhase {
     if (options_.law == ImpactLaw::kStronge) {
       // Stronge: the phase may release at most e_max^2 D_c. If it releases more at s = 1 (friction
       // included), the R_i are scaled down together: alone they release s linear + s^2 q, so the
-      // largest s within the bound is taken from that, and friction (least energy over its cones,
-      // T = 0 being feasible) can only lower it further.
+      // s of that quadratic is within the bound (friction, least energy over its cones with T = 0
+      // feasible, can only lower the energy), and the largest s within it with friction lies
+      // between that s and 1. It is taken, so that s tends to 1 as the excess at s = 1 does: a
+      // contact struck along its normal that sticks releases exactly e^2 D_c at s = 1, and
+      // round-off used to choose between s = 1 and the quadratic's s there. An excess of
+      // round-off (1e-12 of the bound) keeps s = 1.
       const double allowed = e_max_ * e_max_ * dissipated_;
-      if (problem_.kineticEnergyChange() - energy_compressed > allowed) {
+      const double excess = problem_.kineticEnergyChange() - energy_compressed - allowed;
+      if (excess > kEnergyRoundOff * allowed) {
         problem_.restore(compressed_);
         applyNormal(1.0);
         const double q = problem_.kineticEnergyChange() - energy_compressed - linear;
         problem_.restore(compressed_);
-        scale_ =
+        double low =
             q > 0.0 ? (-linear + std::sqrt(linear * linear + 4.0 * q * allowed)) / (2.0 * q) : 0.0;
-        scale_ = std::clamp(scale_, 0.0, 1.0);
+        low = std::clamp(low, 0.0, 1.0);
+        restitutionPhase(low);
+        const double excess_low = problem_.kineticEnergyChange() - energy_compressed - allowed;
+        scale_ = largestScaleWithin(low, excess_low, excess, energy_compressed, allowed);
+        problem_.restore(compressed_);
         friction = restitutionPhase(scale_);
       }
     }
@@ -162,6 +174,35 @@ class TwoPhase {
       restitution_normal_[i] = scale * restitution_[i] * compression_[i].normal_impulse;
       problem_.applyImpulse(i, restitution_normal_[i] * problem_.contact(i).normal);
     }
+  }
+
+  // The largest s in [low, 1] whose restitution phase, friction included, releases at most
+  // `allowed`: f(s) = released - allowed, f(low) = f_low <= 0 < f(1) = f_high; Illinois regula
+  // falsi until the bracket is 1e-12 wide or f(low) is within kEnergyRoundOff of the bound.
+  double largestScaleWithin(double low, double f_low, double f_high, double energy_compressed,
+                            double allowed) {
+    if (!(f_low <= 0.0)) return low;
+    double high = 1.0;
+    int side = 0;
+    for (int k = 0; k < 60 && high - low > 1e-12; ++k) {
+      const double s = std::clamp(high - f_high * (high - low) / (f_high - f_low), low, high);
+      problem_.restore(compressed_);
+      restitutionPhase(s);
+      const double f = problem_.kineticEnergyChange() - energy_compressed - allowed;
+      if (f <= 0.0) {
+        low = s;
+        f_low = f;
+        if (side == -1) f_high *= 0.5;
+        side = -1;
+      } else {
+        high = s;
+        f_high = f;
+        if (side == 1) f_low *= 0.5;
+        side = 1;
+      }
+      if (f <= 0.0 && f >= -kEnergyRoundOff * allowed) break;
+    }
+    return low;
   }
 
   SolveReport restitutionPhase(double scale) {

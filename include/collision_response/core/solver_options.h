@@ -68,7 +68,9 @@ struct SolverOptions {
   double tolerance = 1e-12;
   /// Iterative solver: iteration cap; an island that reaches it is reported as not converged.
   std::size_t max_iterations = 10000;
-  /// Impulse-space integration (kPoisson, kStronge): relative error tolerance on the impulse.
+  /// Impulse-space integration of one contact (kPoisson, kStronge): relative error tolerance on the
+  /// impulse. The simultaneous integration of several contacts has no error control and does not
+  /// read it (docs/physics.md, "Simultaneous impulse-space integration", "Resolution").
   double integration_tolerance = 1e-10;
   /// kAuto only: Poisson / Stronge islands of 2 to kSimultaneousMaxContacts contacts by the
   /// simultaneous impulse-space integration (simultaneous_impact.h), each contact with its own
