@@ -8,16 +8,19 @@
 # only folders that exist on configure: CMakeLists.txt creates the devel space's Python folder
 # first. Building and running every test in a workspace is what `catkin_make run_tests` does
 # (README, "In a catkin workspace"); this checks the configure step that once broke it, in seconds.
-# Usage: scripts/test_workspace.sh WORK_DIR RESULT_XML   (WORK_DIR is emptied)
+# Usage: scripts/test_workspace.sh RESULT_XML   (the log goes beside it, RESULT_XML's name .log)
+# The workspace is a temporary folder outside the package, removed at the end: inside it (below
+# build/) rospack would find the package a second time through the workspace's symlink, and
+# `roslaunch collision_response ...` in the tests running beside this one would refuse to choose.
 set -uo pipefail
 source_dir=$(cd "$(dirname "$0")/.." && pwd)
-work=$1
-result=$2
+result=$1
 mkdir -p "$(dirname "$result")"
-rm -rf "$work"
+log=${result%.xml}.log
+work=$(mktemp -d "${TMPDIR:-/tmp}/collision_response_workspace.XXXXXX")
+trap 'rm -rf "$work"' EXIT
 mkdir -p "$work/src"
-work=$(cd "$work" && pwd)
-log=$work/catkin_make.log
+: >"$log"
 
 report() {  # report FAILURE_MESSAGE (empty: passed)
   local failure=""
