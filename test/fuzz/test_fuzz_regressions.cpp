@@ -3,18 +3,16 @@
 // (test/fuzz/scene_decoder.h): each must give InvalidInput or a successful answer that is finite
 // and keeps the cheap invariants, with no crash and no other exception. No ROS.
 //
-// The directory is found next to this source file; FUZZ_REGRESSIONS_DIR overrides it.
+// The directory is the one CMake names at build time (REGRESSIONS_DIR); FUZZ_REGRESSIONS_DIR
+// overrides it.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cstdint>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
+#include "regression_files.h"
 #include "scene_decoder.h"
 
 namespace fs = std::filesystem;
@@ -23,30 +21,12 @@ namespace fuzz = collision_response::fuzz;
 namespace {
 
 fs::path regressionsDir() {
-  if (const char* dir = std::getenv("FUZZ_REGRESSIONS_DIR")) return dir;
-  return fs::path(__FILE__).parent_path() / "regressions";
+  return fuzz::regressionsDir("FUZZ_REGRESSIONS_DIR", REGRESSIONS_DIR);
 }
-
 std::vector<fs::path> regressionFiles() {
-  std::vector<fs::path> files;
-  const fs::path dir = regressionsDir();
-  if (!fs::is_directory(dir)) return files;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
-    const std::string name = entry.path().filename().string();
-    if (!entry.is_regular_file() || name.empty() || name[0] == '.' ||
-        entry.path().extension() == ".md")
-      continue;
-    files.push_back(entry.path());
-  }
-  std::sort(files.begin(), files.end());
-  return files;
+  return fuzz::regressionFiles(regressionsDir());
 }
-
-std::vector<std::uint8_t> readBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in),
-                                   std::istreambuf_iterator<char>());
-}
+using fuzz::readBytes;
 
 }  // namespace
 

@@ -3,20 +3,18 @@
 // (test/fuzz/robot_decoder.h): each must give InvalidInput (naming a field) or a successful answer
 // that is finite, with no crash and no other exception. No ROS master.
 //
-// The directory is found next to this source file; FUZZ_ROBOT_REGRESSIONS_DIR overrides it.
-// package:// mesh URLs resolve to this package (ROS_PACKAGE_PATH is set to PACKAGE_DIR).
+// The directory is the one CMake names at build time (ROBOT_REGRESSIONS_DIR);
+// FUZZ_ROBOT_REGRESSIONS_DIR overrides it. package:// mesh URLs resolve to this package
+// (ROS_PACKAGE_PATH is set to PACKAGE_DIR).
 #include <console_bridge/console.h>
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cstdint>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
+#include "regression_files.h"
 #include "robot_decoder.h"
 
 namespace fs = std::filesystem;
@@ -25,30 +23,12 @@ namespace fuzz = collision_response::fuzz;
 namespace {
 
 fs::path regressionsDir() {
-  if (const char* dir = std::getenv("FUZZ_ROBOT_REGRESSIONS_DIR")) return dir;
-  return fs::path(__FILE__).parent_path() / "regressions" / "robot";
+  return fuzz::regressionsDir("FUZZ_ROBOT_REGRESSIONS_DIR", ROBOT_REGRESSIONS_DIR);
 }
-
 std::vector<fs::path> regressionFiles() {
-  std::vector<fs::path> files;
-  const fs::path dir = regressionsDir();
-  if (!fs::is_directory(dir)) return files;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
-    const std::string name = entry.path().filename().string();
-    if (!entry.is_regular_file() || name.empty() || name[0] == '.' ||
-        entry.path().extension() == ".md")
-      continue;
-    files.push_back(entry.path());
-  }
-  std::sort(files.begin(), files.end());
-  return files;
+  return fuzz::regressionFiles(regressionsDir());
 }
-
-std::vector<std::uint8_t> readBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in),
-                                   std::istreambuf_iterator<char>());
-}
+using fuzz::readBytes;
 
 }  // namespace
 
