@@ -243,7 +243,7 @@ for name in $targets; do
   slow=$(grep -c "^slow input:" "$log" || true)
   [ "$slow" -eq 0 ] || echo "fuzz: $name: $slow input(s) ran past their 5 s solver budget (SolverTimeout); slow units: ${prefix}slow-unit-*"
   if [ "$target_status" -ne 0 ]; then
-    grep -E "BUG:|ERROR: |SUMMARY: |runtime error|Test unit written|==[0-9]+==" "$log" | head -n 20
+    grep -E "BUG:|ERROR: |SUMMARY: |runtime error|Test unit written|==[0-9]+==" "$log" | head -n 20 || true
     echo "fuzz: $name: FAILED (status $target_status): see $log; the input is in $artifacts/;"
     echo "fuzz: replay it with: FUZZ_PRINT=1 scripts/fuzz.sh --replay ${prefix}<crash-file>"
     status=$target_status

@@ -74,9 +74,24 @@ void requireUsableModel(const urdf::Model& model) {
     const urdf::Vector3& a = joint->axis;
     requireUsable(std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z), element,
                   "<axis> must be finite");
+    const bool moves = joint->type == urdf::Joint::REVOLUTE ||
+                       joint->type == urdf::Joint::CONTINUOUS ||
+                       joint->type == urdf::Joint::PRISMATIC;
+    // KDL divides the axis by its length: a zero axis would give NaN, reported later as a
+    // singular inertia.
+    requireUsable(!moves || a.x != 0.0 || a.y != 0.0 || a.z != 0.0, element,
+                  "<axis> must not be zero");
     if (joint->mimic) {
-      requireUsable(std::isfinite(joint->mimic->multiplier) && std::isfinite(joint->mimic->offset),
-                    element, "<mimic> multiplier and offset must be finite");
+      // A multiplier beyond 1e6 makes the mimic group's inertia overflow long before it means
+      // anything mechanical; the offset is a joint position (rad or m).
+      requireUsable(std::isfinite(joint->mimic->multiplier) &&
+                        std::abs(joint->mimic->multiplier) <= 1e6 &&
+                        std::isfinite(joint->mimic->offset) &&
+                        std::abs(joint->mimic->offset) <= Limits::kLength,
+                    element,
+                    "<mimic> multiplier must be finite and within 1e6 in magnitude, offset "
+                    "finite and within " +
+                        std::to_string(Limits::kLength) + " rad or m");
     }
   }
 }

@@ -42,10 +42,6 @@ void requireFinite(const Eigen::Vector3d& v, double limit, const std::string& fi
 // at `now`.
 void requireRecent(const ros::Time& stamp, const ros::Time& now, double timeout,
                    const std::string& field, const std::string& what, const std::string& topic) {
-  if (stamp.isZero()) {
-    throw core::InvalidInput(
-        field, "no " + what + " was ever received on " + topic + "; give it in the request");
-  }
   const double age = (now - stamp).toSec();
   if (age > timeout) {
     throw core::InvalidInput(field, "the latest " + what + " on " + topic + " is " +
@@ -194,7 +190,7 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
                                  std::to_string(count) + " names (empty: the latest message's)");
   }
   const int joints = model.jointCount();
-  Eigen::VectorXd q(joints), qdot(joints);
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(joints), qdot = Eigen::VectorXd::Zero(joints);
   std::vector<bool> has_position(joints, false), has_velocity(joints, false);
   for (std::size_t k = 0; k < count; ++k) {
     const std::string& name = given.name[k];

@@ -679,6 +679,27 @@ TEST(MimicJoints, BadMimicsAreRefusedNamingTheJoint) {
             withElement(base, "wrist", R"(<mimic joint="wrist" multiplier="2"/>)"));
       },
       "mimic joint 'wrist': its leaders form a cycle ('wrist' -> 'wrist')");
+  // The loader's bounds: a multiplier past 1e6 (the group's inertia would overflow), an offset
+  // past 1e7 rad or m, a moving joint's zero axis (KDL would divide by its length).
+  expectThrow(
+      [&] {
+        rb::robotFromUrdfString(
+            replaced(base, R"(multiplier="1" offset="0")", R"(multiplier="1e7" offset="0")"));
+      },
+      "joint 'finger2_joint': <mimic> multiplier must be finite and within 1e6");
+  expectThrow(
+      [&] {
+        rb::robotFromUrdfString(
+            replaced(base, R"(multiplier="1" offset="0")", R"(multiplier="1" offset="1e8")"));
+      },
+      "joint 'finger2_joint': <mimic> multiplier must be finite and within 1e6 in magnitude, "
+      "offset finite");
+  expectThrow(
+      [&] {
+        rb::robotFromUrdfString(
+            replaced(base, R"(<axis xyz="0 -1 0"/>)", R"(<axis xyz="0 0 0"/>)"));
+      },
+      "<axis> must not be zero");
   rb::ArticulatedBody gripper = rb::robotFromUrdfString(withoutMimics(base));
   expectThrow(
       [&] {

@@ -14,8 +14,9 @@ namespace collision_response::robot {
 /// naming the joint for a <mimic> the body refuses ("URDF: mimic joint 'x': ...": a leader that is
 /// not a joint with a coordinate, a cycle of mimics); and naming the link or joint for a number
 /// the model cannot take: a link's <inertial> origin, mass or inertia, a joint's <origin> or
-/// <axis> (not finite or beyond the core's MagnitudeLimits: 1e7 m, 1e15 kg, 1e30 kg m^2), or its
-/// <mimic> multiplier or offset (not finite).
+/// <axis> (not finite or beyond the core's MagnitudeLimits: 1e7 m, 1e15 kg, 1e30 kg m^2; a moving
+/// joint's axis zero), or its <mimic> multiplier (not finite or beyond 1e6 in magnitude) or offset
+/// (not finite or beyond 1e7 rad or m).
 ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base = BaseType::kFixed);
 /// The same from a file; throws std::invalid_argument naming the file if it cannot be read.
 ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base = BaseType::kFixed);
