@@ -96,14 +96,7 @@ TEST(ApproachWarnings, WarnedExactlyWhereTheAnswerLeavesAContactApproaching) {
   int one_pass_warned = 0;
   for (int trial = 0; trial < 120; ++trial) {
     core::Scene scene;
-    core::BodyState box;
-    box.id = "box";
-    box.mass = random.uniform(0.2, 5.0);
-    box.inertia = boxInertia(box.mass, random.boxSize());
-    box.orientation = random.rotation();
-    box.position = random.vec(-0.2, 0.2);
-    box.linear_velocity = random.vec(-1.0, 1.0) - Eigen::Vector3d(0, 0, 1.5);
-    box.angular_velocity = random.vec(-2.0, 2.0);
+    const core::BodyState box = randomFallingBox(random, true);
     core::BodyState ball =
         sphere("ball", random.uniform(0.1, 2.0), 0.1, {0.0, 0.0, 0.5}, {0.0, 0.0, -2.0});
     scene.bodies = {ground(), box, ball};

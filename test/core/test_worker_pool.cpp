@@ -97,13 +97,7 @@ TEST(WorkerPool, BatchOnThePoolEqualsSolvingOneAfterTheOther) {
                                   core::ImpactLaw::kStronge, core::ImpactLaw::kSeedOnePass};
   for (int k = 0; k < 200; ++k) {
     core::Scene scene;
-    core::BodyState box;
-    box.id = "box";
-    box.mass = random.uniform(0.2, 5.0);
-    box.inertia = boxInertia(box.mass, random.boxSize());
-    box.orientation = random.rotation();
-    box.linear_velocity = random.vec(-1.0, 1.0) - Eigen::Vector3d(0, 0, 1.5);
-    box.angular_velocity = random.vec(-2.0, 2.0);
+    const core::BodyState box = randomFallingBox(random, false);
     scene.bodies = {ground(), box};
     for (int c = 0; c < 1 + k % 4; ++c) {
       scene.contacts.push_back(

@@ -115,6 +115,21 @@ struct RandomSource {
   }
 };
 
+/// A box falling on the ground at about 1.5 m/s, tumbling: mass [0.2, 5] kg, sizes from
+/// boxSize(), a random orientation, velocity (-1..1, -1..1, -2.5..-0.5) m/s, spin within 2 rad/s
+/// per axis; `placed`: its centre drawn within 0.2 m of the origin (else at the origin). id "box".
+inline cr::BodyState randomFallingBox(RandomSource& random, bool placed) {
+  cr::BodyState box;
+  box.id = "box";
+  box.mass = random.uniform(0.2, 5.0);
+  box.inertia = boxInertia(box.mass, random.boxSize());
+  box.orientation = random.rotation();
+  if (placed) box.position = random.vec(-0.2, 0.2);
+  box.linear_velocity = random.vec(-1.0, 1.0) - Vector3d(0, 0, 1.5);
+  box.angular_velocity = random.vec(-2.0, 2.0);
+  return box;
+}
+
 /// The rod of docs/physics.md, "Worked examples": uniform, 1 kg, 1 m, 50 degrees to the floor (z
 /// up), lower tip striking at the origin, centre of mass velocity 1 m/s at 20 degrees off
 /// vertical, no spin; restitution e, friction mu_s and mu_d.
