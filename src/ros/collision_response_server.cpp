@@ -491,27 +491,8 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
   models.reserve(rigid.size() + robots.size());
   for (core::RigidBody& body : rigid) models.push_back(&body);
   for (RequestRobot& robot : robots) models.push_back(&*robot.model);
-  std::vector<core::ContactPoint> points;
-  points.reserve(scene.contacts.size());
-  for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
-    const core::Contact& contact = scene.contacts[c];
-    core::ContactPoint point(-1, -1, contact.point, contact.normal.normalized(),
-                             contact.restitution, contact.static_friction,
-                             contact.dynamic_friction);
-    const auto [a, b] = validator.contactBodies()[c];
-    const auto place = [&](int index, int& body, int& part) {
-      if (index < rigid_count) {
-        body = index;
-        return;
-      }
-      const auto [robot, link] = robot_link_of_id[index - rigid_count];
-      body = rigid_count + robot;
-      part = link;
-    };
-    place(a, point.body_a, point.part_a);
-    place(b, point.body_b, point.part_b);
-    points.push_back(point);
-  }
+  const std::vector<core::ContactPoint> points =
+      placeContacts(scene.contacts, validator.contactBodies(), rigid_count, robot_link_of_id);
   if (link_frames != nullptr) {
     link_frames->assign(points.size(), ContactLinkFrame());
     for (std::size_t c = 0; c < points.size(); ++c) {

@@ -358,4 +358,31 @@ RobotResult toMsg(const std::string& name, const robot::ArticulatedBody& after,
   return result;
 }
 
+std::vector<core::ContactPoint> placeContacts(
+    const std::vector<core::Contact>& contacts,
+    const std::vector<std::pair<int, int>>& contact_bodies, int rigid_count,
+    const std::vector<std::pair<int, int>>& robot_link_of_id) {
+  const auto place = [&](int index, int& body, int& part) {
+    if (index < rigid_count) {
+      body = index;
+      return;
+    }
+    const auto [robot, link] = robot_link_of_id[index - rigid_count];
+    body = rigid_count + robot;
+    part = link;
+  };
+  std::vector<core::ContactPoint> points;
+  points.reserve(contacts.size());
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const core::Contact& contact = contacts[c];
+    core::ContactPoint point(-1, -1, contact.point, contact.normal.normalized(),
+                             contact.restitution, contact.static_friction,
+                             contact.dynamic_friction);
+    place(contact_bodies[c].first, point.body_a, point.part_a);
+    place(contact_bodies[c].second, point.body_b, point.part_b);
+    points.push_back(point);
+  }
+  return points;
+}
+
 }  // namespace collision_response

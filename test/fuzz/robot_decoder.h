@@ -692,25 +692,12 @@ inline RobotOutcome runRobotInput(const std::uint8_t* data, std::size_t size,
     std::vector<core::BodyModel*> models;
     for (core::RigidBody& body : rigid) models.push_back(&body);
     models.push_back(&robot);
-    std::vector<core::ContactPoint> points;
-    for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
-      const core::Contact& contact = scene.contacts[c];
-      core::ContactPoint point(-1, -1, contact.point, contact.normal.normalized(),
-                               contact.restitution, contact.static_friction,
-                               contact.dynamic_friction);
-      const auto [a, b] = validator.contactBodies()[c];
-      const auto place = [&](int index, int& body, int& part) {
-        if (index < rigid_count) {
-          body = index;
-          return;
-        }
-        body = rigid_count;
-        part = index - rigid_count;
-      };
-      place(a, point.body_a, point.part_a);
-      place(b, point.body_b, point.part_b);
-      points.push_back(point);
-    }
+    // One robot: the link ids it added to the validator are its links 0, 1, ...
+    std::vector<std::pair<int, int>> robot_link_of_id;
+    for (std::size_t link = 0; link < link_ids.size(); ++link)
+      robot_link_of_id.emplace_back(0, static_cast<int>(link));
+    const std::vector<core::ContactPoint> points =
+        placeContacts(scene.contacts, validator.contactBodies(), rigid_count, robot_link_of_id);
     if (print_before_solving) {
       // So that a crash in the solver is preceded by its input.
       std::fputs(text.str().c_str(), stdout);

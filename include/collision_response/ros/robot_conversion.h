@@ -9,14 +9,17 @@
 #include <string>
 #include <vector>
 
+#include "collision_response/core/contact.h"
+#include "collision_response/core/contact_point.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/ros/served_robot.h"
 
 namespace collision_response {
 
-/// The base pose a RobotState gives (request frame), or nothing when its orientation is all zero
-/// (the default: the caller looks the base frame up in tf2). Throws core::InvalidInput naming
-/// field + ".base_pose..." for a non-finite value or an orientation that is not unit length.
+/// The base pose a RobotState gives (request frame), or nothing when the whole pose is zero (the
+/// default: the caller looks the base frame up in tf2). Throws core::InvalidInput naming
+/// field + ".base_pose..." for a non-finite value, an orientation that is not unit length, or a
+/// position given with the all-zero orientation.
 std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const std::string& field);
 
 /// The served robot at the state a request gives it (docs/robots.md, "Robots through ROS"): a copy
@@ -33,7 +36,8 @@ std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const st
 /// positions only, such as joint_state_publisher) is at rest, with a line in `warnings` (if not
 /// null). A mimic joint's position and velocity are derived from its root's (it needs none); one
 /// given in the request, or recent on the topic, that differs from the derived by more than 1e-6
-/// [rad | m, rad/s | m/s] gets a line in `warnings` naming it, and the derived one is used. The loads of resting contacts (ArticulatedBody::setLoads()): msg.gravity (request frame;
+/// [rad | m, rad/s | m/s] gets a line in `warnings` naming it, and the derived one is used. The
+/// loads of resting contacts (ArticulatedBody::setLoads()): msg.gravity (request frame;
 /// ".gravity" if not finite or beyond 1e9 m/s^2) and the torques msg.joint_torques names: gravity
 /// compensation g(q), none, or joint_state.effort (".joint_state.effort" for an array neither empty
 /// nor as long as name, a value not finite, or a free joint whose effort is given nowhere or is
@@ -51,5 +55,15 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
 RobotResult toMsg(const std::string& name, const robot::ArticulatedBody& after,
                   const Eigen::VectorXd& velocity_before, double energy_before,
                   const Eigen::Isometry3d& base_pose, const std_msgs::Header& header);
+
+/// The request's contacts as contact points of the body models: the rigid bodies first (models
+/// 0 .. rigid_count - 1), then one model per robot. `contact_bodies`: each contact's validated body
+/// indices (SceneValidator::contactBodies()); an index past the rigid bodies is a link,
+/// `robot_link_of_id[index - rigid_count]` = (robot, link), placed as body rigid_count + robot,
+/// part link. Normals are normalised.
+std::vector<core::ContactPoint> placeContacts(
+    const std::vector<core::Contact>& contacts,
+    const std::vector<std::pair<int, int>>& contact_bodies, int rigid_count,
+    const std::vector<std::pair<int, int>>& robot_link_of_id);
 
 }  // namespace collision_response
