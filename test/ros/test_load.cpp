@@ -188,6 +188,18 @@ void round(int threads, int calls_each, const RobotReference& robot, Counts& cou
 
 // CR_LOAD_SCALE (default 1) multiplies the calls of each round: the benchmark's soak runs the same
 // test with 10 (40,000 measured calls).
+#if defined(__SANITIZE_ADDRESS__)
+constexpr long kResidentGrowthBoundKilobytes = 8192;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr long kResidentGrowthBoundKilobytes = 8192;
+#else
+constexpr long kResidentGrowthBoundKilobytes = 2048;
+#endif
+#else
+constexpr long kResidentGrowthBoundKilobytes = 2048;
+#endif
+
 int loadScale() {
   const char* value = std::getenv("CR_LOAD_SCALE");
   const int scale = value != nullptr ? std::atoi(value) : 1;
@@ -243,8 +255,11 @@ TEST(Load, ConcurrentMixedRequestsAreAllAnsweredWithoutMemoryGrowth) {
       4000 * scale);
   // Gross leaks only: 1 kB per call would add 2 MB per round. Buffers of the oversized requests and
   // per-thread allocator arenas make a few hundred kB of noise; exact leak checks are the
-  // LeakSanitizer build's (scripts/sanitize.sh).
-  EXPECT_LT(after - middle, 2048) << "resident memory keeps growing";
+  // LeakSanitizer build's (scripts/sanitize.sh). Under AddressSanitizer the node's own allocator
+  // (redzones, its quarantine of freed blocks, per-thread caches) grew the node by 2.1 MB in a
+  // round on a CI machine with LeakSanitizer finding no leak, so there the bound is 8 MB: growth
+  // without a leak (an unbounded cache) is this test's to catch in the plain build.
+  EXPECT_LT(after - middle, kResidentGrowthBoundKilobytes) << "resident memory keeps growing";
 }
 
 }  // namespace
