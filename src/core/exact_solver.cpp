@@ -12,6 +12,7 @@
 //       [ mu  -E^T  0 ]
 //   q = [u_n,i + e_i u_n,i (or u_n,i);  d_ik . u_i;  0].
 #include "collision_response/core/exact_solver.h"
+#include "collision_response/core/constants.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
@@ -27,7 +28,7 @@ namespace {
 
 using Eigen::Index;
 
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 constexpr int kD = kPyramidDirections;
 static_assert(kD % 4 == 0, "t1, t2 and their opposites must be pyramid directions");
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "collision_response/core/constants.h"
 #include "collision_response/core/least_norm.h"
 
 namespace collision_response::core {
@@ -93,7 +94,7 @@ Eigen::Vector3d solveFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3
     return 2.0 * bl.dot(dd) * q - c * 2.0 * dd.dot(Al * d);
   };
   constexpr int kSamples = 72;
-  constexpr double kStep = 2.0 * 3.14159265358979323846 / kSamples;
+  constexpr double kStep = 2.0 * kPi / kSamples;
   int best = -1;
   double best_value = 0.0;  // the apex
   for (int k = 0; k < kSamples; ++k) {

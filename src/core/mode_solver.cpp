@@ -8,6 +8,7 @@
 // contacts) gets the least-norm solution of its consistent part, x = x_b - N (N^T N)^-1 N^T x_b
 // with x_b the basic solution and N the null space read off the factors.
 #include "collision_response/core/mode_solver.h"
+#include "collision_response/core/constants.h"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -22,7 +23,7 @@ namespace collision_response::core {
 namespace {
 
 constexpr int kD = kPyramidDirections;
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 
 // The pyramid's directions d_k and the normals of its facets (between d_k and d_(k+1)), in (t1,
 // t2).

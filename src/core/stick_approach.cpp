@@ -12,6 +12,7 @@
 //   p_rem(y) = K integral_0^y t^(m-1) H(t) dt,  H = -e^S / Gamma,
 // is K y^m times Ip(y) = sum H_k y^k / (m + k). P_t and the work follow the same way.
 #include "collision_response/core/stick_approach.h"
+#include "collision_response/core/constants.h"
 
 #include <algorithm>
 #include <cmath>
@@ -21,7 +22,7 @@
 namespace collision_response::core {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 // Complex arithmetic for radius(), without the library's general division (a call per use)

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "collision_response/core/body_state.h"
+#include "collision_response/core/constants.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/exact_solver.h"
 #include "collision_response/core/iterative_solver.h"
@@ -33,7 +34,7 @@ using Eigen::VectorXd;
 namespace {
 
 constexpr double kTol = 1e-9;
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 
 void expectVecNear(const Vector3d& got, const Vector3d& want, double tol) {
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(got[i], want[i], tol) << "component " << i;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/constants.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/rigid_body.h"
@@ -39,7 +40,7 @@ int referenceCases(int count) {
   return asked > 0 && asked < count ? static_cast<int>(asked) : count;
 }
 
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 
 /// A body with its world inertia kept for the energy (the library only stores the inverse).
 struct SimBody {

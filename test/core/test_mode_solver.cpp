@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "collision_response/core/constants.h"
 #include "collision_response/core/exact_solver.h"
 #include "collision_response/core/lcp.h"
 #include "collision_response/core/mode_solver.h"
@@ -24,7 +25,7 @@ using Eigen::VectorXd;
 namespace {
 
 constexpr int kD = cr::kPyramidDirections;
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 
 Matrix3d skew(const Vector3d& v) {
   Matrix3d m;

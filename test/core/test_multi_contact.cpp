@@ -12,6 +12,7 @@
 
 #include "collision_response/core/body_state.h"
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/constants.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/islands.h"
 #include "collision_response/core/iterative_solver.h"
@@ -32,7 +33,7 @@ using namespace collision_response::testing;  // NOLINT: shared builders
 namespace {
 
 constexpr double kTol = 1e-9;
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 
 cr::BodyState fixed(const std::string& id) {
   cr::BodyState b;

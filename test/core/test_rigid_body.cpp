@@ -9,6 +9,7 @@
 #include <random>
 
 #include "collision_response/core/body_state.h"
+#include "collision_response/core/constants.h"
 #include "collision_response/core/contact_space.h"
 #include "collision_response/core/rigid_body.h"
 
@@ -20,7 +21,7 @@ using namespace collision_response::testing;  // NOLINT: shared builders
 namespace {
 
 constexpr double kTol = 1e-9;
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 
 void expectMatNear(const Matrix3d& got, const Matrix3d& want, double tol) {
   for (int r = 0; r < 3; ++r) {

@@ -14,6 +14,7 @@
 #include <random>
 #include <vector>
 
+#include "collision_response/core/constants.h"
 #include "collision_response/core/stick_approach.h"
 
 namespace cr = collision_response::core;
@@ -22,7 +23,7 @@ using Eigen::Vector2d;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using collision_response::core::kPi;
 
 /// A random slip's coefficients: A = K_tt with eigenvalues in [0.3, 3] 1/kg along a random angle
 /// (both equal if isotropic), b = K_tn with components in [-0.4, 0.4] 1/kg, mu_d in [0.2, 1].
