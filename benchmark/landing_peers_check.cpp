@@ -229,9 +229,10 @@ int main(int argc, char** argv) {
     }
     std::sort(us.begin(), us.end());
     std::printf(
-        "  %-6s %9.1f us per landing (min %.1f, max %.1f); end height %.4f m, speed %.3g m/s\n",
-        peer->name().c_str(), us[us.size() / 2], us.front(), us.back(), end.position.z(),
-        end.linear_velocity.norm());
+        "  %-6s %9.1f us per landing, %.2f us per step (min %.1f, max %.1f); end height %.4f m, "
+        "speed %.3g m/s\n",
+        peer->name().c_str(), us[us.size() / 2], us[us.size() / 2] * step / 0.5, us.front(),
+        us.back(), end.position.z(), end.linear_velocity.norm());
   }
 
   std::printf("%s: %d check(s) failed\n", failures ? "FAILED" : "passed", failures);
