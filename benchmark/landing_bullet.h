@@ -31,8 +31,9 @@ class BulletLanding : public LandingModel {
                      double duration) override;
 
   static constexpr double kMargin = 1e-3;  ///< the cube's collision margin [m]
-  /// The distance [m] within which Bullet makes a contact of the cube (its contact breaking
-  /// threshold). Bullet's default, 2 % of the bounding radius (1.8 mm here), makes speculative
+  /// The distance [m] from the table within which Bullet makes a contact (the contact breaking
+  /// threshold, the table shape's; Bullet takes the smaller of the two shapes'). Bullet's
+  /// default, 2 % of the cube's bounding radius (1.8 mm here), makes speculative
   /// contacts that stop the cube at the table by the gap over the step: at a 1 ms step that
   /// absorbs a landing's bounce (a flat drop from 0.1 m with restitution 0.5 rebounded at 0 m/s
   /// instead of 0.70 m/s; 0.39 m/s at a 4 ms step). At 0.1 mm the cube reaches the table before
