@@ -69,8 +69,10 @@ struct MujocoLanding::World {
   }
 };
 
-MujocoLanding::MujocoLanding(double step, TossedCube cube) : step_(checkedStep(step)) {
+MujocoLanding::MujocoLanding(double step, TossedCube cube, bool elliptic_cone)
+    : step_(checkedStep(step)), elliptic_(elliptic_cone) {
   world_ = std::make_unique<World>(cube, step_);
+  if (elliptic_) world_->model->opt.cone = mjCONE_ELLIPTIC;
 }
 
 MujocoLanding::~MujocoLanding() = default;
@@ -87,7 +89,8 @@ CubeState MujocoLanding::simulate(const CubeState& before, const std::vector<dou
   checkInputs(name(), parameters(), values, {0.0, 0.0, 0.0}, before);
   if (values[1] <= 0.0 || values[2] <= 0.0)
     throw std::invalid_argument(
-        "MuJoCo: solref_timeconst, solref_dampratio: must be > 0 (negative values are MuJoCo's "
+        name() +
+        ": solref_timeconst, solref_dampratio: must be > 0 (negative values are MuJoCo's "
         "direct stiffness/damping form, not offered here)");
   const StepPlan plan = planSteps(duration, step_);
   mjModel* m = world_->model;
@@ -118,10 +121,10 @@ CubeState MujocoLanding::simulate(const CubeState& before, const std::vector<dou
     m->opt.timestep = step_;
   }
   if (d->warning[mjWARN_BADQACC].number > 0)  // MuJoCo has reset the state: no answer
-    throw std::runtime_error(
-        "MuJoCo: the simulation went unstable (mjWARN_BADQACC) with friction " +
-        std::to_string(values[0]) + ", solref (" + std::to_string(values[1]) + ", " +
-        std::to_string(values[2]) + ")");
+    throw std::runtime_error(name() +
+                             ": the simulation went unstable (mjWARN_BADQACC) with friction " +
+                             std::to_string(values[0]) + ", solref (" + std::to_string(values[1]) +
+                             ", " + std::to_string(values[2]) + ")");
   CubeState after;
   after.position = Eigen::Vector3d(d->qpos[0], d->qpos[1], d->qpos[2]);
   after.orientation =
