@@ -8,15 +8,17 @@
 namespace collision_response::bench {
 namespace {
 
-// The table, making contacts only within kContactThreshold of it (Bullet takes the smaller of
-// the two shapes' thresholds; the cube's default is 2 % of its bounding radius, 1.8 mm); see
+// The table, making contacts only within `threshold` of it (Bullet takes the smaller of the two
+// shapes' thresholds; the cube's default is 2 % of its bounding radius, 1.8 mm); see
 // landing_bullet.h for why.
 class LandingTable : public btStaticPlaneShape {
  public:
-  LandingTable() : btStaticPlaneShape(btVector3(0, 0, 1), 0) {}
-  btScalar getContactBreakingThreshold(btScalar) const override {
-    return BulletLanding::kContactThreshold;
-  }
+  explicit LandingTable(double threshold)
+      : btStaticPlaneShape(btVector3(0, 0, 1), 0), threshold_(threshold) {}
+  btScalar getContactBreakingThreshold(btScalar) const override { return threshold_; }
+
+ private:
+  double threshold_;
 };
 
 }  // namespace
@@ -31,7 +33,8 @@ struct BulletLanding::World {
   LandingTable plane;
   std::unique_ptr<btRigidBody> cube, table;
 
-  explicit World(const TossedCube& c) : box(btVector3(c.half_width, c.half_width, c.half_width)) {
+  World(const TossedCube& c, double step)
+      : box(btVector3(c.half_width, c.half_width, c.half_width)), plane(contactThreshold(step)) {
     configuration.setPlaneConvexMultipointIterations();
     box.setMargin(kMargin);  // btBoxShape keeps the half extents: margin inside, corners rounded
     world.setGravity(btVector3(0, 0, -9.81));
@@ -56,7 +59,7 @@ struct BulletLanding::World {
 };
 
 BulletLanding::BulletLanding(double step, TossedCube cube)
-    : world_(std::make_unique<World>(cube)), step_(checkedStep(step)) {}
+    : world_(std::make_unique<World>(cube, checkedStep(step))), step_(step) {}
 
 BulletLanding::~BulletLanding() = default;
 
