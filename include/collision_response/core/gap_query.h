@@ -1,0 +1,53 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "collision_response/core/body_state.h"
+
+namespace collision_response::core {
+
+/// One candidate contact between two bodies' shapes at given poses: the closest features of a
+/// pair, with their signed distance. What an episode (episode.h) asks of the geometry.
+struct GapContact {
+  int body_a = -1;  ///< index into the bodies given to GapQuery::gaps()
+  int body_b = -1;  ///< index into the bodies; body_a < body_b is not required
+  /// The contact point, world [m]: on the surface of body_a's shape, or midway between the two
+  /// closest points (either is within the query's tolerance of the other when touching).
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, world, from body_a towards body_b
+  /// Signed distance along the normal [m]: > 0 apart, 0 touching, < 0 penetrating.
+  double gap = 0.0;
+  // The pair's coefficients (their materials, or the query's defaults).
+  double restitution = 0.0;       ///< e in [0, 1]
+  double static_friction = 0.0;   ///< mu_s >= 0
+  double dynamic_friction = 0.0;  ///< 0 <= mu_d <= mu_s
+};
+
+/// The geometry an episode follows: the bodies' shapes, queried at the poses of the moment.
+/// Implemented in the detection library from primitives, meshes and planes
+/// (detection/shape_gaps.h); tests may implement it from closed forms. Thread safety: gaps() is
+/// const and may be called from several threads at once on one query.
+class GapQuery {
+ public:
+  virtual ~GapQuery() = default;
+
+  /// Appends to `out` (cleared first) the candidate contacts of every pair of bodies whose gap is
+  /// at most `range` [m], at the poses of `bodies` (position, orientation; the other fields are not
+  /// read). A pair touching along an edge or a face gives the points that span the contact (the
+  /// corners of the touching face, the ends of the edge), each with its own gap, so that a body
+  /// tilting onto a face sees each corner's gap. Pairs farther apart than `range` may be left out;
+  /// a pair with no geometry never appears.
+  virtual void gaps(const std::vector<BodyState>& bodies, double range,
+                    std::vector<GapContact>& out) const = 0;
+
+  /// A bound on how far any point of body i's geometry lies from its centre of mass [m] (infinite
+  /// for unbounded shapes such as planes; those bodies are immovable). Conservative advancement
+  /// bounds the rate at which a gap can close from it: |v| + |w| * radius(i).
+  virtual double radius(int body) const = 0;
+
+  /// The number of bodies the geometry describes (gaps() needs that many states).
+  virtual int bodyCount() const = 0;
+};
+
+}  // namespace collision_response::core
