@@ -249,9 +249,12 @@ TEST(ShapeGaps, CylinderAndConeOverAPlaneGiveTheirLowestPoints) {
   const double h = 0.4, r = 0.1;
   const auto cylinder = primitive(Type::kCylinder, {h, r});
   const auto cone = primitive(Type::kCone, {h, r});
+  // Every pose below is first spun about the shape's own axis by 0.1 rad, which changes no
+  // lowest point but keeps the rim's sample points off it.
+  const Quaterniond spin(Eigen::AngleAxisd(0.1, Vector3d::UnitZ()));
   // Lying on its side (axis along x) at height 0.3: the contact line's two ends, each at 0.2.
   {
-    const Quaterniond side(Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitY()));
+    const Quaterniond side = Quaterniond(Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitY())) * spin;
     const std::vector<core::BodyState> bodies{body(0.0, Vector3d::Zero()),
                                               body(1.0, Vector3d(0, 0, 0.3), side)};
     const detection::ShapeGaps query(bodies, inputOf({{floorPlane()}, {cylinder}}),
@@ -267,7 +270,7 @@ TEST(ShapeGaps, CylinderAndConeOverAPlaneGiveTheirLowestPoints) {
   // Tilted by b about x: the lowest point of the lower rim at z - (h/2) cos b - r sin b.
   {
     const double b = 0.35, z = 0.5;
-    const Quaterniond tilt(Eigen::AngleAxisd(b, Vector3d::UnitX()));
+    const Quaterniond tilt = Quaterniond(Eigen::AngleAxisd(b, Vector3d::UnitX())) * spin;
     const std::vector<core::BodyState> bodies{body(0.0, Vector3d::Zero()),
                                               body(1.0, Vector3d(0, 0, z), tilt)};
     const detection::ShapeGaps cyl_query(bodies, inputOf({{floorPlane()}, {cylinder}}),
@@ -281,7 +284,7 @@ TEST(ShapeGaps, CylinderAndConeOverAPlaneGiveTheirLowestPoints) {
                 1e-12);
     // Upside down (apex first): the apex at z - (h/2) cos b.
     std::vector<core::BodyState> flipped = bodies;
-    flipped[1].orientation = Quaterniond(Eigen::AngleAxisd(M_PI - b, Vector3d::UnitX()));
+    flipped[1].orientation = Quaterniond(Eigen::AngleAxisd(M_PI - b, Vector3d::UnitX())) * spin;
     const auto apex = gapsOf(cone_query, flipped, z - h / 2 * std::cos(b) + 1e-9);
     ASSERT_EQ(apex.size(), 1u);
     EXPECT_NEAR(apex[0].gap, z - h / 2 * std::cos(b), 1e-12);
