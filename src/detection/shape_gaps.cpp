@@ -251,7 +251,7 @@ ShapeGaps::ShapeGaps(const std::vector<core::BodyState>& bodies, const Detection
   core::validateCoefficients(input.defaults.restitution, input.defaults.static_friction,
                              input.defaults.dynamic_friction, "detection");
   if (input.options.max_contacts_per_pair < 1) {
-    throw core::InvalidInput("detection.max_contacts_per_pair", "must be >= 1");
+    throw core::InvalidInput("options.max_contacts_per_pair", "must be >= 1");
   }
   if (!input.materials.empty() && input.materials.size() != n) {
     throw core::InvalidInput("bodies", "materials given for " +

@@ -399,6 +399,31 @@ TEST(ShapeGaps, EachPairTakesItsMaterials) {
   expectPair(1, 2, 0.5, 0.4, 0.3);  // rubber has no entry of its own: the defaults (via FCL)
 }
 
+TEST(ShapeGaps, ManyMaterialsAreLookedUpPerPair) {
+  // 70 spheres of 70 materials (more than are tabulated at construction), each material with its
+  // own entry e_k = k / 100: two neighbours k, k + 1 touching get the geometric mean.
+  detection::MaterialTable table;
+  std::vector<core::BodyState> bodies;
+  detection::DetectionInput input;
+  input.defaults = {0.5, 0.4, 0.3};
+  for (int k = 0; k < 70; ++k) {
+    const std::string name = "m" + std::to_string(k);
+    table.set(name, name, {k / 100.0, k / 50.0, k / 100.0});
+    bodies.push_back(body(1.0, Vector3d(0.25 * k, 0.0, 0.0)));
+    input.geometry.push_back({{primitive(Type::kSphere, {0.12})}});
+    input.materials.push_back(name);
+  }
+  const detection::ShapeGaps query(bodies, input, table);
+  const auto got = gapsOf(query, bodies, 0.011);  // neighbours are 1 cm apart
+  ASSERT_EQ(got.size(), 69u);
+  for (const auto& g : got) {
+    ASSERT_EQ(g.body_b, g.body_a + 1);
+    const double a = g.body_a, b = g.body_b;
+    EXPECT_NEAR(g.restitution, std::sqrt(a * b) / 100.0, 1e-15);
+    EXPECT_NEAR(g.static_friction, std::sqrt(a * b) / 50.0, 1e-15);
+  }
+}
+
 TEST(ShapeGaps, RadiusBoundsEveryPointAboutTheCentreOfMass) {
   // One body of five shapes, each at its own pose, with its centre of mass off the origin.
   Eigen::Isometry3d box_pose = Eigen::Isometry3d::Identity();
