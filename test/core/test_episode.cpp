@@ -154,7 +154,7 @@ TEST(Episode, BallBouncesAtTheGeometricSeriesAndComesToRest) {
       t += 2 * std::pow(e, k + 1) * v1 / kG;
     }
     // Time of rest: t1 + 2 e v1 / (g (1 - e)), the whole series.
-    EXPECT_EQ(result.end, core::EpisodeEnd::kSustainedContact);
+    ASSERT_EQ(result.end, core::EpisodeEnd::kSustainedContact);
     EXPECT_NEAR(result.end_time, std::sqrt(2 * h / kG) + 2 * e * v1 / (kG * (1 - e)), 1e-9);
     EXPECT_GT(result.accumulated_impacts, 0);
     EXPECT_LT(result.bodies[1].linear_velocity.norm(), 1e-9);
@@ -355,7 +355,7 @@ TEST(Episode, RodDroppedFlatHitsWithBothEndsAtOnce) {
     EXPECT_NEAR(after.linear_velocity.z(), e * v1, 1e-3 * v1);
     EXPECT_LT(std::abs(after.angular_velocity.y()), 1e-3 * v1);
     // Resting on both ends at the end, each carrying half the weight.
-    EXPECT_EQ(result.end, core::EpisodeEnd::kSustainedContact);
+    ASSERT_EQ(result.end, core::EpisodeEnd::kSustainedContact);
     ASSERT_EQ(result.resting.size(), 2u);
     EXPECT_NEAR(result.resting[0].normal_force + result.resting[1].normal_force, kRodMass * kG,
                 1e-9);
@@ -528,6 +528,7 @@ TEST(Episode, CubeRestingOnTheFloorGivesTheRestingAnalysis) {
     EXPECT_TRUE(r.impacts.empty());
     EXPECT_EQ(r.resting.size(), 4u);
     EXPECT_LT((totalForce(r) - Vector3d(0, 0, kCubeMass * kG)).norm(), 1e-9);
+    ASSERT_EQ(r.linear_accelerations.size(), 2u);
     EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSticking);
     EXPECT_LT(r.linear_accelerations[1].norm(), 1e-9);
     EXPECT_LT(r.angular_accelerations[1].norm(), 1e-9);
@@ -536,7 +537,7 @@ TEST(Episode, CubeRestingOnTheFloorGivesTheRestingAnalysis) {
     core::BodyState c = cubeOnFloor();
     c.linear_velocity = {0.3, 0.0, 0.0};
     const core::EpisodeResult r = core::computeEpisode({floorBody(), c}, geometry, options);
-    EXPECT_EQ(r.end, core::EpisodeEnd::kSustainedContact);
+    ASSERT_EQ(r.end, core::EpisodeEnd::kSustainedContact);
     EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSliding);
     EXPECT_LT((totalForce(r) - Vector3d(-mu_d * kCubeMass * kG, 0, kCubeMass * kG)).norm(), 1e-9);
     EXPECT_NEAR(r.linear_accelerations[1].x(), -mu_d * kG, 1e-9);
@@ -545,6 +546,7 @@ TEST(Episode, CubeRestingOnTheFloorGivesTheRestingAnalysis) {
     core::BodyState c = cubeOnFloor();
     c.force = {0.5 * kCubeMass * kG, 0.0, 0.0};
     const core::EpisodeResult r = core::computeEpisode({floorBody(), c}, geometry, options);
+    ASSERT_EQ(r.end, core::EpisodeEnd::kSustainedContact);
     EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSticking);
     EXPECT_LT(r.linear_accelerations[1].norm(), 1e-9);
     EXPECT_NEAR(totalForce(r).x(), -0.5 * kCubeMass * kG, 1e-9);
@@ -553,6 +555,7 @@ TEST(Episode, CubeRestingOnTheFloorGivesTheRestingAnalysis) {
     core::BodyState c = cubeOnFloor();
     c.force = {0.7 * kCubeMass * kG, 0.0, 0.0};
     const core::EpisodeResult r = core::computeEpisode({floorBody(), c}, geometry, options);
+    ASSERT_EQ(r.end, core::EpisodeEnd::kSustainedContact);
     EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSliding);
     EXPECT_NEAR(r.linear_accelerations[1].x(), (0.7 - mu_d) * kG, 1e-6);
   }
