@@ -361,6 +361,15 @@ TEST(Episode, RodDroppedFlatHitsWithBothEndsAtOnce) {
                 1e-9);
     EXPECT_NEAR(result.resting[0].normal_force, 0.5 * kRodMass * kG, 1e-3);
   }
+  // The tilted rod's ends differ by 3e-5 m: a tolerance below that sees two impacts, the lower
+  // end's first.
+  core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kNewton, 1e-6);
+  const core::EpisodeResult result = core::computeEpisode(
+      {floorBody(), rod(3e-5, 0.2, Vector3d(0, 0, -1), 0.0)}, geometry, options);
+  ASSERT_GE(result.impacts.size(), 2u);
+  ASSERT_EQ(result.impacts[0].contacts.size(), 1u);
+  EXPECT_GT(result.impacts[0].contacts[0].point.x(), 0.0);
+  EXPECT_LT(result.impacts[1].time - result.impacts[0].time, 1e-4);
 }
 
 // --- The cube ---------------------------------------------------------------------------------
