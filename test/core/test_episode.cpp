@@ -38,12 +38,15 @@ struct Coefficients {
 // material points (body frame) that are balls of radius `rho`.
 class PointsAndPlanes : public core::GapQuery {
  public:
+  // point_on_plane: whether the contacts say so (GapContact::point_on_plane, true of this
+  // geometry), which lets the episode bound each point's gap instead of the pair's.
   PointsAndPlanes(std::vector<Vector3d> plane_normals, std::vector<Vector3d> points, double rho,
-                  Coefficients coefficients)
+                  Coefficients coefficients, bool point_on_plane = true)
       : normals_(std::move(plane_normals)),
         points_(std::move(points)),
         rho_(rho),
-        coefficients_(coefficients) {}
+        coefficients_(coefficients),
+        point_on_plane_(point_on_plane) {}
 
   void gaps(const std::vector<core::BodyState>& bodies, double range,
             std::vector<core::GapContact>& out) const override {
@@ -65,6 +68,7 @@ class PointsAndPlanes : public core::GapQuery {
           c.restitution = coefficients_.e;
           c.static_friction = coefficients_.mu_s;
           c.dynamic_friction = coefficients_.mu_d;
+          c.point_on_plane = point_on_plane_;
           out.push_back(c);
         }
       }
@@ -83,6 +87,7 @@ class PointsAndPlanes : public core::GapQuery {
   std::vector<Vector3d> points_;
   double rho_;
   Coefficients coefficients_;
+  bool point_on_plane_;
 };
 
 core::BodyState floorBody() {
@@ -133,35 +138,39 @@ TEST(Episode, BallBouncesAtTheGeometricSeriesAndComesToRest) {
   const double h = 1.0, e = 0.5, m = 0.5, R = 0.05;
   for (const core::ImpactLaw law :
        {core::ImpactLaw::kNewton, core::ImpactLaw::kPoisson, core::ImpactLaw::kStronge}) {
-    SCOPED_TRACE(core::toString(law));
-    const PointsAndPlanes geometry({Vector3d::UnitZ()}, {Vector3d::Zero()}, R, {e, 0.0, 0.0});
-    const core::EpisodeOptions options = episodeOptions(law);
-    const core::EpisodeResult result =
-        core::computeEpisode({floorBody(), ball(m, R, h)}, geometry, options);
+    for (const bool points : {true, false}) {
+      SCOPED_TRACE(core::toString(law));
+      SCOPED_TRACE(points ? "bounded per point" : "bounded per pair");
+      const PointsAndPlanes geometry({Vector3d::UnitZ()}, {Vector3d::Zero()}, R, {e, 0.0, 0.0},
+                                     points);
+      const core::EpisodeOptions options = episodeOptions(law);
+      const core::EpisodeResult result =
+          core::computeEpisode({floorBody(), ball(m, R, h)}, geometry, options);
 
-    // Closed form: first impact at sqrt(2 h / g) with speed v1, then flights 2 e^k v1 / g.
-    const double v1 = std::sqrt(2 * kG * h);
-    const double threshold = std::sqrt(2 * kG * options.contact_tolerance);
-    int listed = 1;  // the impacts up to the first whose rebound e^k v1 is below the threshold
-    while (std::pow(e, listed) * v1 > threshold) ++listed;
-    ASSERT_EQ(static_cast<int>(result.impacts.size()), listed);
-    double t = std::sqrt(2 * h / kG);
-    for (int k = 0; k < listed; ++k) {
-      EXPECT_NEAR(result.impacts[k].time, t, 1e-9) << "impact " << k;
-      EXPECT_NEAR(result.impacts[k].bodies_after[1].linear_velocity.z(), std::pow(e, k + 1) * v1,
-                  1e-9)
-          << "impact " << k;
-      t += 2 * std::pow(e, k + 1) * v1 / kG;
+      // Closed form: first impact at sqrt(2 h / g) with speed v1, then flights 2 e^k v1 / g.
+      const double v1 = std::sqrt(2 * kG * h);
+      const double threshold = std::sqrt(2 * kG * options.contact_tolerance);
+      int listed = 1;  // the impacts up to the first whose rebound e^k v1 is below the threshold
+      while (std::pow(e, listed) * v1 > threshold) ++listed;
+      ASSERT_EQ(static_cast<int>(result.impacts.size()), listed);
+      double t = std::sqrt(2 * h / kG);
+      for (int k = 0; k < listed; ++k) {
+        EXPECT_NEAR(result.impacts[k].time, t, 1e-9) << "impact " << k;
+        EXPECT_NEAR(result.impacts[k].bodies_after[1].linear_velocity.z(), std::pow(e, k + 1) * v1,
+                    1e-9)
+            << "impact " << k;
+        t += 2 * std::pow(e, k + 1) * v1 / kG;
+      }
+      // Time of rest: t1 + 2 e v1 / (g (1 - e)), the whole series.
+      ASSERT_EQ(result.end, core::EpisodeEnd::kSustainedContact);
+      EXPECT_NEAR(result.end_time, std::sqrt(2 * h / kG) + 2 * e * v1 / (kG * (1 - e)), 1e-9);
+      EXPECT_GT(result.accumulated_impacts, 0);
+      EXPECT_LT(result.bodies[1].linear_velocity.norm(), 1e-9);
+      ASSERT_EQ(result.resting.size(), 1u);
+      EXPECT_NEAR(result.resting[0].normal_force, m * kG, 1e-9);
+      EXPECT_LT(result.linear_accelerations[1].norm(), 1e-9);
+      EXPECT_EQ(result.outcomes[1], core::BodyOutcome::kSticking);
     }
-    // Time of rest: t1 + 2 e v1 / (g (1 - e)), the whole series.
-    ASSERT_EQ(result.end, core::EpisodeEnd::kSustainedContact);
-    EXPECT_NEAR(result.end_time, std::sqrt(2 * h / kG) + 2 * e * v1 / (kG * (1 - e)), 1e-9);
-    EXPECT_GT(result.accumulated_impacts, 0);
-    EXPECT_LT(result.bodies[1].linear_velocity.norm(), 1e-9);
-    ASSERT_EQ(result.resting.size(), 1u);
-    EXPECT_NEAR(result.resting[0].normal_force, m * kG, 1e-9);
-    EXPECT_LT(result.linear_accelerations[1].norm(), 1e-9);
-    EXPECT_EQ(result.outcomes[1], core::BodyOutcome::kSticking);
   }
 }
 
@@ -418,11 +427,13 @@ TEST(Episode, CubeCornerLandingAgreesWithAFarSmallerTolerance) {
 // The episode's path, flight by flight from each impact's state, sampled finely: no corner ever
 // deeper than the tolerance below the floor.
 TEST(Episode, RandomCubeLandingsMissNoContact) {
-  const PointsAndPlanes geometry({Vector3d::UnitZ()}, cubeCorners(kHalf), 0.0, {0.4, 0.5, 0.3});
   std::mt19937 random(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int trial = 0; trial < 40; ++trial) {
+  for (int trial = 0; trial < 80; ++trial) {
     SCOPED_TRACE(trial);
+    // Each half with the per-point bound (GapContact::point_on_plane) and with the per-pair one.
+    const PointsAndPlanes geometry({Vector3d::UnitZ()}, cubeCorners(kHalf), 0.0, {0.4, 0.5, 0.3},
+                                   trial < 40);
     core::BodyState c = cube(kCubeMass, kHalf);
     c.orientation = Eigen::Quaterniond(u(random), u(random), u(random), u(random)).normalized();
     c.position = {0.0, 0.0, 0.02 + 0.1 * (u(random) + 1.0) - lowestCorner(c)};
