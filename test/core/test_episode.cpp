@@ -669,6 +669,29 @@ TEST(Episode, WedgedBallEndsAtTheCapOrTheBudget) {
   }
 }
 
+// Ends without an impact: a ball that cannot reach the floor before the horizon (it falls
+// g horizon^2 / 2 = 4.9 cm of its 1 m), and one touching the floor in zero gravity (nothing
+// loads the contact; it is still touching at the horizon).
+TEST(Episode, EndsAtSeparationOrHorizonWithoutAnImpact) {
+  const double R = 0.05;
+  const PointsAndPlanes geometry({Vector3d::UnitZ()}, {Vector3d::Zero()}, R, {0.5, 0.3, 0.3});
+  core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kStronge);
+  options.horizon = 0.1;
+  core::EpisodeResult r = core::computeEpisode({floorBody(), ball(1.0, R, 1.0)}, geometry, options);
+  EXPECT_EQ(r.end, core::EpisodeEnd::kSeparated);
+  EXPECT_TRUE(r.impacts.empty());
+  EXPECT_LT(r.end_time, options.horizon);
+  EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSeparated);
+  // The state at end_time is the free flight's.
+  EXPECT_NEAR(r.bodies[1].position.z(), R + 1.0 - 0.5 * kG * r.end_time * r.end_time, 1e-12);
+
+  options.gravity.setZero();
+  r = core::computeEpisode({floorBody(), ball(1.0, R, 0.0)}, geometry, options);
+  EXPECT_EQ(r.end, core::EpisodeEnd::kHorizon);
+  EXPECT_EQ(r.end_time, options.horizon);
+  EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kCapped);
+}
+
 TEST(Episode, ToStringNamesEveryEnumerator) {
   EXPECT_STREQ(core::toString(core::EpisodeEnd::kSeparated), "separated");
   EXPECT_STREQ(core::toString(core::EpisodeEnd::kSustainedContact), "sustained_contact");
