@@ -511,7 +511,6 @@ void Episode::finish(EpisodeEnd end) {
 
 EpisodeResult Episode::run() {
   bool resting_checked = false;  // a resting analysis of the touching contacts found no load
-  std::vector<int> approaching;
   for (int iteration = 0;; ++iteration) {
     // The clock every 8 steps (a step costs far less than a clock read; impacts read it too).
     if (iteration % 8 == 0 && outOfTime()) {

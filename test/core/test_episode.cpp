@@ -164,7 +164,11 @@ TEST(Episode, BallBouncesAtTheGeometricSeriesAndComesToRest) {
       // Time of rest: t1 + 2 e v1 / (g (1 - e)), the whole series.
       ASSERT_EQ(result.end, core::EpisodeEnd::kSustainedContact);
       EXPECT_NEAR(result.end_time, std::sqrt(2 * h / kG) + 2 * e * v1 / (kG * (1 - e)), 1e-9);
-      EXPECT_GT(result.accumulated_impacts, 0);
+      // The bounces summed: those whose rebound e^k v1 exceeds the solver's resting velocity.
+      EXPECT_EQ(result.accumulated_impacts,
+                static_cast<int>(std::ceil(
+                    std::log(options.solver.resting_velocity / (std::pow(e, listed) * v1)) /
+                    std::log(e))));
       EXPECT_LT(result.bodies[1].linear_velocity.norm(), 1e-9);
       ASSERT_EQ(result.resting.size(), 1u);
       EXPECT_NEAR(result.resting[0].normal_force, m * kG, 1e-9);
