@@ -664,7 +664,11 @@ TEST(Episode, WedgedBallEndsAtTheCapOrTheBudget) {
   options.gravity.setZero();
   options.horizon = 1e6;
   {
-    const core::EpisodeResult r = core::computeEpisode({left, right, b}, geometry, options);
+    // Newton's law here: Stronge's integration of the jammed contacts is slow (its own budget),
+    // which the second case below exercises.
+    core::EpisodeOptions newton = options;
+    newton.solver.law = core::ImpactLaw::kNewton;
+    const core::EpisodeResult r = core::computeEpisode({left, right, b}, geometry, newton);
     EXPECT_EQ(r.end, core::EpisodeEnd::kImpactCap);
     EXPECT_EQ(static_cast<int>(r.impacts.size()), options.max_impacts);
     EXPECT_EQ(r.outcomes[2], core::BodyOutcome::kCapped);
