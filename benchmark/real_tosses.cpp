@@ -1,0 +1,304 @@
+// The real-tosses benchmark (docs/benchmarks.md, "Real tosses"): 570 tracked tosses of a cube
+// onto a table (benchmark/data/cube_tosses), each toss's first landing extracted (toss_data.h),
+// every landing model (landing_model.h: baselines, ours, the peers) fitted on the even-numbered
+// tosses and scored on the odd-numbered ones.
+//
+//   real_tosses [--data tosses.csv.gz] [--markdown out.md] [--models SUBSTRING] [--starts N]
+//               [--max-evaluations N] [--clearance M] [--min-post-frames N]
+//               [--max-landing-duration S] [--list] [--check]
+//
+// --list prints each toss's extraction (kept or why not); --check runs only the extraction's
+// sanity checks (exit status 1 if one fails); --models keeps the models whose name contains the
+// substring (repeatable).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "landing_baselines.h"
+#include "landing_fit.h"
+#include "landing_ours.h"
+#include "toss_data.h"
+// HOOK (peers): the peer engines' landing models (branch `peers`: landing_bullet.h,
+// landing_ode.h, landing_mujoco.h), compiled in when CMake finds their sources and libraries.
+#ifdef HAVE_LANDING_BULLET
+#include "landing_bullet.h"
+#endif
+#ifdef HAVE_LANDING_ODE
+#include "landing_ode.h"
+#endif
+#ifdef HAVE_LANDING_MUJOCO
+#include "landing_mujoco.h"
+#endif
+
+#ifndef TOSS_DATA
+#define TOSS_DATA "benchmark/data/cube_tosses/tosses.csv.gz"
+#endif
+
+using namespace collision_response;
+using namespace collision_response::bench;
+
+namespace {
+
+struct Arguments {
+  std::string data = TOSS_DATA;
+  std::string markdown;
+  std::vector<std::string> models;
+  FitOptions fit;
+  ExtractionOptions extraction;
+  bool list = false;
+  bool check = false;
+};
+
+Arguments parse(int argc, char** argv) {
+  Arguments a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::runtime_error(arg + " needs a value");
+      return argv[++i];
+    };
+    if (arg == "--data")
+      a.data = value();
+    else if (arg == "--markdown")
+      a.markdown = value();
+    else if (arg == "--models")
+      a.models.push_back(value());
+    else if (arg == "--starts")
+      a.fit.starts = std::stoi(value());
+    else if (arg == "--max-evaluations")
+      a.fit.max_evaluations = std::stoi(value());
+    else if (arg == "--clearance")
+      a.extraction.clearance = std::stod(value());
+    else if (arg == "--min-post-frames")
+      a.extraction.min_post_frames = std::stoi(value());
+    else if (arg == "--max-landing-duration")
+      a.extraction.max_landing_duration = std::stod(value());
+    else if (arg == "--list")
+      a.list = true;
+    else if (arg == "--check")
+      a.check = true;
+    else
+      throw std::runtime_error("unknown argument " + arg);
+  }
+  return a;
+}
+
+/// Every model of the comparison, in table order.
+std::vector<std::unique_ptr<LandingModel>> allModels(const TossedCube& cube) {
+  std::vector<std::unique_ptr<LandingModel>> models;
+  models.push_back(makeNoChangeLanding(cube));
+  models.push_back(makeBounceRuleLanding(cube));
+  models.push_back(makeScalingLanding(cube));
+  for (const core::ImpactLaw law :
+       {core::ImpactLaw::kNewton, core::ImpactLaw::kPoisson, core::ImpactLaw::kStronge}) {
+    for (const bool split : {false, true}) {
+      models.push_back(makeOneImpactLanding(cube, law, split));
+      models.push_back(makeRepeatedImpactsLanding(cube, law, split));
+      // HOOK (episode): nullptr until the core library has computeEpisode() (HAVE_CORE_EPISODE).
+      if (auto episode = makeEpisodeLanding(cube, law, split)) models.push_back(std::move(episode));
+    }
+  }
+  // HOOK (peers): each peer's factory, e.g. models.push_back(makeBulletLanding(cube));
+#ifdef HAVE_LANDING_BULLET
+  for (auto& model : makeBulletLandings(cube)) models.push_back(std::move(model));
+#endif
+#ifdef HAVE_LANDING_ODE
+  for (auto& model : makeOdeLandings(cube)) models.push_back(std::move(model));
+#endif
+#ifdef HAVE_LANDING_MUJOCO
+  for (auto& model : makeMujocoLandings(cube)) models.push_back(std::move(model));
+#endif
+  return models;
+}
+
+struct ExtractionSummary {
+  int tosses = 0;
+  std::map<std::string, int> dropped;  ///< by reason
+  std::vector<Landing> landings;
+};
+
+ExtractionSummary extractAll(const std::vector<TossFrames>& tosses, const TossedCube& cube,
+                             const ExtractionOptions& options, bool list) {
+  ExtractionSummary summary;
+  summary.tosses = static_cast<int>(tosses.size());
+  for (const TossFrames& toss : tosses) {
+    const Extraction x = extractLanding(toss, cube, options);
+    if (list) {
+      const Landing& l = x.landing;
+      std::printf("toss %3d  %-48s table %+6.2f mm", toss.index, x.ok ? "kept" : x.reason.c_str(),
+                  1e3 * l.table);
+      if (x.ok)
+        std::printf(
+            "  pre %2d fr rms %.2f mm %.2f deg  post %2d fr rms %.2f mm %.2f deg  gap %.1f ms"
+            "  |v| %.2f -> %.2f  |w| %.1f -> %.1f  E %.3f -> %.3f J",
+            l.pre.last - l.pre.first + 1, 1e3 * l.pre.position_rms, l.pre.rotation_rms * 180 / M_PI,
+            l.post.last - l.post.first + 1, 1e3 * l.post.position_rms,
+            l.post.rotation_rms * 180 / M_PI, 1e3 * (l.t_after - l.t_before),
+            l.before.linear_velocity.norm(), l.after.linear_velocity.norm(),
+            l.before.angular_velocity.norm(), l.after.angular_velocity.norm(),
+            cubeEnergy(l.before, cube, options.gravity_z),
+            cubeEnergy(l.after, cube, options.gravity_z));
+      std::printf("\n");
+    }
+    if (x.ok)
+      summary.landings.push_back(x.landing);
+    else
+      ++summary.dropped[x.reason];
+  }
+  return summary;
+}
+
+/// The extraction's sanity checks on the real data (docs/benchmarks.md, "Real tosses"): returns
+/// the failures, one line each.
+std::vector<std::string> checkExtraction(const ExtractionSummary& s, const TossedCube& cube,
+                                         const ExtractionOptions& options) {
+  std::vector<std::string> failures;
+  const int kept = static_cast<int>(s.landings.size());
+  if (kept < 250 || kept > 400)
+    failures.push_back("kept " + std::to_string(kept) + " landings, expected 250..400");
+  for (const Landing& l : s.landings) {
+    const std::string toss = "toss " + std::to_string(l.toss) + ": ";
+    if (l.pre.position_rms > 0.002)
+      failures.push_back(toss + "pre-impact centre fit RMS " + std::to_string(l.pre.position_rms));
+    if (cubeEnergy(l.after, cube, options.gravity_z) >
+        cubeEnergy(l.before, cube, options.gravity_z))
+      failures.push_back(toss + "energy after the landing exceeds the energy before");
+    if (std::abs(l.table) > 0.01) failures.push_back(toss + "table 1 cm off z = 0");
+  }
+  return failures;
+}
+
+std::string fixed(double x, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", digits, x);
+  return buffer;
+}
+
+struct Row {
+  std::string model;
+  std::vector<LandingParameter> parameters;
+  FitResult fit;
+  LandingScore score;
+  double fit_seconds = 0.0;
+};
+
+std::string parameterText(const Row& row) {
+  std::string text;
+  for (size_t i = 0; i < row.parameters.size(); ++i)
+    text += (i ? ", " : "") + row.parameters[i].name + " " + fixed(row.fit.values[i], 3);
+  return text.empty() ? "-" : text;
+}
+
+void printTable(const std::vector<Row>& rows) {
+  std::printf("\n%-36s %-40s %8s | %8s %8s | %8s %8s | %9s\n", "model", "fitted (training half)",
+              "train", "RMS v", "med v", "RMS w", "med w", "us/land");
+  for (const Row& r : rows)
+    std::printf(
+        "%-36s %-40s %8.3f | %8.3f %8.3f | %8.3f %8.3f | %9.1f%s\n", r.model.c_str(),
+        parameterText(r).c_str(), r.fit.objective, r.score.rms_linear, r.score.median_linear,
+        r.score.rms_angular, r.score.median_angular, r.score.median_time_us,
+        r.score.failures ? (" (" + std::to_string(r.score.failures) + " failed)").c_str() : "");
+}
+
+void writeMarkdown(const std::string& path, const std::vector<Row>& rows,
+                   const ExtractionSummary& summary, int training, int held_out,
+                   const std::string& command) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write");
+  out << "## Real tosses\n\n"
+      << "The first landing of each of " << summary.tosses
+      << " tracked tosses of a 0.37 kg cube onto a table (`benchmark/data/cube_tosses`; how the "
+         "landings are extracted, the split, the metric and the fit: docs/benchmarks.md, \"Real "
+         "tosses\"). "
+      << summary.landings.size() << " landings kept (";
+  bool first = true;
+  for (const auto& [reason, count] : summary.dropped) {
+    out << (first ? "" : "; ") << count << " dropped: " << reason;
+    first = false;
+  }
+  out << "); every model's parameters fitted on the " << training
+      << " even-numbered tosses, scored on the " << held_out
+      << " odd-numbered ones. Errors relative to the pre-impact speed: "
+         "|v_predicted - v_measured| / |v_before| (v) and h |w_predicted - w_measured| / "
+         "|v_before| "
+         "(w; h the half width) at the start of the measured post-landing flight. Time: median "
+         "wall time of one landing "
+         "(simulate(), from the pre-impact flight to the post-landing flight) on a shared "
+         "machine.\n\n"
+      << "Command: `" << command << "`\n\n"
+      << "| model | fitted parameters | RMS v | median v | RMS w | median w | us per landing |\n"
+      << "|---|---|---:|---:|---:|---:|---:|\n";
+  for (const Row& r : rows)
+    out << "| " << r.model << " | " << parameterText(r) << " | " << fixed(r.score.rms_linear, 3)
+        << " | " << fixed(r.score.median_linear, 3) << " | " << fixed(r.score.rms_angular, 3)
+        << " | " << fixed(r.score.median_angular, 3) << " | " << fixed(r.score.median_time_us, 1)
+        << (r.score.failures ? " (" + std::to_string(r.score.failures) + " failed)" : "") << " |\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  const Arguments args = parse(argc, argv);
+  std::string command = "real_tosses";
+  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
+  const TossedCube cube;
+  const ExtractionOptions options = args.extraction;
+  const std::vector<TossFrames> tosses = readTosses(args.data);
+  const ExtractionSummary summary = extractAll(tosses, cube, options, args.list);
+  std::printf("real_tosses: %d tosses, %zu landings kept", summary.tosses, summary.landings.size());
+  for (const auto& [reason, count] : summary.dropped)
+    std::printf("; %d dropped: %s", count, reason.c_str());
+  std::printf("\n");
+  if (args.check) {
+    const auto failures = checkExtraction(summary, cube, options);
+    for (const auto& f : failures) std::printf("check failed: %s\n", f.c_str());
+    std::printf("real_tosses --check: %s\n", failures.empty() ? "ok" : "FAILED");
+    return failures.empty() ? 0 : 1;
+  }
+  if (args.list) return 0;
+
+  // The split: even toss index trains, odd is held out (fixed, the same for every model).
+  std::vector<Landing> training, held_out;
+  for (const Landing& l : summary.landings) (l.toss % 2 == 0 ? training : held_out).push_back(l);
+  std::printf("real_tosses: %zu training landings (even tosses), %zu held out (odd)\n",
+              training.size(), held_out.size());
+
+  std::vector<Row> rows;
+  for (auto& model : allModels(cube)) {
+    if (!args.models.empty()) {
+      bool wanted = false;
+      for (const auto& m : args.models) wanted |= model->name().find(m) != std::string::npos;
+      if (!wanted) continue;
+    }
+    Row row;
+    row.model = model->name();
+    row.parameters = model->parameters();
+    const auto start = std::chrono::steady_clock::now();
+    row.fit = fitLandingModel(*model, training, cube, args.fit);
+    row.fit_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    row.score = scoreLandingModel(*model, row.fit.values, held_out, cube);
+    std::printf("  %-36s fitted in %6.1f s (%d evaluations): %s\n", row.model.c_str(),
+                row.fit_seconds, row.fit.evaluations, parameterText(row).c_str());
+    std::fflush(stdout);
+    rows.push_back(row);
+  }
+  printTable(rows);
+  if (!args.markdown.empty()) {
+    writeMarkdown(args.markdown, rows, summary, static_cast<int>(training.size()),
+                  static_cast<int>(held_out.size()), command);
+    std::printf("real_tosses: wrote %s\n", args.markdown.c_str());
+  }
+  return 0;
+} catch (const std::exception& e) {
+  std::fprintf(stderr, "real_tosses: %s\n", e.what());
+  return 2;
+}
