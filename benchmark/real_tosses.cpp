@@ -26,16 +26,10 @@
 #include "landing_fit.h"
 #include "landing_ours.h"
 #include "toss_data.h"
-// HOOK (peers): the peer engines' landing models (branch `peers`: landing_bullet.h,
-// landing_ode.h, landing_mujoco.h), compiled in when CMake finds their sources and libraries.
-#ifdef HAVE_LANDING_BULLET
-#include "landing_bullet.h"
-#endif
-#ifdef HAVE_LANDING_ODE
-#include "landing_ode.h"
-#endif
-#ifdef HAVE_LANDING_MUJOCO
-#include "landing_mujoco.h"
+// The peer engines' landing models (Bullet, ODE, MuJoCo: benchmark/landing_peers.h), when the
+// build has the landing_peers library.
+#ifdef HAVE_LANDING_PEERS
+#include "landing_peers.h"
 #endif
 
 #ifndef TOSS_DATA
@@ -106,15 +100,8 @@ std::vector<std::unique_ptr<LandingModel>> allModels(const TossedCube& cube) {
       if (auto episode = makeEpisodeLanding(cube, law, split)) models.push_back(std::move(episode));
     }
   }
-  // HOOK (peers): each peer's factory, e.g. models.push_back(makeBulletLanding(cube));
-#ifdef HAVE_LANDING_BULLET
-  for (auto& model : makeBulletLandings(cube)) models.push_back(std::move(model));
-#endif
-#ifdef HAVE_LANDING_ODE
-  for (auto& model : makeOdeLandings(cube)) models.push_back(std::move(model));
-#endif
-#ifdef HAVE_LANDING_MUJOCO
-  for (auto& model : makeMujocoLandings(cube)) models.push_back(std::move(model));
+#ifdef HAVE_LANDING_PEERS
+  for (auto& peer : makeLandingPeers()) models.push_back(std::move(peer));  // stepping at 1 ms
 #endif
   return models;
 }
