@@ -45,7 +45,7 @@ fi
 
 fresh=$([ -d "${BUILD_DIR:-build}" ] && echo no || echo yes)
 scripts/install_packages.sh libbenchmark-dev libbullet-dev libode-dev pkg-config python3-matplotlib \
-  libdart-dev libdart-utils-urdf-dev libsimbody-dev zlib1g-dev
+  libdart-dev libdart-utils-urdf-dev libsimbody-dev libmujoco-dev zlib1g-dev
 CMAKE_ARGS="-DCOLLISION_RESPONSE_BENCHMARKS=ON ${CMAKE_ARGS:-}" scripts/setup.sh
 build_s=$(($(date +%s) - start))
 source scripts/build_dirs.sh
