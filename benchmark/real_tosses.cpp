@@ -16,6 +16,7 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -184,6 +185,56 @@ std::string parameterText(const Row& row) {
   return text.empty() ? "-" : text;
 }
 
+bool startsWith(const std::string& s, const char* prefix) {
+  return s.rfind(prefix, 0) == 0;
+}
+bool isOurs(const Row& r) {
+  return startsWith(r.model, "one impact") || startsWith(r.model, "repeated impacts") ||
+         startsWith(r.model, "episode");
+}
+bool isBaseline(const Row& r) {
+  return r.model == "no change" || r.model == "bounce rule" || r.model == "3-factor scaling";
+}
+
+/// The goal, per row of ours that follows the whole landing (episode, or repeated impacts
+/// when there is no episode): lower RMS and median errors than every other model (baselines and
+/// peers), and its time against the fastest peer's.
+std::vector<std::string> goalLines(const std::vector<Row>& rows) {
+  bool have_episode = false;
+  for (const Row& r : rows) have_episode |= startsWith(r.model, "episode");
+  const char* ours = have_episode ? "episode" : "repeated impacts";
+  std::vector<std::string> lines;
+  for (const Row& r : rows) {
+    if (!startsWith(r.model, ours)) continue;
+    std::string beaten_by;
+    double fastest_peer = std::numeric_limits<double>::infinity();
+    std::string fastest_name;
+    for (const Row& o : rows) {
+      if (isOurs(o)) continue;
+      if (!isBaseline(o) && o.score.median_time_us < fastest_peer) {
+        fastest_peer = o.score.median_time_us;
+        fastest_name = o.model;
+      }
+      std::string worse;
+      if (o.score.rms_linear <= r.score.rms_linear) worse += ", RMS v";
+      if (o.score.median_linear <= r.score.median_linear) worse += ", median v";
+      if (o.score.rms_angular <= r.score.rms_angular) worse += ", RMS w";
+      if (o.score.median_angular <= r.score.median_angular) worse += ", median w";
+      if (!worse.empty())
+        beaten_by += (beaten_by.empty() ? "" : "; ") + o.model + " (" + worse.substr(2) + ")";
+    }
+    std::string line = r.model + ": " +
+                       (beaten_by.empty() ? "beats every baseline and peer in RMS and median"
+                                          : "matched or beaten by " + beaten_by);
+    if (std::isfinite(fastest_peer))
+      line += "; " + fixed(fastest_peer / r.score.median_time_us, 1) +
+              "x the speed of the fastest peer (" + fastest_name + ", " + fixed(fastest_peer, 1) +
+              " us per landing)";
+    lines.push_back(line);
+  }
+  return lines;
+}
+
 void printTable(const std::vector<Row>& rows) {
   std::printf("\n%-36s %-40s %8s | %8s %8s | %8s %8s | %9s\n", "model", "fitted (training half)",
               "train", "RMS v", "med v", "RMS w", "med w", "us/land");
@@ -193,6 +244,8 @@ void printTable(const std::vector<Row>& rows) {
         parameterText(r).c_str(), r.fit.objective, r.score.rms_linear, r.score.median_linear,
         r.score.rms_angular, r.score.median_angular, r.score.median_time_us,
         r.score.failures ? (" (" + std::to_string(r.score.failures) + " failed)").c_str() : "");
+  std::printf("\n");
+  for (const auto& line : goalLines(rows)) std::printf("goal: %s\n", line.c_str());
 }
 
 void writeMarkdown(const std::string& path, const std::vector<Row>& rows,
@@ -228,6 +281,13 @@ void writeMarkdown(const std::string& path, const std::vector<Row>& rows,
         << " | " << fixed(r.score.median_linear, 3) << " | " << fixed(r.score.rms_angular, 3)
         << " | " << fixed(r.score.median_angular, 3) << " | " << fixed(r.score.median_time_us, 1)
         << (r.score.failures ? " (" + std::to_string(r.score.failures) + " failed)" : "") << " |\n";
+  const auto goal = goalLines(rows);
+  if (!goal.empty()) {
+    out << "\nThe issue's goal (lower RMS and median errors, v and w, than every baseline and "
+           "peer; "
+           "time per landing against the fastest peer's):\n\n";
+    for (const auto& line : goal) out << "- " << line << "\n";
+  }
 }
 
 }  // namespace
