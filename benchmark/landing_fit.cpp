@@ -187,12 +187,38 @@ LandingScore scoreLandingModel(LandingModel& model, const std::vector<double>& v
     }
   }
   score.landings = static_cast<int>(held_out.size());
+  score.linear = linear;
+  score.angular = angular;
   score.rms_linear = rms(linear);
   score.rms_angular = rms(angular);
   score.median_linear = median(linear);
   score.median_angular = median(angular);
   score.median_time_us = median(times);
   return score;
+}
+
+RmsDifference pairedRmsDifference(const std::vector<double>& a, const std::vector<double>& b) {
+  RmsDifference result;
+  result.difference = rms(a) - rms(b);
+  const size_t n = std::min(a.size(), b.size());
+  if (n == 0) return result;
+  std::mt19937 rng(24);
+  std::uniform_int_distribution<size_t> pick(0, n - 1);
+  std::vector<double> differences;
+  constexpr int kResamples = 2000;
+  for (int r = 0; r < kResamples; ++r) {
+    double sa = 0.0, sb = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      const size_t k = pick(rng);
+      sa += a[k] * a[k];
+      sb += b[k] * b[k];
+    }
+    differences.push_back(std::sqrt(sa / n) - std::sqrt(sb / n));
+  }
+  std::sort(differences.begin(), differences.end());
+  result.lower = differences[static_cast<size_t>(0.025 * kResamples)];
+  result.upper = differences[static_cast<size_t>(0.975 * kResamples) - 1];
+  return result;
 }
 
 }  // namespace collision_response::bench
