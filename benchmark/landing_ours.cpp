@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <utility>
 
 #include "collision_response/core/compute_response.h"
 #include "cube_flight.h"
@@ -92,8 +94,11 @@ class LawLanding : public LandingModel {
     options_.law = law;
   }
   std::vector<LandingParameter> parameters() const override { return lawParameters(split_); }
+  /// How the landings simulated since the last call ended, counted by kind.
+  std::map<std::string, int> takeEnds() { return std::exchange(ends_, {}); }
 
  protected:
+  std::map<std::string, int> ends_;
   TossedCube cube_;
   bool split_;
   core::SolverOptions options_;
@@ -131,12 +136,17 @@ class RepeatedImpacts final : public LawLanding {
     double t = firstTableContact(before, cube_.half_width, duration, kContactTolerance);
     if (t >= duration) return flyBallistic(before, duration);
     CubeState state = impact(flyBallistic(before, t), cube_, c, options_);
-    for (int impacts = 1; impacts < kMaxImpacts; ++impacts) {
+    int impacts = 1;
+    for (; impacts < kMaxImpacts; ++impacts) {
       double step = 0.0;
       if (!nextImpact(state, duration - t, step)) break;
       state = impact(flyBallistic(state, step), cube_, c, options_);
       t += step;
     }
+    ++ends_[impacts == kMaxImpacts ? "capped"
+            : impacts < 5          ? "1-4 impacts"
+            : impacts < 20         ? "5-19 impacts"
+                                   : "20+ impacts"];
     return flyBallistic(state, duration - t);
   }
 
@@ -231,12 +241,22 @@ class Episode final : public LawLanding {
     end.orientation = result.bodies[1].orientation;
     end.linear_velocity = result.bodies[1].linear_velocity;
     end.angular_velocity = result.bodies[1].angular_velocity;
+    ++ends_[core::toString(result.end)];
     return flyBallistic(end, std::max(0.0, duration - result.end_time));
   }
 };
 #endif
 
 }  // namespace
+
+std::string landingEnds(LandingModel& model) {
+  auto* law = dynamic_cast<LawLanding*>(&model);
+  if (law == nullptr) return "";
+  std::string text;
+  for (const auto& [kind, count] : law->takeEnds())
+    text += (text.empty() ? "" : ", ") + std::to_string(count) + " " + kind;
+  return text;
+}
 
 std::unique_ptr<LandingModel> makeOneImpactLanding(const TossedCube& cube, ImpactLaw law,
                                                    bool split_friction) {

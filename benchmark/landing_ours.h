@@ -11,6 +11,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include "collision_response/core/solver_options.h"
 #include "landing_model.h"
@@ -21,6 +22,11 @@ std::unique_ptr<LandingModel> makeOneImpactLanding(const TossedCube& cube, core:
                                                    bool split_friction);
 std::unique_ptr<LandingModel> makeRepeatedImpactsLanding(const TossedCube& cube,
                                                          core::ImpactLaw law, bool split_friction);
+/// How the landings a model of this file simulated since the last call ended, e.g. "160
+/// kSeparated, 5 kSustainedContact" for the episode (EpisodeEnd), the number of impacts for the
+/// repeated impacts; "" for other models and for one impact.
+std::string landingEnds(LandingModel& model);
+
 /// nullptr when the core library has no computeEpisode() (built without HAVE_CORE_EPISODE).
 std::unique_ptr<LandingModel> makeEpisodeLanding(const TossedCube& cube, core::ImpactLaw law,
                                                  bool split_friction);

@@ -176,6 +176,7 @@ struct Row {
   FitResult fit;
   LandingScore score;
   double fit_seconds = 0.0;
+  std::string ends;  ///< how the held-out landings ended (landingEnds()), "" if not told
 };
 
 std::string parameterText(const Row& row) {
@@ -228,7 +229,7 @@ std::vector<std::string> goalLines(const std::vector<Row>& rows) {
                                           : "matched or beaten by " + beaten_by);
     if (std::isfinite(fastest_peer))
       line += "; " + fixed(fastest_peer / r.score.median_time_us, 1) +
-              "x the speed of the fastest peer (" + fastest_name + ", " + fixed(fastest_peer, 1) +
+              "x faster than the fastest peer (" + fastest_name + ", " + fixed(fastest_peer, 1) +
               " us per landing)";
     lines.push_back(line);
   }
@@ -304,6 +305,15 @@ void writeMarkdown(const std::string& path, const std::vector<Row>& rows,
           << ", " << fixed(w.upper, 3) << "] |\n";
     }
   }
+  bool told = false;
+  for (const Row& r : rows) {
+    if (r.ends.empty()) continue;
+    if (!told)
+      out << "\nHow the held-out landings ended (the episode: its end reason, after which the "
+             "harness continues in free flight; the repeated impacts: their number):\n\n";
+    told = true;
+    out << "- " << r.model << ": " << r.ends << "\n";
+  }
   const auto goal = goalLines(rows);
   if (!goal.empty()) {
     out << "\nThe issue's goal (lower RMS and median errors, v and w, than every baseline and "
@@ -318,7 +328,14 @@ void writeMarkdown(const std::string& path, const std::vector<Row>& rows,
 int main(int argc, char** argv) try {
   const Arguments args = parse(argc, argv);
   std::string command = "real_tosses";
-  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--markdown") {
+      ++i;  // where the section goes is no part of how its numbers were made
+      continue;
+    }
+    const std::string arg = argv[i];
+    command += arg.find(' ') == std::string::npos ? " " + arg : " \"" + arg + "\"";
+  }
   const TossedCube cube;
   const ExtractionOptions options = args.extraction;
   const std::vector<TossFrames> tosses = readTosses(args.data);
@@ -356,8 +373,17 @@ int main(int argc, char** argv) try {
     row.fit_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     row.score = scoreLandingModel(*model, row.fit.values, held_out, cube);
-    std::printf("  %-36s fitted in %6.1f s (%d evaluations): %s\n", row.model.c_str(),
-                row.fit_seconds, row.fit.evaluations, parameterText(row).c_str());
+    landingEnds(*model);  // forget the fit's and the scoring's, then count each landing once
+    for (const Landing& l : held_out) {
+      try {
+        model->simulate(l.before, row.fit.values, l.t_after - l.t_before);
+      } catch (const std::exception&) {
+      }
+    }
+    row.ends = landingEnds(*model);
+    std::printf("  %-36s fitted in %6.1f s (%d evaluations): %s%s\n", row.model.c_str(),
+                row.fit_seconds, row.fit.evaluations, parameterText(row).c_str(),
+                row.ends.empty() ? "" : ("; held-out landings ended: " + row.ends).c_str());
     std::fflush(stdout);
     rows.push_back(row);
   }
