@@ -228,8 +228,9 @@ std::vector<std::string> goalLines(const std::vector<Row>& rows) {
                        (beaten_by.empty() ? "beats every baseline and peer in RMS and median"
                                           : "matched or beaten by " + beaten_by);
     if (std::isfinite(fastest_peer))
-      line += "; " + fixed(fastest_peer / r.score.median_time_us, 1) +
-              "x faster than the fastest peer (" + fastest_name + ", " + fixed(fastest_peer, 1) +
+      line += "; the fastest peer's time over ours: " +
+              fixed(fastest_peer / r.score.median_time_us, 1) + " (" + fastest_name + " " +
+              fixed(fastest_peer, 1) + " us, ours " + fixed(r.score.median_time_us, 1) +
               " us per landing)";
     lines.push_back(line);
   }
