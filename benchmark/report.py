@@ -898,6 +898,12 @@ def main():
                 w("    " + line.rstrip())
         w("")
 
+    # ---------------- real tosses (real_tosses --markdown writes the whole section)
+    tosses_path = os.path.join(a.data, "real_tosses.md")
+    if os.path.exists(tosses_path):
+        with open(tosses_path) as f:
+            w(f.read().rstrip() + "\n")
+
     # ---------------- plot
     w("## Pareto plot\n")
     w("![error against time](pareto.png)\n")

@@ -5,6 +5,8 @@
 #   2. the accuracy sweep, ours and the peers Bullet, ODE and Simbody -> benchmark/data/results.csv
 #      the robot: bench_robot (Google Benchmark)                -> benchmark/data/robot.json
 #      and robot_compare (ours and DART on the same impact)     -> benchmark/data/robot_dart.csv
+#      the real tosses (real_tosses: every landing model fitted and scored on the cube tosses of
+#      benchmark/data/cube_tosses)                             -> benchmark/data/real_tosses.md
 #   3. the service load (private ROS master on a free port; rigid bodies, and the shipped arm
 #      striking a box)                                          -> benchmark/data/service_load.csv
 #      and the soak: the load rostest at 10x                    -> benchmark/data/service_soak.txt
@@ -43,7 +45,7 @@ fi
 
 fresh=$([ -d "${BUILD_DIR:-build}" ] && echo no || echo yes)
 scripts/install_packages.sh libbenchmark-dev libbullet-dev libode-dev pkg-config python3-matplotlib \
-  libdart-dev libdart-utils-urdf-dev libsimbody-dev libmujoco-dev
+  libdart-dev libdart-utils-urdf-dev libsimbody-dev libmujoco-dev zlib1g-dev
 CMAKE_ARGS="-DCOLLISION_RESPONSE_BENCHMARKS=ON ${CMAKE_ARGS:-}" scripts/setup.sh
 build_s=$(($(date +%s) - start))
 source scripts/build_dirs.sh
@@ -59,6 +61,11 @@ echo "benchmark: accuracy sweep (ours, Bullet, ODE, Simbody) -> $out/results.csv
 "$bin/accuracy_sweep" --out "$out/results.csv" --reps "${SWEEP_REPS:-31}"
 
 robot_figures
+
+if [ -x "$bin/real_tosses" ]; then
+  echo "benchmark: real tosses (every landing model fitted on the even tosses, scored on the odd) -> $out/real_tosses.md"
+  "$bin/real_tosses" --markdown "$out/real_tosses.md" >"$build_dir/real_tosses.txt"
+fi
 
 echo "benchmark: service load -> $out/service_load.csv"
 source scripts/ros_env.sh
