@@ -3,15 +3,20 @@
 // Per pair of shapes (one touching pair per scene, FCL objects cached across calls as in the node),
 // and a scene of 200 bodies (boxes, spheres, cylinders on a floor, neighbours touching), both with
 // the cache warm (poses change, shapes do not) and cold (every object rebuilt), and detect + solve.
+// ShapeGaps::gaps(), what an impact episode asks many times per landing: a cube over a plane
+// (closed form) and a box over a box (FCL), each touching (range 0.1 mm) and apart (range 1 m).
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "../test/support/shape_builders.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/detection/detect_contacts.h"
+#include "collision_response/detection/shape_gaps.h"
 
 namespace core = collision_response::core;
 namespace detection = collision_response::detection;
@@ -158,6 +163,43 @@ void BM_DetectAndSolve200Bodies(benchmark::State& state) {
   state.counters["contacts"] = static_cast<double>(contacts);
 }
 BENCHMARK(BM_DetectAndSolve200Bodies)->Unit(benchmark::kMillisecond);
+
+// The gaps an episode asks for: a tilted cube (side 0.1 m, its lowest corner first) over a plane,
+// closed form; a tilted box (0.1 m) over a box (1 m), through FCL. range(0): 0 plane, 1 box;
+// range(1): 0 touching (lowest corner 50 um up, range 0.1 mm: one point), 1 apart (2 cm up, range
+// 1 m: every point of the pair, the distance). Poses change a little every call.
+void BM_ShapeGaps(benchmark::State& state) {
+  const bool over_box = state.range(0) != 0, apart = state.range(1) != 0;
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1.0, 0.7, 0.2).normalized()));
+  const Eigen::Matrix3d r = q.toRotationMatrix();
+  double lowest = 0.0;  // of the cube's corners, relative to its centre
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d c((k & 1 ? 0.05 : -0.05), (k & 2 ? 0.05 : -0.05), (k & 4 ? 0.05 : -0.05));
+    lowest = std::min(lowest, (r * c).z());
+  }
+  const double height = apart ? 0.02 : 5e-5;
+  std::vector<core::BodyState> bodies{body("table", 0, {0, 0, over_box ? -0.5 : 0.0}),
+                                      body("cube", 0.37, {0.1, 0.05, height - lowest}, q)};
+  detection::DetectionInput input;
+  input.defaults = {0.5, 0.3, 0.3};
+  input.geometry = {{{over_box ? primitive(detection::Shape::Type::kBox, {1, 1, 1})
+                               : primitive(detection::Shape::Type::kPlane, {0, 0, 1, 0})}},
+                    {{primitive(detection::Shape::Type::kBox, {0.1, 0.1, 0.1})}}};
+  const detection::ShapeGaps query(bodies, input, detection::MaterialTable{});
+  const double range = apart ? 1.0 : 1e-4;
+  std::vector<core::GapContact> out;
+  double step = 1e-9;
+  for (auto _ : state) {
+    bodies[1].position.x() += step;
+    step = -step;
+    query.gaps(bodies, range, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetLabel(std::string(over_box ? "cube over box (FCL)" : "cube over plane (closed form)") +
+                 (apart ? ", apart, range 1 m: " : ", touching, range 0.1 mm: ") +
+                 std::to_string(out.size()) + " points");
+}
+BENCHMARK(BM_ShapeGaps)->ArgsProduct({{0, 1}, {0, 1}});
 
 }  // namespace
 

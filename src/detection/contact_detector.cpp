@@ -303,7 +303,8 @@ PlanarFeature planeFlat(const ShapeData& s) {
 }
 
 struct PairContext {
-  double tol = 1e-3;
+  double tol = 1e-3;   ///< pairs apart by more give nothing
+  double band = 1e-3;  ///< height band of a support feature (<= tol)
   double delta = 1e-10;
   std::size_t max_contacts = 8;
 };
@@ -322,14 +323,14 @@ std::vector<DetectedContact> convexManifold(const ShapeData& a, const ShapeData&
       flat_a = planeFlat(a);
       top_a = a.world_offset;  // n is the plane's normal
     } else {
-      top_a = supportFeature(a, n, ctx.tol, fa);
+      top_a = supportFeature(a, n, ctx.band, fa);
       flat_a = projectFeature(fa, basis, n, ctx.delta);
     }
     if (b.kind == Kind::kHalfspace) {
       flat_b = planeFlat(b);
       bottom_b = -b.world_offset;  // n is minus the plane's normal
     } else {
-      bottom_b = -supportFeature(b, -n, ctx.tol, fb);
+      bottom_b = -supportFeature(b, -n, ctx.band, fb);
       flat_b = projectFeature(fb, basis, -n, ctx.delta);
     }
     if (pass == 1 || a.kind == Kind::kHalfspace || b.kind == Kind::kHalfspace) break;
@@ -350,7 +351,7 @@ std::vector<DetectedContact> convexManifold(const ShapeData& a, const ShapeData&
   c.body_a = a.body;
   c.body_b = b.body;
   c.normal = n;
-  for (const Vec2& q : contactRegion(flat_a, flat_b, ctx.delta, ctx.tol)) {
+  for (const Vec2& q : contactRegion(flat_a, flat_b, ctx.delta, ctx.band)) {
     const double ha = flat_a.height(basis, q), hb = flat_b.height(basis, q);
     c.depth = ha - hb;
     if (c.depth < -ctx.tol) continue;
@@ -478,7 +479,7 @@ std::vector<DetectedContact> narrowphase(const ShapeData& a, const ShapeData& b,
     Vec3 towards = centreOf(b) - centreOf(a);
     towards = towards.norm() > 1e-12 ? towards.normalized() : Vec3::UnitZ();
     Eigen::Isometry3d moved = b.world;
-    moved.translation() -= std::max(2.0 * ctx.tol, 1e-6) * towards;
+    moved.translation() -= std::max(2.0 * ctx.band, 1e-6) * towards;
     fcl::CollisionObjectd probe(b.geometry, moved);
     fcl::CollisionResultd again;
     fcl::collide(a.object.get(), &probe, request, again);
@@ -665,9 +666,13 @@ std::vector<DetectedContact> ContactDetector::detect(const std::vector<core::Bod
                                            std::to_string(collision_groups.size()) +
                                            " bodies, expected " + std::to_string(bodies.size()));
   }
+  if (std::isnan(options.feature_band) || options.feature_band == HUGE_VAL) {
+    throw core::InvalidInput("options.feature_band", "must be finite (or negative: the tolerance)");
+  }
   PairContext ctx;
   ctx.tol = options.contact_tolerance;
-  ctx.delta = std::max(1e-4 * ctx.tol, 1e-10);
+  ctx.band = options.feature_band >= 0.0 ? std::min(options.feature_band, ctx.tol) : ctx.tol;
+  ctx.delta = std::max(1e-4 * ctx.band, 1e-10);
   ctx.max_contacts = options.max_contacts_per_pair;
 
   Impl& im = *impl_;

@@ -14,8 +14,15 @@ namespace collision_response::detection {
 struct DetectionOptions {
   /// Pairs closer than this (or touching, or penetrating) get contacts; pairs separated by more get
   /// none [m]. Also the height band of a support feature: the points of a shape within this
-  /// distance of its support plane along the contact normal take part in the manifold.
+  /// distance of its support plane along the contact normal take part in the manifold, unless
+  /// feature_band says otherwise.
   double contact_tolerance = 1e-3;
+  /// The height band of a support feature, if >= 0 [m] (at most contact_tolerance): the points of a
+  /// shape within this distance of its support plane take part in the manifold. Negative (the
+  /// default): contact_tolerance. A caller asking for the distance of pairs far apart (a large
+  /// contact_tolerance) keeps the band small: a band as thick as a shape mixes the vertices of
+  /// several of its faces into one feature. Not finite and positive: core::InvalidInput.
+  double feature_band = -1.0;
   /// At most this many points per pair of shapes (a body pair made of several shapes can have more
   /// in total); extra points are dropped keeping the deepest one and the extreme corners. >= 1.
   std::size_t max_contacts_per_pair = 8;

@@ -1,0 +1,593 @@
+#include "collision_response/core/episode.h"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_problem.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/free_flight.h"
+#include "collision_response/core/islands.h"
+#include "collision_response/core/resting_contact.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/validation.h"
+
+namespace collision_response::core {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// Largest s >= 0 with V s + G s^2 / 2 <= target (the gap a pair can close in s at most).
+double safeStep(double speed, double gravity, double target) {
+  if (!(speed < kInfinity)) return 0.0;
+  if (gravity <= 0.0) return speed > 0.0 ? target / speed : kInfinity;
+  return 2.0 * target / (speed + std::sqrt(speed * speed + 2.0 * gravity * target));
+}
+
+// One candidate contact of the moment with what the loop needs of it.
+struct Candidate {
+  int index = 0;                 // into the query's contacts
+  double normal_velocity = 0.0;  // u_n [m/s], < 0 approaching
+  double threshold = 0.0;        // |u_n| at or below this: resting (rebound height below tolerance)
+  double gravity_normal = 0.0;   // g_n [m/s^2]: gravity's relative acceleration into the contact
+};
+
+// A pair of bodies seen by the query at this moment.
+struct Pair {
+  int a = 0;
+  int b = 0;
+  double gap = kInfinity;  // smallest gap of its contacts [m]
+};
+
+class Episode {
+ public:
+  Episode(const std::vector<BodyState>& bodies, const GapQuery& geometry,
+          const EpisodeOptions& options)
+      : geometry_(geometry), options_(options), bodies_(bodies) {
+    start_ = std::chrono::steady_clock::now();
+    for (BodyState& body : bodies_) body.orientation.normalize();
+    const std::size_t n = bodies_.size();
+    radius_.resize(n);
+    speed_bound_.resize(n);
+    coms_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) radius_[i] = geometry_.radius(static_cast<int>(i));
+    gravity_norm_ = options_.gravity.norm();
+    tolerance_ = options_.contact_tolerance;
+    resting_velocity_ = options_.solver.resting_velocity;
+  }
+
+  EpisodeResult run();
+
+ private:
+  double elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+  bool outOfTime() const {
+    return elapsed() >= options_.solver.time_budget || options_.solver.deadline.expired();
+  }
+  void query();
+  double step() const;
+  void advance(double dt);
+  bool impact(const std::vector<int>& contacts, bool plastic_resting);
+  bool sustained(const std::vector<int>& contacts);
+  void fillContact(const GapContact& gap, Contact& contact, std::pair<int, int>& bodies) const;
+  void finish(EpisodeEnd end);
+
+  const GapQuery& geometry_;
+  const EpisodeOptions& options_;
+  std::chrono::steady_clock::time_point start_;
+  EpisodeResult result_;
+  std::vector<BodyState> bodies_;
+  std::vector<double> radius_;
+  std::vector<double> speed_bound_;  // |v| + |w|max r per body [m/s]
+  std::vector<Eigen::Vector3d> coms_;
+  double gravity_norm_ = 0.0;
+  double tolerance_ = 0.0;
+  double resting_velocity_ = 0.0;
+  double time_ = 0.0;
+  double range_ = 0.0;  // of the last query [m]
+
+  // The moment's geometry, reused from query to query.
+  std::vector<GapContact> gaps_;
+  std::vector<Candidate> candidates_;
+  std::vector<Pair> pairs_;
+  std::vector<int> touching_;
+  std::vector<int> resting_set_;
+  // Impact and resting workspaces.
+  Scene scene_;
+  std::vector<std::pair<int, int>> scene_pairs_;
+  std::vector<BodyState> before_;
+  std::vector<RigidBody> rigid_;
+  std::vector<ContactPoint> points_;
+  ContactProblem problem_;
+  std::vector<ContactImpulse> answer_;
+};
+
+void Episode::fillContact(const GapContact& gap, Contact& contact,
+                          std::pair<int, int>& bodies) const {
+  contact.body_a = bodies_[gap.body_a].id;
+  contact.body_b = bodies_[gap.body_b].id;
+  contact.point = gap.point;
+  contact.normal = gap.normal.normalized();
+  contact.restitution = gap.restitution;
+  contact.static_friction = gap.static_friction;
+  contact.dynamic_friction = gap.dynamic_friction;
+  bodies = {gap.body_a, gap.body_b};
+}
+
+// The contacts of the moment, their normal velocities and thresholds, and the pairs' gaps.
+void Episode::query() {
+  const std::size_t n = bodies_.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const BodyState& body = bodies_[i];
+    coms_[i] = body.worldCom();
+    const double spin = angularSpeedBound(body);
+    speed_bound_[i] = body.linear_velocity.norm() + (spin > 0.0 ? spin * radius_[i] : 0.0);
+  }
+  // Range: what any pair could close before the horizon (then a pair left out cannot touch
+  // before it), at least 10 tolerances, at most 1 m or 1e4 tolerances (the query's cost).
+  double fastest = 0.0, second = 0.0;
+  for (const double s : speed_bound_) {
+    if (s > fastest) {
+      second = fastest;
+      fastest = s;
+    } else if (s > second) {
+      second = s;
+    }
+  }
+  const double remaining = options_.horizon - time_;
+  range_ = std::clamp((fastest + second) * remaining + gravity_norm_ * remaining * remaining,
+                      10.0 * tolerance_, std::max(1.0, 1e4 * tolerance_));
+  geometry_.gaps(bodies_, range_, gaps_);
+
+  candidates_.clear();
+  pairs_.clear();
+  touching_.clear();
+  for (std::size_t c = 0; c < gaps_.size(); ++c) {
+    const GapContact& gap = gaps_[c];
+    if (gap.body_a < 0 || gap.body_b < 0 || gap.body_a >= static_cast<int>(n) ||
+        gap.body_b >= static_cast<int>(n) || gap.body_a == gap.body_b) {
+      throw InvalidInput("geometry", "a contact names bodies " + std::to_string(gap.body_a) +
+                                         " and " + std::to_string(gap.body_b) + " of " +
+                                         std::to_string(n));
+    }
+    const BodyState& a = bodies_[gap.body_a];
+    const BodyState& b = bodies_[gap.body_b];
+    if (a.immovable() && b.immovable()) continue;
+    const double length = gap.normal.norm();
+    if (!std::isfinite(gap.gap) || !gap.point.allFinite() || !(length > 0.0) ||
+        !std::isfinite(length)) {
+      throw InvalidInput("geometry", "a contact with a non-finite gap, point or normal");
+    }
+    const Eigen::Vector3d normal = gap.normal / length;
+    const Eigen::Vector3d u =
+        b.linear_velocity + b.angular_velocity.cross(gap.point - coms_[gap.body_b]) -
+        a.linear_velocity - a.angular_velocity.cross(gap.point - coms_[gap.body_a]);
+    Candidate& candidate = candidates_.emplace_back();
+    candidate.index = static_cast<int>(c);
+    candidate.normal_velocity = normal.dot(u);
+    // Gravity's relative acceleration of b from a, into the contact (> 0 pushes them together).
+    const Eigen::Vector3d g_rel = (b.immovable() ? Eigen::Vector3d::Zero() : options_.gravity) -
+                                  (a.immovable() ? Eigen::Vector3d::Zero() : options_.gravity);
+    candidate.gravity_normal = -normal.dot(g_rel);
+    // A rebound at most this high stays within the tolerance: sqrt(2 g_n tol).
+    candidate.threshold = std::max(
+        resting_velocity_, std::sqrt(2.0 * std::max(candidate.gravity_normal, 0.0) * tolerance_));
+    if (gap.gap <= tolerance_) touching_.push_back(static_cast<int>(candidates_.size() - 1));
+
+    const int lo = std::min(gap.body_a, gap.body_b), hi = std::max(gap.body_a, gap.body_b);
+    auto it = std::find_if(pairs_.begin(), pairs_.end(),
+                           [&](const Pair& p) { return p.a == lo && p.b == hi; });
+    if (it == pairs_.end()) {
+      pairs_.push_back({lo, hi, gap.gap});
+    } else {
+      it->gap = std::min(it->gap, gap.gap);
+    }
+  }
+}
+
+// The longest step no pair can close its gap in, to 0 (pairs apart by more than the tolerance)
+// or by one tolerance (touching pairs, whose touching contacts do not approach).
+double Episode::step() const {
+  double s = kInfinity;
+  for (const Pair& pair : pairs_) {
+    const BodyState& a = bodies_[pair.a];
+    const BodyState& b = bodies_[pair.b];
+    const double spin_a = angularSpeedBound(a), spin_b = angularSpeedBound(b);
+    const double speed = (a.linear_velocity - b.linear_velocity).norm() +
+                         (spin_a > 0.0 ? spin_a * radius_[pair.a] : 0.0) +
+                         (spin_b > 0.0 ? spin_b * radius_[pair.b] : 0.0);
+    const double gravity = a.immovable() != b.immovable() ? gravity_norm_ : 0.0;
+    s = std::min(s, safeStep(speed, gravity, pair.gap > tolerance_ ? pair.gap : tolerance_));
+  }
+  // Pairs the query left out are farther apart than the range.
+  double fastest = 0.0, second = 0.0;
+  for (const double v : speed_bound_) {
+    if (v > fastest) {
+      second = fastest;
+      fastest = v;
+    } else if (v > second) {
+      second = v;
+    }
+  }
+  return std::min(s, safeStep(fastest + second, 2.0 * gravity_norm_, range_));
+}
+
+void Episode::advance(double dt) {
+  for (BodyState& body : bodies_) advanceFreeFlight(body, dt, options_.gravity);
+  time_ += dt;
+}
+
+// The impact of the touching contacts `contacts` (indices into candidates_) at this time, under
+// the contacts' coefficients. Then the contacts it leaves within their resting threshold are
+// settled: their rebound (below the tolerance) summed as a geometric series, and the resting
+// analysis run. Returns true if the episode ends in sustained contact.
+bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
+  const std::size_t k = result_.impacts.size();
+  scene_.bodies = bodies_;
+  scene_.contacts.resize(contacts.size());
+  scene_pairs_.resize(contacts.size());
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const GapContact& gap = gaps_[candidates_[contacts[i]].index];
+    validateCoefficients(gap.restitution, gap.static_friction, gap.dynamic_friction, "geometry");
+    fillContact(gap, scene_.contacts[i], scene_pairs_[i]);
+    if (plastic_resting) scene_.contacts[i].restitution = 0.0;
+  }
+  SolverOptions solver = options_.solver;
+  solver.time_budget = options_.solver.time_budget - elapsed();
+  if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
+  CollisionResult response = computeValidatedResponse(scene_, scene_pairs_, solver);
+
+  EpisodeImpact& record = result_.impacts.emplace_back();
+  record.time = time_;
+  record.contacts = scene_.contacts;
+  record.impulses = response.impulses;
+  record.bodies_after = response.bodies;
+  const std::string prefix = "impacts[" + std::to_string(k) + "].";
+  for (Warning& warning : response.warnings) {
+    if (warning.kind == Warning::Kind::kSeparating) continue;  // detected neighbours move apart
+    if (warning.kind == Warning::Kind::kInput) {
+      if (k > 0) continue;  // about the bodies given: said once
+    } else {
+      warning.field = prefix + warning.field;
+    }
+    result_.warnings.push_back(std::move(warning));
+  }
+
+  // Contacts left within their resting threshold (rebound height below the tolerance).
+  resting_set_.clear();
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const Candidate& c = candidates_[contacts[i]];
+    const ContactImpulse& impulse = response.impulses[i];
+    const double after = impulse.normal_velocity_after;
+    if (std::abs(after) > c.threshold) continue;
+    // An elastic rebound (ratio 1) never settles: left to bounce on.
+    if (after > resting_velocity_ && impulse.normal_velocity_before < 0.0 &&
+        after >= (1.0 - 1e-9) * -impulse.normal_velocity_before) {
+      continue;
+    }
+    resting_set_.push_back(static_cast<int>(i));
+  }
+  before_.swap(bodies_);  // the states before the impact
+  bodies_ = response.bodies;
+  if (resting_set_.empty()) return false;
+
+  // Accumulation: a contact rebounding at u (> resting velocity) at a ratio r = u / |u_before| < 1
+  // under g_n > 0 bounces on, each flight 2 u r^j / g_n: in all 2 u / (g_n (1 - r)), and
+  // log(resting_velocity / u) / log(r) bounces until the rebound is below the resting velocity.
+  double duration = 0.0;
+  int bounces = 0;
+  bool rebound = false;
+  for (const int i : resting_set_) {
+    const ContactImpulse& impulse = response.impulses[i];
+    const double after = impulse.normal_velocity_after;
+    if (!(after > resting_velocity_) || !(impulse.normal_velocity_before < 0.0)) continue;
+    rebound = true;
+    const Candidate& c = candidates_[contacts[i]];
+    const double ratio = after / -impulse.normal_velocity_before;
+    if (c.gravity_normal > 0.0)
+      duration = std::max(duration, 2.0 * after / (c.gravity_normal * (1.0 - ratio)));
+    if (ratio > 0.0) {
+      bounces = std::max(bounces, static_cast<int>(std::ceil(std::log(resting_velocity_ / after) /
+                                                             std::log(ratio))));
+    }
+  }
+  if (rebound) {
+    // The series' impulses add up to a plastic impact on these contacts (e = 0) from the state
+    // before: solved again so, the other contacts keeping their restitution.
+    scene_.bodies = before_;
+    for (const int i : resting_set_) scene_.contacts[i].restitution = 0.0;
+    solver.time_budget = options_.solver.time_budget - elapsed();
+    if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
+    const CollisionResult settled = computeValidatedResponse(scene_, scene_pairs_, solver);
+    for (std::size_t i = 0; i < bodies_.size(); ++i) {
+      bodies_[i].linear_velocity = settled.bodies[i].linear_velocity;
+      bodies_[i].angular_velocity = settled.bodies[i].angular_velocity;
+    }
+    result_.accumulated_impacts += bounces;
+    // The bounces last `duration`; the bodies are not moved over it (it is short: a rebound
+    // below the tolerance), their sliding along the contact left out.
+    time_ += std::min(duration, options_.horizon - time_);
+  }
+  std::vector<int> set(resting_set_.size());
+  for (std::size_t i = 0; i < set.size(); ++i) set[i] = contacts[resting_set_[i]];
+  return sustained(set);
+}
+
+// The resting analysis of touching contacts (indices into candidates_) under gravity and the
+// bodies' wrenches: true (and the result filled) if it holds some contact closed.
+bool Episode::sustained(const std::vector<int>& contacts) {
+  const std::size_t n = bodies_.size();
+  rigid_.resize(n);
+  scene_.bodies = bodies_;
+  for (std::size_t i = 0; i < n; ++i) {
+    BodyState& state = scene_.bodies[i];
+    if (!state.immovable()) state.force += state.mass * options_.gravity;
+    rigid_[i] = makeRigidBody(state);
+  }
+  points_.clear();
+  scene_pairs_.clear();
+  scene_.contacts.resize(contacts.size());
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const GapContact& gap = gaps_[candidates_[contacts[i]].index];
+    validateCoefficients(gap.restitution, gap.static_friction, gap.dynamic_friction, "geometry");
+    std::pair<int, int> pair;
+    fillContact(gap, scene_.contacts[i], pair);
+    const Contact& c = scene_.contacts[i];
+    points_.emplace_back(pair.first, pair.second, c.point, c.normal, c.restitution,
+                         c.static_friction, c.dynamic_friction);
+    scene_pairs_.push_back(pair);
+  }
+  std::vector<ContactImpulse> forces(contacts.size());
+  SolverOptions solver = options_.solver;
+  solver.deadline = Deadline::in(std::max(options_.solver.time_budget - elapsed(), 0.0));
+  for (const Island& island : findIslands(rigid_, scene_pairs_)) {
+    problem_.buildResting(scene_.bodies, rigid_, points_, island.contacts,
+                          options_.solver.resting_velocity);
+    solveRestingIsland(problem_, solver, answer_);
+    problem_.scatterForces(answer_, forces);
+  }
+  double load = 0.0;
+  for (const BodyState& state : scene_.bodies) {
+    if (!state.immovable()) load += state.force.norm();
+  }
+  bool holds = false;
+  for (const ContactImpulse& f : forces) holds = holds || f.normal_force > 1e-9 * load;
+  if (!holds) return false;
+
+  // Accelerations under the resting forces.
+  std::vector<Eigen::Vector3d> force(n), torque(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    force[i] = scene_.bodies[i].force;
+    torque[i] = scene_.bodies[i].torque;
+  }
+  for (std::size_t c = 0; c < forces.size(); ++c) {
+    const Eigen::Vector3d f = forces[c].normal_force * points_[c].normal + forces[c].friction_force;
+    const auto [a, b] = scene_pairs_[c];
+    force[a] -= f;
+    torque[a] -= (points_[c].point - rigid_[a].com).cross(f);
+    force[b] += f;
+    torque[b] += (points_[c].point - rigid_[b].com).cross(f);
+  }
+  result_.linear_accelerations.assign(n, Eigen::Vector3d::Zero());
+  result_.angular_accelerations.assign(n, Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < n; ++i) {
+    const BodyState& state = scene_.bodies[i];
+    if (state.immovable()) continue;
+    const Eigen::Matrix3d R = state.orientation.toRotationMatrix();
+    const Eigen::Vector3d& w = state.angular_velocity;
+    const Eigen::Vector3d Iw_w = R * (state.inertia * (R.transpose() * w));
+    result_.linear_accelerations[i] = force[i] / state.mass;
+    result_.angular_accelerations[i] = rigid_[i].inverse_inertia * (torque[i] - w.cross(Iw_w));
+  }
+  // Outcomes: a body with a loaded resting contact slides if one of its contacts slips (slip
+  // velocity above the resting velocity, or friction that does not hold), rolls if none slips but
+  // it turns (|w| r above the resting velocity), sticks otherwise.
+  result_.outcomes.assign(n, BodyOutcome::kSeparated);
+  std::vector<char> slips(n, 0), held(n, 0);
+  for (std::size_t c = 0; c < forces.size(); ++c) {
+    const auto [a, b] = scene_pairs_[c];
+    const ContactPoint& p = points_[c];
+    const Eigen::Vector3d u = rigid_[b].pointVelocity(p.point - rigid_[b].com) -
+                              rigid_[a].pointVelocity(p.point - rigid_[a].com);
+    const Eigen::Vector3d u_t = u - u.dot(p.normal) * p.normal;
+    bool slipping = u_t.norm() > resting_velocity_;
+    if (forces[c].normal_force > 0.0 && !p.frictionless() && !forces[c].sticking) slipping = true;
+    if (p.frictionless() && forces[c].normal_force > 0.0) {
+      // Nothing holds a frictionless contact: it slips if its points accelerate apart along it.
+      const Eigen::Vector3d r_a = p.point - rigid_[a].com, r_b = p.point - rigid_[b].com;
+      const auto pointAcceleration = [&](int i, const Eigen::Vector3d& r) {
+        const Eigen::Vector3d& w = rigid_[i].angular_velocity;
+        return Eigen::Vector3d(result_.linear_accelerations[i] +
+                               result_.angular_accelerations[i].cross(r) + w.cross(w.cross(r)));
+      };
+      const Eigen::Vector3d acc = pointAcceleration(b, r_b) - pointAcceleration(a, r_a);
+      const Eigen::Vector3d acc_t = acc - acc.dot(p.normal) * p.normal;
+      if (acc_t.norm() > 1e-9 * std::max(gravity_norm_, 1.0)) slipping = true;
+    }
+    for (const int i : {a, b}) {
+      if (bodies_[i].immovable()) continue;
+      held[i] = 1;
+      if (slipping) slips[i] = 1;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!held[i]) continue;
+    const double turning = bodies_[i].angular_velocity.norm() * radius_[i];
+    result_.outcomes[i] = slips[i]                      ? BodyOutcome::kSliding
+                          : turning > resting_velocity_ ? BodyOutcome::kRolling
+                                                        : BodyOutcome::kSticking;
+  }
+  result_.resting_contacts = scene_.contacts;
+  result_.resting = std::move(forces);
+  return true;
+}
+
+void Episode::finish(EpisodeEnd end) {
+  result_.end = end;
+  result_.end_time = time_;
+  result_.bodies = bodies_;
+  if (end == EpisodeEnd::kSustainedContact) return;  // outcomes set by sustained()
+  result_.outcomes.assign(bodies_.size(), BodyOutcome::kSeparated);
+  result_.linear_accelerations.clear();
+  result_.angular_accelerations.clear();
+  if (end == EpisodeEnd::kSeparated) return;
+  for (const int t : touching_) {
+    const GapContact& gap = gaps_[candidates_[t].index];
+    for (const int i : {gap.body_a, gap.body_b}) {
+      if (!bodies_[i].immovable()) result_.outcomes[i] = BodyOutcome::kCapped;
+    }
+  }
+}
+
+EpisodeResult Episode::run() {
+  bool resting_checked = false;  // a resting analysis of the touching contacts found no load
+  std::vector<int> approaching;
+  for (;;) {
+    if (outOfTime()) {
+      finish(EpisodeEnd::kTimeBudget);
+      break;
+    }
+    query();
+    if (touching_.empty()) resting_checked = false;
+    // An impact: a touching contact approaching faster than the resting velocity.
+    bool fast = false, slow = false;
+    for (const int t : touching_) {
+      const Candidate& c = candidates_[t];
+      if (c.normal_velocity < -c.threshold) fast = true;
+      if (c.normal_velocity < -resting_velocity_) slow = true;
+    }
+    try {
+      if (fast || slow) {
+        if (static_cast<int>(result_.impacts.size()) >= options_.max_impacts) {
+          finish(EpisodeEnd::kImpactCap);
+          break;
+        }
+        resting_checked = false;
+        // Approaching only within the thresholds: a touch whose rebound stays within the
+        // tolerance, solved plastic and then analysed at rest.
+        if (impact(touching_, !fast)) {
+          finish(EpisodeEnd::kSustainedContact);
+          break;
+        }
+        resting_checked = true;
+        if (time_ >= options_.horizon) {
+          finish(EpisodeEnd::kHorizon);
+          break;
+        }
+        continue;  // the same moment again: what the impact left
+      }
+      if (!touching_.empty() && !resting_checked) {
+        resting_set_.clear();
+        for (const int t : touching_) {
+          if (std::abs(candidates_[t].normal_velocity) <= resting_velocity_) {
+            resting_set_.push_back(t);
+          }
+        }
+        if (!resting_set_.empty()) {
+          const std::vector<int> set = resting_set_;
+          if (sustained(set)) {
+            finish(EpisodeEnd::kSustainedContact);
+            break;
+          }
+        }
+        resting_checked = true;
+      }
+    } catch (const SolverTimeout&) {
+      finish(EpisodeEnd::kTimeBudget);
+      break;
+    }
+    const double remaining = options_.horizon - time_;
+    const double s = step();
+    if (s >= remaining) {
+      if (touching_.empty()) {
+        finish(EpisodeEnd::kSeparated);  // the bound shows no contact before the horizon
+      } else {
+        advance(remaining);
+        time_ = options_.horizon;
+        finish(EpisodeEnd::kHorizon);
+      }
+      break;
+    }
+    advance(s);
+  }
+  return std::move(result_);
+}
+
+}  // namespace
+
+EpisodeResult computeEpisode(const std::vector<BodyState>& bodies, const GapQuery& geometry,
+                             const EpisodeOptions& options) {
+  if (!options.gravity.allFinite() || options.gravity.norm() > MagnitudeLimits::kAcceleration) {
+    throw InvalidInput("gravity", "must be finite and at most 1e9 m/s^2");
+  }
+  if (!std::isfinite(options.horizon) || !(options.horizon > 0.0)) {
+    throw InvalidInput("horizon", "must be finite and > 0 s");
+  }
+  if (options.max_impacts < 1) throw InvalidInput("max_impacts", "must be >= 1");
+  if (!std::isfinite(options.contact_tolerance) || !(options.contact_tolerance > 0.0)) {
+    throw InvalidInput("contact_tolerance", "must be finite and > 0 m");
+  }
+  {
+    Scene scene;
+    scene.bodies = bodies;
+    SceneValidator validator(scene, options.solver, RequestLimits{});
+  }
+  if (geometry.bodyCount() != static_cast<int>(bodies.size())) {
+    throw InvalidInput("geometry", "describes " + std::to_string(geometry.bodyCount()) +
+                                       " bodies, " + std::to_string(bodies.size()) + " given");
+  }
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const double radius = geometry.radius(static_cast<int>(i));
+    if (std::isnan(radius) || radius < 0.0) {
+      throw InvalidInput("geometry", "radius of body " + std::to_string(i) + " is not >= 0");
+    }
+    if (!std::isfinite(radius) && !bodies[i].immovable()) {
+      throw InvalidInput("geometry",
+                         "body " + std::to_string(i) + " is movable but its geometry is unbounded");
+    }
+    if (!std::isfinite(radius) && !bodies[i].angular_velocity.isZero(0.0)) {
+      throw InvalidInput("bodies[" + std::to_string(i) + "].angular_velocity",
+                         "an immovable body of unbounded geometry cannot turn in an episode");
+    }
+  }
+  return Episode(bodies, geometry, options).run();
+}
+
+const char* toString(EpisodeEnd end) {
+  switch (end) {
+    case EpisodeEnd::kSeparated:
+      return "separated";
+    case EpisodeEnd::kSustainedContact:
+      return "sustained_contact";
+    case EpisodeEnd::kHorizon:
+      return "horizon";
+    case EpisodeEnd::kImpactCap:
+      return "impact_cap";
+    case EpisodeEnd::kTimeBudget:
+      return "time_budget";
+  }
+  return "unknown";
+}
+
+const char* toString(BodyOutcome outcome) {
+  switch (outcome) {
+    case BodyOutcome::kSeparated:
+      return "separated";
+    case BodyOutcome::kSliding:
+      return "sliding";
+    case BodyOutcome::kRolling:
+      return "rolling";
+    case BodyOutcome::kSticking:
+      return "sticking";
+    case BodyOutcome::kCapped:
+      return "capped";
+  }
+  return "unknown";
+}
+
+}  // namespace collision_response::core
