@@ -1,7 +1,6 @@
 #include "collision_response/ros/episode_conversion.h"
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -49,15 +48,11 @@ core::EpisodeOptions episodeOptionsFromMsg(const ComputeEpisode::Request& reques
                                            const core::SolverOptions& solver,
                                            double default_tolerance) {
   core::EpisodeOptions options;
+  // Copies: computeEpisode() checks the values and names them ("gravity", "horizon",
+  // "max_impacts"). Only what an int cannot hold is refused here (never wrapped, never clamped).
   options.gravity = toEigen(request.gravity);
-  if (!options.gravity.allFinite()) throw core::InvalidInput("gravity", "is not finite");
-  if (!std::isfinite(request.horizon) || !(request.horizon > 0.0)) {
-    throw core::InvalidInput(
-        "horizon", "must be a finite time > 0 s (" + std::to_string(request.horizon) + ")");
-  }
   options.horizon = request.horizon;
-  if (request.max_impacts < 1 ||
-      request.max_impacts > static_cast<uint32_t>(std::numeric_limits<int>::max())) {
+  if (request.max_impacts > static_cast<uint32_t>(std::numeric_limits<int>::max())) {
     throw core::InvalidInput("max_impacts", "must lie in [1, " +
                                                 std::to_string(std::numeric_limits<int>::max()) +
                                                 "] (" + std::to_string(request.max_impacts) + ")");

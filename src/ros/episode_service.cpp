@@ -51,8 +51,8 @@ std::optional<core::InvalidInput> CollisionResponseServer::solveEpisode(
     input.options.max_contacts_per_pair = parameters_.max_contacts_per_pair;
 
     const auto start = std::chrono::steady_clock::now();
-    const detection::ShapeGaps geometry(input, parameters_.materials,
-                                        static_cast<int>(scene.bodies.size()));
+    const detection::ShapeGaps geometry(scene.bodies, input, parameters_.materials,
+                                        parameters_.limits);
     const core::EpisodeResult episode = core::computeEpisode(scene.bodies, geometry, options);
     const double solve_time =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

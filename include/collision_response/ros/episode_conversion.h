@@ -23,10 +23,11 @@ namespace collision_response {
 /// ("bodies[i]"). Throws core::InvalidInput naming the field.
 void checkEpisodeRequest(const ComputeEpisode::Request& request);
 
-/// The episode's options: gravity [m/s^2] (request frame, finite: "gravity"), horizon [s] (finite,
-/// > 0: "horizon"), max_impacts (>= 1: "max_impacts"), the contact tolerance (the request's
-/// detection.contact_tolerance, 0 = `default_tolerance`) and `solver` (the request's options over
-/// the node's defaults). Throws core::InvalidInput naming the field; nothing is clamped.
+/// The episode's options: gravity [m/s^2] (request frame), horizon [s], max_impacts, the contact
+/// tolerance (the request's detection.contact_tolerance, 0 = `default_tolerance`) and `solver` (the
+/// request's options over the node's defaults). Copies: core::computeEpisode() checks the values
+/// and names them ("gravity", "horizon", "max_impacts"); only a max_impacts beyond what an int
+/// holds throws core::InvalidInput ("max_impacts") here. Nothing is clamped.
 core::EpisodeOptions episodeOptionsFromMsg(const ComputeEpisode::Request& request,
                                            const core::SolverOptions& solver,
                                            double default_tolerance);
