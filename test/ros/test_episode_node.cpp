@@ -196,6 +196,63 @@ TEST_F(EpisodeNodeTest, BallDroppedOnAFloorBouncesToRest) {
   }
 }
 
+TEST_F(EpisodeNodeTest, EndsWhenNothingTouchesBeforeTheHorizonOrAtTheCap) {
+  const double h = 0.4, e = 0.5;
+  const double t0 = std::sqrt(2.0 * h / kG);
+  const double v0 = std::sqrt(2.0 * kG * h);
+
+  // The first contact (t0) past the horizon: nothing will touch before it, so the episode ends
+  // (episode.h: at once, at whatever time it has followed the fall to), the ball separated and in
+  // free fall: z = r + h - g t^2 / 2, v = -g t at end_time.
+  cr::ComputeEpisode::Request request = drop(h, e);
+  request.horizon = 0.5 * t0;
+  cr::ComputeEpisode::Response response = call(request);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_TRUE(response.impacts.empty());
+  EXPECT_EQ(response.end_reason, cr::EpisodeResult::END_SEPARATED);
+  EXPECT_GE(response.end_time, 0.0);
+  EXPECT_LE(response.end_time, request.horizon);
+  double t = response.end_time;
+  ASSERT_EQ(response.bodies.size(), 2u);
+  EXPECT_NEAR(response.bodies[1].pose.position.z, kRadius + h - 0.5 * kG * t * t, 1e-9);
+  EXPECT_NEAR(response.bodies[1].twist.linear.z, -kG * t, 1e-9);
+  ASSERT_EQ(response.outcomes.size(), 2u);
+  EXPECT_EQ(response.outcomes[1], cr::EpisodeResult::OUTCOME_SEPARATED);
+  EXPECT_TRUE(response.resting_forces.empty());
+
+  // The horizon between the first impact (t0) and the second (t0 (1 + 2 e) = 2 t0): one impact,
+  // then the ball rises at e v0 and will not touch again before the horizon; at end_time it is in
+  // the ballistic flight from (t0, z = r, e v0).
+  request.horizon = 1.5 * t0;
+  response = call(request);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.impacts.size(), 1u);
+  EXPECT_NEAR(response.impacts[0].time, t0, 2.0 * kTolerance / v0 + 1e-9);
+  EXPECT_EQ(response.end_reason, cr::EpisodeResult::END_SEPARATED);
+  EXPECT_GE(response.end_time, response.impacts[0].time);
+  EXPECT_LE(response.end_time, request.horizon);
+  t = response.end_time - t0;
+  ASSERT_EQ(response.bodies.size(), 2u);
+  // The impact comes up to tol early: the speeds differ by up to g tol / v0 + g 2 tol / v0.
+  EXPECT_NEAR(response.bodies[1].twist.linear.z, e * v0 - kG * t, 1e-4 * v0);
+  EXPECT_NEAR(response.bodies[1].pose.position.z, kRadius + e * v0 * t - 0.5 * kG * t * t,
+              2.0 * kTolerance + 1e-4 * v0 * t);
+  EXPECT_EQ(response.outcomes[1], cr::EpisodeResult::OUTCOME_SEPARATED);
+
+  // One impact allowed: the second (at t0 + 2 e v0 / g) ends the episode, the ball touching.
+  request = drop(h, e);
+  request.max_impacts = 1;
+  response = call(request);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.impacts.size(), 1u);
+  EXPECT_NEAR(response.impacts[0].time, t0, 2.0 * kTolerance / v0 + 1e-9);
+  EXPECT_EQ(response.end_reason, cr::EpisodeResult::END_IMPACT_CAP);
+  EXPECT_NEAR(response.end_time, t0 + 2.0 * e * v0 / kG,
+              2.0 * kTolerance / v0 + 2.0 * kTolerance / (e * v0) + 1e-9);
+  ASSERT_EQ(response.outcomes.size(), 2u);
+  EXPECT_EQ(response.outcomes[1], cr::EpisodeResult::OUTCOME_CAPPED);
+}
+
 TEST_F(EpisodeNodeTest, HeadOnBallsInZeroGravitySeparateAfterOneImpact) {
   // 1 kg at +2 m/s and 2 kg at -1 m/s along x, 0.3 m apart (gap 0.1 m), e = 0.5: one impact at
   // t = 0.1 / 3 s with the impulse (1 + e) m1 m2 / (m1 + m2) * 3 = 3 N s, +x on the right ball;
