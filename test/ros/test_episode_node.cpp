@@ -251,6 +251,16 @@ TEST_F(EpisodeNodeTest, EndsWhenNothingTouchesBeforeTheHorizonOrAtTheCap) {
               2.0 * kTolerance / v0 + 2.0 * kTolerance / (e * v0) + 1e-9);
   ASSERT_EQ(response.outcomes.size(), 2u);
   EXPECT_EQ(response.outcomes[1], cr::EpisodeResult::OUTCOME_CAPPED);
+
+  // A time budget far too short for the bouncing: the episode ends on it, reported, not failed.
+  request = drop(h, e);
+  request.options.time_budget = 1e-9;
+  response = call(request);
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_EQ(response.end_reason, cr::EpisodeResult::END_TIME_BUDGET);
+  EXPECT_LE(response.end_time, request.horizon);
+  EXPECT_EQ(response.bodies.size(), 2u);
+  EXPECT_EQ(response.outcomes.size(), 2u);
 }
 
 TEST_F(EpisodeNodeTest, HeadOnBallsInZeroGravitySeparateAfterOneImpact) {
