@@ -251,7 +251,7 @@ ShapeGaps::ShapeGaps(const std::vector<core::BodyState>& bodies, const Detection
   core::validateCoefficients(input.defaults.restitution, input.defaults.static_friction,
                              input.defaults.dynamic_friction, "detection");
   if (input.options.max_contacts_per_pair < 1) {
-    throw core::InvalidInput("detection.max_contacts_per_pair", "must be >= 1");
+    throw core::InvalidInput("options.max_contacts_per_pair", "must be >= 1");
   }
   if (!input.materials.empty() && input.materials.size() != n) {
     throw core::InvalidInput("bodies", "materials given for " +
@@ -421,8 +421,15 @@ void ShapeGaps::gaps(const std::vector<core::BodyState>& bodies, double range,
   if (!std::isfinite(range) || range < 0.0) {
     throw core::InvalidInput("range", "must be finite and >= 0 [m]");
   }
-  thread_local std::vector<Pose> poses;
-  thread_local std::vector<DetectedContact> pair_points, found;
+  // Scratch space reused from call to call by each thread (one thread-local lookup).
+  struct Scratch {
+    std::vector<Pose> poses;
+    std::vector<DetectedContact> pair_points, found;
+  };
+  thread_local Scratch scratch;
+  std::vector<Pose>& poses = scratch.poses;
+  std::vector<DetectedContact>& pair_points = scratch.pair_points;
+  std::vector<DetectedContact>& found = scratch.found;
   poses.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double q = bodies[i].orientation.norm();
@@ -467,7 +474,9 @@ void ShapeGaps::gaps(const std::vector<core::BodyState>& bodies, double range,
         for (const LocalSolid& solid : im.bodies[j].solids) {
           pair_points.clear();
           solidAgainstPlane(solid, poses[j], normal, offset, range, prototype, pair_points);
-          reduceContacts(pair_points, im.max_contacts_per_pair);
+          if (pair_points.size() > im.max_contacts_per_pair) {
+            reduceContacts(pair_points, im.max_contacts_per_pair);
+          }
           for (const DetectedContact& d : pair_points) emit(d);
         }
       }
@@ -480,10 +489,14 @@ void ShapeGaps::gaps(const std::vector<core::BodyState>& bodies, double range,
     im.detectWithFcl(poses, bodies, range, found);
     for (const DetectedContact& d : found) emit(d);
   }
-  std::stable_sort(out.begin(), out.end(),
-                   [](const core::GapContact& x, const core::GapContact& y) {
-                     return x.body_a < y.body_a || (x.body_a == y.body_a && x.body_b < y.body_b);
-                   });
+  // By body pair (the plane pairs come first, in the order of their planes' bodies): sorted only
+  // when that order differs, since stable_sort allocates.
+  const auto by_pair = [](const core::GapContact& x, const core::GapContact& y) {
+    return x.body_a < y.body_a || (x.body_a == y.body_a && x.body_b < y.body_b);
+  };
+  if (!std::is_sorted(out.begin(), out.end(), by_pair)) {
+    std::stable_sort(out.begin(), out.end(), by_pair);
+  }
 }
 
 }  // namespace collision_response::detection

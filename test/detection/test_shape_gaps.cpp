@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <thread>
 #include <vector>
@@ -182,6 +183,62 @@ TEST(ShapeGaps, TwoSpheresGiveTheirCentreDistanceLessTheRadii) {
   EXPECT_NEAR(pen[0].gap, -0.02, 1e-6);
 }
 
+TEST(ShapeGaps, SphereAgainstATurnedBoxGivesTheClampedDistance) {
+  // The distance from a sphere to a box is the distance from its centre to the nearest point of
+  // the box (the centre clamped to the box in the box's frame), less its radius; the normal points
+  // from that nearest point to the centre. Random poses, apart and overlapping.
+  const Vector3d half(0.3, 0.2, 0.1);
+  const double r = 0.07;
+  const std::vector<core::BodyState> start{body(1.0, Vector3d::Zero()),
+                                           body(1.0, Vector3d(1, 0, 0))};
+  const detection::ShapeGaps query(
+      start,
+      inputOf({{primitive(Type::kBox, {2 * half.x(), 2 * half.y(), 2 * half.z()})},
+               {primitive(Type::kSphere, {r})}}),
+      detection::MaterialTable{});
+  std::srand(7);
+  auto uniform = [] { return 2.0 * std::rand() / RAND_MAX - 1.0; };
+  int checked = 0;
+  double worst = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    std::vector<core::BodyState> bodies = start;
+    bodies[0].position = Vector3d(uniform(), uniform(), uniform());
+    bodies[0].orientation =
+        Quaterniond(Eigen::Vector4d(uniform(), uniform(), uniform(), uniform()));
+    bodies[1].position = bodies[0].position + 0.5 * Vector3d(uniform(), uniform(), uniform());
+    const Eigen::Matrix3d rot = bodies[0].orientation.normalized().toRotationMatrix();
+    const Vector3d local = rot.transpose() * (bodies[1].position - bodies[0].position);
+    const Vector3d nearest = local.cwiseMax(-half).cwiseMin(half);
+    if ((local - nearest).norm() < 1e-3) continue;  // centre inside the box: no simple closed form
+    const double gap = (local - nearest).norm() - r;
+    const Vector3d normal = rot * (local - nearest).normalized();
+    const auto got = gapsOf(query, bodies, 0.5);
+    if (gap > 0.5) {
+      EXPECT_TRUE(got.empty()) << "case " << k;
+      continue;
+    }
+    ASSERT_EQ(got.size(), 1u) << "case " << k << ", gap " << gap;
+    EXPECT_NEAR(got[0].gap, gap, 1e-6) << "case " << k;
+    // The direction between the nearest points, or a face's normal within 0.05 rad of it (the
+    // detector snaps the normal to a nearly aligned face whose corners all lie within its feature
+    // band; the gap along it is the same to second order in the angle).
+    bool normal_ok = (got[0].normal - normal).norm() <= 1e-6;
+    for (int axis = 0; axis < 3; ++axis) {
+      for (const double sign : {-1.0, 1.0}) {
+        const Vector3d face = sign * rot.col(axis);
+        normal_ok = normal_ok ||
+                    (face.dot(normal) >= std::cos(0.05) && (got[0].normal - face).norm() <= 1e-9);
+      }
+    }
+    EXPECT_TRUE(normal_ok) << "case " << k << ": normal " << got[0].normal.transpose()
+                           << ", nearest points' direction " << normal.transpose();
+    worst = std::max(worst, std::abs(got[0].gap - gap));
+    ++checked;
+  }
+  EXPECT_GT(checked, 100);
+  RecordProperty("worst_gap_error_m", std::to_string(worst));
+}
+
 TEST(ShapeGaps, BoxesSeparatedAlongAnAxisGiveTheFaceCornersAndTheDistance) {
   // A 0.5 m cube 0.3 m above a 1 m cube: the upper cube's bottom face over the lower's top face.
   const auto big = primitive(Type::kBox, {1.0, 1.0, 1.0});
@@ -249,9 +306,12 @@ TEST(ShapeGaps, CylinderAndConeOverAPlaneGiveTheirLowestPoints) {
   const double h = 0.4, r = 0.1;
   const auto cylinder = primitive(Type::kCylinder, {h, r});
   const auto cone = primitive(Type::kCone, {h, r});
+  // Every pose below is first spun about the shape's own axis by 0.1 rad, which changes no
+  // lowest point but keeps the rim's sample points off it.
+  const Quaterniond spin(Eigen::AngleAxisd(0.1, Vector3d::UnitZ()));
   // Lying on its side (axis along x) at height 0.3: the contact line's two ends, each at 0.2.
   {
-    const Quaterniond side(Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitY()));
+    const Quaterniond side = Quaterniond(Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitY())) * spin;
     const std::vector<core::BodyState> bodies{body(0.0, Vector3d::Zero()),
                                               body(1.0, Vector3d(0, 0, 0.3), side)};
     const detection::ShapeGaps query(bodies, inputOf({{floorPlane()}, {cylinder}}),
@@ -267,7 +327,7 @@ TEST(ShapeGaps, CylinderAndConeOverAPlaneGiveTheirLowestPoints) {
   // Tilted by b about x: the lowest point of the lower rim at z - (h/2) cos b - r sin b.
   {
     const double b = 0.35, z = 0.5;
-    const Quaterniond tilt(Eigen::AngleAxisd(b, Vector3d::UnitX()));
+    const Quaterniond tilt = Quaterniond(Eigen::AngleAxisd(b, Vector3d::UnitX())) * spin;
     const std::vector<core::BodyState> bodies{body(0.0, Vector3d::Zero()),
                                               body(1.0, Vector3d(0, 0, z), tilt)};
     const detection::ShapeGaps cyl_query(bodies, inputOf({{floorPlane()}, {cylinder}}),
@@ -281,7 +341,7 @@ TEST(ShapeGaps, CylinderAndConeOverAPlaneGiveTheirLowestPoints) {
                 1e-12);
     // Upside down (apex first): the apex at z - (h/2) cos b.
     std::vector<core::BodyState> flipped = bodies;
-    flipped[1].orientation = Quaterniond(Eigen::AngleAxisd(M_PI - b, Vector3d::UnitX()));
+    flipped[1].orientation = Quaterniond(Eigen::AngleAxisd(M_PI - b, Vector3d::UnitX())) * spin;
     const auto apex = gapsOf(cone_query, flipped, z - h / 2 * std::cos(b) + 1e-9);
     ASSERT_EQ(apex.size(), 1u);
     EXPECT_NEAR(apex[0].gap, z - h / 2 * std::cos(b), 1e-12);
@@ -337,6 +397,31 @@ TEST(ShapeGaps, EachPairTakesItsMaterials) {
   expectPair(0, 2, std::sqrt(0.5 * 0.2), std::sqrt(0.4 * 0.1), std::sqrt(0.3 * 0.1));
   expectPair(0, 3, 0.5, 0.4, 0.3);  // no material: the defaults
   expectPair(1, 2, 0.5, 0.4, 0.3);  // rubber has no entry of its own: the defaults (via FCL)
+}
+
+TEST(ShapeGaps, ManyMaterialsAreLookedUpPerPair) {
+  // 70 spheres of 70 materials (more than are tabulated at construction), each material with its
+  // own entry e_k = k / 100: two neighbours k, k + 1 touching get the geometric mean.
+  detection::MaterialTable table;
+  std::vector<core::BodyState> bodies;
+  detection::DetectionInput input;
+  input.defaults = {0.5, 0.4, 0.3};
+  for (int k = 0; k < 70; ++k) {
+    const std::string name = "m" + std::to_string(k);
+    table.set(name, name, {k / 100.0, k / 50.0, k / 100.0});
+    bodies.push_back(body(1.0, Vector3d(0.25 * k, 0.0, 0.0)));
+    input.geometry.push_back({{primitive(Type::kSphere, {0.12})}});
+    input.materials.push_back(name);
+  }
+  const detection::ShapeGaps query(bodies, input, table);
+  const auto got = gapsOf(query, bodies, 0.011);  // neighbours are 1 cm apart
+  ASSERT_EQ(got.size(), 69u);
+  for (const auto& g : got) {
+    ASSERT_EQ(g.body_b, g.body_a + 1);
+    const double a = g.body_a, b = g.body_b;
+    EXPECT_NEAR(g.restitution, std::sqrt(a * b) / 100.0, 1e-15);
+    EXPECT_NEAR(g.static_friction, std::sqrt(a * b) / 50.0, 1e-15);
+  }
 }
 
 TEST(ShapeGaps, RadiusBoundsEveryPointAboutTheCentreOfMass) {

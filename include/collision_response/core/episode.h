@@ -27,7 +27,11 @@ struct EpisodeOptions {
   /// Contact tolerance [m], > 0: a pair whose gap is at most this is touching. The contacts of
   /// one impact are all those touching at its time (a near-flat face lands on all its corners at
   /// once, whatever their order within the tolerance); the first time of contact is found to
-  /// within it (the gap of the first contact is in [0, contact_tolerance] at the impact).
+  /// within it (the gap of the first contact is in [0, contact_tolerance] at the impact when its
+  /// pair comes from apart; a pair already touching, e.g. pivoting on one corner, may let another
+  /// of its points reach -contact_tolerance before it is seen). Rebounds lower than it are not
+  /// followed as flights: sqrt(2 g_n contact_tolerance) is the resting threshold of a contact
+  /// (docs/physics.md, "Impact episodes").
   double contact_tolerance = 1e-4;
   /// The impact law, solver, resting velocity and the time budget of the whole episode [s]
   /// (options.time_budget; past it, the episode ends with kTimeBudget and its state then).
@@ -38,7 +42,8 @@ struct EpisodeOptions {
 struct EpisodeImpact {
   double time = 0.0;  ///< from the start of the episode [s]
   /// The contacts of the impact (every touching contact of every pair, world frame; body ids as
-  /// in the bodies given) and their impulses, in the same order.
+  /// in the bodies given) and their impulses, in the same order. A touch approaching slower than
+  /// its resting threshold is solved plastic: its contacts are listed with restitution 0.
   std::vector<Contact> contacts;
   std::vector<ContactImpulse> impulses;
   /// Every body's state right after the impact (poses at `time`; velocities after).
@@ -80,7 +85,9 @@ struct EpisodeResult {
   /// mass [m/s^2] and angular [rad/s^2] (zero for immovable bodies).
   std::vector<Eigen::Vector3d> linear_accelerations;
   std::vector<Eigen::Vector3d> angular_accelerations;
-  std::vector<Warning> warnings;  ///< of every impact, and of the episode
+  /// Of every impact, the field prefixed "impacts[k]." (a contact left approaching); warnings about
+  /// the bodies given once; separating contacts of an impact get none.
+  std::vector<Warning> warnings;
 };
 
 /// Follows the collision of `bodies` (validated as for computeResponse(); immovable bodies keep
