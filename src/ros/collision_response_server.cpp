@@ -1,6 +1,7 @@
 #include "collision_response/ros/collision_response_server.h"
 
 #include <collision_response/CollisionResponse.h>
+#include <collision_response/Episode.h>
 #include <collision_response/SolverConfig.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -72,11 +73,16 @@ CollisionResponseServer::CollisionResponseServer(ros::NodeHandle node, ros::Node
   loadRobots(node);
   responses_ = private_node.advertise<CollisionResponse>("responses", 10);
   markers_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  episodes_ = private_node.advertise<Episode>("episodes", 10);
   setUpMonitoring(node, private_node);
   // The services last: their callbacks may run at once, on other threads.
   service_ = private_node.advertiseService("compute", &CollisionResponseServer::compute, this);
   batch_service_ =
       private_node.advertiseService("compute_batch", &CollisionResponseServer::computeBatch, this);
+  episode_service_ = private_node.advertiseService("compute_episode",
+                                                   &CollisionResponseServer::computeEpisode, this);
+  episode_batch_service_ = private_node.advertiseService(
+      "compute_episode_batch", &CollisionResponseServer::computeEpisodeBatch, this);
   ROS_INFO("collision_response: serving %s (law %s, solver %s)", service_.getService().c_str(),
            core::toString(default_options_.law), core::toString(default_options_.method));
 }
@@ -200,22 +206,13 @@ detection::DetectedContacts CollisionResponseServer::detect(const ComputeRespons
   }
   core::checkGeometrySize(shapes, vertices, triangles, parameters_.limits);
 
-  detection::DetectionInput input;
-  input.options = fromMsg(request.detection, contact_tolerance);
+  detection::DetectionInput input =
+      detectionInputFromMsg(request.bodies, request.detection, contact_tolerance);
   input.options.max_contacts_per_pair = parameters_.max_contacts_per_pair;
   // What the solver would accept, within the request's time budget.
   input.options.max_contacts = parameters_.limits.max_contacts -
                                std::min(parameters_.limits.max_contacts, request.contacts.size());
   input.options.deadline = core::Deadline::in(options.time_budget);
-  input.defaults = {request.detection.restitution, request.detection.static_friction,
-                    request.detection.dynamic_friction};
-  input.geometry.reserve(request.bodies.size());
-  input.materials.reserve(request.bodies.size());
-  for (std::size_t i = 0; i < request.bodies.size(); ++i) {
-    input.geometry.push_back(
-        geometryFromMsg(request.bodies[i], "bodies[" + std::to_string(i) + "]"));
-    input.materials.push_back(request.bodies[i].material);
-  }
   const std::vector<core::BodyState>* bodies = &scene.bodies;
   std::vector<core::BodyState> with_links;
   if (links != nullptr && !links->bodies.empty()) {
@@ -642,6 +639,8 @@ CollisionResponseServer::~CollisionResponseServer() {
   // Callbacks first (shutdown waits for one in progress), then the members they use.
   service_.shutdown();
   batch_service_.shutdown();
+  episode_service_.shutdown();
+  episode_batch_service_.shutdown();
   diagnostics_timer_.stop();
   reconfigure_server_.reset();
 }

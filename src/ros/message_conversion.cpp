@@ -212,6 +212,21 @@ detection::DetectionOptions fromMsg(const DetectionOptions& msg, double default_
   return options;
 }
 
+detection::DetectionInput detectionInputFromMsg(const std::vector<BodyState>& bodies,
+                                                const DetectionOptions& msg,
+                                                double default_tolerance) {
+  detection::DetectionInput input;
+  input.options = fromMsg(msg, default_tolerance);
+  input.defaults = {msg.restitution, msg.static_friction, msg.dynamic_friction};
+  input.geometry.reserve(bodies.size());
+  input.materials.reserve(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    input.geometry.push_back(geometryFromMsg(bodies[i], "bodies[" + std::to_string(i) + "]"));
+    input.materials.push_back(bodies[i].material);
+  }
+  return input;
+}
+
 ContactImpulse toMsg(const core::ContactImpulse& impulse) {
   ContactImpulse msg;
   msg.normal_impulse = impulse.normal_impulse;

@@ -1,7 +1,10 @@
 #pragma once
 
 #include <collision_response/ComputeBatch.h>
+#include <collision_response/ComputeEpisode.h>
+#include <collision_response/ComputeEpisodeBatch.h>
 #include <collision_response/ComputeResponse.h>
+#include <collision_response/EpisodeResult.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -38,8 +41,9 @@ namespace collision_response {
 class SolverConfig;  // generated from cfg/Solver.cfg
 
 /// The ROS face of the core library: serves ~compute and ~compute_batch, publishes every successful
-/// ~compute answer on ~responses (and on ~markers for RViz, if subscribed), and transforms bodies
-/// given in other frames into the request frame with tf2. Used by collision_response_node and by
+/// ~compute answer on ~responses (and on ~markers for RViz, if subscribed), serves the episodes
+/// (~compute_episode, ~compute_episode_batch; answers on ~episodes), and transforms bodies given in
+/// other frames into the request frame with tf2. Used by collision_response_node and by
 /// the nodelet collision_response/CollisionResponseNodelet.
 ///
 /// Parameters (private namespace, read once here): ServerParameters (server_parameters.h).
@@ -66,6 +70,18 @@ class CollisionResponseServer {
   /// ~responses or ~markers. Always answers (returns true).
   bool computeBatch(ComputeBatch::Request& request, ComputeBatch::Response& response);
 
+  /// The ~compute_episode callback (episode_service.cpp): the collision followed from the request's
+  /// states to its end (core::computeEpisode() on the bodies' shapes); publishes every successful
+  /// answer on ~episodes. Always answers (returns true); bad input is success = false with a
+  /// message naming the field.
+  bool computeEpisode(ComputeEpisode::Request& request, ComputeEpisode::Response& response);
+
+  /// The ~compute_episode_batch callback: every scene followed independently across the batch pool,
+  /// results in order; a bad scene gets success = false ("scenes[i]...") and does not affect the
+  /// others. Not published on ~episodes. Always answers (returns true).
+  bool computeEpisodeBatch(ComputeEpisodeBatch::Request& request,
+                           ComputeEpisodeBatch::Response& response);
+
   ~CollisionResponseServer();
 
  private:
@@ -78,6 +94,12 @@ class CollisionResponseServer {
   std::optional<core::InvalidInput> solve(ComputeResponse::Request& request,
                                           ComputeResponse::Response& response,
                                           std::vector<ContactLinkFrame>* link_frames = nullptr);
+  /// One episode: fills `result` (success false with a message on bad input); publishes nothing.
+  /// An empty request.header.frame_id is set to ~default_frame (with a warning). Returns the error
+  /// of a request rejected for one of its values, for a batch to name it. Reads (moves) the
+  /// request's bodies.
+  std::optional<core::InvalidInput> solveEpisode(ComputeEpisode::Request& request,
+                                                 EpisodeResult& result);
   /// The part of solve() for requests with robots (request.robots, or contacts naming
   /// "<robot>/<link>"): rigid bodies and robots as general body models (core::computeBodyResponse).
   /// `scene` holds the request's validated bodies and given contacts; `validator` has checked them.
@@ -149,10 +171,13 @@ class CollisionResponseServer {
   ros::ServiceServer service_;
   ros::Publisher markers_;
   ros::ServiceServer batch_service_;
+  ros::Publisher episodes_;
+  ros::ServiceServer episode_service_;
+  ros::ServiceServer episode_batch_service_;
 
   // Diagnostics: totals since start and the state at the last diagnostics update.
   struct Statistics {
-    std::uint64_t calls = 0;      // service calls (compute and compute_batch)
+    std::uint64_t calls = 0;      // service calls (compute, compute_batch and the episodes')
     std::uint64_t scenes = 0;     // scenes solved or rejected (1 per compute call)
     std::uint64_t failures = 0;   // scenes answered with success = false
     double solve_time = 0.0;      // [s] total solver time

@@ -47,6 +47,13 @@ detection::BodyGeometry geometryFromMsg(const BodyState& msg, const std::string&
 
 /// Detection settings of a request; a zero contact_tolerance takes `default_tolerance`.
 detection::DetectionOptions fromMsg(const DetectionOptions& msg, double default_tolerance);
+/// What detection needs of a request's bodies and detection options: each body's shapes
+/// (geometryFromMsg(), named "bodies[i]"), its material, the coefficients of pairs without one, the
+/// contact tolerance (0 = `default_tolerance`). Limits, deadline and contacts per pair are the
+/// caller's to set. Throws core::InvalidInput as geometryFromMsg().
+detection::DetectionInput detectionInputFromMsg(const std::vector<BodyState>& bodies,
+                                                const DetectionOptions& msg,
+                                                double default_tolerance);
 ContactImpulse toMsg(const core::ContactImpulse& impulse);
 IslandReport toMsg(const core::SolveReport& report);
 
