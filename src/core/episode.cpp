@@ -97,6 +97,7 @@ class Episode {
   void advance(double dt);
   bool impact(const std::vector<int>& contacts, bool plastic_resting);
   bool sustained(const std::vector<int>& contacts);
+  bool configurationLasts(const std::vector<int>& contacts) const;
   void fillContact(const GapContact& gap, Contact& contact, std::pair<int, int>& bodies) const;
   void finish(EpisodeEnd end);
 
@@ -449,6 +450,13 @@ bool Episode::sustained(const std::vector<int>& contacts) {
     result_.linear_accelerations[i] = force[i] / state.mass;
     result_.angular_accelerations[i] = rigid_[i].inverse_inertia * (torque[i] - w.cross(Iw_w));
   }
+  // The contact set must last: a held body turning or tipping onto another of its features (a
+  // cube pivoting on a corner or an edge towards a face) is not in sustained contact but between
+  // impacts. Any other listed point of a pair with a held body whose gap, at its normal velocity
+  // and its normal acceleration under the resting forces, closes before the horizon, starting to
+  // close faster than its resting threshold (or from rest, accelerating towards the contact): the
+  // flight goes on (docs/physics.md, "Impact episodes").
+  if (!configurationLasts(contacts)) return false;
   // Outcomes: a body with a loaded resting contact slides if one of its contacts slips (slip
   // velocity above the resting velocity, or friction that does not hold), rolls if none slips but
   // it turns (|w| r above the resting velocity), sticks otherwise.
@@ -489,6 +497,50 @@ bool Episode::sustained(const std::vector<int>& contacts) {
   }
   result_.resting_contacts = scene_.contacts;
   result_.resting = std::move(forces);
+  return true;
+}
+
+bool Episode::configurationLasts(const std::vector<int>& contacts) const {
+  const std::size_t n = bodies_.size();
+  std::vector<char> held(n, 0);
+  for (const int c : contacts) {
+    const GapContact& gap = gaps_[candidates_[c].index];
+    held[gap.body_a] = !bodies_[gap.body_a].immovable();
+    held[gap.body_b] = !bodies_[gap.body_b].immovable();
+  }
+  const auto pointAcceleration = [&](int i, const Eigen::Vector3d& point) {
+    if (bodies_[i].immovable()) return Eigen::Vector3d::Zero().eval();
+    const Eigen::Vector3d r = point - rigid_[i].com;
+    const Eigen::Vector3d& w = rigid_[i].angular_velocity;
+    return Eigen::Vector3d(result_.linear_accelerations[i] +
+                           result_.angular_accelerations[i].cross(r) + w.cross(w.cross(r)));
+  };
+  const double remaining = options_.horizon - time_;
+  for (std::size_t k = 0; k < candidates_.size(); ++k) {
+    if (std::find(contacts.begin(), contacts.end(), static_cast<int>(k)) != contacts.end())
+      continue;
+    const Candidate& c = candidates_[k];
+    const GapContact& gap = gaps_[c.index];
+    if (!held[gap.body_a] && !held[gap.body_b]) continue;
+    const Eigen::Vector3d normal = gap.normal.normalized();
+    const double u = c.normal_velocity;
+    const double a = normal.dot(pointAcceleration(gap.body_b, gap.point) -
+                                pointAcceleration(gap.body_a, gap.point));
+    const bool closing =
+        u < -c.threshold || (u <= c.threshold && a < -1e-9 * std::max(gravity_norm_, 1.0));
+    if (!closing) continue;
+    // Time for gap + u t + a t^2 / 2 to reach 0 (the gap's local path), if it does.
+    const double g = std::max(c.gap, 0.0);
+    double t = kInfinity;
+    if (a < 0.0) {
+      t = (u + std::sqrt(u * u - 2.0 * a * g)) / -a;
+    } else if (u < 0.0) {
+      const double disc = u * u - 2.0 * a * g;
+      if (disc >= 0.0) t = (-u - std::sqrt(disc)) / std::max(a, 1e-300);
+      if (a == 0.0) t = g / -u;
+    }
+    if (t <= remaining) return false;
+  }
   return true;
 }
 

@@ -443,8 +443,9 @@ void ShapeGaps::gaps(const std::vector<core::BodyState>& bodies, double range,
     poses[i].translation = bodies[i].position;
   }
 
-  auto emit = [&](const DetectedContact& d) {
+  auto emit = [&](const DetectedContact& d, bool point_on_plane = false) {
     core::GapContact g;
+    g.point_on_plane = point_on_plane;
     g.body_a = d.body_a;
     g.body_b = d.body_b;
     g.point = d.point;
@@ -474,10 +475,16 @@ void ShapeGaps::gaps(const std::vector<core::BodyState>& bodies, double range,
         for (const LocalSolid& solid : im.bodies[j].solids) {
           pair_points.clear();
           solidAgainstPlane(solid, poses[j], normal, offset, range, prototype, pair_points);
+          // Every vertex of a box or a mesh within the range, listed, each a material point of
+          // body b on the plane of body a (the plane's body first): GapContact::point_on_plane,
+          // which lets the episode bound each point's gap on its own. Not after a reduction (a
+          // vertex left out), nor for rims and spheres (their lowest point moves on the body).
+          const bool vertices = solid.kind == LocalSolid::Kind::kPoints && i < j &&
+                                pair_points.size() <= im.max_contacts_per_pair;
           if (pair_points.size() > im.max_contacts_per_pair) {
             reduceContacts(pair_points, im.max_contacts_per_pair);
           }
-          for (const DetectedContact& d : pair_points) emit(d);
+          for (const DetectedContact& d : pair_points) emit(d, vertices);
         }
       }
     }
