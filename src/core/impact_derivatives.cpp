@@ -61,6 +61,7 @@ IslandSystem buildSystem(const std::vector<int>& contacts, const Scene& scene,
                          std::vector<int>& local_of) {
   IslandSystem s;
   s.contacts = contacts;
+  for (auto* list : {&s.normal, &s.u, &s.u_after, &s.P}) list->reserve(contacts.size());
   for (const int c : contacts) {
     for (const int b : {contact_bodies[c].first, contact_bodies[c].second}) {
       if (before[b].movable() && local_of[b] < 0) {
@@ -110,11 +111,10 @@ void flag(ContactDerivativeMode& mode, const std::string& detail) {
   mode.switch_detail += detail;
 }
 
-// Writes an island's derivatives into the full Jacobian from dP/du (3m x 3m, u the contacts'
-// pre-impact relative velocities) and dP/dtheta (3m x 3m, per contact e, mu_s, mu_d).
-void scatter(const IslandSystem& s, const MatrixXd& dP_du, const MatrixXd& dP_dtheta,
+// Writes an island's derivatives into the full Jacobian from dP/dv (3m x 6L, v the island's
+// movable bodies' twists) and dP/dtheta (3m x 3m, per contact e, mu_s, mu_d).
+void scatter(const IslandSystem& s, const MatrixXd& dP_dv, const MatrixXd& dP_dtheta,
              const std::vector<Index>& body_column, Index velocity_count, MatrixXd& jacobian) {
-  const MatrixXd dP_dv = dP_du * s.J;  // 3m x 6L
   const MatrixXd dv_dv = s.MinvJt * dP_dv;
   const MatrixXd dv_dtheta = s.MinvJt * dP_dtheta;
   const Index m = static_cast<Index>(s.contacts.size()), L = static_cast<Index>(s.bodies.size());
@@ -283,7 +283,7 @@ Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
 
 // Implicit differentiation of the exact solver's answer on island `s`: F(P, u, theta) = 0, one
 // row triple per contact for its mode, F_P dP = -(F_u du + F_theta dtheta).
-void exactNewton(const IslandSystem& s, const Scene& scene, MatrixXd& dP_du, MatrixXd& dP_dtheta,
+void exactNewton(const IslandSystem& s, const Scene& scene, MatrixXd& dP_dv, MatrixXd& dP_dtheta,
                  std::vector<ContactDerivativeMode>& modes) {
   const Index m = static_cast<Index>(s.contacts.size());
   MatrixXd F_P = MatrixXd::Zero(3 * m, 3 * m), F_u = MatrixXd::Zero(3 * m, 3 * m),
@@ -414,15 +414,19 @@ void exactNewton(const IslandSystem& s, const Scene& scene, MatrixXd& dP_du, Mat
       F_theta(r + 2, r + kDynamic) = -P_n;
     }
   }
-  Eigen::FullPivLU<MatrixXd> lu(F_P);
-  if (lu.isInvertible()) {
-    dP_du = -lu.solve(F_u);
-    dP_dtheta = -lu.solve(F_theta);
-  } else {  // redundant contacts: the least-norm change, as the solver's least-norm impulses
-    Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
-    dP_du = -cod.solve(F_u);
-    dP_dtheta = -cod.solve(F_theta);
+  // One decomposition for both right-hand sides, F_u J (F_u is block diagonal) and F_theta. Where
+  // redundant contacts make F_P singular (a face on 4 points), the least-norm change, as the
+  // solver's least-norm impulses (the velocities' derivatives are the same for every solution).
+  const Index L = s.J.cols();
+  MatrixXd rhs(3 * m, L + 3 * m);
+  for (Index i = 0; i < m; ++i) {
+    rhs.block(3 * i, 0, 3, L).noalias() = F_u.block<3, 3>(3 * i, 3 * i) * s.J.middleRows<3>(3 * i);
   }
+  rhs.rightCols(3 * m) = F_theta;
+  const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
+  const MatrixXd solution = cod.solve(rhs);
+  dP_dv = -solution.leftCols(L);
+  dP_dtheta = -solution.rightCols(3 * m);
 }
 
 // ---- Finite differences of the solver ------------------------------------------------------
@@ -706,16 +710,16 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
       Matrix3d dP_du, dP_dtheta;
       if (closedFormNewton(scene.contacts[c], s.normal[0], s.W, s.u[0], dP_du, dP_dtheta,
                            out.contacts[c])) {
-        scatter(s, dP_du, dP_dtheta, body_column, velocity_count, out.jacobian);
+        scatter(s, dP_du * s.J, dP_dtheta, body_column, velocity_count, out.jacobian);
         continue;
       }
       out.contacts[c] = ContactDerivativeMode{};
     } else if (newton && report.method == SolveMethod::kExact) {
       const IslandSystem s =
           buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
-      MatrixXd dP_du, dP_dtheta;
-      exactNewton(s, scene, dP_du, dP_dtheta, out.contacts);
-      scatter(s, dP_du, dP_dtheta, body_column, velocity_count, out.jacobian);
+      MatrixXd dP_dv, dP_dtheta;
+      exactNewton(s, scene, dP_dv, dP_dtheta, out.contacts);
+      scatter(s, dP_dv, dP_dtheta, body_column, velocity_count, out.jacobian);
       continue;
     }
     numerical.push_back(k);
