@@ -582,11 +582,12 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
     for (const int b : bodies) {
       BodyState& state = perturbed.bodies[b];
       const std::string name = "bodies[" + std::to_string(b) + "].twist.";
+      const char* axes[] = {"x", "y", "z"};
       for (int k = 0; k < 3; ++k) {
         column(body_column[b] + k, state.linear_velocity[k], -INFINITY, INFINITY, velocity_scale,
-               name + "linear");
+               name + "linear." + axes[k]);
         column(body_column[b] + 3 + k, state.angular_velocity[k], -INFINITY, INFINITY,
-               velocity_scale, name + "angular");
+               velocity_scale, name + "angular." + axes[k]);
       }
     }
     for (const int c : report.contacts) {

@@ -471,3 +471,65 @@ TEST(ImpactDerivatives, InvalidSceneIsRefusedNamingTheField) {
 }
 
 }  // namespace
+
+namespace {
+
+// The finite-difference path at a switch: the one-pass law (differenced) at its own stick/slide
+// boundary, the friction pass's sticking impulse |u_t| / (t^T K t) equal to mu_s times the normal
+// pass's -(1 + e) u_n / (n^T K n) (t along u_t; K from the test's M and J). The library must flag
+// the contact and difference on the side that keeps it sticking; the test's own one-sided
+// differences on that side are the reference.
+TEST(ImpactDerivatives, FiniteDifferencesAtASwitchAreOneSidedOnTheReportedSide) {
+  RandomSource random(2616);
+  int checked = 0;
+  for (int trial = 0; trial < 10 && checked < 5; ++trial) {
+    cr::Scene scene = randomScene(random, 1, false, 0.8, 1.0, 0.5);
+    cr::Contact& c = scene.contacts[0];
+    const Vector3d n = c.normal.normalized();
+    const OneBody m = oneBody(scene.bodies[1], c.point);
+    Eigen::Matrix<double, 6, 1> v;
+    v << scene.bodies[1].linear_velocity, scene.bodies[1].angular_velocity;
+    const Vector3d u = m.J * v;
+    const Matrix3d K = m.J * m.M_inv * m.J.transpose();
+    const double u_n = u.dot(n);
+    const Vector3d u_t = u - u_n * n;
+    const Vector3d t = u_t.normalized();
+    const double j_r = -(1.0 + c.restitution) * u_n / n.dot(K * n);
+    const double j_stick = u_t.norm() / t.dot(K * t);
+    c.static_friction = j_stick / j_r * (1.0 + 1e-13);
+    c.dynamic_friction = 0.5 * c.static_friction;
+    cr::SolverOptions options = withLaw(cr::ImpactLaw::kSeedOnePass);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kFiniteDifference);
+    ASSERT_EQ(d.contacts[0].mode, cr::ImpactMode::kSticking) << "trial " << trial;
+    EXPECT_TRUE(d.contacts[0].at_switch) << "trial " << trial;
+    EXPECT_NE(d.contacts[0].switch_detail.find("static_friction: increasing side"),
+              std::string::npos)
+        << d.contacts[0].switch_detail;
+    const Outputs base = predict(scene, options);
+    for (int col = 0; col < d.jacobian.cols(); ++col) {
+      const double h = stepOf(scene, col, 1e-6);
+      for (const double sign : {1.0, -1.0}) {
+        cr::Scene near = scene, far = scene;
+        input(near, col) += sign * h;
+        input(far, col) += 2.0 * sign * h;
+        const Outputs p1 = predict(near, options), p2 = predict(far, options);
+        if (p1.modes != base.modes || p2.modes != base.modes) continue;
+        const VectorXd reference =
+            sign * (-3.0 * base.values + 4.0 * p1.values - p2.values) / (2.0 * h);
+        const double scale =
+            std::max(reference.cwiseAbs().maxCoeff(), floorOf(scene, options, col));
+        for (int row = 0; row < d.jacobian.rows(); ++row) {
+          EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-5 * scale)
+              << "trial " << trial << ": d " << d.rowLabels()[row] << " / d "
+              << d.columnLabels()[col] << " (side " << sign << ")";
+        }
+        break;
+      }
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 5);
+}
+
+}  // namespace
