@@ -247,6 +247,61 @@ bool closedFormNewton(const Contact& contact, const Vector3d& n, const Matrix3d&
   return true;
 }
 
+// One contact between free rigid bodies under the closed form, in fixed-size blocks (the cheap
+// path of a single-contact prediction): side s (a: -1, b: +1) of a movable body has
+// J_s = [I3, -[r_s]x] and M_s^-1 J_s^T = [I3 / m_s; Iw_s^-1 [r_s]x], K = sum_s J_s M_s^-1 J_s^T,
+// u = sum_s sign_s J_s v_s, dv_s' = sign_s M_s^-1 J_s^T dP. False if K is singular.
+bool singleContact(const Scene& scene, int c, std::pair<int, int> sides,
+                   const std::vector<RigidBody>& before, const std::vector<Index>& body_column,
+                   Index velocity_count, ImpactDerivatives& out) {
+  const Contact& contact = scene.contacts[c];
+  const Vector3d n = contact.normal.normalized();
+  struct Side {
+    int body;
+    double sign;
+    Eigen::Matrix<double, 3, 6> J;
+    Eigen::Matrix<double, 6, 3> MinvJt;
+  };
+  std::array<Side, 2> side;
+  int count = 0;
+  Matrix3d K = Matrix3d::Zero();
+  Vector3d u = Vector3d::Zero();
+  for (const int body : {sides.first, sides.second}) {
+    const double sign = body == sides.second ? 1.0 : -1.0;
+    const RigidBody& rigid = before[body];
+    const Vector3d r = contact.point - rigid.com;
+    u += sign * rigid.pointVelocity(r);
+    if (!rigid.movable()) continue;
+    Side& s = side[count++];
+    s.body = body;
+    s.sign = sign;
+    s.J = pointJacobian(r);
+    s.MinvJt.topRows<3>() = rigid.inverse_mass * Matrix3d::Identity();
+    s.MinvJt.bottomRows<3>() = rigid.inverse_inertia * skew(r);
+    K.noalias() += s.J * s.MinvJt;
+  }
+  Matrix3d dP_du, dP_dtheta;
+  if (!closedFormNewton(contact, n, K, u, dP_du, dP_dtheta, out.contacts[c])) return false;
+  Eigen::Matrix<double, 4, 3> impulse_of_P;  // (normal_impulse, friction_impulse) = this * P
+  impulse_of_P.row(0) = n.transpose();
+  impulse_of_P.bottomRows<3>() = Matrix3d::Identity() - n * n.transpose();
+  const Index impulse_row = velocity_count + 4 * static_cast<Index>(c);
+  const Index coefficient_column = velocity_count + 3 * static_cast<Index>(c);
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Matrix<double, 3, 6> dP_dv = side[k].sign * dP_du * side[k].J;
+    const Index column = body_column[side[k].body];
+    for (int l = 0; l < count; ++l) {
+      out.jacobian.block<6, 6>(body_column[side[l].body], column).noalias() +=
+          side[l].sign * side[l].MinvJt * dP_dv;
+    }
+    out.jacobian.block<4, 6>(impulse_row, column).noalias() = impulse_of_P * dP_dv;
+    out.jacobian.block<6, 3>(body_column[side[k].body], coefficient_column).noalias() =
+        side[k].sign * side[k].MinvJt * dP_dtheta;
+  }
+  out.jacobian.block<4, 3>(impulse_row, coefficient_column).noalias() = impulse_of_P * dP_dtheta;
+  return true;
+}
+
 // ---- Newton, exact solver: the final active set, implicit differentiation -------------------
 
 // The pyramid of a contact as the exact solver builds it: d_k = cos(2 pi k / D) t1 +
@@ -705,13 +760,8 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
     }
     const bool newton = options.law == ImpactLaw::kNewton;
     if (newton && report.method == SolveMethod::kClosedForm && report.contacts.size() == 1) {
-      const IslandSystem s =
-          buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
       const int c = report.contacts[0];
-      Matrix3d dP_du, dP_dtheta;
-      if (closedFormNewton(scene.contacts[c], s.normal[0], s.W, s.u[0], dP_du, dP_dtheta,
-                           out.contacts[c])) {
-        scatter(s, dP_du * s.J, dP_dtheta, body_column, velocity_count, out.jacobian);
+      if (singleContact(scene, c, contact_bodies[c], before, body_column, velocity_count, out)) {
         continue;
       }
       out.contacts[c] = ContactDerivativeMode{};
