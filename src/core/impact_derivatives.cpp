@@ -338,8 +338,8 @@ Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
 
 // Implicit differentiation of the exact solver's answer on island `s`: F(P, u, theta) = 0, one
 // row triple per contact for its mode, F_P dP = -(F_u du + F_theta dtheta).
-void exactNewton(const IslandSystem& s, const Scene& scene, MatrixXd& dP_dv, MatrixXd& dP_dtheta,
-                 std::vector<ContactDerivativeMode>& modes) {
+bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, MatrixXd& dP_dv,
+                 MatrixXd& dP_dtheta, std::vector<ContactDerivativeMode>& modes) {
   const Index m = static_cast<Index>(s.contacts.size());
   MatrixXd F_P = MatrixXd::Zero(3 * m, 3 * m), F_u = MatrixXd::Zero(3 * m, 3 * m),
            F_theta = MatrixXd::Zero(3 * m, 3 * m);
@@ -349,6 +349,7 @@ void exactNewton(const IslandSystem& s, const Scene& scene, MatrixXd& dP_dv, Mat
     P_scale = std::max(P_scale, s.P[i].norm());
   }
   const double facet = 1.0 + std::cos(2.0 * kPi / kD);
+  bool frictional_sliding = false;  // F_P then depends on the inputs (pyramid, mu)
   for (Index i = 0; i < m; ++i) {
     const Contact& contact = scene.contacts[s.contacts[i]];
     ContactDerivativeMode& mode = modes[s.contacts[i]];
@@ -426,14 +427,19 @@ void exactNewton(const IslandSystem& s, const Scene& scene, MatrixXd& dP_dv, Mat
       F_P.block(r, 0, 3, 3 * m) = s.W.middleRows<3>(r);
       F_u.block<3, 3>(r, r) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
       if (approaching) F_theta.block<3, 1>(r, r + kRestitution) = u_n * n;
-      if (gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
-          P_t.norm() >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
-          (mu_d < mu_s && std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n)) {
-        flag(mode, "stick/slide: friction on its pyramid's boundary; sticking side");
+      // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
+      // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
+      if (all_sticking ? P_t.norm() >= (1.0 - kSwitchTolerance) * mu_s * P_n
+                       : gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
+                             (mu_d < mu_s &&
+                              std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n)) {
+        flag(mode, all_sticking ? "stick/slide: |P_t| = mu_s P_n; sticking side"
+                                : "stick/slide: friction on its pyramid's boundary; sticking side");
       }
       continue;
     }
     mode.mode = ImpactMode::kSliding;
+    frictional_sliding = true;
     if (slip <= 10.0 * kSlipTolerance * u_reference) {
       flag(mode, "stick/slide: the slip is at the solver's tolerance; sliding side");
     }
@@ -479,9 +485,22 @@ void exactNewton(const IslandSystem& s, const Scene& scene, MatrixXd& dP_dv, Mat
   }
   rhs.rightCols(3 * m) = F_theta;
   const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
+  if (cod.rank() < 3 * m && frictional_sliding) {
+    // Redundant contacts sliding with friction (a face sliding on 4 points): how the normal
+    // impulse is shared is not fixed by the equations, and through friction neither are the
+    // twists; the solver's choice depends on its own unknowns, and the least-norm change of these
+    // equations (whose F_P moves with the pyramid and mu) is not its derivative.
+    for (const int c : s.contacts) {
+      flag(modes[c],
+           "redundant contacts sliding with friction: the impulses are not unique, the "
+           "solver's choice is differenced");
+    }
+    return false;
+  }
   const MatrixXd solution = cod.solve(rhs);
   dP_dv = -solution.leftCols(L);
   dP_dtheta = -solution.rightCols(3 * m);
+  return true;
 }
 
 // ---- Finite differences of the solver ------------------------------------------------------
@@ -740,6 +759,13 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
   std::vector<std::size_t> numerical;
   for (std::size_t k = 0; k < out.result.islands.size(); ++k) {
     const SolveReport& report = out.result.islands[k];
+    if (!report.converged) {
+      for (const int c : report.contacts) {
+        flag(out.contacts[c],
+             "the island's solve did not converge (see result.islands): the "
+             "derivative is that of the answer given, not of a solution");
+      }
+    }
     const bool impact = report.method != SolveMethod::kNone &&
                         report.method != SolveMethod::kRestingClosedForm &&
                         report.method != SolveMethod::kRestingIterative;
@@ -769,9 +795,12 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
       const IslandSystem s =
           buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
       MatrixXd dP_dv, dP_dtheta;
-      exactNewton(s, scene, dP_dv, dP_dtheta, out.contacts);
-      scatter(s, dP_dv, dP_dtheta, body_column, velocity_count, out.jacobian);
-      continue;
+      // The exact solver's answer came without a pivot (iterations 0) when every contact was
+      // active and sticking inside its static cone (exact_solver.h).
+      if (exactNewton(s, scene, report.iterations == 0, dP_dv, dP_dtheta, out.contacts)) {
+        scatter(s, dP_dv, dP_dtheta, body_column, velocity_count, out.jacobian);
+        continue;
+      }
     }
     numerical.push_back(k);
   }

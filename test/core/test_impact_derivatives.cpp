@@ -533,3 +533,59 @@ TEST(ImpactDerivatives, FiniteDifferencesAtASwitchAreOneSidedOnTheReportedSide) 
 }
 
 }  // namespace
+
+namespace {
+
+// Redundant contacts: a cube landing flat on its 4 bottom corners (12 contact equations, 6 body
+// unknowns: the active set's equations are singular and the impulses not unique). Sticking (large
+// mu), the solver gives the least-norm impulses, whose derivative is the least-norm change:
+// analytic. Sliding (small mu), the sharing of the normal impulse is not fixed and, through
+// friction, neither are the twists: the solver's choice is differenced, reported so. Both against
+// central differences.
+TEST(ImpactDerivatives, RedundantContactsOfAFaceLandingFlatMatchCentralDifferences) {
+  RandomSource random(2617);
+  int compared = 0, columns = 0, sticking = 0, sliding = 0, differenced = 0, analytic = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    cr::Scene scene;
+    scene.bodies.push_back(ground());
+    cr::BodyState cube;
+    cube.id = "cube";
+    cube.mass = random.uniform(0.5, 3.0);
+    cube.inertia = boxInertia(cube.mass, Vector3d(1, 1, 1));
+    cube.position = Vector3d(0, 0, 0.5);
+    cube.linear_velocity = Vector3d(random.uniform(-1, 1), random.uniform(-1, 1), -2.0);
+    cube.angular_velocity = random.vec(-0.3, 0.3);
+    scene.bodies.push_back(cube);
+    const double mu_s = trial % 2 == 0 ? 2.0 : 0.1, mu_d = 0.7 * mu_s;
+    for (const double x : {-0.5, 0.5}) {
+      for (const double y : {-0.5, 0.5}) {
+        scene.contacts.push_back(
+            contact("ground", "cube", Vector3d(x, y, 0), Vector3d::UnitZ(), 0.4, mu_s, mu_d));
+      }
+    }
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    if (d.method == cr::DerivativeMethod::kFiniteDifference) {
+      // Sliding on all four: the solver's choice, differenced and said so.
+      EXPECT_NE(d.contacts[0].switch_detail.find("not unique"), std::string::npos)
+          << d.contacts[0].switch_detail;
+      ++differenced;
+    } else if (anySwitch(d)) {
+      continue;  // e.g. a corner left without impulse at its target (a degenerate vertex)
+    } else {
+      ++analytic;
+    }
+    sticking += countMode(d, cr::ImpactMode::kSticking);
+    sliding += countMode(d, cr::ImpactMode::kSliding);
+    compared += compareWithDifferences(scene, options, d, 1e-6, 1e-6,
+                                       "flat landing, trial " + std::to_string(trial));
+    columns += static_cast<int>(d.jacobian.cols());
+  }
+  EXPECT_GE(sticking, 8);
+  EXPECT_GE(sliding, 8);
+  EXPECT_GE(analytic, 3);
+  EXPECT_GE(differenced, 3);
+  EXPECT_GE(compared, columns * 3 / 4) << compared << " of " << columns;
+}
+
+}  // namespace
