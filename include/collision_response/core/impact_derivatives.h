@@ -101,9 +101,12 @@ struct ImpactDerivatives {
 /// Validates the scene (throws InvalidInput naming the field), predicts the impact as
 /// computeResponse() does and differentiates it. Analytic for the Newton law when each impacting
 /// island is solved in closed form (one contact under SolverMethod::kAuto) or by the exact solver
-/// (its final active set); finite differences of the solver otherwise (reported per contact and in
-/// `method`). Resting islands and islands where nothing approaches get no impulse: their bodies'
-/// derivatives are the identity (a contact touching at u_n = 0 is flagged at a switch).
+/// (its final active set; redundant contacts sliding with friction excepted, whose impulses are
+/// not unique); finite differences of the solver otherwise (reported per contact and in `method`;
+/// 2 to 4 further solves per input column, each with the options' time budget). Resting islands
+/// and islands where nothing approaches get no impulse: their bodies' derivatives are the identity
+/// (a contact touching at u_n = 0 is flagged at a switch). The prediction in `result` is the one
+/// computeResponse() gives.
 ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptions& options = {},
                                            const RequestLimits& limits = {});
 
