@@ -1,0 +1,147 @@
+// Cost of the derivatives of the impact map (impact_derivatives.h) against the prediction's own
+// (Google Benchmark), Newton law, analytic paths:
+//   devel/lib/collision_response/bench_derivatives          (Release build)
+// Each pair times computeResponse() and computeImpactDerivatives() (which includes one
+// prediction) on the same scene: one off-centre frictional contact that slides, the same that
+// sticks, and a cube landing on 4 contacts (exact solver). The instruction counts of one call of
+// each, for the benchmark report:
+//   valgrind --tool=callgrind --toggle-collect='*predictOnce*' bench_derivatives --callgrind SCENE
+//   valgrind --tool=callgrind --toggle-collect='*differentiateOnce*' bench_derivatives --callgrind
+//   SCENE
+// with SCENE one of sliding, sticking, cube4.
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Geometry>
+#include <cstring>
+#include <string>
+
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/impact_derivatives.h"
+
+namespace core = collision_response::core;
+
+namespace {
+
+// A box struck off-centre on the ground: u = (1, 0.3, -2) m/s at the contact; mu_s decides
+// whether it sticks (2.0) or slides (0.2, with mu_d = 0.8 mu_s).
+core::Scene singleContact(double mu_s) {
+  core::BodyState ground;
+  ground.id = "ground";
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 1.5;
+  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
+  box.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
+  box.position = {0.1, -0.05, 0.2};
+  box.linear_velocity = {1.0, 0.3, -2.0};
+  box.angular_velocity = {0.5, -1.0, 0.2};
+  core::Contact contact;
+  contact.body_a = "ground";
+  contact.body_b = "box";
+  contact.point = {0.0, 0.0, 0.0};
+  contact.normal = {0.0, 0.0, 1.0};
+  contact.restitution = 0.5;
+  contact.static_friction = mu_s;
+  contact.dynamic_friction = 0.8 * mu_s;
+  core::Scene scene;
+  scene.bodies = {ground, box};
+  scene.contacts = {contact};
+  return scene;
+}
+
+// A unit cube landing flat, tilted velocity and spin: 4 corner contacts, one island.
+core::Scene cube4(double mu) {
+  core::Scene scene = singleContact(mu);
+  core::BodyState& cube = scene.bodies[1];
+  cube.mass = 1.0;
+  cube.inertia = Eigen::Matrix3d::Identity() / 6.0;
+  cube.orientation = Eigen::Quaterniond::Identity();
+  cube.position = {0.0, 0.0, 0.5};
+  cube.linear_velocity = {0.3, 0.1, -1.0};
+  cube.angular_velocity = {0.2, -0.1, 0.3};
+  const core::Contact corner = scene.contacts[0];
+  scene.contacts.clear();
+  for (const double x : {-0.5, 0.5}) {
+    for (const double y : {-0.5, 0.5}) {
+      core::Contact contact = corner;
+      contact.point = {x, y, 0.0};
+      scene.contacts.push_back(contact);
+    }
+  }
+  return scene;
+}
+
+core::SolverOptions newton() {
+  core::SolverOptions options;
+  options.law = core::ImpactLaw::kNewton;
+  return options;
+}
+
+[[gnu::noinline]] core::CollisionResult predictOnce(const core::Scene& scene,
+                                                    const core::SolverOptions& options) {
+  return core::computeResponse(scene, options);
+}
+
+[[gnu::noinline]] core::ImpactDerivatives differentiateOnce(const core::Scene& scene,
+                                                            const core::SolverOptions& options) {
+  return core::computeImpactDerivatives(scene, options);
+}
+
+void predict(benchmark::State& state, const core::Scene& scene) {
+  const core::SolverOptions options = newton();
+  for (auto _ : state) benchmark::DoNotOptimize(predictOnce(scene, options));
+}
+
+void differentiate(benchmark::State& state, const core::Scene& scene) {
+  const core::SolverOptions options = newton();
+  for (auto _ : state) benchmark::DoNotOptimize(differentiateOnce(scene, options));
+}
+
+void BM_Predict_SingleSliding(benchmark::State& s) {
+  predict(s, singleContact(0.2));
+}
+void BM_Derivatives_SingleSliding(benchmark::State& s) {
+  differentiate(s, singleContact(0.2));
+}
+void BM_Predict_SingleSticking(benchmark::State& s) {
+  predict(s, singleContact(2.0));
+}
+void BM_Derivatives_SingleSticking(benchmark::State& s) {
+  differentiate(s, singleContact(2.0));
+}
+void BM_Predict_Cube4(benchmark::State& s) {
+  predict(s, cube4(0.5));
+}
+void BM_Derivatives_Cube4(benchmark::State& s) {
+  differentiate(s, cube4(0.5));
+}
+
+}  // namespace
+
+BENCHMARK(BM_Predict_SingleSliding);
+BENCHMARK(BM_Derivatives_SingleSliding);
+BENCHMARK(BM_Predict_SingleSticking);
+BENCHMARK(BM_Derivatives_SingleSticking);
+BENCHMARK(BM_Predict_Cube4);
+BENCHMARK(BM_Derivatives_Cube4);
+
+// `--callgrind SCENE`: one counted call of each function on that scene, no timing (for the
+// instruction counts above).
+int main(int argc, char** argv) {
+  if (argc > 2 && std::strcmp(argv[1], "--callgrind") == 0) {
+    const std::string which = argv[2];
+    const core::Scene scene = which == "sliding"    ? singleContact(0.2)
+                              : which == "sticking" ? singleContact(2.0)
+                                                    : cube4(0.5);
+    const core::SolverOptions options = newton();
+    // A first call of each outside the counted ones (thread-local workspaces, lazy tables).
+    benchmark::DoNotOptimize(core::computeImpactDerivatives(scene, options));
+    benchmark::DoNotOptimize(predictOnce(scene, options));
+    benchmark::DoNotOptimize(differentiateOnce(scene, options));
+    return 0;
+  }
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  return 0;
+}

@@ -1,0 +1,815 @@
+#include "collision_response/core/impact_derivatives.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "collision_response/core/constants.h"
+#include "collision_response/core/contact_space.h"
+#include "collision_response/core/exact_solver.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/validation.h"
+
+namespace collision_response::core {
+namespace {
+
+using Eigen::Index;
+using Eigen::Matrix3d;
+using Eigen::MatrixXd;
+using Eigen::Vector3d;
+
+constexpr int kD = kPyramidDirections;
+// The exact solver's own thresholds (exact_solver.cpp): a contact whose slip exceeds kAlignedSlip
+// of its |u| gets its pyramid turned to the slip; one whose |u'_t| exceeds kSlipTolerance of the
+// island's largest pre-impact |u| slides.
+constexpr double kAlignedSlip = 1e-6;
+constexpr double kSlipTolerance = 1e-9;
+// Relative round-off below which a pyramid coefficient beta_k counts as 0 (an edge, not a facet).
+constexpr double kPyramidRoundOff = 1e-8;
+// Finite differences: step relative to the input's scale (central: truncation ~ step^2, round-off
+// ~ 2e-16 / step). Small, because the integrations' outputs jump where their step count changes
+// (by their discretisation error: 1e-7 of the outputs about every 1e-5 of an input for the
+// simultaneous integration, which has no error control); a difference across such a jump is
+// replaced by a one-sided one.
+constexpr double kStep = 1e-7;
+// Central differences with one and two steps that differ by more than this (relative to the
+// column) reveal a kink or jump inside the steps.
+constexpr double kSmoothness = 1e-4;
+// Column offsets of a contact's coefficients.
+constexpr int kRestitution = 0, kStatic = 1, kDynamic = 2;
+
+// The island's movable bodies and the Jacobians J_i (3 x 6L, rows of contact i) of its contacts.
+struct IslandSystem {
+  std::vector<int> contacts;  // scene indices
+  std::vector<int> bodies;    // scene indices of the movable bodies, local order
+  MatrixXd J;                 // 3m x 6L: u = J v (+ the immovable bodies' part)
+  MatrixXd MinvJt;            // 6L x 3m: M^-1 J^T
+  MatrixXd W;                 // 3m x 3m: J M^-1 J^T
+  std::vector<Vector3d> normal, u, u_after, P;
+};
+
+Eigen::Matrix<double, 3, 6> pointJacobian(const Vector3d& r) {
+  Eigen::Matrix<double, 3, 6> J;
+  J << Matrix3d::Identity(), -skew(r);
+  return J;
+}
+
+IslandSystem buildSystem(const std::vector<int>& contacts, const Scene& scene,
+                         const std::vector<std::pair<int, int>>& contact_bodies,
+                         const std::vector<RigidBody>& before, const CollisionResult& result,
+                         std::vector<int>& local_of) {
+  IslandSystem s;
+  s.contacts = contacts;
+  for (auto* list : {&s.normal, &s.u, &s.u_after, &s.P}) list->reserve(contacts.size());
+  for (const int c : contacts) {
+    for (const int b : {contact_bodies[c].first, contact_bodies[c].second}) {
+      if (before[b].movable() && local_of[b] < 0) {
+        local_of[b] = static_cast<int>(s.bodies.size());
+        s.bodies.push_back(b);
+      }
+    }
+  }
+  const Index m = static_cast<Index>(contacts.size()), L = static_cast<Index>(s.bodies.size());
+  s.J.setZero(3 * m, 6 * L);
+  s.MinvJt.resize(6 * L, 3 * m);
+  for (Index i = 0; i < m; ++i) {
+    const int c = contacts[i];
+    const Contact& contact = scene.contacts[c];
+    const auto [a, b] = contact_bodies[c];
+    const Vector3d n = contact.normal.normalized();
+    Vector3d u = Vector3d::Zero(), u_after = Vector3d::Zero();
+    for (const int side : {a, b}) {
+      const double sign = side == b ? 1.0 : -1.0;
+      const Vector3d r = contact.point - before[side].com;
+      u += sign * before[side].pointVelocity(r);
+      u_after += sign * (result.bodies[side].linear_velocity +
+                         result.bodies[side].angular_velocity.cross(r));
+      if (local_of[side] >= 0)
+        s.J.block<3, 6>(3 * i, 6 * local_of[side]) += sign * pointJacobian(r);
+    }
+    s.normal.push_back(n);
+    s.u.push_back(u);
+    s.u_after.push_back(u_after);
+    const ContactImpulse& impulse = result.impulses[c];
+    s.P.push_back(impulse.normal_impulse * n + impulse.friction_impulse);
+  }
+  for (Index l = 0; l < L; ++l) {
+    const RigidBody& body = before[s.bodies[l]];
+    const auto Jt = s.J.middleCols<6>(6 * l).transpose();
+    s.MinvJt.middleRows<3>(6 * l) = body.inverse_mass * Jt.topRows<3>();
+    s.MinvJt.middleRows<3>(6 * l + 3) = body.inverse_inertia * Jt.bottomRows<3>();
+  }
+  s.W = s.J * s.MinvJt;
+  for (const int b : s.bodies) local_of[b] = -1;
+  return s;
+}
+
+void flag(ContactDerivativeMode& mode, const std::string& detail) {
+  mode.at_switch = true;
+  if (!mode.switch_detail.empty()) mode.switch_detail += "; ";
+  mode.switch_detail += detail;
+}
+
+// Writes an island's derivatives into the full Jacobian from dP/dv (3m x 6L, v the island's
+// movable bodies' twists) and dP/dtheta (3m x 3m, per contact e, mu_s, mu_d).
+void scatter(const IslandSystem& s, const MatrixXd& dP_dv, const MatrixXd& dP_dtheta,
+             const std::vector<Index>& body_column, Index velocity_count, MatrixXd& jacobian) {
+  const MatrixXd dv_dv = s.MinvJt * dP_dv;
+  const MatrixXd dv_dtheta = s.MinvJt * dP_dtheta;
+  const Index m = static_cast<Index>(s.contacts.size()), L = static_cast<Index>(s.bodies.size());
+  for (Index l = 0; l < L; ++l) {
+    const Index row = body_column[s.bodies[l]];
+    for (Index k = 0; k < L; ++k) {
+      jacobian.block<6, 6>(row, body_column[s.bodies[k]]) += dv_dv.block<6, 6>(6 * l, 6 * k);
+    }
+    for (Index j = 0; j < m; ++j) {
+      jacobian.block<6, 3>(row, velocity_count + 3 * s.contacts[j]) =
+          dv_dtheta.block<6, 3>(6 * l, 3 * j);
+    }
+  }
+  const Index impulse_rows = velocity_count;
+  const Index coefficient_columns = velocity_count;
+  for (Index i = 0; i < m; ++i) {
+    // normal_impulse = n.P, friction_impulse = (I - n n^T) P.
+    const Vector3d& n = s.normal[i];
+    Eigen::Matrix<double, 4, 3> out;
+    out.row(0) = n.transpose();
+    out.bottomRows<3>() = Matrix3d::Identity() - n * n.transpose();
+    const Index row = impulse_rows + 4 * static_cast<Index>(s.contacts[i]);
+    for (Index l = 0; l < L; ++l) {
+      jacobian.block<4, 6>(row, body_column[s.bodies[l]]) = out * dP_dv.block<3, 6>(3 * i, 6 * l);
+    }
+    for (Index j = 0; j < m; ++j) {
+      jacobian.block<4, 3>(row, coefficient_columns + 3 * s.contacts[j]) =
+          out * dP_dtheta.block<3, 3>(3 * i, 3 * j);
+    }
+  }
+}
+
+// ---- Newton, one contact in closed form (single_contact.h) ----------------------------------
+
+// dP/du and dP/d(e, mu_s, mu_d) of solveSingleContact() under Newton's law for a regular K. False
+// if K is singular (the caller then differentiates numerically).
+bool closedFormNewton(const Contact& contact, const Vector3d& n, const Matrix3d& K,
+                      const Vector3d& u, Matrix3d& dP_du, Matrix3d& dP_dtheta,
+                      ContactDerivativeMode& mode) {
+  const double e = contact.restitution, mu_s = contact.static_friction,
+               mu_d = contact.dynamic_friction;
+  const double u_n = n.dot(u);
+  dP_du.setZero();
+  dP_dtheta.setZero();
+  mode.method = DerivativeMethod::kAnalytic;
+  if (!(u_n < 0.0)) {
+    mode.mode = ImpactMode::kNoImpulse;
+    return true;
+  }
+  if (-u_n <= kSwitchTolerance * u.norm()) {
+    flag(mode, "u_n = 0: the contact barely approaches; approaching side (a larger u_n separates)");
+  }
+  const double trace = K.trace();
+  if (!(K.determinant() > 1e-12 * trace * trace * trace)) return false;
+  const Matrix3d K_inv = K.inverse();
+  const Matrix3d nnT = n * n.transpose();
+  const Matrix3d tangential = Matrix3d::Identity() - nnT;
+  // Sticking impulse q = K^-1 (-u - e u_n n) and its derivatives.
+  const Vector3d q = K_inv * (-u - e * u_n * n);
+  const Matrix3d dq_du = -K_inv * (Matrix3d::Identity() + e * nnT);
+  const Vector3d dq_de = -u_n * (K_inv * n);
+  const bool frictionless = contact.frictionless();
+  const double q_n = q.dot(n);
+  const Vector3d q_t = q - q_n * n;
+  const double q_t_norm = q_t.norm();
+  if (frictionless) {
+    // P = -(1 + e) u_n / K_nn n.
+    const double K_nn = n.dot(K * n);
+    mode.mode = ImpactMode::kSliding;
+    dP_du = (-(1.0 + e) / K_nn) * nnT;
+    dP_dtheta.col(kRestitution) = (-u_n / K_nn) * n;
+    // mu_s alone (mu_d = 0) keeps the frictionless impulse (the contact slides with mu_d = 0);
+    // mu_d (with mu_s) slides along the sticking impulse's tangential direction: one-sided.
+    if (q_t_norm > 0.0) {
+      const Vector3d s = q_t / q_t_norm;
+      const double alpha = -(1.0 + e) * u_n / K_nn;
+      const double dalpha = -alpha * n.dot(K * s) / K_nn;
+      dP_dtheta.col(kDynamic) = dalpha * n + alpha * s;
+    }
+    flag(mode, "frictionless: the friction columns are one-sided, for increasing coefficients");
+    return true;
+  }
+  const double limit = mu_s * q_n;
+  if (q_n >= 0.0 && q_t_norm <= limit) {
+    mode.mode = ImpactMode::kSticking;
+    dP_du = dq_du;
+    dP_dtheta.col(kRestitution) = dq_de;
+    if (q_t_norm >= (1.0 - kSwitchTolerance) * limit) {
+      flag(mode, "stick/slide: |P_t| = mu_s P_n; sticking side");
+    }
+    if (q_n <= kSwitchTolerance * q.norm()) flag(mode, "P_n = 0 while sticking; sticking side");
+    return true;
+  }
+  if (q_t_norm == 0.0) return false;  // sliding without a direction: numerically
+  const Vector3d s = q_t / q_t_norm;
+  const Vector3d direction = n + mu_d * s;
+  const double denominator = n.dot(K * direction);
+  if (!(denominator > 0.0)) {
+    // Painleve-like: the sticking impulse is returned.
+    mode.mode = ImpactMode::kSticking;
+    dP_du = dq_du;
+    dP_dtheta.col(kRestitution) = dq_de;
+    flag(mode, "no sliding impulse exists (n^T K (n + mu_d d) <= 0): the sticking impulse");
+    return true;
+  }
+  mode.mode = ImpactMode::kSliding;
+  if (q_n >= 0.0 && q_t_norm <= (1.0 + kSwitchTolerance) * limit) {
+    flag(mode, "stick/slide: |P_t| = mu_s P_n; sliding side");
+  }
+  if (denominator <= kSwitchTolerance * n.dot(K * n)) {
+    flag(mode, "sliding impulse near n^T K (n + mu_d d) = 0");
+  }
+  // P = alpha (n + mu_d s), alpha = -(1 + e) u_n / (n^T K (n + mu_d s)), s = q_t / |q_t|.
+  const double alpha = -(1.0 + e) * u_n / denominator;
+  const Matrix3d ds_dq = (Matrix3d::Identity() - s * s.transpose()) * tangential / q_t_norm;
+  const Vector3d nK = K * n;  // K symmetric: n^T K x = nK . x
+  // Through s (u, e), and directly through u_n (u), e and mu_d.
+  const Matrix3d ds_du = ds_dq * dq_du;
+  const Vector3d ds_de = ds_dq * dq_de;
+  const Eigen::RowVector3d dden_du = mu_d * nK.transpose() * ds_du;
+  const double dden_de = mu_d * nK.dot(ds_de);
+  const double dden_dmu = nK.dot(s);
+  const Eigen::RowVector3d dalpha_du =
+      (-(1.0 + e) / denominator) * n.transpose() - (alpha / denominator) * dden_du;
+  const double dalpha_de = -u_n / denominator - (alpha / denominator) * dden_de;
+  const double dalpha_dmu = -(alpha / denominator) * dden_dmu;
+  dP_du = direction * dalpha_du + alpha * mu_d * ds_du;
+  dP_dtheta.col(kRestitution) = dalpha_de * direction + alpha * mu_d * ds_de;
+  dP_dtheta.col(kDynamic) = dalpha_dmu * direction + alpha * s;
+  return true;
+}
+
+// One contact between free rigid bodies under the closed form, in fixed-size blocks (the cheap
+// path of a single-contact prediction): side s (a: -1, b: +1) of a movable body has
+// J_s = [I3, -[r_s]x] and M_s^-1 J_s^T = [I3 / m_s; Iw_s^-1 [r_s]x], K = sum_s J_s M_s^-1 J_s^T,
+// u = sum_s sign_s J_s v_s, dv_s' = sign_s M_s^-1 J_s^T dP. False if K is singular.
+bool singleContact(const Scene& scene, int c, std::pair<int, int> sides,
+                   const std::vector<RigidBody>& before, const std::vector<Index>& body_column,
+                   Index velocity_count, ImpactDerivatives& out) {
+  const Contact& contact = scene.contacts[c];
+  const Vector3d n = contact.normal.normalized();
+  struct Side {
+    int body;
+    double sign;
+    Eigen::Matrix<double, 3, 6> J;
+    Eigen::Matrix<double, 6, 3> MinvJt;
+  };
+  std::array<Side, 2> side;
+  int count = 0;
+  Matrix3d K = Matrix3d::Zero();
+  Vector3d u = Vector3d::Zero();
+  for (const int body : {sides.first, sides.second}) {
+    const double sign = body == sides.second ? 1.0 : -1.0;
+    const RigidBody& rigid = before[body];
+    const Vector3d r = contact.point - rigid.com;
+    u += sign * rigid.pointVelocity(r);
+    if (!rigid.movable()) continue;
+    Side& s = side[count++];
+    s.body = body;
+    s.sign = sign;
+    s.J = pointJacobian(r);
+    s.MinvJt.topRows<3>() = rigid.inverse_mass * Matrix3d::Identity();
+    s.MinvJt.bottomRows<3>() = rigid.inverse_inertia * skew(r);
+    K.noalias() += s.J * s.MinvJt;
+  }
+  Matrix3d dP_du, dP_dtheta;
+  if (!closedFormNewton(contact, n, K, u, dP_du, dP_dtheta, out.contacts[c])) return false;
+  Eigen::Matrix<double, 4, 3> impulse_of_P;  // (normal_impulse, friction_impulse) = this * P
+  impulse_of_P.row(0) = n.transpose();
+  impulse_of_P.bottomRows<3>() = Matrix3d::Identity() - n * n.transpose();
+  const Index impulse_row = velocity_count + 4 * static_cast<Index>(c);
+  const Index coefficient_column = velocity_count + 3 * static_cast<Index>(c);
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Matrix<double, 3, 6> dP_dv = side[k].sign * dP_du * side[k].J;
+    const Index column = body_column[side[k].body];
+    for (int l = 0; l < count; ++l) {
+      out.jacobian.block<6, 6>(body_column[side[l].body], column).noalias() +=
+          side[l].sign * side[l].MinvJt * dP_dv;
+    }
+    out.jacobian.block<4, 6>(impulse_row, column).noalias() = impulse_of_P * dP_dv;
+    out.jacobian.block<6, 3>(body_column[side[k].body], coefficient_column).noalias() =
+        side[k].sign * side[k].MinvJt * dP_dtheta;
+  }
+  out.jacobian.block<4, 3>(impulse_row, coefficient_column).noalias() = impulse_of_P * dP_dtheta;
+  return true;
+}
+
+// ---- Newton, exact solver: the final active set, implicit differentiation -------------------
+
+// The pyramid of a contact as the exact solver builds it: d_k = cos(2 pi k / D) t1 +
+// sin(2 pi k / D) t2, t1 along the pre-impact slip when it slides (then dt1/du = T1), otherwise
+// tangentBasis(n) (T1 = 0).
+struct Pyramid {
+  Vector3d t1, t2;
+  Matrix3d T1 = Matrix3d::Zero();
+  Vector3d direction(int k) const {
+    const double angle = 2.0 * kPi * k / kD;
+    return std::cos(angle) * t1 + std::sin(angle) * t2;
+  }
+  // d d_k / du: (cos I + sin [n]x) T1, t2 = n x t1.
+  Matrix3d derivative(int k, const Vector3d& n) const {
+    const double angle = 2.0 * kPi * k / kD;
+    return (std::cos(angle) * Matrix3d::Identity() + std::sin(angle) * skew(n)) * T1;
+  }
+};
+
+Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
+  Pyramid p;
+  const Vector3d slip = u - u.dot(n) * n;
+  const double slip_norm = slip.norm();
+  if (slip_norm > kAlignedSlip * u.norm()) {
+    p.t1 = slip / slip_norm;
+    p.t2 = n.cross(p.t1);
+    p.T1 = (Matrix3d::Identity() - p.t1 * p.t1.transpose()) *
+           (Matrix3d::Identity() - n * n.transpose()) / slip_norm;
+  } else {
+    tangentBasis(n, p.t1, p.t2);
+  }
+  return p;
+}
+
+// Implicit differentiation of the exact solver's answer on island `s`: F(P, u, theta) = 0, one
+// row triple per contact for its mode, F_P dP = -(F_u du + F_theta dtheta).
+bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, MatrixXd& dP_dv,
+                 MatrixXd& dP_dtheta, std::vector<ContactDerivativeMode>& modes) {
+  const Index m = static_cast<Index>(s.contacts.size());
+  MatrixXd F_P = MatrixXd::Zero(3 * m, 3 * m), F_u = MatrixXd::Zero(3 * m, 3 * m),
+           F_theta = MatrixXd::Zero(3 * m, 3 * m);
+  double u_reference = 0.0, P_scale = 0.0;
+  for (Index i = 0; i < m; ++i) {
+    u_reference = std::max(u_reference, s.u[i].norm());
+    P_scale = std::max(P_scale, s.P[i].norm());
+  }
+  const double facet = 1.0 + std::cos(2.0 * kPi / kD);
+  bool frictional_sliding = false;  // F_P then depends on the inputs (pyramid, mu)
+  for (Index i = 0; i < m; ++i) {
+    const Contact& contact = scene.contacts[s.contacts[i]];
+    ContactDerivativeMode& mode = modes[s.contacts[i]];
+    mode.method = DerivativeMethod::kAnalytic;
+    const Vector3d& n = s.normal[i];
+    const Vector3d& u = s.u[i];
+    const Vector3d& u_after = s.u_after[i];
+    const Vector3d& P = s.P[i];
+    const double e = contact.restitution, mu_s = contact.static_friction,
+                 mu_d = contact.dynamic_friction;
+    const double u_n = n.dot(u), P_n = n.dot(P);
+    const bool approaching = u_n < 0.0;
+    const double target = approaching ? -e * u_n : 0.0;
+    const Index r = 3 * i;
+    if (std::abs(u_n) <= kSwitchTolerance * u_reference) {
+      flag(mode, "u_n = 0: the target normal velocity switches between -e u_n and 0");
+    }
+    const Vector3d P_t = P - P_n * n;
+    const Vector3d slip_after = u_after - u_after.dot(n) * n;
+    const double slip = slip_after.norm();
+    const Pyramid pyramid = pyramidOf(n, u);
+    Vector3d E1, E2;
+    tangentBasis(n, E1, E2);
+    Eigen::Matrix<double, 2, 3> E;
+    E.row(0) = E1.transpose();
+    E.row(1) = E2.transpose();
+    // The normal row of an active contact: n^T u' - target = 0.
+    auto normalRow = [&]() {
+      F_P.block(r, 0, 1, 3 * m) = n.transpose() * s.W.middleRows<3>(r);
+      F_u.block<1, 3>(r, r) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
+      if (approaching) F_theta(r, r + kRestitution) = u_n;
+    };
+    if (!(P_n > kPyramidRoundOff * P_scale) && P_t.norm() <= kPyramidRoundOff * P_scale) {
+      mode.mode = ImpactMode::kNoImpulse;
+      F_P.block<3, 3>(r, r).setIdentity();
+      if (u_after.dot(n) - target <= kSwitchTolerance * u_reference) {
+        flag(mode, "u'_n at its target with P_n = 0: separating/active; no-impulse side");
+      }
+      continue;
+    }
+    if (P_n <= kSwitchTolerance * P_scale) flag(mode, "P_n = 0 while active; active side");
+    // Index of the edge the friction impulse (or, frictionless, the slip's opposite) is nearest.
+    auto sector = [&](const Vector3d& t) {
+      double angle = std::atan2(t.dot(pyramid.t2), t.dot(pyramid.t1));
+      if (angle < 0.0) angle += 2.0 * kPi;
+      return static_cast<int>(std::floor(angle * kD / (2.0 * kPi))) % kD;
+    };
+    if (contact.frictionless()) {
+      mode.mode = ImpactMode::kSliding;
+      normalRow();
+      F_P.block<2, 3>(r + 1, r) = E;  // P_t = 0
+      // Friction from mu = 0 up: along the pyramid edge most opposed to the slip.
+      if (slip > kSlipTolerance * u_reference) {
+        int best = 0;
+        for (int k = 1; k < kD; ++k) {
+          if (pyramid.direction(k).dot(slip_after) < pyramid.direction(best).dot(slip_after)) {
+            best = k;
+          }
+        }
+        F_theta.block<2, 1>(r + 1, r + kDynamic) = -P_n * E * pyramid.direction(best);
+      }
+      flag(mode, "frictionless: the friction columns are one-sided, for increasing coefficients");
+      continue;
+    }
+    // The friction impulse in the pyramid's sector (d_k, d_k+1): P_t = b_k d_k + b_k+1 d_k+1.
+    const int k = sector(P_t), k1 = (k + 1) % kD;
+    const Vector3d d_k = pyramid.direction(k), d_k1 = pyramid.direction(k1);
+    Eigen::Matrix2d B;
+    B << d_k.dot(pyramid.t1), d_k1.dot(pyramid.t1), d_k.dot(pyramid.t2), d_k1.dot(pyramid.t2);
+    const Eigen::Vector2d beta =
+        B.inverse() * Eigen::Vector2d(P_t.dot(pyramid.t1), P_t.dot(pyramid.t2));
+    const double gauge = beta.sum();
+    if (slip <= kSlipTolerance * u_reference) {
+      mode.mode = ImpactMode::kSticking;
+      F_P.block(r, 0, 3, 3 * m) = s.W.middleRows<3>(r);
+      F_u.block<3, 3>(r, r) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
+      if (approaching) F_theta.block<3, 1>(r, r + kRestitution) = u_n * n;
+      // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
+      // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
+      if (all_sticking ? P_t.norm() >= (1.0 - kSwitchTolerance) * mu_s * P_n
+                       : gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
+                             (mu_d < mu_s &&
+                              std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n)) {
+        flag(mode, all_sticking ? "stick/slide: |P_t| = mu_s P_n; sticking side"
+                                : "stick/slide: friction on its pyramid's boundary; sticking side");
+      }
+      continue;
+    }
+    mode.mode = ImpactMode::kSliding;
+    frictional_sliding = true;
+    if (slip <= 10.0 * kSlipTolerance * u_reference) {
+      flag(mode, "stick/slide: the slip is at the solver's tolerance; sliding side");
+    }
+    normalRow();
+    const double mu = mu_d;  // a contact that slides ends on the dynamic pyramid
+    const double beta_min = std::min(beta(0), beta(1));
+    if (beta_min <= kPyramidRoundOff * gauge) {
+      // Along one edge: P_t = mu P_n d, expressed in the fixed tangents E.
+      const int edge = beta(0) >= beta(1) ? k : k1;
+      const Vector3d d = pyramid.direction(edge);
+      F_P.block<2, 3>(r + 1, r) = E * (Matrix3d::Identity() - (n + mu * d) * n.transpose());
+      F_u.block<2, 3>(r + 1, r) = -mu * P_n * E * pyramid.derivative(edge, n);
+      F_theta.block<2, 1>(r + 1, r + kDynamic) = -P_n * E * d;
+      const double opposing = d.dot(slip_after);
+      for (const int j : {(edge + 1) % kD, (edge + kD - 1) % kD}) {
+        if (pyramid.direction(j).dot(slip_after) - opposing <= kSwitchTolerance * slip) {
+          flag(mode, "slip between two pyramid edges; sliding side of the reported edge");
+        }
+      }
+      if (beta_min > 0.0 && beta_min > kSwitchTolerance * gauge) {
+        flag(mode, "friction between a pyramid edge and a facet");
+      }
+    } else {
+      // On the facet (d_k, d_k+1): (d_k - d_k+1).u' = 0 and c.P = mu P_n, c = (d_k + d_k+1) /
+      // (1 + cos(2 pi / D)) (c.d_k = c.d_k+1 = 1).
+      const Vector3d g = d_k - d_k1;
+      const Vector3d c = (d_k + d_k1) / facet;
+      const Matrix3d D_k = pyramid.derivative(k, n), D_k1 = pyramid.derivative(k1, n);
+      F_P.block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W.middleRows<3>(r);
+      F_u.block<1, 3>(r + 1, r) = g.transpose() + u_after.transpose() * (D_k - D_k1);
+      F_P.block<1, 3>(r + 2, r) = c.transpose() - mu * n.transpose();
+      F_u.block<1, 3>(r + 2, r) = P.transpose() * (D_k + D_k1) / facet;
+      F_theta(r + 2, r + kDynamic) = -P_n;
+    }
+  }
+  // One decomposition for both right-hand sides, F_u J (F_u is block diagonal) and F_theta. Where
+  // redundant contacts make F_P singular (a face on 4 points), the least-norm change, as the
+  // solver's least-norm impulses (the velocities' derivatives are the same for every solution).
+  const Index L = s.J.cols();
+  MatrixXd rhs(3 * m, L + 3 * m);
+  for (Index i = 0; i < m; ++i) {
+    rhs.block(3 * i, 0, 3, L).noalias() = F_u.block<3, 3>(3 * i, 3 * i) * s.J.middleRows<3>(3 * i);
+  }
+  rhs.rightCols(3 * m) = F_theta;
+  const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
+  if (cod.rank() < 3 * m && frictional_sliding) {
+    // Redundant contacts sliding with friction (a face sliding on 4 points): how the normal
+    // impulse is shared is not fixed by the equations, and through friction neither are the
+    // twists; the solver's choice depends on its own unknowns, and the least-norm change of these
+    // equations (whose F_P moves with the pyramid and mu) is not its derivative.
+    for (const int c : s.contacts) {
+      flag(modes[c],
+           "redundant contacts sliding with friction: the impulses are not unique, the "
+           "solver's choice is differenced");
+    }
+    return false;
+  }
+  const MatrixXd solution = cod.solve(rhs);
+  dP_dv = -solution.leftCols(L);
+  dP_dtheta = -solution.rightCols(3 * m);
+  return true;
+}
+
+// ---- Finite differences of the solver ------------------------------------------------------
+
+// The outputs (layout of ImpactDerivatives) and each contact's mode.
+struct Evaluation {
+  Eigen::VectorXd outputs;
+  std::vector<int> modes;                // per contact: 0 none, 1 sticking, 2 sliding
+  std::vector<std::size_t> island_mark;  // per island: SolveReport::iterations
+};
+
+int modeOf(const ContactImpulse& impulse) {
+  if (impulse.normal_impulse == 0.0 && impulse.friction_impulse.isZero(0.0)) return 0;
+  return impulse.sticking ? 1 : 2;
+}
+
+Evaluation evaluate(const CollisionResult& result, const std::vector<Index>& body_column,
+                    Index velocity_count) {
+  Evaluation out;
+  out.outputs.setZero(velocity_count + 4 * static_cast<Index>(result.impulses.size()));
+  for (std::size_t b = 0; b < result.bodies.size(); ++b) {
+    if (body_column[b] < 0) continue;
+    out.outputs.segment<3>(body_column[b]) = result.bodies[b].linear_velocity;
+    out.outputs.segment<3>(body_column[b] + 3) = result.bodies[b].angular_velocity;
+  }
+  for (std::size_t c = 0; c < result.impulses.size(); ++c) {
+    const Index row = velocity_count + 4 * static_cast<Index>(c);
+    out.outputs(row) = result.impulses[c].normal_impulse;
+    out.outputs.segment<3>(row + 1) = result.impulses[c].friction_impulse;
+    out.modes.push_back(modeOf(result.impulses[c]));
+  }
+  for (const SolveReport& island : result.islands) {
+    // Steps and segments (impulse space), sweeps (iterative): the discretisation of the solve.
+    out.island_mark.push_back(island.iterations);
+  }
+  return out;
+}
+
+// Finite differences for the islands listed (indices into result.islands): the columns of their
+// bodies and contacts, the rows of the same.
+void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
+                       const SolverOptions& options, const CollisionResult& base_result,
+                       const std::vector<std::size_t>& islands,
+                       const std::vector<Index>& body_column, Index velocity_count,
+                       ImpactDerivatives& out) {
+  const Evaluation base = evaluate(base_result, body_column, velocity_count);
+  for (const std::size_t island : islands) {
+    const SolveReport& report = base_result.islands[island];
+    std::vector<int> bodies;
+    for (const int c : report.contacts) {
+      for (const int b : {contact_bodies[c].first, contact_bodies[c].second}) {
+        if (body_column[b] >= 0 && std::find(bodies.begin(), bodies.end(), b) == bodies.end()) {
+          bodies.push_back(b);
+        }
+      }
+      out.contacts[c].method = DerivativeMethod::kFiniteDifference;
+      out.contacts[c].mode = std::array<ImpactMode, 3>{
+          ImpactMode::kNoImpulse, ImpactMode::kSticking, ImpactMode::kSliding}[base.modes[c]];
+    }
+    std::vector<Index> rows;
+    for (const int b : bodies) {
+      for (int k = 0; k < 6; ++k) rows.push_back(body_column[b] + k);
+    }
+    for (const int c : report.contacts) {
+      for (int k = 0; k < 4; ++k) rows.push_back(velocity_count + 4 * c + k);
+    }
+    double velocity_scale = 0.0;
+    for (const int b : bodies) {
+      velocity_scale =
+          std::max({velocity_scale, scene.bodies[b].linear_velocity.cwiseAbs().maxCoeff(),
+                    scene.bodies[b].angular_velocity.cwiseAbs().maxCoeff()});
+    }
+    if (!(velocity_scale > 0.0)) velocity_scale = 1.0;
+    // One column: input `label`, read/written through `value`; [low, high] its valid range.
+    Scene perturbed = scene;
+    auto column = [&](Index col, double& value, double low, double high, double scale,
+                      const std::string& label) {
+      const double x0 = value;
+      const double h = kStep * std::max(std::abs(x0), scale);
+      auto at = [&](double x, bool& valid) {
+        valid = x >= low && x <= high;
+        if (!valid) return Evaluation{};
+        value = x;
+        Evaluation e = evaluate(computeValidatedResponse(perturbed, contact_bodies, options),
+                                body_column, velocity_count);
+        value = x0;
+        return e;
+      };
+      auto same = [&](const Evaluation& e) {
+        if (e.modes.empty()) return false;
+        for (const int c : report.contacts) {
+          if (e.modes[c] != base.modes[c]) return false;
+        }
+        return e.island_mark[island] == base.island_mark[island];
+      };
+      bool valid_plus = false, valid_minus = false, valid = false;
+      const Evaluation plus = at(x0 + h, valid_plus), minus = at(x0 - h, valid_minus);
+      Eigen::VectorXd derivative;
+      const bool plus_same = valid_plus && same(plus), minus_same = valid_minus && same(minus);
+      if (plus_same && minus_same) {
+        derivative = (plus.outputs - minus.outputs) / (2.0 * h);
+        // The same with twice the step: where they disagree, an event inside the solve (one the
+        // report does not count) lies within the steps, and the difference is not a derivative.
+        bool valid_far_plus = false, valid_far_minus = false;
+        const Evaluation far_plus = at(x0 + 2.0 * h, valid_far_plus);
+        const Evaluation far_minus = at(x0 - 2.0 * h, valid_far_minus);
+        if (valid_far_plus && valid_far_minus && same(far_plus) && same(far_minus)) {
+          const Eigen::VectorXd wide = (far_plus.outputs - far_minus.outputs) / (4.0 * h);
+          double difference = 0.0, scale = 0.0;
+          for (const Index row : rows) {
+            difference = std::max(difference, std::abs(wide(row) - derivative(row)));
+            scale = std::max(scale, std::abs(derivative(row)));
+          }
+          if (difference > kSmoothness * scale) {
+            for (const int c : report.contacts) {
+              flag(out.contacts[c], "the solve is not smooth within two steps of " + label +
+                                        " (an event inside it): derivative uncertain");
+            }
+          }
+        }
+      } else {
+        const bool forward = plus_same;
+        const double sign = forward ? 1.0 : -1.0;
+        const Evaluation& near = forward ? plus : minus;
+        const Evaluation far = at(x0 + 2.0 * sign * h, valid);
+        if ((plus_same || minus_same) && valid && same(far)) {
+          derivative = sign * (-3.0 * base.outputs + 4.0 * near.outputs - far.outputs) / (2.0 * h);
+        } else if (plus_same || minus_same) {
+          derivative = sign * (near.outputs - base.outputs) / h;
+        } else if (valid_plus && valid_minus) {
+          derivative = (plus.outputs - minus.outputs) / (2.0 * h);
+        } else {
+          derivative =
+              valid_plus ? (plus.outputs - base.outputs) / h : (base.outputs - minus.outputs) / h;
+        }
+        // The contacts whose mode changes within the step: at a switch.
+        for (const int c : report.contacts) {
+          const bool changes = (valid_plus && plus.modes[c] != base.modes[c]) ||
+                               (valid_minus && minus.modes[c] != base.modes[c]) ||
+                               (!plus_same && !minus_same);
+          if (changes) {
+            flag(out.contacts[c],
+                 std::string("mode or integration steps change within the step of ") + label +
+                     ": " +
+                     (plus_same    ? "increasing side"
+                      : minus_same ? "decreasing side"
+                                   : "both sides change"));
+          }
+        }
+      }
+      for (const Index row : rows) out.jacobian(row, col) = derivative(row);
+    };
+    for (const int b : bodies) {
+      BodyState& state = perturbed.bodies[b];
+      const std::string name = "bodies[" + std::to_string(b) + "].twist.";
+      const char* axes[] = {"x", "y", "z"};
+      for (int k = 0; k < 3; ++k) {
+        column(body_column[b] + k, state.linear_velocity[k], -INFINITY, INFINITY, velocity_scale,
+               name + "linear." + axes[k]);
+        column(body_column[b] + 3 + k, state.angular_velocity[k], -INFINITY, INFINITY,
+               velocity_scale, name + "angular." + axes[k]);
+      }
+    }
+    for (const int c : report.contacts) {
+      Contact& contact = perturbed.contacts[c];
+      const Index col = velocity_count + 3 * c;
+      const std::string name = "contacts[" + std::to_string(c) + "].";
+      column(col + kRestitution, contact.restitution, 0.0, 1.0, 1.0, name + "restitution");
+      // Each coefficient on its own, mu_d <= mu_s aside: the solvers read them separately (the
+      // static one for the stick test, the dynamic one for slip), so the map extends across it.
+      column(col + kStatic, contact.static_friction, 0.0, INFINITY, 1.0, name + "static_friction");
+      column(col + kDynamic, contact.dynamic_friction, 0.0, INFINITY, 1.0,
+             name + "dynamic_friction");
+    }
+  }
+}
+
+}  // namespace
+
+const char* toString(DerivativeMethod method) {
+  return method == DerivativeMethod::kAnalytic ? "analytic" : "finite_difference";
+}
+
+const char* toString(ImpactMode mode) {
+  switch (mode) {
+    case ImpactMode::kNoImpulse:
+      return "no_impulse";
+    case ImpactMode::kSticking:
+      return "sticking";
+    case ImpactMode::kSliding:
+      return "sliding";
+  }
+  return "unknown";
+}
+
+std::vector<std::string> ImpactDerivatives::rowLabels() const {
+  std::vector<std::string> labels;
+  labels.reserve(static_cast<std::size_t>(jacobian.rows()));
+  for (const int b : movable_bodies) {
+    const std::string name = "bodies[" + std::to_string(b) + "].twist.";
+    for (const char* part : {"linear.", "angular."}) {
+      for (const char* axis : {"x", "y", "z"}) labels.push_back(name + part + axis);
+    }
+  }
+  for (std::size_t c = 0; c < contact_count; ++c) {
+    const std::string name = "impulses[" + std::to_string(c) + "].";
+    labels.push_back(name + "normal_impulse");
+    for (const char* axis : {"x", "y", "z"}) labels.push_back(name + "friction_impulse." + axis);
+  }
+  return labels;
+}
+
+std::vector<std::string> ImpactDerivatives::columnLabels() const {
+  std::vector<std::string> labels;
+  labels.reserve(static_cast<std::size_t>(jacobian.cols()));
+  for (const int b : movable_bodies) {
+    const std::string name = "bodies[" + std::to_string(b) + "].twist.";
+    for (const char* part : {"linear.", "angular."}) {
+      for (const char* axis : {"x", "y", "z"}) labels.push_back(name + part + axis);
+    }
+  }
+  for (std::size_t c = 0; c < contact_count; ++c) {
+    const std::string name = "contacts[" + std::to_string(c) + "].";
+    for (const char* field : {"restitution", "static_friction", "dynamic_friction"}) {
+      labels.push_back(name + field);
+    }
+  }
+  return labels;
+}
+
+ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptions& options,
+                                           const RequestLimits& limits) {
+  const std::vector<std::pair<int, int>> contact_bodies = validate(scene, options, limits);
+  ImpactDerivatives out;
+  out.result = computeValidatedResponse(scene, contact_bodies, options);
+  out.contact_count = scene.contacts.size();
+  out.contacts.resize(scene.contacts.size());
+
+  std::vector<RigidBody> before;
+  before.reserve(scene.bodies.size());
+  std::vector<Index> body_column(scene.bodies.size(), -1);
+  for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
+    before.push_back(makeRigidBody(scene.bodies[b]));
+    if (before.back().movable()) {
+      body_column[b] = out.velocityCount();
+      out.movable_bodies.push_back(static_cast<int>(b));
+    }
+  }
+  const Index velocity_count = out.velocityCount();
+  out.jacobian.setZero(velocity_count + out.impulseCount(),
+                       velocity_count + out.coefficientCount());
+  // Bodies the impacts leave alone (and every body before its island is differentiated): v' = v.
+  out.jacobian.topLeftCorner(velocity_count, velocity_count).setIdentity();
+
+  std::vector<int> local_of(scene.bodies.size(), -1);
+  std::vector<std::size_t> numerical;
+  for (std::size_t k = 0; k < out.result.islands.size(); ++k) {
+    const SolveReport& report = out.result.islands[k];
+    if (!report.converged) {
+      for (const int c : report.contacts) {
+        flag(out.contacts[c],
+             "the island's solve did not converge (see result.islands): the "
+             "derivative is that of the answer given, not of a solution");
+      }
+    }
+    const bool impact = report.method != SolveMethod::kNone &&
+                        report.method != SolveMethod::kRestingClosedForm &&
+                        report.method != SolveMethod::kRestingIterative;
+    if (!impact) {
+      // No impulse; a contact touching at u_n = 0 would start an impact if made to approach.
+      double speed = 0.0;
+      for (const int c : report.contacts) {
+        speed = std::max(speed, std::abs(out.result.impulses[c].normal_velocity_before));
+      }
+      for (const int c : report.contacts) {
+        out.contacts[c].mode = ImpactMode::kNoImpulse;
+        if (out.result.impulses[c].normal_velocity_before <= kSwitchTolerance * speed) {
+          flag(out.contacts[c],
+               "u_n = 0: touching; no-impulse side (approaching starts an impact)");
+        }
+      }
+      continue;
+    }
+    const bool newton = options.law == ImpactLaw::kNewton;
+    if (newton && report.method == SolveMethod::kClosedForm && report.contacts.size() == 1) {
+      const int c = report.contacts[0];
+      if (singleContact(scene, c, contact_bodies[c], before, body_column, velocity_count, out)) {
+        continue;
+      }
+      out.contacts[c] = ContactDerivativeMode{};
+    } else if (newton && report.method == SolveMethod::kExact) {
+      const IslandSystem s =
+          buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
+      MatrixXd dP_dv, dP_dtheta;
+      // The exact solver's answer came without a pivot (iterations 0) when every contact was
+      // active and sticking inside its static cone (exact_solver.h).
+      if (exactNewton(s, scene, report.iterations == 0, dP_dv, dP_dtheta, out.contacts)) {
+        scatter(s, dP_dv, dP_dtheta, body_column, velocity_count, out.jacobian);
+        continue;
+      }
+    }
+    numerical.push_back(k);
+  }
+  if (!numerical.empty()) {
+    out.method = DerivativeMethod::kFiniteDifference;
+    finiteDifferences(scene, contact_bodies, options, out.result, numerical, body_column,
+                      velocity_count, out);
+  }
+  return out;
+}
+
+}  // namespace collision_response::core

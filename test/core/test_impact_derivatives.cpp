@@ -1,0 +1,591 @@
+// Derivatives of the impact map (impact_derivatives.h) against references computed without the
+// code under test: central differences of computeResponse() itself, taken here with their own
+// step, at seeded random scenes away from mode switches; one-sided differences on the reported
+// side at an exact stick/slide switch; and, for a frictionless contact, the closed forms
+// dv'/dv = I - (1 + e) M^-1 J^T (J M^-1 J^T)^-1 J and dv'/de = -M^-1 J^T (J M^-1 J^T)^-1 u_n with
+// M and J written out here.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/scene.h"
+#include "collision_response/core/solver_options.h"
+
+#include "scenes.h"
+
+namespace cr = collision_response::core;
+using namespace collision_response::testing;  // NOLINT: shared builders
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+// ---- The reference: the library's prediction as a function, differenced here ----------------
+
+// Outputs in the layout of ImpactDerivatives: the movable bodies' twists, then per contact the
+// normal impulse and the friction impulse; and each contact's mode (0 no impulse, 1 sticking, 2
+// sliding) as the prediction reports it.
+struct Outputs {
+  VectorXd values;
+  std::vector<int> modes;
+};
+
+Outputs predict(const cr::Scene& scene, const cr::SolverOptions& options) {
+  const cr::CollisionResult result = cr::computeResponse(scene, options);
+  std::vector<double> values;
+  for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
+    if (scene.bodies[b].mass == 0.0) continue;
+    for (int k = 0; k < 3; ++k) values.push_back(result.bodies[b].linear_velocity[k]);
+    for (int k = 0; k < 3; ++k) values.push_back(result.bodies[b].angular_velocity[k]);
+  }
+  Outputs out;
+  for (const cr::ContactImpulse& impulse : result.impulses) {
+    values.push_back(impulse.normal_impulse);
+    for (int k = 0; k < 3; ++k) values.push_back(impulse.friction_impulse[k]);
+    const bool none = impulse.normal_impulse == 0.0 && impulse.friction_impulse.isZero(0.0);
+    out.modes.push_back(none ? 0 : impulse.sticking ? 1 : 2);
+  }
+  // The solve's discretisation (integration steps, sweeps): the integrations' outputs jump by their
+  // error where it changes, so a difference across it is not a derivative.
+  for (const cr::SolveReport& island : result.islands) {
+    out.modes.push_back(static_cast<int>(island.iterations));
+  }
+  out.values = Eigen::Map<VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+  return out;
+}
+
+// A reference to input `column` of the scene (layout of ImpactDerivatives' columns).
+double& input(cr::Scene& scene, int column) {
+  int k = column;
+  for (cr::BodyState& body : scene.bodies) {
+    if (body.mass == 0.0) continue;
+    if (k < 3) return body.linear_velocity[k];
+    if (k < 6) return body.angular_velocity[k - 3];
+    k -= 6;
+  }
+  cr::Contact& c = scene.contacts[k / 3];
+  return k % 3 == 0 ? c.restitution : k % 3 == 1 ? c.static_friction : c.dynamic_friction;
+}
+
+// The step of input `column`: relative to the input's scale.
+double stepOf(const cr::Scene& scene, int column, double relative) {
+  cr::Scene copy = scene;
+  return relative * std::max(1.0, std::abs(input(copy, column)));
+}
+
+// The scale a column that vanishes is compared at: 1e-2 of the outputs' magnitude per unit of the
+// input's scale (a difference quotient cannot resolve less than the solve's round-off over the
+// step: 1e-14 / 1e-6 = 1e-8 of the outputs for a pivoting solve).
+double floorOf(const cr::Scene& scene, const cr::SolverOptions& options, int column) {
+  cr::Scene copy = scene;
+  return 1e-2 * predict(scene, options).values.cwiseAbs().maxCoeff() /
+         std::max(1.0, std::abs(input(copy, column)));
+}
+
+// Central difference of the prediction along one input; false if a contact's mode changes
+// within the step (the column is then near a switch and not compared).
+bool centralDifference(const cr::Scene& scene, const cr::SolverOptions& options, int column,
+                       double relative, VectorXd& derivative) {
+  const double h = stepOf(scene, column, relative);
+  const Outputs base = predict(scene, options);
+  cr::Scene plus = scene, minus = scene;
+  input(plus, column) += h;
+  input(minus, column) -= h;
+  const Outputs p = predict(plus, options), m = predict(minus, options);
+  if (p.modes != base.modes || m.modes != base.modes) return false;
+  derivative = (p.values - m.values) / (2.0 * h);
+  // The reference holds where the map is smooth at the step's scale: the central difference with
+  // twice the step agrees to 1e-7 (truncation error ~ h^2); otherwise an event inside the solve
+  // lies within the steps and the column is not compared.
+  input(plus, column) += h;
+  input(minus, column) -= h;
+  const Outputs p2 = predict(plus, options), m2 = predict(minus, options);
+  if (p2.modes != base.modes || m2.modes != base.modes) return false;
+  const VectorXd wide = (p2.values - m2.values) / (4.0 * h);
+  const double scale = std::max(derivative.cwiseAbs().maxCoeff(), floorOf(scene, options, column));
+  return (wide - derivative).cwiseAbs().maxCoeff() <= 1e-7 * scale;
+}
+
+// Each column of the Jacobian against the central differences, to `tolerance` of the column's
+// largest magnitude; returns the number of columns compared.
+int compareWithDifferences(const cr::Scene& scene, const cr::SolverOptions& options,
+                           const cr::ImpactDerivatives& d, double relative_step, double tolerance,
+                           const std::string& what) {
+  int compared = 0;
+  for (int col = 0; col < d.jacobian.cols(); ++col) {
+    // A coefficient whose central step leaves its valid range (e = 0 or 1, mu_d = mu_s, mu = 0)
+    // is not compared here.
+    cr::Scene probe = scene;
+    const double x = input(probe, col), h = stepOf(scene, col, relative_step);
+    const int k = col - static_cast<int>(d.velocityCount());
+    if (k >= 0) {
+      const cr::Contact& c = scene.contacts[k / 3];
+      if (k % 3 == 0 && (x - h < 0.0 || x + h > 1.0)) continue;
+      if (k % 3 == 1 && (x - h < c.dynamic_friction)) continue;
+      if (k % 3 == 2 && (x - h < 0.0 || x + h > c.static_friction)) continue;
+    }
+    VectorXd reference;
+    if (!centralDifference(scene, options, col, relative_step, reference)) continue;
+    const double scale = std::max(reference.cwiseAbs().maxCoeff(), floorOf(scene, options, col));
+    for (int row = 0; row < d.jacobian.rows(); ++row) {
+      EXPECT_NEAR(d.jacobian(row, col), reference(row), tolerance * scale)
+          << what << ": d " << d.rowLabels()[row] << " / d " << d.columnLabels()[col];
+    }
+    ++compared;
+  }
+  return compared;
+}
+
+// ---- Scenes -----------------------------------------------------------------------------------
+
+cr::BodyState randomBody(RandomSource& random, const std::string& id, const Vector3d& position) {
+  cr::BodyState b;
+  b.id = id;
+  b.mass = random.uniform(0.5, 5.0);
+  b.inertia = boxInertia(b.mass, random.boxSize());
+  b.orientation = random.rotation();
+  b.com = random.vec(-0.1, 0.1);
+  b.position = position;
+  b.linear_velocity = random.vec(-1.0, 1.0);
+  b.angular_velocity = random.vec(-2.0, 2.0);
+  return b;
+}
+
+// `contacts` contacts between a body "b" and either the ground or a second movable body "a"
+// below it, normals near +z (from a to b), points within 0.4 m of b's centre; b moves down fast
+// enough that the contacts approach.
+cr::Scene randomScene(RandomSource& random, int contacts, bool two_bodies, double e_max,
+                      double mu_s, double mu_d) {
+  cr::Scene scene;
+  scene.bodies.push_back(two_bodies ? randomBody(random, "a", Vector3d(0, 0, -0.5)) : ground());
+  scene.bodies.push_back(randomBody(random, "b", Vector3d(0, 0, 0.5)));
+  scene.bodies[1].linear_velocity.z() -= 3.0;
+  for (int i = 0; i < contacts; ++i) {
+    const Vector3d p = Vector3d(0, 0, 0.3) + random.vec(-0.4, 0.4);
+    const Vector3d n = (Vector3d::UnitZ() + random.vec(-0.3, 0.3)).normalized();
+    scene.contacts.push_back(
+        contact(scene.bodies[0].id, "b", p, n, random.uniform(0.0, e_max), mu_s, mu_d));
+  }
+  return scene;
+}
+
+int countMode(const cr::ImpactDerivatives& d, cr::ImpactMode mode) {
+  return static_cast<int>(std::count_if(d.contacts.begin(), d.contacts.end(),
+                                        [&](const auto& c) { return c.mode == mode; }));
+}
+
+bool anySwitch(const cr::ImpactDerivatives& d) {
+  return std::any_of(d.contacts.begin(), d.contacts.end(),
+                     [](const auto& c) { return c.at_switch; });
+}
+
+cr::SolverOptions withLaw(cr::ImpactLaw law) {
+  cr::SolverOptions options;
+  options.law = law;
+  options.integration_tolerance = 1e-14;
+  return options;
+}
+
+// ---- Newton, one contact: the closed form's derivatives --------------------------------------
+
+TEST(ImpactDerivatives, NewtonSingleContactMatchesCentralDifferencesStickingAndSliding) {
+  RandomSource random(2611);
+  int sticking = 0, sliding = 0, compared = 0;
+  for (int trial = 0; trial < 80 && (sticking < 10 || sliding < 10); ++trial) {
+    const bool two_bodies = trial % 2 == 1;
+    // Large mu_s mostly sticks; small, with mu_d < mu_s, mostly slides.
+    const bool want_stick = trial % 4 < 2;
+    const double mu_s = want_stick ? random.uniform(1.0, 3.0) : random.uniform(0.05, 0.3);
+    const double mu_d = random.uniform(0.3, 0.9) * mu_s;
+    const cr::Scene scene = randomScene(random, 1, two_bodies, 0.9, mu_s, mu_d);
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    if (anySwitch(d) || d.contacts[0].mode == cr::ImpactMode::kNoImpulse) continue;
+    sticking += d.contacts[0].mode == cr::ImpactMode::kSticking;
+    sliding += d.contacts[0].mode == cr::ImpactMode::kSliding;
+    compared += compareWithDifferences(scene, options, d, 1e-6, 1e-6,
+                                       "single contact, trial " + std::to_string(trial));
+  }
+  EXPECT_GE(sticking, 10);
+  EXPECT_GE(sliding, 10);
+  EXPECT_GE(compared, 20 * 9);
+}
+
+// ---- Newton, several contacts: the exact solver's active set ----------------------------------
+
+TEST(ImpactDerivatives, NewtonSeveralContactsMatchCentralDifferences) {
+  RandomSource random(2612);
+  int cases = 0, sticking = 0, sliding = 0, none = 0, compared = 0, columns = 0;
+  for (int trial = 0; trial < 120 && cases < 30; ++trial) {
+    const int contacts = 2 + trial % 3;
+    const double mu_s = random.uniform(0.05, 1.5);
+    const double mu_d = random.uniform(0.3, 1.0) * mu_s;
+    const cr::Scene scene = randomScene(random, contacts, trial % 2 == 1, 0.9, mu_s, mu_d);
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    if (d.result.islands.size() != 1 || d.result.islands[0].method != cr::SolveMethod::kExact) {
+      continue;
+    }
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    if (anySwitch(d)) continue;
+    sticking += countMode(d, cr::ImpactMode::kSticking);
+    sliding += countMode(d, cr::ImpactMode::kSliding);
+    none += countMode(d, cr::ImpactMode::kNoImpulse);
+    compared += compareWithDifferences(
+        scene, options, d, 1e-6, 1e-6,
+        std::to_string(contacts) + " contacts, trial " + std::to_string(trial));
+    columns += static_cast<int>(d.jacobian.cols());
+    ++cases;
+  }
+  EXPECT_GE(cases, 20);
+  // Columns left out: coefficients at the ends of their ranges, and steps that change a mode.
+  EXPECT_GE(compared, columns * 3 / 4) << compared << " of " << columns;
+  std::printf("newton, several contacts: %d of %d columns compared\n", compared, columns);
+  EXPECT_GE(sticking, 5);
+  EXPECT_GE(sliding, 5);
+  EXPECT_GE(none, 3);
+}
+
+// ---- Poisson, Stronge: finite differences, reported as such ----------------------------------
+
+TEST(ImpactDerivatives, ImpulseSpaceLawsAreFiniteDifferencesThatMatchTheTestsOwn) {
+  RandomSource random(2613);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int cases = 0, compared = 0, columns = 0;
+    for (int trial = 0; trial < 40 && cases < 8; ++trial) {
+      const int contacts = 1 + trial % 3;
+      const double mu_s = random.uniform(0.05, 1.5);
+      const double mu_d = random.uniform(0.3, 1.0) * mu_s;
+      const cr::Scene scene = randomScene(random, contacts, trial % 2 == 1, 0.9, mu_s, mu_d);
+      const cr::SolverOptions options = withLaw(law);
+      const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+      EXPECT_EQ(d.method, cr::DerivativeMethod::kFiniteDifference);
+      for (const auto& c : d.contacts) {
+        EXPECT_EQ(c.method, cr::DerivativeMethod::kFiniteDifference);
+      }
+      if (anySwitch(d)) continue;
+      // The library differences with a step of 1e-7, this test with 4e-7.
+      compared += compareWithDifferences(
+          scene, options, d, 4e-7, 1e-6,
+          std::string(cr::toString(law)) + ", trial " + std::to_string(trial));
+      columns += static_cast<int>(d.jacobian.cols());
+      ++cases;
+    }
+    EXPECT_GE(cases, 5) << cr::toString(law);
+    // Left out besides: columns whose steps cross an event inside the integration.
+    EXPECT_GE(compared, columns / 2) << cr::toString(law) << ": " << compared << " of " << columns;
+    std::printf("%s: %d of %d columns compared\n", cr::toString(law), compared, columns);
+  }
+}
+
+// ---- At a switch: the one-sided derivative of the reported mode -------------------------------
+
+// M^-1 and the contact Jacobian J (3 x 6, u = J v) of one movable body against the ground, written
+// out here: J = [I3, -[r]x] with r = p - c.
+struct OneBody {
+  MatrixXd M_inv = MatrixXd::Zero(6, 6);
+  MatrixXd J = MatrixXd::Zero(3, 6);
+};
+
+OneBody oneBody(const cr::BodyState& body, const Vector3d& p) {
+  OneBody out;
+  const Matrix3d I_world = worldInertia(body);
+  out.M_inv.topLeftCorner<3, 3>() = Matrix3d::Identity() / body.mass;
+  out.M_inv.bottomRightCorner<3, 3>() = I_world.inverse();
+  const Vector3d r = p - worldCom(body);
+  Matrix3d r_cross;
+  r_cross << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+  out.J.leftCols<3>() = Matrix3d::Identity();
+  out.J.rightCols<3>() = -r_cross;
+  return out;
+}
+
+TEST(ImpactDerivatives, AtTheStickSlideSwitchTheOneSidedDerivativeMatchesItsSide) {
+  RandomSource random(2614);
+  int checked = 0;
+  for (int trial = 0; trial < 10; ++trial) {
+    cr::Scene scene = randomScene(random, 1, false, 0.8, 1.0, 0.5);
+    cr::BodyState& body = scene.bodies[1];
+    cr::Contact& c = scene.contacts[0];
+    const Vector3d n = c.normal.normalized();
+    // The sticking impulse q = K^-1 (-u - e u_n n), K = J M^-1 J^T, from the test's own M and J;
+    // mu_s set to |q_t| / q_n (a hair above, so that the prediction sticks), mu_d = mu_s / 2.
+    const OneBody m = oneBody(body, c.point);
+    Eigen::Matrix<double, 6, 1> v;
+    v << body.linear_velocity, body.angular_velocity;
+    const Vector3d u = m.J * v;
+    const double u_n = u.dot(n);
+    ASSERT_LT(u_n, 0.0);
+    const Matrix3d K = m.J * m.M_inv * m.J.transpose();
+    const Vector3d q = K.inverse() * (-u - c.restitution * u_n * n);
+    const double q_n = q.dot(n);
+    if (!(q_n > 0.0)) continue;
+    c.static_friction = (q - q_n * n).norm() / q_n * (1.0 + 1e-13);
+    c.dynamic_friction = 0.5 * c.static_friction;
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    ASSERT_TRUE(d.contacts[0].at_switch) << trial;
+    ASSERT_EQ(d.contacts[0].mode, cr::ImpactMode::kSticking) << d.contacts[0].switch_detail;
+    EXPECT_NE(d.contacts[0].switch_detail.find("sticking side"), std::string::npos);
+    // Each column: the second-order one-sided difference on the side that keeps sticking.
+    const Outputs base = predict(scene, options);
+    for (int col = 0; col < d.jacobian.cols(); ++col) {
+      const double h = stepOf(scene, col, 1e-6);
+      bool found = false;
+      for (const double sign : {1.0, -1.0}) {
+        cr::Scene near = scene, far = scene;
+        input(near, col) += sign * h;
+        input(far, col) += 2.0 * sign * h;
+        const Outputs p1 = predict(near, options), p2 = predict(far, options);
+        if (p1.modes != base.modes || p2.modes != base.modes) continue;
+        const VectorXd reference =
+            sign * (-3.0 * base.values + 4.0 * p1.values - p2.values) / (2.0 * h);
+        const double scale =
+            std::max(reference.cwiseAbs().maxCoeff(), floorOf(scene, options, col));
+        for (int row = 0; row < d.jacobian.rows(); ++row) {
+          EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-5 * scale)
+              << "trial " << trial << ": d " << d.rowLabels()[row] << " / d "
+              << d.columnLabels()[col] << " (side " << sign << ")";
+        }
+        found = true;
+        break;
+      }
+      EXPECT_TRUE(found) << "no side keeps the contact sticking for " << d.columnLabels()[col];
+    }
+    // The other side is a different map: sliding with mu_d < mu_s jumps.
+    cr::Scene slide = scene;
+    slide.contacts[0].static_friction *= 1.0 - 1e-6;
+    EXPECT_EQ(predict(slide, options).modes[0], 2);
+    ++checked;
+  }
+  EXPECT_GE(checked, 5);
+}
+
+// ---- Frictionless: the closed forms ------------------------------------------------------------
+
+TEST(ImpactDerivatives, FrictionlessSingleContactClosedFormsForEveryLaw) {
+  RandomSource random(2615);
+  for (const cr::ImpactLaw law :
+       {cr::ImpactLaw::kNewton, cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    for (int trial = 0; trial < 5; ++trial) {
+      // Two movable bodies: M = diag(m_a I, I_a, m_b I, I_b), J the normal row
+      // [-n^T, -(r_a x n)^T, n^T, (r_b x n)^T] (u_n = J v).
+      const cr::Scene scene = randomScene(random, 1, true, 0.9, 0.0, 0.0);
+      const cr::Contact& c = scene.contacts[0];
+      const Vector3d n = c.normal.normalized();
+      MatrixXd M_inv = MatrixXd::Zero(12, 12);
+      Eigen::RowVectorXd J(12);
+      VectorXd v(12);
+      for (int k = 0; k < 2; ++k) {
+        const cr::BodyState& b = scene.bodies[k];
+        const OneBody part = oneBody(b, c.point);
+        M_inv.block<6, 6>(6 * k, 6 * k) = part.M_inv;
+        const double sign = k == 1 ? 1.0 : -1.0;
+        J.segment<6>(6 * k) = sign * n.transpose() * part.J;
+        v.segment<3>(6 * k) = b.linear_velocity;
+        v.segment<3>(6 * k + 3) = b.angular_velocity;
+      }
+      const double u_n = J.dot(v);
+      ASSERT_LT(u_n, 0.0);
+      const double e = c.restitution;
+      const double effective = 1.0 / (J * M_inv * J.transpose())(0, 0);
+      const MatrixXd expected_dv =
+          MatrixXd::Identity(12, 12) - (1.0 + e) * effective * M_inv * J.transpose() * J;
+      const VectorXd expected_de = -effective * u_n * (M_inv * J.transpose());
+      const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, withLaw(law));
+      // Newton is analytic; the impulse-space laws are differenced (step 1e-5): 1e-7 of O(1).
+      const double tol = law == cr::ImpactLaw::kNewton ? 1e-10 : 1e-6;
+      const MatrixXd dv = d.velocitiesByVelocities();
+      EXPECT_LT((dv - expected_dv).cwiseAbs().maxCoeff(), tol * expected_dv.cwiseAbs().maxCoeff())
+          << cr::toString(law) << " trial " << trial << "\n"
+          << dv << "\n\n"
+          << expected_dv;
+      const VectorXd de = d.velocitiesByCoefficients().col(0);
+      EXPECT_LT((de - expected_de).cwiseAbs().maxCoeff(), tol * expected_de.cwiseAbs().maxCoeff())
+          << cr::toString(law) << " trial " << trial;
+      // The normal impulse: dP_n/dv = -(1 + e) m_eff J, dP_n/de = -m_eff u_n.
+      const MatrixXd dP = d.impulsesByVelocities();
+      EXPECT_LT((dP.row(0) + (1.0 + e) * effective * J).cwiseAbs().maxCoeff(),
+                tol * (effective * J).cwiseAbs().maxCoeff());
+      EXPECT_NEAR(d.impulsesByCoefficients()(0, 0), -effective * u_n, tol * effective * -u_n);
+      EXPECT_TRUE(d.contacts[0].at_switch);  // the friction columns are one-sided
+    }
+  }
+}
+
+// ---- Labels, bodies without impact, bad input --------------------------------------------------
+
+TEST(ImpactDerivatives, LabelsAreTheRequestAndResponseFieldNames) {
+  cr::Scene scene;
+  scene.bodies.push_back(ground());
+  scene.bodies.push_back(sphere("ball", 1.0, 0.1, Vector3d(0, 0, 0.1), Vector3d(0, 0, -1)));
+  scene.bodies.push_back(sphere("idle", 2.0, 0.1, Vector3d(3, 0, 0.1), Vector3d(1, 0, 0)));
+  scene.contacts.push_back(contact("ground", "ball", Vector3d::Zero(), Vector3d::UnitZ(), 0.5));
+  const cr::ImpactDerivatives d =
+      cr::computeImpactDerivatives(scene, withLaw(cr::ImpactLaw::kNewton));
+  const std::vector<std::string> rows = d.rowLabels(), cols = d.columnLabels();
+  ASSERT_EQ(static_cast<Eigen::Index>(rows.size()), d.jacobian.rows());
+  ASSERT_EQ(static_cast<Eigen::Index>(cols.size()), d.jacobian.cols());
+  ASSERT_EQ(rows.size(), 12u + 4u);
+  EXPECT_EQ(rows[0], "bodies[1].twist.linear.x");
+  EXPECT_EQ(rows[5], "bodies[1].twist.angular.z");
+  EXPECT_EQ(rows[6], "bodies[2].twist.linear.x");
+  EXPECT_EQ(rows[12], "impulses[0].normal_impulse");
+  EXPECT_EQ(rows[15], "impulses[0].friction_impulse.z");
+  EXPECT_EQ(cols[12], "contacts[0].restitution");
+  EXPECT_EQ(cols[13], "contacts[0].static_friction");
+  EXPECT_EQ(cols[14], "contacts[0].dynamic_friction");
+  // A head-on ball: v_z' = -e v_z, so dv_z'/dv_z = -e and dv_z'/de = -v_z = 1; the idle body
+  // keeps its velocity (identity) and nothing couples the two.
+  EXPECT_NEAR(d.jacobian(2, 2), -0.5, 1e-12);
+  EXPECT_NEAR(d.jacobian(2, 12), 1.0, 1e-12);
+  const MatrixXd idle = d.jacobian.block(6, 6, 6, 6), cross1 = d.jacobian.block(0, 6, 6, 6),
+                 cross2 = d.jacobian.block(6, 0, 6, 6);
+  EXPECT_TRUE(idle.isIdentity(0.0));
+  EXPECT_TRUE(cross1.isZero(0.0));
+  EXPECT_TRUE(cross2.isZero(0.0));
+  EXPECT_STREQ(cr::toString(d.contacts[0].mode), "sliding");  // frictionless, active
+}
+
+TEST(ImpactDerivatives, InvalidSceneIsRefusedNamingTheField) {
+  cr::Scene scene;
+  scene.bodies.push_back(ground());
+  scene.bodies.push_back(sphere("ball", 1.0, 0.1, Vector3d(0, 0, 0.1), Vector3d(0, 0, -1)));
+  scene.contacts.push_back(contact("ground", "ball", Vector3d::Zero(), Vector3d::UnitZ(), 1.5));
+  try {
+    cr::computeImpactDerivatives(scene);
+    FAIL() << "e = 1.5 accepted";
+  } catch (const cr::InvalidInput& error) {
+    EXPECT_EQ(error.field(), "contacts[0].restitution");
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// The finite-difference path at a switch: the one-pass law (differenced) at its own stick/slide
+// boundary, the friction pass's sticking impulse |u_t| / (t^T K t) equal to mu_s times the normal
+// pass's -(1 + e) u_n / (n^T K n) (t along u_t; K from the test's M and J). The library must flag
+// the contact and difference on the side that keeps it sticking; the test's own one-sided
+// differences on that side are the reference.
+TEST(ImpactDerivatives, FiniteDifferencesAtASwitchAreOneSidedOnTheReportedSide) {
+  RandomSource random(2616);
+  int checked = 0;
+  for (int trial = 0; trial < 10 && checked < 5; ++trial) {
+    cr::Scene scene = randomScene(random, 1, false, 0.8, 1.0, 0.5);
+    cr::Contact& c = scene.contacts[0];
+    const Vector3d n = c.normal.normalized();
+    const OneBody m = oneBody(scene.bodies[1], c.point);
+    Eigen::Matrix<double, 6, 1> v;
+    v << scene.bodies[1].linear_velocity, scene.bodies[1].angular_velocity;
+    const Vector3d u = m.J * v;
+    const Matrix3d K = m.J * m.M_inv * m.J.transpose();
+    const double u_n = u.dot(n);
+    const Vector3d u_t = u - u_n * n;
+    const Vector3d t = u_t.normalized();
+    const double j_r = -(1.0 + c.restitution) * u_n / n.dot(K * n);
+    const double j_stick = u_t.norm() / t.dot(K * t);
+    c.static_friction = j_stick / j_r * (1.0 + 1e-13);
+    c.dynamic_friction = 0.5 * c.static_friction;
+    cr::SolverOptions options = withLaw(cr::ImpactLaw::kSeedOnePass);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kFiniteDifference);
+    ASSERT_EQ(d.contacts[0].mode, cr::ImpactMode::kSticking) << "trial " << trial;
+    EXPECT_TRUE(d.contacts[0].at_switch) << "trial " << trial;
+    EXPECT_NE(d.contacts[0].switch_detail.find("static_friction: increasing side"),
+              std::string::npos)
+        << d.contacts[0].switch_detail;
+    const Outputs base = predict(scene, options);
+    for (int col = 0; col < d.jacobian.cols(); ++col) {
+      const double h = stepOf(scene, col, 1e-6);
+      for (const double sign : {1.0, -1.0}) {
+        cr::Scene near = scene, far = scene;
+        input(near, col) += sign * h;
+        input(far, col) += 2.0 * sign * h;
+        const Outputs p1 = predict(near, options), p2 = predict(far, options);
+        if (p1.modes != base.modes || p2.modes != base.modes) continue;
+        const VectorXd reference =
+            sign * (-3.0 * base.values + 4.0 * p1.values - p2.values) / (2.0 * h);
+        const double scale =
+            std::max(reference.cwiseAbs().maxCoeff(), floorOf(scene, options, col));
+        for (int row = 0; row < d.jacobian.rows(); ++row) {
+          EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-5 * scale)
+              << "trial " << trial << ": d " << d.rowLabels()[row] << " / d "
+              << d.columnLabels()[col] << " (side " << sign << ")";
+        }
+        break;
+      }
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 5);
+}
+
+}  // namespace
+
+namespace {
+
+// Redundant contacts: a cube landing flat on its 4 bottom corners (12 contact equations, 6 body
+// unknowns: the active set's equations are singular and the impulses not unique). Sticking (large
+// mu), the solver gives the least-norm impulses, whose derivative is the least-norm change:
+// analytic. Sliding (small mu), the sharing of the normal impulse is not fixed and, through
+// friction, neither are the twists: the solver's choice is differenced, reported so. Both against
+// central differences.
+TEST(ImpactDerivatives, RedundantContactsOfAFaceLandingFlatMatchCentralDifferences) {
+  RandomSource random(2617);
+  int compared = 0, columns = 0, sticking = 0, sliding = 0, differenced = 0, analytic = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    cr::Scene scene;
+    scene.bodies.push_back(ground());
+    cr::BodyState cube;
+    cube.id = "cube";
+    cube.mass = random.uniform(0.5, 3.0);
+    cube.inertia = boxInertia(cube.mass, Vector3d(1, 1, 1));
+    cube.position = Vector3d(0, 0, 0.5);
+    cube.linear_velocity = Vector3d(random.uniform(-1, 1), random.uniform(-1, 1), -2.0);
+    cube.angular_velocity = random.vec(-0.3, 0.3);
+    scene.bodies.push_back(cube);
+    const double mu_s = trial % 2 == 0 ? 2.0 : 0.1, mu_d = 0.7 * mu_s;
+    for (const double x : {-0.5, 0.5}) {
+      for (const double y : {-0.5, 0.5}) {
+        scene.contacts.push_back(
+            contact("ground", "cube", Vector3d(x, y, 0), Vector3d::UnitZ(), 0.4, mu_s, mu_d));
+      }
+    }
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    if (d.method == cr::DerivativeMethod::kFiniteDifference) {
+      // Sliding on all four: the solver's choice, differenced and said so.
+      EXPECT_NE(d.contacts[0].switch_detail.find("not unique"), std::string::npos)
+          << d.contacts[0].switch_detail;
+      ++differenced;
+    } else if (anySwitch(d)) {
+      continue;  // e.g. a corner left without impulse at its target (a degenerate vertex)
+    } else {
+      ++analytic;
+    }
+    sticking += countMode(d, cr::ImpactMode::kSticking);
+    sliding += countMode(d, cr::ImpactMode::kSliding);
+    compared += compareWithDifferences(scene, options, d, 1e-6, 1e-6,
+                                       "flat landing, trial " + std::to_string(trial));
+    columns += static_cast<int>(d.jacobian.cols());
+  }
+  EXPECT_GE(sticking, 8);
+  EXPECT_GE(sliding, 8);
+  EXPECT_GE(analytic, 3);
+  EXPECT_GE(differenced, 3);
+  EXPECT_GE(compared, columns * 3 / 4) << compared << " of " << columns;
+}
+
+}  // namespace
