@@ -19,6 +19,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "collision_response/core/errors.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "two_link_arm.h"
@@ -398,14 +399,16 @@ TEST(ArticulatedBody, SingularInertiaIsRejectedNamingTheJoint) {
   try {
     robot.setState(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d::Zero());
     FAIL() << "a massless link on a free joint was accepted";
-  } catch (const std::invalid_argument& error) {
+  } catch (const collision_response::core::InvalidInput& error) {
     EXPECT_NE(std::string(error.what()).find("'wrist'"), std::string::npos) << error.what();
   }
-  EXPECT_THROW(robot.partInverseMassJacobianTranspose(2, Vector3d(1, 0, 0)), std::invalid_argument);
+  EXPECT_THROW(robot.partInverseMassJacobianTranspose(2, Vector3d(1, 0, 0)),
+               collision_response::core::InvalidInput);
   robot.setJointModel(robot.jointIndex("wrist"), rb::JointModel::kLocked);
   EXPECT_TRUE(robot.singularJoint().empty());
   robot.setState(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d::Zero());
   EXPECT_EQ(robot.velocityCount(), 1);
-  EXPECT_THROW(rb::robotFromUrdfString("<robot"), std::invalid_argument);
-  EXPECT_THROW(rb::robotFromUrdfFile(kDir + "/missing.urdf"), std::invalid_argument);
+  EXPECT_THROW(rb::robotFromUrdfString("<robot"), collision_response::core::InvalidInput);
+  EXPECT_THROW(rb::robotFromUrdfFile(kDir + "/missing.urdf"),
+               collision_response::core::InvalidInput);
 }
