@@ -190,7 +190,7 @@ void forwardKinematics(const RobotModel& model, RobotData& data) {
     const KDL::Frame& parent = data.frames[link.parent];
     const KDL::Joint& joint = link.segment.getJoint();
     const double q = link.joint >= 0 ? data.q(link.joint) : 0.0;
-    data.frames[i] = parent * link.segment.pose(q);
+    data.frames[i] = parent * (jointPose(joint, q) * link.tip);  // not KDL's pose(): it caches
     if (link.joint < 0) {
       data.axes[i] = KDL::Twist::Zero();
     } else {

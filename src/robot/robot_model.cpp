@@ -21,6 +21,48 @@ LocalInertia localInertia(const KDL::RigidBodyInertia& inertia) {
   return out;
 }
 
+KDL::Frame jointPose(const KDL::Joint& joint, double q) {
+  switch (joint.getType()) {
+    case KDL::Joint::RotAxis:
+      return KDL::Frame(KDL::Rotation::Rot2(joint.JointAxis(), q), joint.JointOrigin());
+    case KDL::Joint::RotX:
+      return KDL::Frame(KDL::Rotation::RotX(q));
+    case KDL::Joint::RotY:
+      return KDL::Frame(KDL::Rotation::RotY(q));
+    case KDL::Joint::RotZ:
+      return KDL::Frame(KDL::Rotation::RotZ(q));
+    case KDL::Joint::TransAxis:
+      return KDL::Frame(joint.JointOrigin() + joint.JointAxis() * q);
+    case KDL::Joint::TransX:
+      return KDL::Frame(KDL::Vector(q, 0.0, 0.0));
+    case KDL::Joint::TransY:
+      return KDL::Frame(KDL::Vector(0.0, q, 0.0));
+    case KDL::Joint::TransZ:
+      return KDL::Frame(KDL::Vector(0.0, 0.0, q));
+    default:
+      return KDL::Frame::Identity();
+  }
+}
+
+namespace {
+
+// The frame past the joint (KDL's f_tip), and a check that jointPose() gives KDL's segment pose:
+// a joint with a scale or offset would not.
+KDL::Frame tipOf(const std::string& name, const KDL::Segment& segment) {
+  const KDL::Joint& joint = segment.getJoint();
+  const KDL::Frame tip = jointPose(joint, 0.0).Inverse() * segment.pose(0.0);
+  for (const double q : {0.7, -1.3}) {
+    if (!KDL::Equal(segment.pose(q), jointPose(joint, q) * tip, 1e-9)) {
+      throw core::InvalidInput("tree", "joint of '" + name +
+                                           "': a KDL joint with a scale or offset (other than 1 "
+                                           "and 0) is not supported");
+    }
+  }
+  return tip;
+}
+
+}  // namespace
+
 RobotModel::RobotModel(const KDL::Tree& tree, BaseType base,
                        const KDL::RigidBodyInertia& base_inertia)
     : base_type_(base) {
@@ -45,6 +87,7 @@ RobotModel::RobotModel(const KDL::Tree& tree, BaseType base,
     link.name = element->first;
     link.parent = parent;
     link.segment = element->second.segment;
+    link.tip = tipOf(link.name, link.segment);
     link.local = localInertia(link.segment.getInertia());
     const int index = static_cast<int>(links_.size());
     if (link.segment.getJoint().getType() != KDL::Joint::Fixed) {

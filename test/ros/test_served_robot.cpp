@@ -248,7 +248,10 @@ struct Answer {
 // entry's), an empty override and several overrides.
 std::vector<cr::RobotState> requests(const std::vector<std::string>& joints, int count) {
   const std::vector<std::vector<std::string>> lock_sets = {
-      {}, {"joint6", "joint7"}, {"joint2"}, {"left_finger_joint", "right_finger_joint"},
+      {},
+      {"joint6", "joint7"},
+      {"joint2"},
+      {"left_finger_joint", "right_finger_joint"},
       {"joint1", "joint3", "joint5"}};
   std::mt19937 random(7);
   std::uniform_real_distribution<double> angle(-1.0, 1.0);
@@ -317,20 +320,26 @@ TEST(SharedRobotModel, ConcurrentRequestsAnswerAsSequentialOnesOnOneModel) {
   EXPECT_NE(sequential[0].mass_matrix.rows(), sequential[1].mass_matrix.rows());
   EXPECT_NE(sequential[1].velocity_after, sequential[7].velocity_after);
 
-  constexpr int kThreads = 4, kRounds = 15;
+  constexpr int kThreads = 4, kRounds = 60;
   std::vector<std::vector<std::pair<std::size_t, Answer>>> answers(kThreads);
+  std::vector<std::string> errors(kThreads);  // an exception a thread met (none expected)
   std::vector<std::thread> threads;
   for (int t = 0; t < kThreads; ++t) {
     threads.emplace_back([&, t] {
-      for (int round = 0; round < kRounds; ++round) {
-        for (std::size_t k = 0; k < all.size(); ++k) {
-          const std::size_t r = (k * (t + 1) + round + t) % all.size();  // a different order
-          answers[t].emplace_back(r, answer(served, all[r]));
+      try {
+        for (int round = 0; round < kRounds; ++round) {
+          for (std::size_t k = 0; k < all.size(); ++k) {
+            const std::size_t r = (k * (t + 1) + round + t) % all.size();  // a different order
+            answers[t].emplace_back(r, answer(served, all[r]));
+          }
         }
+      } catch (const std::exception& e) {
+        errors[t] = e.what();
       }
     });
   }
   for (std::thread& thread : threads) thread.join();
+  for (int t = 0; t < kThreads; ++t) EXPECT_EQ(errors[t], "") << "thread " << t;
   int compared = 0;
   for (int t = 0; t < kThreads; ++t) {
     for (const auto& [r, a] : answers[t]) {
@@ -374,7 +383,8 @@ TEST(SharedRobotModel, LockedJointsOfARequestDoNotCopyTheModel) {
   }
   Eigen::MatrixXd struck(kept.size(), kept.size());
   for (std::size_t a = 0; a < kept.size(); ++a)
-    for (std::size_t b = 0; b < kept.size(); ++b) struck(a, b) = free.massMatrix()(kept[a], kept[b]);
+    for (std::size_t b = 0; b < kept.size(); ++b)
+      struck(a, b) = free.massMatrix()(kept[a], kept[b]);
   EXPECT_LT((locked.massMatrix() - struck).cwiseAbs().maxCoeff(), 1e-12 * struck.norm());
 
   // The same robot locked in its model (a model of its own, built apart).

@@ -47,8 +47,12 @@ struct LinkModel {
   std::string name;
   int parent = -1;       ///< link index, -1 for the base (link 0)
   KDL::Segment segment;  ///< the joint and the tip frame (the inertia is in `local`)
-  LocalInertia local;    ///< the link's own, link frame
-  int joint = -1;        ///< joint index (jointNames()), -1 for a fixed joint and the base
+  /// The segment's frame past its joint: segment.pose(q) = jointPose(segment.getJoint(), q) *
+  /// tip. Read once when the model is built: KDL's Joint::pose() caches its last answer in the
+  /// joint (a mutable member), so the algorithms never call it on a shared model.
+  KDL::Frame tip;
+  LocalInertia local;  ///< the link's own, link frame
+  int joint = -1;      ///< joint index (jointNames()), -1 for a fixed joint and the base
 };
 
 /// What a robot is, apart from any state (Pinocchio's model; docs/robots.md, "Model and data"):
@@ -67,7 +71,8 @@ class RobotModel {
   /// The tree's root segment is the base; base_inertia is the base link's inertia in the base
   /// frame (a KDL::Tree's root has none: urdf_loader.h passes the URDF root link's), used when the
   /// base floats. Every joint free, no mimics, the default link the last. Throws for an empty tree
-  /// ("tree") or a floating base on a massless robot ("base").
+  /// or a joint with a KDL scale or offset other than 1 and 0 ("tree"; kdl_parser makes none), or
+  /// a floating base on a massless robot ("base").
   RobotModel(const KDL::Tree& tree, BaseType base = BaseType::kFixed,
              const KDL::RigidBodyInertia& base_inertia = KDL::RigidBodyInertia::Zero());
 
@@ -130,6 +135,10 @@ class RobotModel {
   bool has_mimics_ = false;
   int default_link_ = 0;
 };
+
+/// The motion of a joint at q (KDL's Joint::pose() for a joint of scale 1 and offset 0, the only
+/// kind RobotModel takes) without touching the joint's cache: safe on a shared model.
+KDL::Frame jointPose(const KDL::Joint& joint, double q);
 
 /// The mass properties of a KDL inertia (rotational inertia about the frame origin) as a
 /// LocalInertia (about the centre of mass).
