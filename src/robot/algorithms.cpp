@@ -185,7 +185,8 @@ void forwardKinematics(const RobotModel& model, RobotData& data) {
     data.base_axes[k] = KDL::Twist(e, KDL::Vector::Zero());
     data.base_axes[3 + k] = KDL::Twist(o * e, e);  // w e_k about the base origin: v(0) = o x e_k
   }
-  for (int i = 1; i < model.linkCount(); ++i) {
+  const int links = model.linkCount();
+  for (int i = 1; i < links; ++i) {
     const LinkModel& link = model.link(i);
     const KDL::Frame& parent = data.frames[link.parent];
     const KDL::Joint& joint = link.segment.getJoint();
@@ -211,7 +212,8 @@ void updateTwists(const RobotModel& model, RobotData& data) {
   data.free_accelerations_valid = false;
   const KDL::Vector w = toKdl(data.base_angular_velocity);
   data.twists[0] = KDL::Twist(toKdl(data.base_linear_velocity) + data.frames[0].p * w, w);
-  for (int i = 1; i < model.linkCount(); ++i) {
+  const int links = model.linkCount();
+  for (int i = 1; i < links; ++i) {
     const LinkModel& link = model.link(i);
     data.twists[i] = data.twists[link.parent];
     if (link.joint >= 0) data.twists[i] += data.axes[i] * data.qdot(link.joint);
@@ -224,10 +226,10 @@ void computeMassMatrix(const RobotModel& model, RobotData& data) {
   mass.setZero(n, n);
   if (n == 0) return;  // nothing moves: no inertia is needed
   // Composite inertias, children before parents (world frame, reference point the origin: sums).
-  for (int i = 0; i < model.linkCount(); ++i)
+  const int links = model.linkCount();
+  for (int i = 0; i < links; ++i)
     data.composite[i] = worldInertia(model.link(i).local, data.frames[i]);
-  for (int i = model.linkCount() - 1; i > 0; --i)
-    data.composite[model.link(i).parent] += data.composite[i];
+  for (int i = links - 1; i > 0; --i) data.composite[model.link(i).parent] += data.composite[i];
   if (model.hasMimicJoints()) {
     computeMimicMassMatrix(model, data);
     return;

@@ -135,12 +135,9 @@ int RobotModel::linkIndex(const std::string& name) const {
   throw core::InvalidInput("link", "no link '" + name + "'");
 }
 
-int RobotModel::checkLink(int link) const {
-  if (link < 0 || link >= linkCount()) {
-    throw core::InvalidInput("link", "no link " + std::to_string(link) + " (the robot has " +
-                                         std::to_string(linkCount()) + ")");
-  }
-  return link;
+void RobotModel::refuseLink(int link) const {
+  throw core::InvalidInput("link", "no link " + std::to_string(link) + " (the robot has " +
+                                       std::to_string(linkCount()) + ")");
 }
 
 void RobotModel::setDefaultLink(int link) {

@@ -107,7 +107,10 @@ class RobotModel {
   /// Throws naming "link" if there is no such link.
   int linkIndex(const std::string& name) const;
   /// `link` itself; throws naming "link" if it is out of range.
-  int checkLink(int link) const;
+  int checkLink(int link) const {
+    if (link < 0 || link >= linkCount()) refuseLink(link);
+    return link;
+  }
   int defaultLink() const { return default_link_; }
   /// The link a joint carries.
   int linkOfJoint(int joint) const { return link_of_joint_[joint]; }
@@ -124,6 +127,8 @@ class RobotModel {
   double mimicOffset(int joint) const { return mimic_offset_[joint]; }
 
  private:
+  [[noreturn]] void refuseLink(int link) const;
+
   BaseType base_type_;
   std::vector<LinkModel> links_;
   std::vector<std::string> joint_names_;
