@@ -89,6 +89,38 @@ void BM_Arm7RestsOnTable(benchmark::State& state) {
   }
 }
 
+// Preparing a request as the node does (ros/robot_conversion.cpp, robotAtRequestState()): the
+// served robot is copied and the copy takes the request's state; with `locked` joints, the
+// request's own locks too. Not inlined, so that callgrind can count them alone:
+//   valgrind --tool=callgrind --toggle-collect='*prepareRequest*' bench_robot \
+//     --benchmark_filter=BM_Arm7PrepareRequest
+// The copy is the data alone (the model is shared); the locks are held in it.
+__attribute__((noinline)) rb::ArticulatedBody prepareRequest(const rb::ArticulatedBody& served,
+                                                             const std::vector<bool>& locked,
+                                                             const Eigen::VectorXd& q,
+                                                             const Eigen::VectorXd& qdot) {
+  rb::ArticulatedBody arm = served;
+  if (!locked.empty()) arm.setLockedJoints(locked);
+  arm.setState(q, qdot);
+  return arm;
+}
+
+// Argument: 0 the entry's joint models, 1 the request locks joint6 and joint7.
+void BM_Arm7PrepareRequest(benchmark::State& state) {
+  const collision_response::bench::ArmBoxScene scene;
+  const rb::ArticulatedBody served = rb::robotFromUrdfFile(ROBOT_URDF_DIR "/arm7.urdf");
+  std::vector<bool> locked;
+  if (state.range(0) == 1) {
+    locked.assign(served.jointCount(), false);
+    locked[served.jointIndex("joint6")] = locked[served.jointIndex("joint7")] = true;
+  }
+  const Eigen::VectorXd q = scene.q, qdot = scene.qdot;
+  for (auto _ : state) {
+    const rb::ArticulatedBody arm = prepareRequest(served, locked, q, qdot);
+    benchmark::DoNotOptimize(arm.massMatrix().data());
+  }
+}
+
 void BM_Arm7StrikesBox(benchmark::State& state) {
   run(state, false);
 }
@@ -103,4 +135,5 @@ void BM_Arm7LockedStrikesBox(benchmark::State& state) {
 BENCHMARK(BM_Arm7StrikesBox)->Arg(0)->Arg(1);
 BENCHMARK(BM_Arm7LockedStrikesBox)->Arg(0)->Arg(1);
 BENCHMARK(BM_Arm7RestsOnTable)->Arg(0)->Arg(1);
+BENCHMARK(BM_Arm7PrepareRequest)->Arg(0)->Arg(1);
 BENCHMARK_MAIN();

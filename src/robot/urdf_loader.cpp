@@ -6,14 +6,17 @@
 #include <fstream>
 #include <kdl_parser/kdl_parser.hpp>
 #include <sstream>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "collision_response/core/errors.h"
 #include "collision_response/core/validation.h"
 
 namespace collision_response::robot {
 namespace {
+
+// The field every error of the loader names: the URDF document.
+const char* const kField = "URDF";
 
 // The root link's inertia in the link frame (kdl_parser's conversion, which it does not apply to
 // the root).
@@ -34,7 +37,7 @@ KDL::RigidBodyInertia rootInertia(const urdf::Model& model) {
 // Refuses a number of the model that the kinematics and M(q) cannot take (not finite, or beyond the
 // core's magnitude limits: they overflow there), naming the element.
 void requireUsable(bool ok, const std::string& element, const std::string& what) {
-  if (!ok) throw std::invalid_argument("URDF: " + element + ": " + what);
+  if (!ok) throw core::InvalidInput(kField, element + ": " + what);
 }
 
 void requireUsablePose(const urdf::Pose& pose, const std::string& element) {
@@ -98,9 +101,9 @@ void requireUsableModel(const urdf::Model& model) {
 
 }  // namespace
 
-ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
+std::shared_ptr<RobotModel> robotModelFromUrdfString(const std::string& xml, BaseType base) {
   urdf::Model model;
-  if (!model.initString(xml)) throw std::invalid_argument("URDF: the document does not parse");
+  if (!model.initString(xml)) throw core::InvalidInput(kField, "the document does not parse");
   requireUsableModel(model);
   const KDL::RigidBodyInertia root_inertia = rootInertia(model);
   // kdl_parser drops a root link's inertia with a warning that KDL cannot use it; ours is passed
@@ -108,11 +111,11 @@ ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
   if (model.root_link_) model.root_link_->inertial.reset();
   KDL::Tree tree;
   if (!kdl_parser::treeFromUrdfModel(model, tree)) {
-    throw std::invalid_argument("URDF: kdl_parser could not build the tree of '" + model.getName() +
-                                "'");
+    throw core::InvalidInput(kField,
+                             "kdl_parser could not build the tree of '" + model.getName() + "'");
   }
-  ArticulatedBody body(tree, base, root_inertia);
-  // <mimic>: KDL's tree has no couplings; the body takes them by joint name.
+  auto robot = std::make_shared<RobotModel>(tree, base, root_inertia);
+  // <mimic>: KDL's tree has no couplings; the model takes them by joint name.
   std::vector<MimicJoint> mimics;
   for (const auto& [name, joint] : model.joints_) {
     if (!joint || !joint->mimic) continue;
@@ -121,17 +124,21 @@ ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
   }
   if (!mimics.empty()) {
     try {
-      body.setMimicJoints(mimics);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(std::string("URDF: ") + e.what());
+      robot->setMimicJoints(mimics);
+    } catch (const core::InvalidInput& e) {
+      throw e.withFirstSegment(kField);  // "URDF: mimic joint 'x': ..."
     }
   }
-  return body;
+  return robot;
+}
+
+ArticulatedBody robotFromUrdfString(const std::string& xml, BaseType base) {
+  return ArticulatedBody(robotModelFromUrdfString(xml, base));
 }
 
 ArticulatedBody robotFromUrdfFile(const std::string& path, BaseType base) {
   std::ifstream file(path);
-  if (!file) throw std::invalid_argument("URDF: cannot read '" + path + "'");
+  if (!file) throw core::InvalidInput(kField, "cannot read '" + path + "'");
   std::stringstream text;
   text << file.rdbuf();
   return robotFromUrdfString(text.str(), base);

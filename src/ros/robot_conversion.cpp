@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <sstream>
-#include <stdexcept>
 #include <vector>
 
 #include "collision_response/core/errors.h"
@@ -305,10 +304,10 @@ robot::ArticulatedBody robotAtRequestState(const ServedRobot& robot, const Robot
   }
   try {
     model.setState(q, qdot, base_pose, base_linear, base_angular);
-  } catch (const std::invalid_argument& e) {
-    // M(q) singular at this configuration (a free joint moving no mass here).
-    throw core::InvalidInput(state_field,
-                             std::string("the robot cannot take this state: ") + e.what());
+  } catch (const core::InvalidInput& e) {
+    // M(q) singular at this configuration (a free joint moving no mass here): the library names
+    // the configuration, "q"; here it is the request's joint state.
+    throw e.withFirstSegment(state_field);
   }
   setRestingLoads(robot, msg, now, timeout, field, model);
   return model;

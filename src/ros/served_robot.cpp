@@ -1,6 +1,7 @@
 #include "collision_response/ros/served_robot.h"
 
 #include <map>
+#include <memory>
 #include <stdexcept>
 
 #include "collision_response/core/errors.h"
@@ -10,16 +11,32 @@
 namespace collision_response {
 namespace {
 
-robot::ArticulatedBody parse(const RobotParameters& parameters, const std::string& urdf,
-                             const std::string& field) {
+// The robot's model as the entry configures it once: the URDF's tree and mimics, the entry's base
+// type and armatures. The entry's locked joints are not in it: they are the served prototype's
+// data (ServedRobot::model()), so that a request may replace them without another model.
+std::shared_ptr<const robot::RobotModel> buildModel(const RobotParameters& parameters,
+                                                    const std::string& urdf,
+                                                    const std::string& field) {
+  std::shared_ptr<robot::RobotModel> model;
   try {
-    return robot::robotFromUrdfString(
+    model = robot::robotModelFromUrdfString(
         urdf, parameters.floating ? robot::BaseType::kFloating : robot::BaseType::kFixed);
-  } catch (const std::invalid_argument& e) {
+  } catch (const core::InvalidInput& e) {
+    // The library names the document ("URDF"); here it is the entry's parameter.
     throw core::InvalidInput(
         field + ".description_param",
         "the URDF in '" + parameters.description_param + "' is not a usable robot: " + e.what());
   }
+  for (const auto& [name, armature] : parameters.armature) {
+    const int joint = model->findJoint(name);
+    if (joint < 0) {
+      throw core::InvalidInput(
+          field + ".armature." + name,
+          "the robot '" + parameters.name + "' has no joint '" + name + "' with a coordinate");
+    }
+    if (armature > 0.0) model->setJointModel(joint, robot::JointModel::kArmature, armature);
+  }
+  return model;
 }
 
 }  // namespace
@@ -27,12 +44,10 @@ robot::ArticulatedBody parse(const RobotParameters& parameters, const std::strin
 ServedRobot::ServedRobot(const RobotParameters& parameters, const std::string& urdf,
                          const std::string& field)
     : parameters_(parameters),
-      model_(parse(parameters, urdf, field)),
+      model_(buildModel(parameters, urdf, field)),
       joint_states_(model_.jointNames()) {
   base_frame_ = parameters.base_frame.empty() ? model_.linkName(0) : parameters.base_frame;
-  for (const auto& entry : parameters.armature)
-    jointIndex(entry.first, field + ".armature." + entry.first);
-  setJointModels(model_, parameters.locked_joints, field + ".locked_joints");
+  model_.setLockedJoints(lockedFlags(parameters.locked_joints, field + ".locked_joints"));
   if (!model_.singularJoint().empty()) throw core::InvalidInput(field, model_.singularJoint());
   std::map<std::string, detection::BodyGeometry> geometry;
   try {
@@ -52,40 +67,28 @@ ServedRobot::ServedRobot(const RobotParameters& parameters, const std::string& u
   }
 }
 
-void ServedRobot::setJointModels(robot::ArticulatedBody& model,
-                                 const std::vector<std::string>& locked,
-                                 const std::string& field) const {
-  std::vector<bool> is_locked(model.jointCount(), false);
+std::vector<bool> ServedRobot::lockedFlags(const std::vector<std::string>& locked,
+                                           const std::string& field) const {
+  std::vector<bool> is_locked(model_.jointCount(), false);
   for (std::size_t k = 0; k < locked.size(); ++k) {
     is_locked[jointIndex(locked[k], field + "[" + std::to_string(k) + "]")] = true;
   }
-  for (int joint = 0; joint < model.jointCount(); ++joint) {
-    robot::JointModel wanted = robot::JointModel::kFree;
-    double armature = 0.0;
-    if (is_locked[joint]) {
-      wanted = robot::JointModel::kLocked;
-    } else if (const auto it = parameters_.armature.find(model.jointNames()[joint]);
-               it != parameters_.armature.end() && it->second > 0.0) {
-      wanted = robot::JointModel::kArmature;
-      armature = it->second;
-    }
-    if (model.jointModel(joint) != wanted) model.setJointModel(joint, wanted, armature);
-  }
+  return is_locked;
 }
 
 int ServedRobot::jointIndex(const std::string& name, const std::string& field) const {
-  try {
-    return model_.jointIndex(name);
-  } catch (const std::invalid_argument&) {
+  const int joint = model_.model().findJoint(name);
+  if (joint < 0) {
     throw core::InvalidInput(field, "the robot '" + parameters_.name + "' has no joint '" + name +
                                         "' with a coordinate");
   }
+  return joint;
 }
 
 robot::ArticulatedBody ServedRobot::modelWithLockedJoints(const std::vector<std::string>& locked,
                                                           const std::string& field) const {
-  robot::ArticulatedBody model = model_;
-  setJointModels(model, locked, field);
+  robot::ArticulatedBody model = model_;  // the data alone: the model is shared
+  model.setLockedJoints(lockedFlags(locked, field));
   return model;
 }
 

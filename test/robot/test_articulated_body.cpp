@@ -19,6 +19,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "collision_response/core/errors.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "two_link_arm.h"
@@ -398,14 +399,67 @@ TEST(ArticulatedBody, SingularInertiaIsRejectedNamingTheJoint) {
   try {
     robot.setState(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d::Zero());
     FAIL() << "a massless link on a free joint was accepted";
-  } catch (const std::invalid_argument& error) {
+  } catch (const collision_response::core::InvalidInput& error) {
     EXPECT_NE(std::string(error.what()).find("'wrist'"), std::string::npos) << error.what();
   }
-  EXPECT_THROW(robot.partInverseMassJacobianTranspose(2, Vector3d(1, 0, 0)), std::invalid_argument);
+  EXPECT_THROW(robot.partInverseMassJacobianTranspose(2, Vector3d(1, 0, 0)),
+               collision_response::core::InvalidInput);
   robot.setJointModel(robot.jointIndex("wrist"), rb::JointModel::kLocked);
   EXPECT_TRUE(robot.singularJoint().empty());
   robot.setState(Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d::Zero());
   EXPECT_EQ(robot.velocityCount(), 1);
-  EXPECT_THROW(rb::robotFromUrdfString("<robot"), std::invalid_argument);
-  EXPECT_THROW(rb::robotFromUrdfFile(kDir + "/missing.urdf"), std::invalid_argument);
+  EXPECT_THROW(rb::robotFromUrdfString("<robot"), collision_response::core::InvalidInput);
+  EXPECT_THROW(rb::robotFromUrdfFile(kDir + "/missing.urdf"),
+               collision_response::core::InvalidInput);
+}
+
+// Model and data (docs/robots.md): copies of a body share one model and own their state; a change
+// of joint model gives that one body a model of its own (copy on write) and leaves the others.
+TEST(ArticulatedBody, CopiesShareTheModelAndKeepTheirOwnState) {
+  const rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
+  rb::ArticulatedBody copy = arm;
+  EXPECT_EQ(copy.sharedModel().get(), arm.sharedModel().get());
+  Eigen::VectorXd q = Eigen::VectorXd::Constant(arm.jointCount(), 0.3);
+  copy.setState(q, -q);
+  EXPECT_EQ(arm.jointPositions(), Eigen::VectorXd::Zero(arm.jointCount()));
+  EXPECT_EQ(copy.sharedModel().get(), arm.sharedModel().get());
+  const int joint7 = arm.jointIndex("joint7");
+  copy.setJointModel(joint7, rb::JointModel::kLocked);
+  EXPECT_NE(copy.sharedModel().get(), arm.sharedModel().get());
+  EXPECT_EQ(arm.jointModel(joint7), rb::JointModel::kFree);
+  EXPECT_EQ(arm.velocityCount(), arm.jointCount());
+  EXPECT_EQ(copy.velocityCount(), arm.jointCount() - 1);
+}
+
+// A body's own locks (setLockedJoints(), held in its data) act as the same locks in its model: the
+// same unknowns and the same M, at the model's own pointer. On the gripper (finger2 mimics finger1)
+// a lock on one finger locks the pair, whichever joint carries it.
+TEST(ArticulatedBody, LocksInTheDataActAsLocksInTheModel) {
+  const rb::ArticulatedBody gripper = rb::robotFromUrdfFile(kDir + "/gripper.urdf");
+  const Eigen::Vector3d q(0.2, 0.01, 0.0), qdot(0.5, 0.03, 0.0);
+  for (const std::vector<std::string>& locks : std::vector<std::vector<std::string>>{
+           {"wrist"}, {"finger1_joint"}, {"finger2_joint"}, {"wrist", "finger2_joint"}}) {
+    std::vector<bool> flags(gripper.jointCount(), false);
+    rb::ArticulatedBody in_model = gripper;
+    for (const std::string& name : locks) {
+      flags[gripper.jointIndex(name)] = true;
+      in_model.setJointModel(gripper.jointIndex(name), rb::JointModel::kLocked);
+    }
+    rb::ArticulatedBody in_data = gripper;
+    in_data.setLockedJoints(flags);
+    EXPECT_EQ(in_data.sharedModel().get(), gripper.sharedModel().get());
+    in_data.setState(q, qdot);
+    in_model.setState(q, qdot);
+    ASSERT_EQ(in_data.velocityCount(), in_model.velocityCount()) << locks.back();
+    for (int j = 0; j < gripper.jointCount(); ++j)
+      EXPECT_EQ(in_data.unknownOfJoint(j), in_model.unknownOfJoint(j)) << locks.back();
+    EXPECT_EQ(in_data.massMatrix(), in_model.massMatrix()) << locks.back();
+  }
+  // The fingers are one mimic group: a brake on either holds both.
+  rb::ArticulatedBody one = gripper;
+  std::vector<bool> flags(gripper.jointCount(), false);
+  flags[gripper.jointIndex("finger2_joint")] = true;
+  one.setLockedJoints(flags);
+  EXPECT_TRUE(one.isLocked(gripper.jointIndex("finger1_joint")));
+  EXPECT_EQ(one.velocityCount(), 1);
 }

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "collision_response/core/body_response.h"
+#include "collision_response/core/errors.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
@@ -657,7 +658,7 @@ TEST(MimicJoints, BadMimicsAreRefusedNamingTheJoint) {
     try {
       f();
       ADD_FAILURE() << "accepted: " << text;
-    } catch (const std::invalid_argument& e) {
+    } catch (const cr::InvalidInput& e) {
       EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
     }
   };

@@ -436,7 +436,7 @@ TEST(RobotImpacts, AFailedBuildLeavesNoTraceInTheNextCall) {
     cr::RigidBody ball = sphere(ms, R, Vector3d(d, -R, 0), Vector3d(0, V, 0));
     cr::ContactPoint contact(0, 1, Vector3d(d, 0, 0), Vector3d::UnitY(), e, 0.0, 0.0);
     contact.part_b = limp.linkIndex("rod");
-    EXPECT_THROW(cr::computeBodyResponse({&ball, &limp}, {contact}), std::invalid_argument);
+    EXPECT_THROW(cr::computeBodyResponse({&ball, &limp}, {contact}), cr::InvalidInput);
   }
   rb::ArticulatedBody rod = rb::robotFromUrdfFile(kDir + "/pendulum.urdf");
   cr::RigidBody ball = sphere(ms, R, Vector3d(d, -R, 0), Vector3d(0, V, 0));

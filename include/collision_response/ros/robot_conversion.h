@@ -23,7 +23,8 @@ namespace collision_response {
 std::optional<Eigen::Isometry3d> basePoseFromMsg(const RobotState& msg, const std::string& field);
 
 /// The served robot at the state a request gives it (docs/robots.md, "Robots through ROS"): a copy
-/// of its model with the request's locked joints (or the entry's), joint positions and velocities
+/// of its prototype (the data alone: the model stays shared) with the request's locked joints (or
+/// the entry's), joint positions and velocities
 /// from msg.joint_state, each one missing there from the robot's joint-state cache, `base_pose`
 /// (request frame) and, for a floating base, msg.base_twist. Throws core::InvalidInput naming
 /// `field` ("robots[i]") + ".joint_state.name[k]" for an unknown or repeated joint,

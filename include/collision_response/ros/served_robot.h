@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,9 +12,11 @@
 namespace collision_response {
 
 /// A robot the node serves (one ~robots entry, docs/robots.md, "Robots through ROS"): its model
-/// built once from the URDF, with the entry's base type, locked joints and armatures, and the
-/// latest joint state of its topic. Requests copy the model and set their state on the copy, so
-/// that concurrent requests share nothing but the joint-state cache.
+/// built once from the URDF with the entry's base type and armatures (robot::RobotModel, const and
+/// shared), a prototype body of it whose data locks the entry's locked joints, and the latest
+/// joint state of its topic. A request copies the prototype, which copies only its data (the
+/// model is shared by every request and thread), locks its own joints in that data if it says so,
+/// and sets its state there: concurrent requests share the const model and the joint-state cache.
 class ServedRobot {
  public:
   /// Builds the model from the URDF document `urdf` (the string of parameters.description_param).
@@ -27,8 +30,12 @@ class ServedRobot {
 
   const RobotParameters& parameters() const { return parameters_; }
   const std::string& name() const { return parameters_.name; }
-  /// The model at q = 0 with the entry's joint models.
+  /// The prototype: the shared model at q = 0 with the entry's locked joints (in its data).
   const robot::ArticulatedBody& model() const { return model_; }
+  /// The one model every request of this robot shares.
+  const std::shared_ptr<const robot::RobotModel>& sharedModel() const {
+    return model_.sharedModel();
+  }
   /// The tf frame that places the root link when a request gives no base pose.
   const std::string& baseFrame() const { return base_frame_; }
   /// Link names prefixed with the robot's name, "<name>/<link>", by link index: the body ids
@@ -40,8 +47,9 @@ class ServedRobot {
   /// Whether any link has collision geometry.
   bool hasGeometry() const { return has_geometry_; }
 
-  /// A copy of the model whose locked joints are `locked` (names; the entry's armatures on the
-  /// others). Throws core::InvalidInput naming `field` + "[k]" for an unknown joint name.
+  /// A copy of the prototype whose locked joints are `locked` (names; the entry's armatures on the
+  /// others), the locks held in its data: the model is not copied (the copy's sharedModel() is
+  /// this robot's). Throws core::InvalidInput naming `field` + "[k]" for an unknown joint name.
   robot::ArticulatedBody modelWithLockedJoints(const std::vector<std::string>& locked,
                                                const std::string& field) const;
 
@@ -53,8 +61,9 @@ class ServedRobot {
   const JointStateCache& jointStates() const { return joint_states_; }
 
  private:
-  void setJointModels(robot::ArticulatedBody& model, const std::vector<std::string>& locked,
-                      const std::string& field) const;
+  /// One flag per joint, true for the joints named in `locked` (field + "[k]" if unknown).
+  std::vector<bool> lockedFlags(const std::vector<std::string>& locked,
+                                const std::string& field) const;
 
   RobotParameters parameters_;
   robot::ArticulatedBody model_;
