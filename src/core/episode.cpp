@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 
 #include "collision_response/core/compute_response.h"
@@ -250,7 +252,10 @@ double Episode::step() const {
                          (spin_b > 0.0 ? spin_b * radius_[pair.b] : 0.0);
     const double gravity = a.immovable() != b.immovable() ? gravity_norm_ : 0.0;
     // Points on a plane: each listed point bounded below; the pair's others are beyond the range.
-    const double target = pair.points ? range_ : pair.gap > tolerance_ ? pair.gap : tolerance_;
+    const double target = pair.points ? range_
+                          : pair.gap > tolerance_
+                              ? pair.gap
+                              : std::max(tolerance_ + std::min(pair.gap, 0.0), 0.1 * tolerance_);
     s = std::min(s, safeStep(speed, gravity, target));
   }
   for (const Candidate& c : candidates_) {
@@ -258,9 +263,12 @@ double Episode::step() const {
     // A point apart by more than the tolerance may close to 0; a touching one that opens may
     // come back to where it is (not below 0: an impact found late would change its answer); a
     // touching one that neither opens nor approaches may sink by one tolerance.
-    const double target = c.gap > tolerance_        ? c.gap
-                          : c.normal_velocity > 0.0 ? std::max(c.gap, 0.0)
-                                                    : tolerance_;
+    // (Down to -tolerance: by one tolerance from a gap >= 0, by less from a gap below 0; a point
+    // already near -tolerance, which no step leaves there, by a tenth of one.)
+    const double target = c.gap > tolerance_ ? c.gap
+                          : c.normal_velocity > 0.0
+                              ? std::max(c.gap, 0.0)
+                              : std::max(tolerance_ + std::min(c.gap, 0.0), 0.1 * tolerance_);
     s = std::min(s, pointStep(c.normal_velocity, c.acceleration, target));
   }
   // Pairs the query left out are farther apart than the range.
@@ -300,6 +308,31 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   solver.time_budget = options_.solver.time_budget - elapsed();
   if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
   CollisionResult response = computeValidatedResponse(scene_, scene_pairs_, solver);
+  // A slow touch (a pivot the body turns about, through plastic touches) would otherwise sink a
+  // little more at each: its deepest point is brought back to the surface (gap 0), the pair's
+  // movable bodies moved apart along the normal in inverse proportion to their masses, a move
+  // within the contact tolerance.
+  if (plastic_resting) {
+    for (std::size_t i = 0; i < contacts.size(); ++i) {
+      const GapContact& gap = gaps_[candidates_[contacts[i]].index];
+      if (!(gap.gap < 0.0)) continue;
+      bool deepest = true;  // the pair's first deepest point moves it
+      for (std::size_t j = 0; j < contacts.size() && deepest; ++j) {
+        const GapContact& other = gaps_[candidates_[contacts[j]].index];
+        if (j != i && other.body_a == gap.body_a && other.body_b == gap.body_b) {
+          deepest = other.gap > gap.gap || (other.gap == gap.gap && j > i);
+        }
+      }
+      if (!deepest) continue;
+      BodyState& a = response.bodies[gap.body_a];
+      BodyState& b = response.bodies[gap.body_b];
+      const double wa = a.immovable() ? 0.0 : 1.0 / a.mass, wb = b.immovable() ? 0.0 : 1.0 / b.mass;
+      if (!(wa + wb > 0.0)) continue;
+      const Eigen::Vector3d shift = -gap.gap * gap.normal.normalized();
+      a.position -= wa / (wa + wb) * shift;
+      b.position += wb / (wa + wb) * shift;
+    }
+  }
 
   EpisodeImpact& record = result_.impacts.emplace_back();
   record.time = time_;
@@ -408,12 +441,17 @@ bool Episode::sustained(const std::vector<int>& contacts) {
                          c.static_friction, c.dynamic_friction);
     scene_pairs_.push_back(pair);
   }
+  // Resting here means within the contacts' resting thresholds, sqrt(2 g_n tol): a normal or a
+  // slip velocity that small is what the tolerance leaves undecided (friction stops such a slip
+  // within about a tolerance of travel), so static friction is tried first on it; a faster slip
+  // gets dynamic friction against it.
+  double slip_threshold = resting_velocity_;
+  for (const int c : contacts) slip_threshold = std::max(slip_threshold, candidates_[c].threshold);
   std::vector<ContactImpulse> forces(contacts.size());
   SolverOptions solver = options_.solver;
   solver.deadline = Deadline::in(std::max(options_.solver.time_budget - elapsed(), 0.0));
   for (const Island& island : findIslands(rigid_, scene_pairs_)) {
-    problem_.buildResting(scene_.bodies, rigid_, points_, island.contacts,
-                          options_.solver.resting_velocity);
+    problem_.buildResting(scene_.bodies, rigid_, points_, island.contacts, slip_threshold);
     solveRestingIsland(problem_, solver, answer_);
     problem_.scatterForces(answer_, forces);
   }
@@ -523,11 +561,18 @@ bool Episode::configurationLasts(const std::vector<int>& contacts) const {
     const GapContact& gap = gaps_[c.index];
     if (!held[gap.body_a] && !held[gap.body_b]) continue;
     const Eigen::Vector3d normal = gap.normal.normalized();
-    const double u = c.normal_velocity;
+    // Its normal velocity now (the candidates' were taken before this moment's impact).
+    const auto pointVelocity = [&](int i) {
+      return bodies_[i].immovable() ? bodies_[i].linear_velocity +
+                                          bodies_[i].angular_velocity.cross(gap.point - coms_[i])
+                                    : rigid_[i].pointVelocity(gap.point - rigid_[i].com);
+    };
+    const double u = normal.dot(pointVelocity(gap.body_b) - pointVelocity(gap.body_a));
     const double a = normal.dot(pointAcceleration(gap.body_b, gap.point) -
                                 pointAcceleration(gap.body_a, gap.point));
-    const bool closing =
-        u < -c.threshold || (u <= c.threshold && a < -1e-9 * std::max(gravity_norm_, 1.0));
+    // Closing: approaching faster than its threshold, or accelerating towards the contact (a
+    // corner rising as the body rocks comes back down).
+    const bool closing = u < -c.threshold || a < -1e-9 * std::max(gravity_norm_, 1.0);
     if (!closing) continue;
     // Time for gap + u t + a t^2 / 2 to reach 0 (the gap's local path), if it does.
     const double g = std::max(c.gap, 0.0);
