@@ -23,22 +23,13 @@
 #include "collision_response/detection/contact_detector.h"
 #include "collision_response/detection/detect_contacts.h"
 #include "collision_response/detection/materials.h"
+#include "collision_response/ros/request_assembly.h"
 #include "collision_response/ros/response_markers.h"
 #include "collision_response/ros/served_robot.h"
+#include "collision_response/ros/server_monitoring.h"
 #include "collision_response/ros/server_parameters.h"
 
-namespace diagnostic_updater {
-class DiagnosticStatusWrapper;
-class Updater;
-}  // namespace diagnostic_updater
-namespace dynamic_reconfigure {
-template <class ConfigType>
-class Server;
-}  // namespace dynamic_reconfigure
-
 namespace collision_response {
-
-class SolverConfig;  // generated from cfg/Solver.cfg
 
 /// The ROS face of the core library: serves ~compute and ~compute_batch, publishes every successful
 /// ~compute answer on ~responses (and on ~markers for RViz, if subscribed), serves the episodes
@@ -50,6 +41,10 @@ class SolverConfig;  // generated from cfg/Solver.cfg
 /// law, solver, multi_contact, tolerance, max_iterations, integration_tolerance and
 /// contact_tolerance can be changed at run time with dynamic_reconfigure (cfg/Solver.cfg);
 /// diagnostics (call rate, failures, solver time) go to /diagnostics at 1 Hz.
+///
+/// The server keeps the callbacks; a request is assembled by the functions of request_assembly.h
+/// (tf2, robots, link bodies, contact placement) and monitored by ServerMonitoring
+/// (server_monitoring.h: dynamic_reconfigure, call records, diagnostics).
 ///
 /// Thread-safe: the callbacks may run concurrently (a multi-threaded spinner, or a nodelet's MT
 /// node handles).
@@ -100,6 +95,12 @@ class CollisionResponseServer {
   /// request's bodies.
   std::optional<core::InvalidInput> solveEpisode(ComputeEpisode::Request& request,
                                                  EpisodeResult& result);
+  /// The part of solve() for requests of rigid bodies alone: the given contacts checked, contacts
+  /// detected (wantsDetection(), within `contact_tolerance` [m]) and checked, then
+  /// core::computeValidatedResponse(); fills the answer (request frame) but not its success.
+  void solveRigid(const ComputeResponse::Request& request, ComputeResponse::Response& response,
+                  core::Scene& scene, core::SceneValidator& validator,
+                  const core::SolverOptions& options, double contact_tolerance);
   /// The part of solve() for requests with robots (request.robots, or contacts naming
   /// "<robot>/<link>"): rigid bodies and robots as general body models (core::computeBodyResponse).
   /// `scene` holds the request's validated bodies and given contacts; `validator` has checked them.
@@ -107,41 +108,36 @@ class CollisionResponseServer {
                        core::Scene& scene, core::SceneValidator& validator,
                        const core::SolverOptions& options,
                        std::vector<ContactLinkFrame>* link_frames);
-  /// Whether a request involves robots: it lists some, or a contact names an id that is no body's
-  /// and starts with a served robot's name and '/'.
-  bool involvesRobots(const ComputeResponse::Request& request) const;
-  /// The served robot called `name`, or nullptr.
-  ServedRobot* findRobot(const std::string& name) const;
+  /// The rigid bodies and the placed robots (placeRobots()) solved together by
+  /// core::computeBodyResponse() on `points` (the contacts placed on the models); fills the
+  /// answer's bodies, impulses, islands, effective masses, warnings, robots, energies [J] and
+  /// solve_time [s].
+  void solveBodyModels(const ComputeResponse::Request& request, ComputeResponse::Response& response,
+                       core::Scene& scene, std::vector<RequestRobot>& robots,
+                       const std::vector<core::ContactPoint>& points,
+                       const core::SolverOptions& options);
+  /// Detection for a request with robots: contacts from the bodies' shapes and the robots' links,
+  /// added to the answer's detected contacts and to scene.contacts, then checked by `validator`.
+  void detectWithLinks(const ComputeResponse::Request& request, ComputeResponse::Response& response,
+                       core::Scene& scene, core::SceneValidator& validator,
+                       const std::vector<RequestRobot>& robots, const core::SolverOptions& options);
   /// ~robots: each model from its URDF parameter, and a subscriber to its joint-state topic.
   void loadRobots(ros::NodeHandle& node);
-  /// The request defaults (parameters, dynamic_reconfigure), read together under the mutex so that
-  /// a reconfigure cannot land between them.
-  struct Defaults {
-    core::SolverOptions options;
-    double contact_tolerance;  ///< [m]
-  };
-  Defaults defaults() const;
+  /// The request defaults (parameters, dynamic_reconfigure; ServerMonitoring::defaults()).
+  using Defaults = SolverDefaults;
+  Defaults defaults() const { return monitoring_->defaults(); }
   static ServerParameters readParameters(const ros::NodeHandle& private_node);
-  /// dynamic_reconfigure and diagnostics, at the end of construction.
-  void setUpMonitoring(const ros::NodeHandle& node, const ros::NodeHandle& private_node);
-  void reconfigure(SolverConfig& config, uint32_t level);
+  /// ServerMonitoring::recordCalls().
   void recordCalls(std::size_t calls, std::size_t scenes, std::size_t failures, double solve_time,
-                   double max_solve_time);
-  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+                   double max_solve_time) {
+    monitoring_->recordCalls(calls, scenes, failures, solve_time, max_solve_time);
+  }
 
-  /// Request to core scene in the request frame (tf2 look-ups for bodies in other frames).
-  core::Scene toScene(const ComputeResponse::Request& request) const;
-  /// Whether the request's contacts are to be found from the bodies' shapes (detection.mode);
-  /// `robot_geometry`: a robot taking part has link collision geometry (MODE_AUTO counts it).
-  static bool wantsDetection(const ComputeResponse::Request& request, bool robot_geometry = false);
-  /// Robots' links as bodies of detection: each link with collision geometry placed at its pose
-  /// (request frame), in the collision group of its robot (links of one robot are never paired).
-  struct LinkBodies {
-    std::vector<core::BodyState> bodies;  ///< id "<robot>/<link>", pose linkPose(link)
-    std::vector<const detection::BodyGeometry*> geometry;
-    std::vector<int> groups;
-    std::size_t shapes = 0, vertices = 0, triangles = 0;
-  };
+  /// Request to core scene in the request frame (sceneInRequestFrame(): tf2 look-ups for bodies in
+  /// other frames).
+  core::Scene toScene(const ComputeResponse::Request& request) const {
+    return sceneInRequestFrame(request, tf_buffer_, tf_timeout_, parameters_.limits);
+  }
   /// Contacts from the bodies' shapes in `scene` (validated, request frame) and the robots' links
   /// (if any), with a detector of the pool, within the contact limit and options.time_budget.
   detection::DetectedContacts detect(const ComputeResponse::Request& request,
@@ -152,16 +148,13 @@ class CollisionResponseServer {
   std::unique_ptr<detection::ContactDetector> acquireDetector();
   void releaseDetector(std::unique_ptr<detection::ContactDetector> detector);
 
-  /// Read once at construction; default_options_ and contact_tolerance_ start from them and follow
-  /// dynamic_reconfigure.
+  /// Read once at construction; the request defaults start from them and follow
+  /// dynamic_reconfigure (monitoring_).
   const ServerParameters parameters_;
-  mutable std::mutex options_mutex_;  // guards default_options_ and contact_tolerance_
-  core::SolverOptions default_options_;
-  double contact_tolerance_;  ///< [m]
   ros::Duration tf_timeout_;
   std::mutex detectors_mutex_;
   std::vector<std::unique_ptr<detection::ContactDetector>> idle_detectors_;
-  std::vector<std::unique_ptr<ServedRobot>> robots_;  // ~robots, in order
+  ServedRobots robots_;  // ~robots, in order
   /// The scenes of a batch are solved across these threads (~threads, the calling one included).
   core::WorkerPool batch_pool_;
   std::vector<ros::Subscriber> joint_state_subscribers_;
@@ -174,23 +167,8 @@ class CollisionResponseServer {
   ros::Publisher episodes_;
   ros::ServiceServer episode_service_;
   ros::ServiceServer episode_batch_service_;
-
-  // Diagnostics: totals since start and the state at the last diagnostics update.
-  struct Statistics {
-    std::uint64_t calls = 0;      // service calls (compute, compute_batch and the episodes')
-    std::uint64_t scenes = 0;     // scenes solved or rejected (1 per compute call)
-    std::uint64_t failures = 0;   // scenes answered with success = false
-    double solve_time = 0.0;      // [s] total solver time
-    double max_solve_time = 0.0;  // [s] largest per-call solver time since the last update
-    std::uint64_t calls_at_update = 0;
-    std::uint64_t failures_at_update = 0;
-    ros::WallTime last_update;
-  };
-  std::mutex statistics_mutex_;
-  Statistics statistics_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
-  std::unique_ptr<dynamic_reconfigure::Server<SolverConfig>> reconfigure_server_;
+  /// dynamic_reconfigure, call records and diagnostics; made at the end of construction.
+  std::unique_ptr<ServerMonitoring> monitoring_;
 };
 
 }  // namespace collision_response

@@ -1,0 +1,141 @@
+#pragma once
+
+// Request assembly for CollisionResponseServer: a ~compute request's bodies in the request frame
+// (tf2), the robots it involves at their state (base poses from the request or tf2), their links as
+// bodies of detection, the body models and the contacts placed on them. Small free functions over
+// the served robots and a tf2 buffer; the server keeps the callbacks (collision_response_server.h).
+
+#include <collision_response/ComputeResponse.h>
+#include <collision_response/RobotResult.h>
+#include <collision_response/RobotState.h>
+#include <ros/duration.h>
+#include <ros/time.h>
+#include <tf2_ros/buffer.h>
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "collision_response/core/body_model.h"
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/contact_point.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/scene.h"
+#include "collision_response/core/validation.h"
+#include "collision_response/detection/shapes.h"
+#include "collision_response/robot/articulated_body.h"
+#include "collision_response/ros/response_markers.h"
+#include "collision_response/ros/served_robot.h"
+
+namespace collision_response {
+
+/// The served robots (~robots, in order).
+using ServedRobots = std::vector<std::unique_ptr<ServedRobot>>;
+
+/// The served robot called `name`, or nullptr.
+ServedRobot* findServedRobot(const ServedRobots& robots, const std::string& name);
+
+/// Whether a request involves robots: it lists some, or a contact names an id that is no body's
+/// and starts with a served robot's name and '/' ("<robot>/<link>").
+bool involvesRobots(const ComputeResponse::Request& request, const ServedRobots& robots);
+
+/// The request's bodies and contacts as a core scene in the request frame (header.frame_id): a body
+/// whose frame_id is another frame is transformed by the tf2 transform at header.stamp (waiting at
+/// most `timeout`). Sizes are checked against `limits` first. Throws core::InvalidInput naming
+/// "bodies[i].frame_id" when the transform is not available. Nothing else is validated.
+core::Scene sceneInRequestFrame(const ComputeResponse::Request& request, const tf2_ros::Buffer& tf,
+                                const ros::Duration& timeout, const core::RequestLimits& limits);
+
+/// Whether the request's contacts are to be found from the bodies' shapes (detection.mode);
+/// `robot_geometry`: a robot taking part has link collision geometry (MODE_AUTO counts it). Throws
+/// core::InvalidInput naming "detection.mode" for an unknown mode.
+bool wantsDetection(const ComputeResponse::Request& request, bool robot_geometry = false);
+
+/// A robot taking part in a request: the served robot, its message (the request's, or a default
+/// one for a robot only named by contacts), and its body at the request's state.
+struct RequestRobot {
+  ServedRobot* served = nullptr;
+  RobotState message;
+  std::string field;  ///< "robots[i]", or "contacts[k]" (the first contact naming it)
+  Eigen::Isometry3d base_pose = Eigen::Isometry3d::Identity();  ///< root link, request frame
+  std::optional<robot::ArticulatedBody> model;  ///< at the request's state (placeRobots())
+  Eigen::VectorXd velocity_before;              ///< its velocity unknowns before the impact
+  double energy_before = 0.0;                   ///< [J] kinetic energy before the impact
+};
+
+/// The robots a request involves, in order: those listed in request.robots, then those only named
+/// by its contacts ("<robot>/<link>" that is not the id of one of `scene_bodies`). Their states are
+/// not set yet (placeRobots()). Throws core::InvalidInput naming "robots[i].name" for a name no
+/// served robot has or one listed twice.
+std::vector<RequestRobot> requestRobots(const ComputeResponse::Request& request,
+                                        const std::vector<core::BodyState>& scene_bodies,
+                                        const ServedRobots& served);
+
+/// A robot's base pose (its root link in the request frame `header.frame_id`): the request's
+/// (basePoseFromMsg()), else the tf2 transform of its base frame at header.stamp (waiting at most
+/// `timeout`). Throws core::InvalidInput naming robot.field + ".base_pose..." for a bad pose, or
+/// when none is given and tf2 has none.
+Eigen::Isometry3d robotBasePose(const RequestRobot& robot, const std_msgs::Header& header,
+                                const tf2_ros::Buffer& tf, const ros::Duration& timeout);
+
+/// Each robot at its state: base pose (robotBasePose()), joints from the request or the latest
+/// joint states no older than `joint_state_timeout` [s] at `now` (robotAtRequestState(), which
+/// adds its warnings to `warnings`), and its velocity and kinetic energy before the impact.
+void placeRobots(std::vector<RequestRobot>& robots, const std_msgs::Header& header,
+                 const tf2_ros::Buffer& tf, const ros::Duration& timeout, const ros::Time& now,
+                 double joint_state_timeout, std::vector<std::string>& warnings);
+
+/// The robots' links as ids contacts may name (SceneValidator::addOtherBodyIds()): `ids[k]` is
+/// "<robot>/<link>", link `robot_link[k].second` of robots[robot_link[k].first].
+struct RobotLinkIds {
+  std::vector<std::string> ids;
+  std::vector<std::pair<int, int>> robot_link;  ///< (robot, link) of ids[k]
+};
+RobotLinkIds robotLinkIds(const std::vector<RequestRobot>& robots);
+
+/// Whether any of the robots has link collision geometry.
+bool anyRobotGeometry(const std::vector<RequestRobot>& robots);
+
+/// Robots' links as bodies of detection: each link with collision geometry placed at its pose
+/// (request frame), in the collision group of its robot (links of one robot are never paired).
+struct LinkBodies {
+  std::vector<core::BodyState> bodies;  ///< id "<robot>/<link>", pose linkPose(link), 1 kg
+  std::vector<const detection::BodyGeometry*> geometry;  ///< link frame, the served robot's
+  std::vector<int> groups;  ///< the robot's index in the request's robots
+  std::size_t shapes = 0, vertices = 0, triangles = 0;  ///< totals, for the request limits
+};
+
+/// The links with collision geometry of the placed robots (placeRobots()) as bodies of detection.
+/// Mass 1 kg and unit inertia (detection pairs no two immovable bodies); detection reads only
+/// poses and shapes.
+LinkBodies linkBodies(const std::vector<RequestRobot>& robots);
+
+/// The rigid bodies of `scene` as body models, in order, each with its free acceleration (the
+/// wrenches of resting contacts).
+std::vector<core::RigidBody> rigidModels(const std::vector<core::BodyState>& bodies);
+
+/// The body models of a request: the rigid bodies (models 0 .. rigid.size() - 1), then one per
+/// placed robot. The pointers are into `rigid` and `robots`.
+std::vector<core::BodyModel*> bodyModels(std::vector<core::RigidBody>& rigid,
+                                         std::vector<RequestRobot>& robots);
+
+/// Per contact point, the frame of the robot link it lies on (for the markers,
+/// response_markers.h): a contact on a robot's link (part_a, else part_b >= 0) gets the link's
+/// name and pose in the request frame; others an empty frame. Robots are the models from
+/// `rigid_count` on.
+std::vector<ContactLinkFrame> contactLinkFrames(const std::vector<core::ContactPoint>& points,
+                                                const std::vector<RequestRobot>& robots,
+                                                int rigid_count);
+
+/// The robots' answers, in order: each robot after the impact (`model`), and the joint torques
+/// [N m | N] its resting contacts take (ArticulatedBody::restingContactTorques() with `impulses`,
+/// the robot being model rigid_count + r). Frames: the request's `header`.
+std::vector<RobotResult> robotAnswers(const std::vector<RequestRobot>& robots, int rigid_count,
+                                      const std::vector<core::ContactPoint>& points,
+                                      const std::vector<core::ContactImpulse>& impulses,
+                                      const std_msgs::Header& header);
+
+}  // namespace collision_response

@@ -1,0 +1,268 @@
+#include "collision_response/ros/request_assembly.h"
+
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <algorithm>
+#include <unordered_set>
+
+#include "collision_response/core/errors.h"
+#include "collision_response/ros/message_conversion.h"
+#include "collision_response/ros/robot_conversion.h"
+
+namespace collision_response {
+
+ServedRobot* findServedRobot(const ServedRobots& robots, const std::string& name) {
+  for (const auto& robot : robots)
+    if (robot->name() == name) return robot.get();
+  return nullptr;
+}
+
+bool involvesRobots(const ComputeResponse::Request& request, const ServedRobots& robots) {
+  if (!request.robots.empty()) return true;
+  if (robots.empty()) return false;
+  const auto names_link = [&](const std::string& id) {
+    const std::size_t slash = id.find('/');
+    if (slash == std::string::npos || findServedRobot(robots, id.substr(0, slash)) == nullptr)
+      return false;
+    for (const BodyState& body : request.bodies)
+      if (body.id == id) return false;
+    return true;
+  };
+  for (const Contact& contact : request.contacts)
+    if (names_link(contact.body_a) || names_link(contact.body_b)) return true;
+  return false;
+}
+
+core::Scene sceneInRequestFrame(const ComputeResponse::Request& request, const tf2_ros::Buffer& tf,
+                                const ros::Duration& timeout, const core::RequestLimits& limits) {
+  const std::string& request_frame = request.header.frame_id;
+  core::Scene scene;
+  // Size first, so an oversized request costs no conversion.
+  core::checkSize(request.bodies.size(), request.contacts.size(), limits);
+  scene.bodies.reserve(request.bodies.size());
+  for (std::size_t i = 0; i < request.bodies.size(); ++i) {
+    const BodyState& msg = request.bodies[i];
+    core::BodyState state = fromMsg(msg);
+    if (!msg.frame_id.empty() && msg.frame_id != request_frame) {
+      const std::string field = "bodies[" + std::to_string(i) + "].frame_id";
+      geometry_msgs::TransformStamped transform;
+      try {
+        transform = tf.lookupTransform(request_frame, msg.frame_id, request.header.stamp, timeout);
+      } catch (const tf2::TransformException& e) {
+        throw core::InvalidInput(field, "no transform from '" + msg.frame_id + "' to '" +
+                                            request_frame + "': " + e.what());
+      }
+      state = core::transformed(state, tf2::transformToEigen(transform));
+    }
+    scene.bodies.push_back(std::move(state));
+  }
+  scene.contacts.reserve(request.contacts.size());
+  for (const Contact& contact : request.contacts) scene.contacts.push_back(fromMsg(contact));
+  return scene;
+}
+
+bool wantsDetection(const ComputeResponse::Request& request, bool robot_geometry) {
+  switch (request.detection.mode) {
+    case DetectionOptions::MODE_AUTO:
+      return request.contacts.empty() &&
+             (robot_geometry ||
+              std::any_of(request.bodies.begin(), request.bodies.end(),
+                          [](const BodyState& body) { return hasGeometry(body); }));
+    case DetectionOptions::MODE_ALWAYS:
+      return true;
+    case DetectionOptions::MODE_NEVER:
+      return false;
+    default:
+      throw core::InvalidInput("detection.mode", "unknown value " +
+                                                     std::to_string(request.detection.mode) +
+                                                     " (MODE_AUTO 0, MODE_ALWAYS 1, MODE_NEVER 2)");
+  }
+}
+
+namespace {
+
+// The index in `robots` of the robot whose served robot is called `name`, or -1.
+int listedRobot(const std::vector<RequestRobot>& robots, const std::string& name) {
+  for (std::size_t r = 0; r < robots.size(); ++r)
+    if (robots[r].served->name() == name) return static_cast<int>(r);
+  return -1;
+}
+
+void addRobot(std::vector<RequestRobot>& robots, ServedRobot* served, const RobotState& message,
+              const std::string& field) {
+  robots.emplace_back();
+  robots.back().served = served;
+  robots.back().message = message;
+  robots.back().field = field;
+}
+
+// The robots request.robots lists, in order.
+void addListedRobots(const ComputeResponse::Request& request, const ServedRobots& served,
+                     std::vector<RequestRobot>& robots) {
+  for (std::size_t i = 0; i < request.robots.size(); ++i) {
+    const std::string field = "robots[" + std::to_string(i) + "]";
+    ServedRobot* robot = findServedRobot(served, request.robots[i].name);
+    if (robot == nullptr) {
+      throw core::InvalidInput(field + ".name",
+                               "names no robot of ~robots ('" + request.robots[i].name + "')");
+    }
+    if (listedRobot(robots, robot->name()) >= 0)
+      throw core::InvalidInput(field + ".name", "repeats robot '" + robot->name() + "'");
+    addRobot(robots, robot, request.robots[i], field);
+  }
+}
+
+// The robots not listed that the request's contacts name ("<robot>/<link>", not a body's id), in
+// the order of the contacts, each with a default message.
+void addRobotsNamedByContacts(const ComputeResponse::Request& request,
+                              const std::vector<core::BodyState>& scene_bodies,
+                              const ServedRobots& served, std::vector<RequestRobot>& robots) {
+  std::unordered_set<std::string> body_ids;
+  for (const core::BodyState& body : scene_bodies) body_ids.insert(body.id);
+  for (std::size_t c = 0; c < request.contacts.size(); ++c) {
+    for (const std::string* id : {&request.contacts[c].body_a, &request.contacts[c].body_b}) {
+      const std::size_t slash = id->find('/');
+      if (slash == std::string::npos || body_ids.count(*id) > 0) continue;
+      ServedRobot* robot = findServedRobot(served, id->substr(0, slash));
+      if (robot == nullptr || listedRobot(robots, robot->name()) >= 0) continue;
+      RobotState message;
+      message.name = robot->name();
+      addRobot(robots, robot, message, "contacts[" + std::to_string(c) + "]");
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<RequestRobot> requestRobots(const ComputeResponse::Request& request,
+                                        const std::vector<core::BodyState>& scene_bodies,
+                                        const ServedRobots& served) {
+  std::vector<RequestRobot> robots;
+  addListedRobots(request, served, robots);
+  addRobotsNamedByContacts(request, scene_bodies, served, robots);
+  return robots;
+}
+
+Eigen::Isometry3d robotBasePose(const RequestRobot& robot, const std_msgs::Header& header,
+                                const tf2_ros::Buffer& tf, const ros::Duration& timeout) {
+  if (const std::optional<Eigen::Isometry3d> pose = basePoseFromMsg(robot.message, robot.field))
+    return *pose;
+  const std::string& base_frame = robot.served->baseFrame();
+  try {
+    return tf2::transformToEigen(
+        tf.lookupTransform(header.frame_id, base_frame, header.stamp, timeout));
+  } catch (const tf2::TransformException& e) {
+    throw core::InvalidInput(robot.field + ".base_pose", "not given, and no transform from '" +
+                                                             base_frame + "' to '" +
+                                                             header.frame_id + "': " + e.what());
+  }
+}
+
+void placeRobots(std::vector<RequestRobot>& robots, const std_msgs::Header& header,
+                 const tf2_ros::Buffer& tf, const ros::Duration& timeout, const ros::Time& now,
+                 double joint_state_timeout, std::vector<std::string>& warnings) {
+  for (RequestRobot& robot : robots) {
+    robot.base_pose = robotBasePose(robot, header, tf, timeout);
+    robot.model = robotAtRequestState(*robot.served, robot.message, robot.base_pose, now,
+                                      joint_state_timeout, robot.field, &warnings);
+    robot.velocity_before = robot.model->velocity();
+    robot.energy_before = robot.model->kineticEnergy();
+  }
+}
+
+RobotLinkIds robotLinkIds(const std::vector<RequestRobot>& robots) {
+  RobotLinkIds links;
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const std::vector<std::string>& ids = robots[r].served->linkIds();
+    for (std::size_t link = 0; link < ids.size(); ++link) {
+      links.ids.push_back(ids[link]);
+      links.robot_link.emplace_back(static_cast<int>(r), static_cast<int>(link));
+    }
+  }
+  return links;
+}
+
+bool anyRobotGeometry(const std::vector<RequestRobot>& robots) {
+  return std::any_of(robots.begin(), robots.end(),
+                     [](const RequestRobot& robot) { return robot.served->hasGeometry(); });
+}
+
+LinkBodies linkBodies(const std::vector<RequestRobot>& robots) {
+  LinkBodies links;
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const robot::ArticulatedBody& model = *robots[r].model;
+    for (int link = 0; link < model.linkCount(); ++link) {
+      const detection::BodyGeometry& geometry = robots[r].served->linkGeometry()[link];
+      if (geometry.shapes.empty()) continue;
+      core::BodyState body;
+      body.id = robots[r].served->linkIds()[link];
+      body.mass = 1.0;
+      body.inertia = Eigen::Matrix3d::Identity();
+      const Eigen::Isometry3d pose = model.linkPose(link);
+      body.position = pose.translation();
+      body.orientation = Eigen::Quaterniond(pose.linear());
+      links.bodies.push_back(std::move(body));
+      links.geometry.push_back(&geometry);
+      links.groups.push_back(static_cast<int>(r));
+      links.shapes += geometry.shapes.size();
+      for (const detection::Shape& shape : geometry.shapes) {
+        links.vertices += shape.vertices.size();
+        links.triangles += shape.triangles.size();
+      }
+    }
+  }
+  return links;
+}
+
+std::vector<core::RigidBody> rigidModels(const std::vector<core::BodyState>& bodies) {
+  std::vector<core::RigidBody> rigid;
+  rigid.reserve(bodies.size());
+  for (const core::BodyState& body : bodies) {
+    rigid.push_back(core::makeRigidBody(body));
+    core::setFreeAcceleration(body, rigid.back());  // their wrenches, for resting contacts
+  }
+  return rigid;
+}
+
+std::vector<core::BodyModel*> bodyModels(std::vector<core::RigidBody>& rigid,
+                                         std::vector<RequestRobot>& robots) {
+  std::vector<core::BodyModel*> models;
+  models.reserve(rigid.size() + robots.size());
+  for (core::RigidBody& body : rigid) models.push_back(&body);
+  for (RequestRobot& robot : robots) models.push_back(&*robot.model);
+  return models;
+}
+
+std::vector<ContactLinkFrame> contactLinkFrames(const std::vector<core::ContactPoint>& points,
+                                                const std::vector<RequestRobot>& robots,
+                                                int rigid_count) {
+  std::vector<ContactLinkFrame> frames(points.size());
+  for (std::size_t c = 0; c < points.size(); ++c) {
+    const bool on_a = points[c].part_a >= 0;
+    const int part = on_a ? points[c].part_a : points[c].part_b;
+    if (part < 0) continue;
+    const robot::ArticulatedBody& model =
+        *robots[(on_a ? points[c].body_a : points[c].body_b) - rigid_count].model;
+    frames[c] = {model.linkName(part), model.linkPose(part)};
+  }
+  return frames;
+}
+
+std::vector<RobotResult> robotAnswers(const std::vector<RequestRobot>& robots, int rigid_count,
+                                      const std::vector<core::ContactPoint>& points,
+                                      const std::vector<core::ContactImpulse>& impulses,
+                                      const std_msgs::Header& header) {
+  std::vector<RobotResult> answers;
+  answers.reserve(robots.size());
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const RequestRobot& robot = robots[r];
+    answers.push_back(toMsg(robot.served->name(), *robot.model, robot.velocity_before,
+                            robot.energy_before, robot.base_pose, header));
+    const Eigen::VectorXd torques =
+        robot.model->restingContactTorques(rigid_count + static_cast<int>(r), points, impulses);
+    answers.back().contact_joint_torques.assign(torques.data(), torques.data() + torques.size());
+  }
+  return answers;
+}
+
+}  // namespace collision_response
