@@ -9,6 +9,10 @@
 #           the node's robot path (ServedRobot, robotAtRequestState(), core::computeBodyResponse(),
 #           toMsg(); src/core, src/detection, src/robot and the ROS-free part of src/ros, with the
 #           messages' headers generated here by gencpp); inputs decoded by test/fuzz/robot_decoder.h.
+#  - episode: test/fuzz/fuzz_episode.cpp, impact episodes (bodies with boxes, spheres, cylinders,
+#           cones, small meshes and planes, materials, gravity, horizon, impact cap, contact
+#           tolerance, a 0.05 s time budget) through detection::ShapeGaps and core::computeEpisode
+#           as ~compute_episode calls them; inputs decoded by test/fuzz/episode_decoder.h.
 # Each target seeds its corpus with inputs it writes itself (the robot target from the package's
 # URDFs, test/robot/*.urdf and urdf/arm7.urdf, and generated ones), and fuzzes for its share of the
 # time and runs. Exits non-zero if libFuzzer finds a crash, a sanitizer report, an unexpected
@@ -18,13 +22,18 @@
 #   scripts/fuzz.sh --replay PATH...     run the given inputs (files or directories) once each, on
 #                                        the robot target if a path is one of its (crash files
 #                                        robot-crash-*, corpus-robot/, test/fuzz/regressions/robot/),
-#                                        on the core target otherwise (FUZZ_TARGETS overrides)
+#                                        on the episode target if it is one of the episode's
+#                                        (episode-crash-*, corpus-episode/,
+#                                        test/fuzz/regressions/episode/), on the core target
+#                                        otherwise (FUZZ_TARGETS overrides)
 #
 # Environment: BUILD_DIR (default build-fuzz; corpora, crash artifacts and logs live there, out of
-# git), FUZZ_TARGETS (default "core robot"), FUZZ_SECONDS (default 120: the time cap of the whole
-# run, split between the targets by FUZZ_ROBOT_SHARE), FUZZ_RUNS (the executions of the whole run,
-# split by FUZZ_ROBOT_RUNS_SHARE; unset: no cap), FUZZ_ROBOT_SHARE and FUZZ_ROBOT_RUNS_SHARE (the
-# robot target's share of the time and of the runs, in percent; default 50 and 25), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
+# git), FUZZ_TARGETS (default "core robot episode"), FUZZ_SECONDS (default 120: the time cap of
+# the whole run, split between the targets by the shares below), FUZZ_RUNS (the executions of the
+# whole run, split likewise; unset: no cap), FUZZ_ROBOT_SHARE and FUZZ_ROBOT_RUNS_SHARE (the robot
+# target's share of the time and of the runs, in percent; default 38 and 24),
+# FUZZ_EPISODE_SHARE and FUZZ_EPISODE_RUNS_SHARE (the episode target's; default 24 and 3; the
+# core target has the rest of each; the shares of the targets run are scaled to the whole), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
 # fixed seed and FUZZ_RUNS, and an empty corpus, a run is reproducible, as CI's is), FUZZ_ARGS
 # (extra libFuzzer flags), FUZZ_PRINT=1 (print each decoded request and its outcome; useful with
 # --replay), FUZZ_SKIP_EXTREME=1 (core target: excuse non-finite answers to requests holding finite
@@ -45,9 +54,13 @@ elif [ $# -gt 0 ]; then
   exit 2
 fi
 
-targets=${FUZZ_TARGETS:-core robot}
+targets=${FUZZ_TARGETS:-core robot episode}
 if [ "$mode" = replay ] && [ -z "${FUZZ_TARGETS:-}" ]; then
-  case "${replay[*]}" in */robot-* | robot-* | *regressions/robot* | *-robot*) targets=robot ;; *) targets=core ;; esac
+  case "${replay[*]}" in
+    */robot-* | robot-* | *regressions/robot* | *-robot*) targets=robot ;;
+    */episode-* | episode-* | *regressions/episode* | *-episode*) targets=episode ;;
+    *) targets=core ;;
+  esac
 fi
 want_robot=false
 case " $targets " in *" robot "*) want_robot=true ;; esac
@@ -143,6 +156,9 @@ for name in $targets; do
       build_target fuzz_compute_response test/fuzz/fuzz_compute_response.cpp "${core_sources[@]}" \
         -- -lfcl -lccd
       ;;
+    episode)
+      build_target fuzz_episode test/fuzz/fuzz_episode.cpp "${core_sources[@]}" -- -lfcl -lccd
+      ;;
     robot)
       build_target fuzz_robot_request test/fuzz/fuzz_robot_request.cpp "${core_sources[@]}" \
         "${robot_sources[@]}" -- -lfcl -lccd -lorocos-kdl -lkdl_parser -lurdf -lurdfdom_model \
@@ -150,7 +166,7 @@ for name in $targets; do
         -lconsole_bridge
       ;;
     *)
-      echo "fuzz: unknown target '$name' in FUZZ_TARGETS (core, robot)" >&2
+      echo "fuzz: unknown target '$name' in FUZZ_TARGETS (core, robot, episode)" >&2
       exit 2
       ;;
   esac
@@ -166,7 +182,11 @@ artifacts="$build_dir/artifacts"
 mkdir -p "$artifacts"
 
 executable() {
-  case "$1" in core) echo "$build_dir/fuzz_compute_response" ;; robot) echo "$build_dir/fuzz_robot_request" ;; esac
+  case "$1" in
+    core) echo "$build_dir/fuzz_compute_response" ;;
+    robot) echo "$build_dir/fuzz_robot_request" ;;
+    episode) echo "$build_dir/fuzz_episode" ;;
+  esac
 }
 
 if [ "$mode" = replay ]; then
@@ -192,21 +212,39 @@ fi
 
 count() { find "$1" -maxdepth 1 -type f | wc -l; }
 total_seconds=${FUZZ_SECONDS:-120}
-robot_share=${FUZZ_ROBOT_SHARE:-50}
-# A robot input costs many core inputs (a URDF parsed, a KDL tree built, meshes read), so the robot
-# target gets a quarter of the runs in half of the time.
-robot_runs_share=${FUZZ_ROBOT_RUNS_SHARE:-25}
+# A robot input costs many core inputs (a URDF parsed, a KDL tree built, meshes read), and an
+# episode input far more (a flight stepped, gaps queried at every step, impacts solved; up to its
+# 0.05 s time budget, and under the sanitizers about 20 inputs a second), so the robot target gets
+# a quarter of the runs in 38 % of the time, the episode target 3 % of the runs in 24 % of the
+# time, the core target the rest (CI: 29,930 core, 9,840 robot and 1,230 episode runs in 148, 148
+# and 93 s at most).
+robot_share=${FUZZ_ROBOT_SHARE:-38}
+robot_runs_share=${FUZZ_ROBOT_RUNS_SHARE:-24}
+episode_share=${FUZZ_EPISODE_SHARE:-24}
+episode_runs_share=${FUZZ_EPISODE_RUNS_SHARE:-3}
 target_count=$(echo $targets | wc -w)
 status=0
+core_share=$((100 - robot_share - episode_share))
+core_runs_share=$((100 - robot_runs_share - episode_runs_share))
+shareOf() {  # target -> "time-share runs-share" in percent, of the whole
+  case "$1" in
+    robot) echo "$robot_share $robot_runs_share" ;;
+    episode) echo "$episode_share $episode_runs_share" ;;
+    *) echo "$core_share $core_runs_share" ;;
+  esac
+}
+# The shares of the targets run, scaled so that they split the whole time and runs.
+share_sum=0 runs_share_sum=0
+for name in $targets; do
+  read -r s r < <(shareOf "$name")
+  share_sum=$((share_sum + s)) runs_share_sum=$((runs_share_sum + r))
+done
 for name in $targets; do
   # This target's share of the time and of the runs (all of them for a single target).
   share=100 runs_share=100
   if [ "$target_count" -gt 1 ]; then
-    if [ "$name" = robot ]; then
-      share=$robot_share runs_share=$robot_runs_share
-    else
-      share=$((100 - robot_share)) runs_share=$((100 - robot_runs_share))
-    fi
+    read -r share runs_share < <(shareOf "$name")
+    share=$((share * 100 / share_sum)) runs_share=$((runs_share * 100 / runs_share_sum))
   fi
   seconds=$((total_seconds * share / 100))
   runs=-1
@@ -228,6 +266,7 @@ for name in $targets; do
   log="$build_dir/fuzz-$name.log"
   prefix="$artifacts/"
   [ "$name" = robot ] && prefix="$artifacts/robot-"
+  [ "$name" = episode ] && prefix="$artifacts/episode-"
   echo "fuzz: $name: $(count "$seeds") seeds, corpus $corpus ($(count "$corpus") inputs), ${seconds} s at most, $([ "$runs" -ge 0 ] && echo "$runs" || echo unlimited) runs, seed ${FUZZ_SEED:-random} (log: $log)"
   target_status=0
   # Inputs slower than 3 s are saved as ${prefix}slow-unit-* (not a failure; worth a look).

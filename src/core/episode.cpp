@@ -384,8 +384,11 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
     if (c.gravity_normal > 0.0)
       duration = std::max(duration, 2.0 * after / (c.gravity_normal * (1.0 - ratio)));
     if (ratio > 0.0) {
-      bounces = std::max(bounces, static_cast<int>(std::ceil(std::log(resting_velocity_ / after) /
-                                                             std::log(ratio))));
+      // More than an int holds (infinitely many when resting_velocity is 0): counted as INT_MAX.
+      const double count = std::ceil(std::log(resting_velocity_ / after) / std::log(ratio));
+      bounces = count < static_cast<double>(std::numeric_limits<int>::max())
+                    ? std::max(bounces, static_cast<int>(count))
+                    : std::numeric_limits<int>::max();
     }
   }
   const double time_before = time_;
@@ -402,7 +405,8 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
       bodies_[i].linear_velocity = settled.bodies[i].linear_velocity;
       bodies_[i].angular_velocity = settled.bodies[i].angular_velocity;
     }
-    result_.accumulated_impacts += bounces;
+    result_.accumulated_impacts +=
+        std::min(bounces, std::numeric_limits<int>::max() - result_.accumulated_impacts);
     // The bounces last `duration`; the bodies are not moved over it (it is short: a rebound
     // below the tolerance), their sliding along the contact left out.
     time_ += std::min(duration, options_.horizon - time_);

@@ -74,7 +74,9 @@ struct EpisodeResult {
   EpisodeEnd end = EpisodeEnd::kSeparated;
   std::vector<EpisodeImpact> impacts;  ///< in time order
   /// Impacts an accumulation point closed (inelastic bouncing summed as a geometric series:
-  /// docs/physics.md, "Impact episodes"), not listed one by one in `impacts`.
+  /// docs/physics.md, "Impact episodes"), not listed one by one in `impacts`. At most INT_MAX:
+  /// with solver.resting_velocity = 0 no rebound ever falls below it, and the count (infinite) is
+  /// given as INT_MAX.
   int accumulated_impacts = 0;
   std::vector<BodyOutcome> outcomes;  ///< one per body
   /// kSustainedContact: the closed contacts and their forces under gravity and the bodies'
