@@ -392,17 +392,19 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   response.kinetic_energy_after = energy_after;
 }
 
+bool CollisionResponseServer::refuseOversizedBatch(std::size_t scenes, std::string& message) {
+  if (scenes <= parameters_.max_batch_scenes) return false;
+  message = "scenes: " + std::to_string(scenes) + " scenes exceed ~max_batch_scenes (" +
+            std::to_string(parameters_.max_batch_scenes) + ")";
+  recordCalls(1, 0, 0, 0.0, 0.0);
+  return true;
+}
+
 bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
                                            ComputeBatch::Response& response) {
   response.success = false;
   response.solve_time = 0.0;
-  if (request.scenes.size() > parameters_.max_batch_scenes) {
-    response.message = "scenes: " + std::to_string(request.scenes.size()) +
-                       " scenes exceed ~max_batch_scenes (" +
-                       std::to_string(parameters_.max_batch_scenes) + ")";
-    recordCalls(1, 0, 0, 0.0, 0.0);
-    return true;
-  }
+  if (refuseOversizedBatch(request.scenes.size(), response.message)) return true;
   // The scenes are independent: solved across the batch pool (~threads), each by solve() as a
   // single request, into its own result.
   response.results.resize(request.scenes.size());

@@ -98,13 +98,7 @@ bool CollisionResponseServer::computeEpisodeBatch(ComputeEpisodeBatch::Request& 
                                                   ComputeEpisodeBatch::Response& response) {
   response.success = false;
   response.solve_time = 0.0;
-  if (request.scenes.size() > parameters_.max_batch_scenes) {
-    response.message = "scenes: " + std::to_string(request.scenes.size()) +
-                       " scenes exceed ~max_batch_scenes (" +
-                       std::to_string(parameters_.max_batch_scenes) + ")";
-    recordCalls(1, 0, 0, 0.0, 0.0);
-    return true;
-  }
+  if (refuseOversizedBatch(request.scenes.size(), response.message)) return true;
   // Independent episodes across the batch pool (~threads), each by solveEpisode() as a single
   // request, into its own result.
   response.results.resize(request.scenes.size());

@@ -127,6 +127,9 @@ class CollisionResponseServer {
   using Defaults = SolverDefaults;
   Defaults defaults() const { return monitoring_->defaults(); }
   static ServerParameters readParameters(const ros::NodeHandle& private_node);
+  /// A batch of `scenes` beyond ~max_batch_scenes: true, `message` naming the field, and the call
+  /// recorded as one refused call; false otherwise.
+  bool refuseOversizedBatch(std::size_t scenes, std::string& message);
   /// ServerMonitoring::recordCalls().
   void recordCalls(std::size_t calls, std::size_t scenes, std::size_t failures, double solve_time,
                    double max_solve_time) {
