@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "collision_response/core/constants.h"
@@ -95,10 +96,18 @@ Eigen::Vector3d solveFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3
   };
   constexpr int kSamples = 72;
   constexpr double kStep = 2.0 * kPi / kSamples;
+  // The samples' cosines and sines, computed once (the same values as direction(k * kStep)).
+  static const std::array<std::array<double, 2>, kSamples> kUnit = [] {
+    std::array<std::array<double, 2>, kSamples> unit{};
+    for (int k = 0; k < kSamples; ++k) unit[k] = {std::cos(k * kStep), std::sin(k * kStep)};
+    return unit;
+  }();
   int best = -1;
   double best_value = 0.0;  // the apex
   for (int k = 0; k < kSamples; ++k) {
-    const double v = value(k * kStep);
+    const Eigen::Vector3d d(1.0, mu * kUnit[k][0], mu * kUnit[k][1]);
+    const double c = bl.dot(d), q = d.dot(Al * d);
+    const double v = c < 0.0 && q > tiny ? -c * c / (2.0 * q) : 0.0;
     if (v < best_value) {
       best_value = v;
       best = k;
