@@ -650,8 +650,9 @@ EpisodeResult computeEpisode(const std::vector<BodyState>& bodies, const GapQuer
     throw InvalidInput("horizon", "must be finite and > 0 s");
   }
   if (options.max_impacts < 1) throw InvalidInput("max_impacts", "must be >= 1");
-  if (!std::isfinite(options.contact_tolerance) || !(options.contact_tolerance > 0.0)) {
-    throw InvalidInput("contact_tolerance", "must be finite and > 0 m");
+  if (!std::isfinite(options.contact_tolerance) || !(options.contact_tolerance > 0.0) ||
+      options.contact_tolerance > MagnitudeLimits::kLength) {
+    throw InvalidInput("contact_tolerance", "must be finite, > 0 and at most 1e7 m");
   }
   {
     Scene scene;
