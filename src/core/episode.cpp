@@ -13,6 +13,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/free_flight.h"
 #include "collision_response/core/islands.h"
+#include "collision_response/core/option_ranges.h"
 #include "collision_response/core/resting_contact.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/validation.h"
@@ -651,8 +652,9 @@ EpisodeResult computeEpisode(const std::vector<BodyState>& bodies, const GapQuer
   }
   if (options.max_impacts < 1) throw InvalidInput("max_impacts", "must be >= 1");
   if (!std::isfinite(options.contact_tolerance) || !(options.contact_tolerance > 0.0) ||
-      options.contact_tolerance > MagnitudeLimits::kLength) {
-    throw InvalidInput("contact_tolerance", "must be finite, > 0 and at most 1e7 m");
+      options.contact_tolerance > option_ranges::kContactTolerance.max) {
+    throw InvalidInput("contact_tolerance", "must be finite, > 0 and at most 1 m (" +
+                                                std::to_string(options.contact_tolerance) + ")");
   }
   {
     Scene scene;

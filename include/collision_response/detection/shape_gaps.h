@@ -42,7 +42,7 @@ class ShapeGaps final : public core::GapQuery {
   static constexpr double kFeatureBand = 1e-3;
   /// The largest range gaps() takes [m]: FCL's broadphase inflates every bounding box by the range,
   /// and boxes of ~1e200 m overflow its tree's costs (a null child, a segmentation fault). An
-  /// episode asks for at most 1e4 contact tolerances of at most 1e7 m each.
+  /// episode asks for at most max(1 m, 1e4 contact tolerances) of at most 1 m each.
   static constexpr double kMaxRange = 1e12;
 
   /// Validates and prepares the shapes once: `input` as detectContacts() does (geometry with
