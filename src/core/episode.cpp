@@ -15,6 +15,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/free_flight.h"
 #include "collision_response/core/islands.h"
+#include "collision_response/core/option_ranges.h"
 #include "collision_response/core/resting_contact.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/validation.h"
@@ -695,8 +696,10 @@ EpisodeResult computeEpisode(const std::vector<BodyState>& bodies, const GapQuer
     throw InvalidInput("horizon", "must be finite and > 0 s");
   }
   if (options.max_impacts < 1) throw InvalidInput("max_impacts", "must be >= 1");
-  if (!std::isfinite(options.contact_tolerance) || !(options.contact_tolerance > 0.0)) {
-    throw InvalidInput("contact_tolerance", "must be finite and > 0 m");
+  if (!std::isfinite(options.contact_tolerance) || !(options.contact_tolerance > 0.0) ||
+      options.contact_tolerance > option_ranges::kContactTolerance.max) {
+    throw InvalidInput("contact_tolerance", "must be finite, > 0 and at most 1 m (" +
+                                                std::to_string(options.contact_tolerance) + ")");
   }
   {
     Scene scene;

@@ -418,8 +418,8 @@ void ShapeGaps::gaps(const std::vector<core::BodyState>& bodies, double range,
     throw core::InvalidInput("bodies", "gaps asked for " + std::to_string(bodies.size()) +
                                            " bodies, the geometry describes " + std::to_string(n));
   }
-  if (!std::isfinite(range) || range < 0.0) {
-    throw core::InvalidInput("range", "must be finite and >= 0 [m]");
+  if (!std::isfinite(range) || range < 0.0 || range > kMaxRange) {
+    throw core::InvalidInput("range", "must be finite and in [0, 1e12] m");
   }
   // Scratch space reused from call to call by each thread (one thread-local lookup).
   struct Scratch {

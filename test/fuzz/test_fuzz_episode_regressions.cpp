@@ -90,3 +90,44 @@ TEST(FuzzEpisodeRegressions, ZeroRestingVelocityClosesInfinitelyManyBouncesInThe
   EXPECT_EQ(result.accumulated_impacts, std::numeric_limits<int>::max());
   EXPECT_GE(result.impacts.size(), 2u);
 }
+
+// A contact tolerance of 1e200 m is finite and > 0, so computeEpisode() took it, and ShapeGaps
+// inflated FCL's bounding boxes by it: FCL's broadphase tree overflowed and dereferenced a null
+// child (a segmentation fault; `segv-fcl-broadphase-huge-range.bin` reached it through gaps()).
+// Now the tolerance is refused beyond 1 m (option_ranges::kContactTolerance, as detection's) and
+// the range beyond
+// ShapeGaps::kMaxRange, each naming its field.
+TEST(FuzzEpisodeRegressions, HugeContactToleranceAndRangeAreRefusedNamingTheField) {
+  namespace core = collision_response::core;
+  namespace detection = collision_response::detection;
+  core::BodyState table;
+  table.id = "table";
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 1.0;
+  box.inertia = Eigen::Matrix3d::Identity() * 0.01;
+  box.position = Eigen::Vector3d(0.0, 0.0, 0.2);
+  detection::Shape shape;
+  shape.type = detection::Shape::Type::kBox;
+  shape.dimensions = {0.1, 0.1, 0.1};
+  detection::DetectionInput input;
+  input.geometry = {{{shape}}, {{shape}}};  // a box on an immovable box: an FCL pair
+  const std::vector<core::BodyState> bodies = {table, box};
+  const detection::ShapeGaps geometry(bodies, input, detection::MaterialTable{});
+  for (const double tolerance : {1.5, 1e200}) {
+    core::EpisodeOptions options;
+    options.contact_tolerance = tolerance;
+    try {
+      core::computeEpisode(bodies, geometry, options);
+      ADD_FAILURE() << "contact_tolerance " << tolerance << " accepted";
+    } catch (const core::InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("contact_tolerance"), std::string::npos) << e.what();
+    }
+  }
+  std::vector<core::GapContact> gaps;
+  EXPECT_THROW(geometry.gaps(bodies, 1e200, gaps), core::InvalidInput);
+  // The largest tolerance taken still answers (a range of up to 1e4 tolerances).
+  core::EpisodeOptions options;
+  options.contact_tolerance = 1.0;
+  EXPECT_NO_THROW(core::computeEpisode(bodies, geometry, options));
+}

@@ -24,7 +24,8 @@ struct EpisodeOptions {
   double horizon = 1.0;
   /// Most impacts followed, >= 1; the next one ends the episode (EpisodeEnd::kImpactCap).
   int max_impacts = 100;
-  /// Contact tolerance [m], > 0: a pair whose gap is at most this is touching. The contacts of
+  /// Contact tolerance [m], in (0, 1] (option_ranges::kContactTolerance, as detection's): a pair
+  /// whose gap is at most this is touching. The contacts of
   /// one impact are all those touching at its time (a near-flat face lands on all its corners at
   /// once, whatever their order within the tolerance); the first time of contact is found to
   /// within it (the gap of the first contact is in [0, contact_tolerance] at the impact when its

@@ -40,6 +40,10 @@ class ShapeGaps final : public core::GapQuery {
   /// FCL pair's manifold even when the range is larger (a band as wide as a body would mix the
   /// vertices of several faces into one feature).
   static constexpr double kFeatureBand = 1e-3;
+  /// The largest range gaps() takes [m]: FCL's broadphase inflates every bounding box by the range,
+  /// and boxes of ~1e200 m overflow its tree's costs (a null child, a segmentation fault). An
+  /// episode asks for at most max(1 m, 1e4 contact tolerances) of at most 1 m each.
+  static constexpr double kMaxRange = 1e12;
 
   /// Validates and prepares the shapes once: `input` as detectContacts() does (geometry with
   /// validateGeometry(), sizes against `limits`, material names against `materials`, the default
@@ -57,8 +61,9 @@ class ShapeGaps final : public core::GapQuery {
   ShapeGaps& operator=(const ShapeGaps&) = delete;
 
   /// core::GapQuery::gaps(). Reads only position and orientation (normalised) of `bodies`. Throws
-  /// core::InvalidInput: "bodies" if their number is not bodyCount(), "range" unless finite and
-  /// >= 0, "bodies[i].position" / "bodies[i].orientation" if not finite (or a zero quaternion).
+  /// core::InvalidInput: "bodies" if their number is not bodyCount(), "range" unless in
+  /// [0, kMaxRange], "bodies[i].position" / "bodies[i].orientation" if not finite (or a zero
+  /// quaternion).
   void gaps(const std::vector<core::BodyState>& bodies, double range,
             std::vector<core::GapContact>& out) const override;
   /// Farthest point of body i's shapes from its centre of mass [m], exact for every primitive and
