@@ -103,6 +103,7 @@ class Episode {
   bool configurationLasts(const std::vector<int>& contacts) const;
   void fillContact(const GapContact& gap, Contact& contact, std::pair<int, int>& bodies) const;
   void finish(EpisodeEnd end);
+  void warnOverlaps();
 
   const GapQuery& geometry_;
   const EpisodeOptions& options_;
@@ -594,6 +595,35 @@ bool Episode::configurationLasts(const std::vector<int>& contacts) const {
   return true;
 }
 
+// Bodies that start overlapping by more than the tolerance: followed as touching (their pair
+// steps by tolerances while it stays within them, which can take the whole time budget), and
+// named once, since the state given is usually a mistake (a pose from another frame, a shape
+// too large).
+void Episode::warnOverlaps() {
+  std::vector<std::pair<int, int>> named;
+  for (const Candidate& c : candidates_) {
+    const GapContact& gap = gaps_[c.index];
+    if (!(gap.gap < -tolerance_)) continue;
+    const std::pair<int, int> pair(std::min(gap.body_a, gap.body_b),
+                                   std::max(gap.body_a, gap.body_b));
+    if (std::find(named.begin(), named.end(), pair) != named.end()) continue;
+    named.push_back(pair);
+    double deepest = gap.gap;
+    for (const Candidate& other : candidates_) {
+      const GapContact& o = gaps_[other.index];
+      if (std::min(o.body_a, o.body_b) == pair.first && std::max(o.body_a, o.body_b) == pair.second)
+        deepest = std::min(deepest, o.gap);
+    }
+    Warning warning;
+    warning.field = "bodies[" + std::to_string(pair.second) + "]";
+    warning.reason = "starts overlapping bodies[" + std::to_string(pair.first) + "] by " +
+                     std::to_string(-deepest) + " m, more than the contact tolerance (" +
+                     std::to_string(tolerance_) +
+                     " m): followed as touching, in steps of about the tolerance";
+    result_.warnings.push_back(std::move(warning));
+  }
+}
+
 void Episode::finish(EpisodeEnd end) {
   result_.end = end;
   result_.end_time = time_;
@@ -620,6 +650,7 @@ EpisodeResult Episode::run() {
       break;
     }
     query();
+    if (iteration == 0) warnOverlaps();
     if (touching_.empty()) resting_checked = false;
     // An impact: a touching contact approaching faster than the resting velocity.
     bool fast = false, slow = false;

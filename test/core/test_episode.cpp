@@ -538,6 +538,27 @@ TEST(Episode, CubeTippingOverAnEdgeLandsOnAFace) {
   }
 }
 
+// A body given overlapping another by more than the tolerance is named in the warnings (the state
+// is usually a mistake), once per pair, with the depth of its deepest point.
+TEST(Episode, StartingOverlapIsNamedOnce) {
+  const std::vector<Vector3d> corners = cubeCorners(kHalf);
+  const PointsAndPlanes geometry({Vector3d::UnitZ()}, corners, 0.0, {0.3, 0.5, 0.5});
+  core::BodyState c = cube(kCubeMass, kHalf);
+  c.position = {0.0, 0.0, kHalf - 0.003};  // 3 mm into the floor, flat
+  core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kNewton);
+  options.horizon = 0.01;
+  const core::EpisodeResult result = core::computeEpisode({floorBody(), c}, geometry, options);
+  int named = 0;
+  for (const core::Warning& w : result.warnings) {
+    if (w.field == "bodies[1]" && w.reason.find("starts overlapping bodies[0] by 0.003") == 0)
+      ++named;
+  }
+  EXPECT_EQ(named, 1);
+  c.position.z() = kHalf - 0.5 * options.contact_tolerance;  // within the tolerance: nothing said
+  for (const core::Warning& w : core::computeEpisode({floorBody(), c}, geometry, options).warnings)
+    EXPECT_EQ(w.reason.find("starts overlapping"), std::string::npos) << w.text();
+}
+
 // --- One impact, and contact already sustained --------------------------------------------------
 
 TEST(Episode, SingleImpactThatSeparatesEqualsComputeResponse) {
