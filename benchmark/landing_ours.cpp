@@ -7,11 +7,9 @@
 #include <utility>
 
 #include "collision_response/core/compute_response.h"
-#include "cube_flight.h"
-#ifdef HAVE_CORE_EPISODE
 #include "collision_response/core/episode.h"
 #include "collision_response/core/gap_query.h"
-#endif
+#include "cube_flight.h"
 
 namespace collision_response::bench {
 namespace {
@@ -181,7 +179,6 @@ class RepeatedImpacts final : public LawLanding {
   }
 };
 
-#ifdef HAVE_CORE_EPISODE
 /// The cube (body 1) against the table plane z = 0 (body 0, immovable): the 8 corners, each with
 /// its height as gap, normal +z (from the table to the cube), the fitted coefficients.
 class CubeTableGaps final : public core::GapQuery {
@@ -245,7 +242,6 @@ class Episode final : public LawLanding {
     return flyBallistic(end, std::max(0.0, duration - result.end_time));
   }
 };
-#endif
 
 }  // namespace
 
@@ -268,12 +264,7 @@ std::unique_ptr<LandingModel> makeRepeatedImpactsLanding(const TossedCube& cube,
 }
 std::unique_ptr<LandingModel> makeEpisodeLanding(const TossedCube& cube, ImpactLaw law,
                                                  bool split_friction) {
-#ifdef HAVE_CORE_EPISODE
   return std::make_unique<Episode>(cube, law, split_friction);
-#else
-  (void)cube, (void)law, (void)split_friction;
-  return nullptr;
-#endif
 }
 
 }  // namespace collision_response::bench

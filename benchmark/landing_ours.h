@@ -5,8 +5,7 @@
 //   - "repeated impacts": the same call at every following impact, the motion between followed in
 //     the harness (flight in closed form, each corner's crossing of the table found by a scan and
 //     bisection): the method the measurements used before core::computeEpisode();
-//   - "episode": core::computeEpisode() with a cube-against-plane core::GapQuery (built only when
-//     the core library has it: HAVE_CORE_EPISODE).
+//   - "episode": core::computeEpisode() with a cube-against-plane core::GapQuery.
 // Each with mu_s = mu_d (parameters e, mu) or both (e, mu_d, mu_s - mu_d).
 #pragma once
 
@@ -27,7 +26,7 @@ std::unique_ptr<LandingModel> makeRepeatedImpactsLanding(const TossedCube& cube,
 /// repeated impacts; "" for other models and for one impact.
 std::string landingEnds(LandingModel& model);
 
-/// nullptr when the core library has no computeEpisode() (built without HAVE_CORE_EPISODE).
+/// The episode (core::computeEpisode()) under `law`.
 std::unique_ptr<LandingModel> makeEpisodeLanding(const TossedCube& cube, core::ImpactLaw law,
                                                  bool split_friction);
 

@@ -97,8 +97,7 @@ std::vector<std::unique_ptr<LandingModel>> allModels(const TossedCube& cube) {
     for (const bool split : {false, true}) {
       models.push_back(makeOneImpactLanding(cube, law, split));
       models.push_back(makeRepeatedImpactsLanding(cube, law, split));
-      // HOOK (episode): nullptr until the core library has computeEpisode() (HAVE_CORE_EPISODE).
-      if (auto episode = makeEpisodeLanding(cube, law, split)) models.push_back(std::move(episode));
+      models.push_back(makeEpisodeLanding(cube, law, split));
     }
   }
 #ifdef HAVE_LANDING_PEERS
