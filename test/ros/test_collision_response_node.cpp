@@ -383,6 +383,38 @@ TEST_F(NodeTest, BatchScenesCarryTheirWarnings) {
   EXPECT_TRUE(hasWarning(batch.response.results[1].warnings, "contacts[0]: separating at +3 m/s"));
 }
 
+// A batch scene asking for derivatives gets them in its result, the others none. Head-on spheres
+// (m1 = 1, m2 = 2 kg, closing at w = 3 m/s along x, Newton's law): d P / d e = m1 m2 / (m1 + m2) w
+// = 2 N s, the entry of row "impulses[0].normal_impulse" and column "contacts[0].restitution".
+TEST_F(NodeTest, BatchScenesCarryTheirDerivatives) {
+  ros::ServiceClient batch_client =
+      node_.serviceClient<cr::ComputeBatch>("/collision_response/compute_batch");
+  cr::ComputeBatch batch;
+  batch.request.header.frame_id = "world";
+  for (const bool derivatives : {true, false}) {
+    const cr::ComputeResponse srv = headOnSpheres();
+    cr::Scene scene;
+    scene.bodies = srv.request.bodies;
+    scene.contacts = srv.request.contacts;
+    scene.options.law = cr::SolverOptions::LAW_NEWTON;
+    scene.options.derivatives = derivatives;
+    batch.request.scenes.push_back(scene);
+  }
+  ASSERT_TRUE(batch_client.call(batch));
+  ASSERT_EQ(batch.response.results.size(), 2u);
+  ASSERT_TRUE(batch.response.results[0].success) << batch.response.results[0].message;
+  const cr::ImpactDerivatives& d = batch.response.results[0].derivatives;
+  ASSERT_EQ(d.rows, 16u);
+  ASSERT_EQ(d.columns, 15u);
+  ASSERT_EQ(d.jacobian.size(), d.rows * d.columns);
+  ASSERT_EQ(d.row_labels[12], "impulses[0].normal_impulse");
+  ASSERT_EQ(d.column_labels[12], "contacts[0].restitution");
+  EXPECT_NEAR(d.jacobian[12 * d.columns + 12], 1.0 * 2.0 / 3.0 * 3.0, 1e-9);
+  EXPECT_TRUE(batch.response.results[1].success);
+  EXPECT_EQ(batch.response.results[1].derivatives.rows, 0u);
+  EXPECT_TRUE(batch.response.results[1].derivatives.jacobian.empty());
+}
+
 // Unit cube (1 kg, I = 1/6 I3) falling flat at 1 m/s onto the ground, 4 corner contacts, e = 0.5,
 // frictionless: by symmetry v' = (0, 0, 0.5) and no spin, whatever the law or solver.
 TEST_F(NodeTest, CubeLandingFlatBouncesWithoutSpin) {
