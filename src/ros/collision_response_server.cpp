@@ -13,6 +13,7 @@
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/errors.h"
+#include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/validation.h"
 #include "collision_response/ros/message_conversion.h"
@@ -62,6 +63,7 @@ void clearAnswer(ComputeResponse::Response& response) {
   response.warnings.clear();
   response.robots.clear();
   response.effective_masses.clear();
+  response.derivatives = ImpactDerivatives();
 }
 
 // A batch's scene as a single ~compute request (its contents moved out of `scene`); a scene without
@@ -90,6 +92,7 @@ void moveAnswer(ComputeResponse::Response& answer, SceneResult& result) {
   result.solve_time = answer.solve_time;
   result.robots = std::move(answer.robots);
   result.effective_masses = std::move(answer.effective_masses);
+  result.derivatives = std::move(answer.derivatives);
 }
 
 }  // namespace
@@ -248,6 +251,11 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     // valid poses), the detected contacts after it.
     core::SceneValidator validator(scene, options, parameters_.limits);
     if (involvesRobots(request, robots_)) {
+      if (request.options.derivatives) {
+        throw core::InvalidInput("options.derivatives",
+                                 "derivatives are computed for rigid bodies only so far: ask "
+                                 "without robots, or set options.derivatives to false");
+      }
       solveWithRobots(request, response, scene, validator, options, link_frames);
       response.success = true;
       return field_error;
@@ -287,8 +295,17 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
     validator.checkContacts(scene);
   }
   const auto start = std::chrono::steady_clock::now();
-  const core::CollisionResult result =
-      core::computeValidatedResponse(scene, validator.contactBodies(), options);
+  core::CollisionResult result;
+  if (request.options.derivatives) {
+    // The prediction comes with its Jacobians (validated once more by the library: cheap next to
+    // the 2 to 4 solves per column its finite differences may take).
+    core::ImpactDerivatives derivatives =
+        core::computeImpactDerivatives(scene, options, parameters_.limits);
+    response.derivatives = toMsg(derivatives);
+    result = std::move(derivatives.result);
+  } else {
+    result = core::computeValidatedResponse(scene, validator.contactBodies(), options);
+  }
   response.solve_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

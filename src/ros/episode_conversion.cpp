@@ -10,6 +10,11 @@
 namespace collision_response {
 
 void checkEpisodeRequest(const ComputeEpisode::Request& request) {
+  if (request.options.derivatives) {
+    throw core::InvalidInput("options.derivatives",
+                             "episodes do not differentiate their impacts: ask ~compute for one "
+                             "impact with derivatives");
+  }
   if (!request.robots.empty()) {
     throw core::InvalidInput("robots", "episodes do not follow robots yet (" +
                                            std::to_string(request.robots.size()) +

@@ -250,6 +250,29 @@ IslandReport toMsg(const core::SolveReport& report) {
   return msg;
 }
 
+ImpactDerivatives toMsg(const core::ImpactDerivatives& derivatives) {
+  ImpactDerivatives msg;
+  msg.method = core::toString(derivatives.method);
+  const Eigen::MatrixXd& jacobian = derivatives.jacobian;
+  msg.rows = static_cast<uint32_t>(jacobian.rows());
+  msg.columns = static_cast<uint32_t>(jacobian.cols());
+  msg.row_labels = derivatives.rowLabels();
+  msg.column_labels = derivatives.columnLabels();
+  msg.jacobian.reserve(static_cast<std::size_t>(jacobian.size()));
+  for (Eigen::Index r = 0; r < jacobian.rows(); ++r)
+    for (Eigen::Index k = 0; k < jacobian.cols(); ++k) msg.jacobian.push_back(jacobian(r, k));
+  msg.contacts.reserve(derivatives.contacts.size());
+  for (const core::ContactDerivativeMode& contact : derivatives.contacts) {
+    ContactDerivative entry;
+    entry.mode = core::toString(contact.mode);
+    entry.method = core::toString(contact.method);
+    entry.at_switch = contact.at_switch;
+    entry.switch_detail = contact.switch_detail;
+    msg.contacts.push_back(std::move(entry));
+  }
+  return msg;
+}
+
 core::SolverOptions fromMsg(const SolverOptions& msg, const core::SolverOptions& defaults) {
   core::SolverOptions options = defaults;
   switch (msg.law) {

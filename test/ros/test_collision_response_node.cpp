@@ -9,6 +9,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <random>
 
 #include <Eigen/Geometry>
@@ -70,6 +71,95 @@ TEST_F(NodeTest, HeadOnSpheresMatchClosedForm) {
   EXPECT_NEAR(response.kinetic_energy_after, 0.75, kTolerance);
   ASSERT_EQ(response.islands.size(), 1u);
   EXPECT_EQ(response.islands[0].method, "impulse_space");  // the default law is Stronge's
+}
+
+// Head-on frictionless spheres on the z axis under Newton's law with derivatives requested: the
+// Jacobian against Newton's formula differentiated by hand. With M = m1 + m2 and closing speed
+// w = v1 - v2 (along z), P = (1 + e) m1 m2 / M w, v1' = v1 - P / m1, v2' = v2 + P / m2; every other
+// velocity component is untouched (no friction, the contact through both centres). The contact
+// slips along x (u_t = v_high + w_high x r_high - v_low = -0.4 m/s), so raising mu_d from 0 adds a
+// sliding friction impulse mu_d P along +x on `high` (Coulomb, opposing the slip; the contact
+// keeps sliding for small mu_d): d F_x / d mu_d = P, acting -P on `low` at r = (0, 0, 0.1) and +P
+// on `high` at r = (0, 0, -0.1), torque r x F = (0, -0.1 P, 0) on each; mu_s has no effect on a
+// sliding contact.
+TEST_F(NodeTest, DerivativesOfHeadOnSpheresMatchNewtonsFormula) {
+  const double m1 = 1.0, m2 = 2.0, v1 = 2.0, v2 = -1.0, e = 0.5;
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  srv.request.bodies = {sphere("low", m1, 0.1, pose(0, 0, -0.1)),
+                        sphere("high", m2, 0.1, pose(0, 0, 0.1))};
+  srv.request.bodies[0].twist.linear.z = v1;
+  srv.request.bodies[1].twist.linear.z = v2;
+  srv.request.bodies[0].twist.linear.x = 0.3;  // tangential motion, left alone without friction
+  srv.request.bodies[1].twist.angular.y = 1.0;
+  srv.request.contacts = {contact("low", "high", 0, 0, 0, 0, 0, 1, e)};
+  srv.request.options.law = cr::SolverOptions::LAW_NEWTON;
+  srv.request.options.derivatives = true;
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  const cr::ImpactDerivatives& d = response.derivatives;
+  EXPECT_EQ(d.method, "analytic");
+  ASSERT_EQ(d.rows, 12u + 4u);
+  ASSERT_EQ(d.columns, 12u + 3u);
+  ASSERT_EQ(d.row_labels.size(), d.rows);
+  ASSERT_EQ(d.column_labels.size(), d.columns);
+  ASSERT_EQ(d.jacobian.size(), d.rows * d.columns);
+  ASSERT_EQ(d.contacts.size(), 1u);
+  EXPECT_NE(d.contacts[0].mode, "no_impulse");
+  EXPECT_EQ(d.contacts[0].method, "analytic");
+
+  const double total = m1 + m2, w = v1 - v2;
+  std::map<std::pair<std::string, std::string>, double> expected;
+  const char* const components[] = {"linear.x",  "linear.y",  "linear.z",
+                                    "angular.x", "angular.y", "angular.z"};
+  for (const char* body : {"bodies[0].twist.", "bodies[1].twist."})
+    for (const char* component : components)
+      expected[{std::string(body) + component, std::string(body) + component}] = 1.0;
+  const std::string z1 = "bodies[0].twist.linear.z", z2 = "bodies[1].twist.linear.z";
+  const std::string p = "impulses[0].normal_impulse", restitution = "contacts[0].restitution";
+  expected[{z1, z1}] = 1.0 - (1.0 + e) * m2 / total;
+  expected[{z1, z2}] = (1.0 + e) * m2 / total;
+  expected[{z2, z1}] = (1.0 + e) * m1 / total;
+  expected[{z2, z2}] = 1.0 - (1.0 + e) * m1 / total;
+  expected[{z1, restitution}] = -m2 / total * w;
+  expected[{z2, restitution}] = m1 / total * w;
+  expected[{p, z1}] = (1.0 + e) * m1 * m2 / total;
+  expected[{p, z2}] = -(1.0 + e) * m1 * m2 / total;
+  expected[{p, restitution}] = m1 * m2 / total * w;
+  const double impulse = (1.0 + e) * m1 * m2 / total * w, radius = 0.1;
+  const double i1 = 0.4 * m1 * radius * radius, i2 = 0.4 * m2 * radius * radius;
+  const std::string mu_d = "contacts[0].dynamic_friction";
+  expected[{"impulses[0].friction_impulse.x", mu_d}] = impulse;
+  expected[{"bodies[0].twist.linear.x", mu_d}] = -impulse / m1;
+  expected[{"bodies[1].twist.linear.x", mu_d}] = impulse / m2;
+  expected[{"bodies[0].twist.angular.y", mu_d}] = -radius * impulse / i1;
+  expected[{"bodies[1].twist.angular.y", mu_d}] = -radius * impulse / i2;
+  // The prediction itself: P = 1.5 * 2/3 * 3 = 3 N s.
+  ASSERT_EQ(response.impulses.size(), 1u);
+  EXPECT_NEAR(response.impulses[0].normal_impulse, (1.0 + e) * m1 * m2 / total * w, kTolerance);
+
+  std::size_t matched = 0;
+  for (std::size_t r = 0; r < d.rows; ++r) {
+    for (std::size_t k = 0; k < d.columns; ++k) {
+      const auto found = expected.find({d.row_labels[r], d.column_labels[k]});
+      const double want = found == expected.end() ? 0.0 : found->second;
+      matched += found != expected.end();
+      EXPECT_NEAR(d.jacobian[r * d.columns + k], want, 1e-9)
+          << "d " << d.row_labels[r] << " / d " << d.column_labels[k];
+    }
+  }
+  EXPECT_EQ(matched, expected.size()) << "labels missing from the answer";
+}
+
+TEST_F(NodeTest, DerivativesAreEmptyUnlessRequested) {
+  const auto response = call(headOnSpheres());
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_EQ(response.derivatives.rows, 0u);
+  EXPECT_EQ(response.derivatives.columns, 0u);
+  EXPECT_TRUE(response.derivatives.method.empty());
+  EXPECT_TRUE(response.derivatives.jacobian.empty());
+  EXPECT_TRUE(response.derivatives.row_labels.empty());
+  EXPECT_TRUE(response.derivatives.contacts.empty());
 }
 
 TEST_F(NodeTest, PublishesEverySuccessfulResponse) {
@@ -291,6 +381,38 @@ TEST_F(NodeTest, BatchScenesCarryTheirWarnings) {
   ASSERT_EQ(batch.response.results.size(), 2u);
   EXPECT_TRUE(batch.response.results[0].warnings.empty());
   EXPECT_TRUE(hasWarning(batch.response.results[1].warnings, "contacts[0]: separating at +3 m/s"));
+}
+
+// A batch scene asking for derivatives gets them in its result, the others none. Head-on spheres
+// (m1 = 1, m2 = 2 kg, closing at w = 3 m/s along x, Newton's law): d P / d e = m1 m2 / (m1 + m2) w
+// = 2 N s, the entry of row "impulses[0].normal_impulse" and column "contacts[0].restitution".
+TEST_F(NodeTest, BatchScenesCarryTheirDerivatives) {
+  ros::ServiceClient batch_client =
+      node_.serviceClient<cr::ComputeBatch>("/collision_response/compute_batch");
+  cr::ComputeBatch batch;
+  batch.request.header.frame_id = "world";
+  for (const bool derivatives : {true, false}) {
+    const cr::ComputeResponse srv = headOnSpheres();
+    cr::Scene scene;
+    scene.bodies = srv.request.bodies;
+    scene.contacts = srv.request.contacts;
+    scene.options.law = cr::SolverOptions::LAW_NEWTON;
+    scene.options.derivatives = derivatives;
+    batch.request.scenes.push_back(scene);
+  }
+  ASSERT_TRUE(batch_client.call(batch));
+  ASSERT_EQ(batch.response.results.size(), 2u);
+  ASSERT_TRUE(batch.response.results[0].success) << batch.response.results[0].message;
+  const cr::ImpactDerivatives& d = batch.response.results[0].derivatives;
+  ASSERT_EQ(d.rows, 16u);
+  ASSERT_EQ(d.columns, 15u);
+  ASSERT_EQ(d.jacobian.size(), d.rows * d.columns);
+  ASSERT_EQ(d.row_labels[12], "impulses[0].normal_impulse");
+  ASSERT_EQ(d.column_labels[12], "contacts[0].restitution");
+  EXPECT_NEAR(d.jacobian[12 * d.columns + 12], 1.0 * 2.0 / 3.0 * 3.0, 1e-9);
+  EXPECT_TRUE(batch.response.results[1].success);
+  EXPECT_EQ(batch.response.results[1].derivatives.rows, 0u);
+  EXPECT_TRUE(batch.response.results[1].derivatives.jacobian.empty());
 }
 
 // Unit cube (1 kg, I = 1/6 I3) falling flat at 1 m/s onto the ground, 4 corner contacts, e = 0.5,

@@ -374,6 +374,10 @@ TEST_F(EpisodeNodeTest, BadInputIsNamed) {
   request.detection.mode = cr::DetectionOptions::MODE_NEVER;
   expectRejected(request, "detection.mode");
 
+  request = drop(0.2, 0.5);
+  request.options.derivatives = true;  // only ~compute differentiates an impact
+  expectRejected(request, "options.derivatives");
+
   // Values the bodies' checks of ~compute refuse are refused here alike.
   request = drop(0.2, 0.5);
   request.bodies[1].inertia.m = -1.0;

@@ -326,6 +326,18 @@ TEST_F(RobotNodeTest, FloatingBaseConservesMomentum) {
   EXPECT_GT(response.impulses[0].normal_velocity_after, 0.0);
 }
 
+// Derivatives are the rigid-body library's so far: a request with a robot asking for them is
+// refused, naming the option, and the same request without it is answered.
+TEST_F(RobotNodeTest, DerivativesWithRobotsAreRefusedNamingTheOption) {
+  cr::ComputeResponse srv = strikeRequest(strikeOf(publishedArm()));
+  srv.request.options.derivatives = true;
+  const auto refused = ServiceTest::expectRejected(srv, "options.derivatives");
+  EXPECT_NE(refused.message.find("rigid bodies only"), std::string::npos) << refused.message;
+  EXPECT_EQ(refused.derivatives.rows, 0u);
+  srv.request.options.derivatives = false;
+  EXPECT_TRUE(call(srv).success);
+}
+
 TEST_F(RobotNodeTest, BadRobotInputIsNamed) {
   const Strike strike = strikeOf(publishedArm());
   {

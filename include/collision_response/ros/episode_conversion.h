@@ -17,7 +17,8 @@
 
 namespace collision_response {
 
-/// Refuses what an episode cannot follow, before any work: robots ("robots": episodes do not follow
+/// Refuses what an episode cannot follow, before any work: derivatives ("options.derivatives":
+/// only ~compute differentiates an impact), robots ("robots": episodes do not follow
 /// robots yet), given contacts ("contacts": an episode finds its contacts from the shapes),
 /// detection.mode MODE_NEVER or an unknown mode ("detection.mode"), a body without shapes
 /// ("bodies[i]"). Throws core::InvalidInput naming the field.

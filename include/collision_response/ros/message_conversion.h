@@ -7,6 +7,7 @@
 #include <collision_response/Contact.h>
 #include <collision_response/ContactImpulse.h>
 #include <collision_response/DetectionOptions.h>
+#include <collision_response/ImpactDerivatives.h>
 #include <collision_response/IslandReport.h>
 #include <collision_response/SolverOptions.h>
 
@@ -14,6 +15,7 @@
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/contact.h"
 #include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/solver_options.h"
 #include "collision_response/detection/detect_contacts.h"
 
@@ -56,6 +58,10 @@ detection::DetectionInput detectionInputFromMsg(const std::vector<BodyState>& bo
                                                 double default_tolerance);
 ContactImpulse toMsg(const core::ContactImpulse& impulse);
 IslandReport toMsg(const core::SolveReport& report);
+
+/// The Jacobians of computeImpactDerivatives() as ImpactDerivatives.msg: labels, row-major
+/// entries, each contact's mode. Frames and units are the library's (the request frame).
+ImpactDerivatives toMsg(const core::ImpactDerivatives& derivatives);
 
 /// Options of a request; zero fields take the value of `defaults`. Throws core::InvalidInput
 /// ("options.law", "options.solver") for an unknown enumeration value.
