@@ -19,6 +19,7 @@
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
 
+#include "newton_scenes.h"
 #include "scene_builders.h"
 
 namespace cr = collision_response::core;
@@ -27,47 +28,6 @@ using namespace collision_response::testing;  // NOLINT: shared builders
 namespace {
 
 constexpr double kTol = 1e-9;
-
-cr::BodyState fixed(const std::string& id) {
-  cr::BodyState b;
-  b.id = id;
-  b.mass = 0.0;
-  return b;
-}
-
-const cr::BodyState& byId(const std::vector<cr::BodyState>& bodies, const std::string& id) {
-  for (const auto& b : bodies) {
-    if (b.id == id) return b;
-  }
-  throw std::runtime_error("no body " + id);
-}
-Vector3d relVel(const std::vector<cr::BodyState>& bodies, const cr::Contact& c) {
-  return pointVelocity(byId(bodies, c.body_b), c.point) -
-         pointVelocity(byId(bodies, c.body_a), c.point);
-}
-struct Random : collision_response::testing::RandomSource {
-  using RandomSource::RandomSource;
-  cr::BodyState body(const std::string& id) {
-    cr::BodyState b;
-    b.id = id;
-    b.mass = uniform(0.2, 5.0);
-    b.inertia = boxInertia(b.mass, boxSize());
-    b.com = vec(-0.3, 0.3);
-    b.position = vec(-2.0, 2.0);
-    b.orientation = rotation();
-    b.linear_velocity = vec(-2.0, 2.0);
-    b.angular_velocity = vec(-3.0, 3.0);
-    return b;
-  }
-};
-
-// Every test here is about the Newton law (u'_n = -e u_n with Coulomb friction), chosen explicitly.
-cr::SolverOptions newton(cr::SolverMethod method = cr::SolverMethod::kAuto) {
-  cr::SolverOptions o;
-  o.law = cr::ImpactLaw::kNewton;
-  o.method = method;
-  return o;
-}
 
 cr::CollisionResult solve(const cr::Scene& s, cr::SolverMethod method = cr::SolverMethod::kAuto) {
   const cr::SolverOptions o = newton(method);
