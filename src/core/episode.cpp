@@ -101,6 +101,7 @@ class Episode {
   bool impact(const std::vector<int>& contacts, bool plastic_resting);
   bool sustained(const std::vector<int>& contacts);
   bool configurationLasts(const std::vector<int>& contacts) const;
+  bool othersMayTouch(const std::vector<int>& contacts) const;
   void fillContact(const GapContact& gap, Contact& contact, std::pair<int, int>& bodies) const;
   void finish(EpisodeEnd end);
   void warnOverlaps();
@@ -273,7 +274,8 @@ double Episode::step() const {
                               : std::max(tolerance_ + std::min(c.gap, 0.0), 0.1 * tolerance_);
     s = std::min(s, pointStep(c.normal_velocity, c.acceleration, target));
   }
-  // Pairs the query left out are farther apart than the range.
+  // Pairs the query left out are farther apart than the range (a single body has no pair).
+  if (bodies_.size() < 2) return s;
   double fastest = 0.0, second = 0.0;
   for (const double v : speed_bound_) {
     if (v > fastest) {
@@ -501,6 +503,9 @@ bool Episode::sustained(const std::vector<int>& contacts) {
   // close faster than its resting threshold (or from rest, accelerating towards the contact): the
   // flight goes on (docs/physics.md, "Impact episodes").
   if (!configurationLasts(contacts)) return false;
+  // Nor does it end while a body it does not hold may still touch something before the horizon
+  // (a ball in flight beside a box at rest): the flight goes on until that body lands too.
+  if (othersMayTouch(contacts)) return false;
   // Outcomes: a body with a loaded resting contact slides if one of its contacts slips (slip
   // velocity above the resting velocity, or friction that does not hold), rolls if none slips but
   // it turns (|w| r above the resting velocity), sticks otherwise.
@@ -542,6 +547,43 @@ bool Episode::sustained(const std::vector<int>& contacts) {
   result_.resting_contacts = scene_.contacts;
   result_.resting = std::move(forces);
   return true;
+}
+
+bool Episode::othersMayTouch(const std::vector<int>& contacts) const {
+  const std::size_t n = bodies_.size();
+  std::vector<char> held(n, 0);
+  for (const int c : contacts) {
+    const GapContact& gap = gaps_[candidates_[c].index];
+    held[gap.body_a] = 1;
+    held[gap.body_b] = 1;
+  }
+  bool free_body = false;  // a movable body outside the contact set
+  for (std::size_t i = 0; i < n; ++i)
+    free_body = free_body || (!held[i] && !bodies_[i].immovable());
+  if (!free_body) return false;
+  const double remaining = options_.horizon - time_;
+  // Listed pairs of which neither body is held: their closing bound, as step() takes it.
+  for (const Pair& pair : pairs_) {
+    if (held[pair.a] || held[pair.b]) continue;
+    const BodyState& a = bodies_[pair.a];
+    const BodyState& b = bodies_[pair.b];
+    const double speed = (a.linear_velocity - b.linear_velocity).norm() +
+                         spin_bound_[pair.a] * radius_[pair.a] +
+                         spin_bound_[pair.b] * radius_[pair.b];
+    const double gravity = a.immovable() != b.immovable() ? gravity_norm_ : 0.0;
+    if (safeStep(speed, gravity, std::max(pair.gap, 0.0)) < remaining) return true;
+  }
+  // Pairs the query left out are farther apart than its range.
+  double fastest = 0.0, second = 0.0;
+  for (const double v : speed_bound_) {
+    if (v > fastest) {
+      second = fastest;
+      fastest = v;
+    } else if (v > second) {
+      second = v;
+    }
+  }
+  return safeStep(fastest + second, 2.0 * gravity_norm_, range_) < remaining;
 }
 
 bool Episode::configurationLasts(const std::vector<int>& contacts) const {

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 
 #include "collision_response/core/constants.h"
@@ -541,9 +542,11 @@ Evaluation evaluate(const CollisionResult& result, const std::vector<Index>& bod
 
 // Finite differences for the islands listed (indices into result.islands): the columns of their
 // bodies and contacts, the rows of the same.
+// `end`: when the call's time budget (options.time_budget, from the start of
+// computeImpactDerivatives()) runs out; each perturbed solve gets what is left of it.
 void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
-                       const SolverOptions& options, const CollisionResult& base_result,
-                       const std::vector<std::size_t>& islands,
+                       const SolverOptions& options, std::chrono::steady_clock::time_point end,
+                       const CollisionResult& base_result, const std::vector<std::size_t>& islands,
                        const std::vector<Index>& body_column, Index velocity_count,
                        ImpactDerivatives& out) {
   const Evaluation base = evaluate(base_result, body_column, velocity_count);
@@ -584,7 +587,15 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
         valid = x >= low && x <= high;
         if (!valid) return Evaluation{};
         value = x;
-        Evaluation e = evaluate(computeValidatedResponse(perturbed, contact_bodies, options),
+        SolverOptions remaining = options;
+        remaining.time_budget =
+            std::chrono::duration<double>(end - std::chrono::steady_clock::now()).count();
+        if (!(remaining.time_budget > 0.0)) {
+          value = x0;
+          throw SolverTimeout("the derivatives' finite differences exceeded the time budget of " +
+                              std::to_string(options.time_budget) + " s");
+        }
+        Evaluation e = evaluate(computeValidatedResponse(perturbed, contact_bodies, remaining),
                                 body_column, velocity_count);
         value = x0;
         return e;
@@ -734,6 +745,10 @@ std::vector<std::string> ImpactDerivatives::columnLabels() const {
 ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptions& options,
                                            const RequestLimits& limits) {
   const std::vector<std::pair<int, int>> contact_bodies = validate(scene, options, limits);
+  // One time budget for the whole call: the prediction and every perturbed solve.
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(options.time_budget));
   ImpactDerivatives out;
   out.result = computeValidatedResponse(scene, contact_bodies, options);
   out.contact_count = scene.contacts.size();
@@ -806,7 +821,7 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
   }
   if (!numerical.empty()) {
     out.method = DerivativeMethod::kFiniteDifference;
-    finiteDifferences(scene, contact_bodies, options, out.result, numerical, body_column,
+    finiteDifferences(scene, contact_bodies, options, end, out.result, numerical, body_column,
                       velocity_count, out);
   }
   return out;

@@ -1,6 +1,7 @@
 #include "collision_response/ros/episode_conversion.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -63,9 +64,19 @@ core::EpisodeOptions episodeOptionsFromMsg(const ComputeEpisode::Request& reques
                                                 "] (" + std::to_string(request.max_impacts) + ")");
   }
   options.max_impacts = static_cast<int>(request.max_impacts);
-  options.contact_tolerance = request.detection.contact_tolerance != 0.0
-                                  ? request.detection.contact_tolerance
-                                  : default_tolerance;
+  // The tolerance is the request's detection.contact_tolerance (0: the node's
+  // ~contact_tolerance), checked here so that an error names the field the client sets.
+  const double given = request.detection.contact_tolerance;
+  options.contact_tolerance = given != 0.0 ? given : default_tolerance;
+  if (!std::isfinite(options.contact_tolerance) || !(options.contact_tolerance > 0.0) ||
+      options.contact_tolerance > 1.0) {
+    throw core::InvalidInput(
+        "detection.contact_tolerance",
+        given != 0.0 ? "an episode needs a tolerance in (0, 1] m (" + std::to_string(given) + ")"
+                     : "is 0 here and the node's ~contact_tolerance is " +
+                           std::to_string(default_tolerance) +
+                           " m: an episode needs a tolerance in (0, 1] m");
+  }
   options.solver = solver;
   return options;
 }

@@ -559,6 +559,49 @@ TEST(Episode, StartingOverlapIsNamedOnce) {
     EXPECT_EQ(w.reason.find("starts overlapping"), std::string::npos) << w.text();
 }
 
+// Two cubes (the same corners, each against the floor only): one at rest on it, the other dropped
+// flat from 0.3 m beside it. The episode must not end when the first one's contacts carry it:
+// the second is in the air. It ends when both rest, after the drop's closed-form fall time.
+class TwoBodiesOnPlanes : public PointsAndPlanes {
+ public:
+  using PointsAndPlanes::PointsAndPlanes;
+  int bodyCount() const override { return 3; }
+};
+
+TEST(Episode, BodyRestingBesideAFallingOneDoesNotEndTheEpisode) {
+  const std::vector<Vector3d> corners = cubeCorners(kHalf);
+  const TwoBodiesOnPlanes geometry({Vector3d::UnitZ()}, corners, 0.0, {0.0, 0.6, 0.6});
+  core::BodyState resting = cube(kCubeMass, kHalf);
+  resting.id = "resting";
+  resting.position = {0.0, 0.0, kHalf};
+  core::BodyState falling = cube(kCubeMass, kHalf);
+  falling.id = "falling";
+  const double height = 0.3;
+  falling.position = {1.0, 0.0, kHalf + height};
+  core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kNewton);
+  options.horizon = 2.0;
+  const core::EpisodeResult result =
+      core::computeEpisode({floorBody(), resting, falling}, geometry, options);
+  ASSERT_EQ(result.end, core::EpisodeEnd::kSustainedContact) << core::toString(result.end);
+  const double fall = std::sqrt(2.0 * height / kG);
+  // The falling cube's first impact (the resting one meanwhile gets plastic touches: gravity
+  // makes it sink in each flight, as a pivot does).
+  double landing = -1.0;
+  for (const core::EpisodeImpact& impact : result.impacts) {
+    for (const core::Contact& c : impact.contacts) {
+      if (landing < 0.0 && (c.body_a == "falling" || c.body_b == "falling")) landing = impact.time;
+    }
+  }
+  EXPECT_NEAR(landing, fall, 1e-3);  // found within the tolerance's band
+  EXPECT_GE(result.end_time, landing);
+  EXPECT_NEAR(result.bodies[2].position.z(), kHalf, 2.0 * options.contact_tolerance);
+  EXPECT_EQ(result.outcomes[1], core::BodyOutcome::kSticking);
+  EXPECT_EQ(result.outcomes[2], core::BodyOutcome::kSticking);
+  double normal = 0.0;
+  for (const core::ContactImpulse& f : result.resting) normal += f.normal_force;
+  EXPECT_NEAR(normal, 2.0 * kCubeMass * kG, 1e-6 * kCubeMass * kG);
+}
+
 // --- One impact, and contact already sustained --------------------------------------------------
 
 TEST(Episode, SingleImpactThatSeparatesEqualsComputeResponse) {

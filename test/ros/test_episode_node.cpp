@@ -346,6 +346,14 @@ TEST_F(EpisodeNodeTest, BadInputIsNamed) {
   request.gravity.y = std::numeric_limits<double>::quiet_NaN();
   expectRejected(request, "gravity");
 
+  // The tolerance is named as the client sets it (detection.contact_tolerance), not as the core's
+  // option: too large, and negative.
+  for (const double tolerance : {2.0, -1e-4}) {
+    request = drop(0.2, 0.5);
+    request.detection.contact_tolerance = tolerance;
+    expectRejected(request, "detection.contact_tolerance");
+  }
+
   request = drop(0.2, 0.5);
   request.max_impacts = 0;
   expectRejected(request, "max_impacts");

@@ -103,7 +103,8 @@ struct ImpactDerivatives {
 /// island is solved in closed form (one contact under SolverMethod::kAuto) or by the exact solver
 /// (its final active set; redundant contacts sliding with friction excepted, whose impulses are
 /// not unique); finite differences of the solver otherwise (reported per contact and in `method`;
-/// 2 to 4 further solves per input column, each with the options' time budget). Resting islands
+/// 2 to 4 further solves per input column; options.time_budget bounds the whole call, prediction
+/// and differences together: past it, SolverTimeout). Resting islands
 /// and islands where nothing approaches get no impulse: their bodies' derivatives are the identity
 /// (a contact touching at u_n = 0 is flagged at a switch). The prediction in `result` is the one
 /// computeResponse() gives.
