@@ -192,6 +192,9 @@ cr::SolverOptions withLaw(cr::ImpactLaw law) {
   cr::SolverOptions options;
   options.law = law;
   options.integration_tolerance = 1e-14;
+  // The physics is tested, not the speed: the time budget now bounds the whole call, prediction
+  // and every finite-difference solve (several hundred under the sanitizers' slowdown).
+  options.time_budget = 600.0;
   return options;
 }
 
