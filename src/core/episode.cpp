@@ -102,6 +102,7 @@ class Episode {
   bool sustained(const std::vector<int>& contacts);
   bool configurationLasts(const std::vector<int>& contacts) const;
   bool othersMayTouch(const std::vector<int>& contacts) const;
+  double fastestPairSpeed() const;
   void fillContact(const GapContact& gap, Contact& contact, std::pair<int, int>& bodies) const;
   void finish(EpisodeEnd end);
   void warnOverlaps();
@@ -150,6 +151,20 @@ void Episode::fillContact(const GapContact& gap, Contact& contact,
   bodies = {gap.body_a, gap.body_b};
 }
 
+// The two largest speed bounds added: how fast any two bodies can close on each other [m/s].
+double Episode::fastestPairSpeed() const {
+  double fastest = 0.0, second = 0.0;
+  for (const double v : speed_bound_) {
+    if (v > fastest) {
+      second = fastest;
+      fastest = v;
+    } else if (v > second) {
+      second = v;
+    }
+  }
+  return fastest + second;
+}
+
 // The contacts of the moment, their normal velocities and thresholds, and the pairs' gaps.
 void Episode::query() {
   const std::size_t n = bodies_.size();
@@ -168,17 +183,8 @@ void Episode::query() {
   }
   // Range: what any pair could close before the horizon (then a pair left out cannot touch
   // before it), at least 10 tolerances, at most 1 m or 1e4 tolerances (the query's cost).
-  double fastest = 0.0, second = 0.0;
-  for (const double s : speed_bound_) {
-    if (s > fastest) {
-      second = fastest;
-      fastest = s;
-    } else if (s > second) {
-      second = s;
-    }
-  }
   const double remaining = options_.horizon - time_;
-  range_ = std::clamp((fastest + second) * remaining + gravity_norm_ * remaining * remaining,
+  range_ = std::clamp(fastestPairSpeed() * remaining + gravity_norm_ * remaining * remaining,
                       10.0 * tolerance_, std::max(1.0, 1e4 * tolerance_));
   geometry_.gaps(bodies_, range_, gaps_);
 
@@ -276,16 +282,8 @@ double Episode::step() const {
   }
   // Pairs the query left out are farther apart than the range (a single body has no pair).
   if (bodies_.size() < 2) return s;
-  double fastest = 0.0, second = 0.0;
-  for (const double v : speed_bound_) {
-    if (v > fastest) {
-      second = fastest;
-      fastest = v;
-    } else if (v > second) {
-      second = v;
-    }
-  }
-  return std::min(s, safeStep(fastest + second, 2.0 * gravity_norm_, range_));
+  const double fastest_two = fastestPairSpeed();
+  return std::min(s, safeStep(fastest_two, 2.0 * gravity_norm_, range_));
 }
 
 void Episode::advance(double dt) {
@@ -574,16 +572,8 @@ bool Episode::othersMayTouch(const std::vector<int>& contacts) const {
     if (safeStep(speed, gravity, std::max(pair.gap, 0.0)) < remaining) return true;
   }
   // Pairs the query left out are farther apart than its range.
-  double fastest = 0.0, second = 0.0;
-  for (const double v : speed_bound_) {
-    if (v > fastest) {
-      second = fastest;
-      fastest = v;
-    } else if (v > second) {
-      second = v;
-    }
-  }
-  return safeStep(fastest + second, 2.0 * gravity_norm_, range_) < remaining;
+  const double fastest_two = fastestPairSpeed();
+  return safeStep(fastest_two, 2.0 * gravity_norm_, range_) < remaining;
 }
 
 bool Episode::configurationLasts(const std::vector<int>& contacts) const {
