@@ -15,7 +15,7 @@ packages=(
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure libdiagnostic-updater-dev
   libdiagnostic-msgs-dev libvisualization-msgs-dev python3-visualization-msgs librosbag-dev
   librosbag-storage-dev python3-rosbag python3-rospkg
-  python3-diagnostic-msgs tf2-tools python3-tf2-msgs
+  python3-diagnostic-msgs tf2-tools python3-tf2-msgs libtf2-msgs-dev
   liburdf-dev libkdl-parser-dev liborocos-kdl-dev libresource-retriever-dev libgeometric-shapes-dev
   ros-robot-state-publisher joint-state-publisher
 )
