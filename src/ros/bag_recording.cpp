@@ -8,6 +8,7 @@
 #include <tf2/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
@@ -163,21 +164,10 @@ calibration::PoseTrack readPoseStamped(const BagSource& source) {
   return track;
 }
 
-struct RecordedTransform {
-  geometry_msgs::TransformStamped transform;  // frame names without leading slashes
-  bool is_static;
-  std::string topic;
-};
-
-calibration::PoseTrack readTf(const BagSource& source) {
-  const std::string world = stripSlash(source.world_frame);
-  const std::string object = stripSlash(source.object_frame);
-  const Errors error(source.path + ":/tf " + world + "->" + object);
-  if (world.empty()) throw error("no world frame given (the fixed frame the poses are wanted in)");
-  if (object.empty()) throw error("no object frame given (the tf frame of the recorded object)");
-
-  // Every transform of /tf and /tf_static, in the bag's order.
-  std::vector<RecordedTransform> recorded;
+/// Calls f(transform, is_static, topic) for every transform on /tf and /tf_static in the bag's
+/// order, frame names without leading slashes.
+template <typename F>
+void forEachTransform(const BagSource& source, const Errors& error, F&& f) {
   try {
     rosbag::Bag bag = openBag(source.path, error);
     const std::vector<std::string> topics{"/tf", "/tf_static", "tf", "tf_static"};
@@ -197,22 +187,37 @@ calibration::PoseTrack readTf(const BagSource& source) {
       for (geometry_msgs::TransformStamped transform : message->transforms) {
         transform.header.frame_id = stripSlash(transform.header.frame_id);
         transform.child_frame_id = stripSlash(transform.child_frame_id);
-        recorded.push_back({transform, is_static, instance.getTopic()});
+        f(transform, is_static, instance.getTopic());
       }
     }
   } catch (const rosbag::BagException& e) {
     throw error(std::string("cannot read the bag: ") + e.what());
   }
+}
 
-  // The frames above the object (every parent any of its ancestors had): their transforms are
-  // checked; a bad transform elsewhere in the tree does not concern the object and is left out.
+calibration::PoseTrack readTf(const BagSource& source) {
+  const std::string world = stripSlash(source.world_frame);
+  const std::string object = stripSlash(source.object_frame);
+  const Errors error(source.path + ":/tf " + world + "->" + object);
+  if (world.empty()) throw error("no world frame given (the fixed frame the poses are wanted in)");
+  if (object.empty()) throw error("no object frame given (the tf frame of the recorded object)");
+
+  // First pass: the tree (every parent each frame had) and the stamps' span.
   std::map<std::string, std::set<std::string>> parents;
   std::set<std::string> frames;
-  for (const RecordedTransform& r : recorded) {
-    parents[r.transform.child_frame_id].insert(r.transform.header.frame_id);
-    frames.insert(r.transform.child_frame_id);
-    frames.insert(r.transform.header.frame_id);
-  }
+  double first = 0.0;
+  double last = 0.0;
+  bool any = false;
+  forEachTransform(source, error,
+                   [&](const geometry_msgs::TransformStamped& transform, bool, const std::string&) {
+                     parents[transform.child_frame_id].insert(transform.header.frame_id);
+                     frames.insert(transform.child_frame_id);
+                     frames.insert(transform.header.frame_id);
+                     const double t = transform.header.stamp.toSec();
+                     first = any ? std::min(first, t) : t;
+                     last = any ? std::max(last, t) : t;
+                     any = true;
+                   });
   auto frameList = [&frames] {
     std::string list;
     for (const std::string& frame : frames) list += (list.empty() ? "" : ", ") + frame;
@@ -225,48 +230,46 @@ calibration::PoseTrack readTf(const BagSource& source) {
   if (frames.count(world) == 0) {
     throw error("no transform has the frame '" + world + "' (the frames: " + frameList() + ")");
   }
-  std::set<std::string> chain{object};
-  std::vector<std::string> todo{object};
+  // The path from the object to the world frame runs through their ancestors (up from each to
+  // a common one): those transforms are checked and composed; a transform elsewhere in the tree
+  // does not concern the object and is left out (a bad one there is no error).
+  std::set<std::string> path{object, world};
+  std::vector<std::string> todo{object, world};
   while (!todo.empty()) {
     const std::string frame = todo.back();
     todo.pop_back();
     for (const std::string& parent : parents[frame]) {
-      if (chain.insert(parent).second) todo.push_back(parent);
+      if (path.insert(parent).second) todo.push_back(parent);
     }
   }
 
-  // A cache as long as the recording (tf2 drops transforms older than the newest by more than
-  // the cache time).
-  double first = 0.0;
-  double last = 0.0;
-  bool any = false;
-  for (const RecordedTransform& r : recorded) {
-    const double t = r.transform.header.stamp.toSec();
-    first = any ? std::min(first, t) : t;
-    last = any ? std::max(last, t) : t;
-    any = true;
-  }
+  // Second pass: the path's transforms into tf2, with a cache as long as the recording (tf2
+  // drops transforms older than the newest by more than the cache time).
   tf2::BufferCore buffer(::ros::Duration(last - first + 10.0));
   std::vector<std::pair<::ros::Time, std::string>> samples;  // the object's stamps, bag order
   int index = 0;
-  for (const RecordedTransform& r : recorded) {
-    const geometry_msgs::Transform& t = r.transform.transform;
-    const std::string problem =
-        poseProblem(t.translation.x, t.translation.y, t.translation.z, t.rotation.w, t.rotation.x,
-                    t.rotation.y, t.rotation.z, "transform.translation", "transform.rotation");
-    const std::string what = r.topic + " transform " + std::to_string(index++) + " (" +
-                             r.transform.header.frame_id + "->" + r.transform.child_frame_id +
-                             ", header.stamp " + formatTime(r.transform.header.stamp) + ")";
-    const bool on_chain = chain.count(r.transform.child_frame_id) > 0;
-    if (!problem.empty()) {
-      if (on_chain) throw error(what + ": " + problem);
-      continue;
-    }
-    if (r.transform.child_frame_id == object) samples.emplace_back(r.transform.header.stamp, what);
-    if (!buffer.setTransform(r.transform, "bag", r.is_static) && on_chain) {
-      throw error(what + ": tf2 refused the transform");
-    }
-  }
+  forEachTransform(source, error,
+                   [&](const geometry_msgs::TransformStamped& transform, bool is_static,
+                       const std::string& topic) {
+                     const int this_index = index++;
+                     if (path.count(transform.child_frame_id) == 0) return;
+                     const geometry_msgs::Transform& t = transform.transform;
+                     const std::string what = topic + " transform " + std::to_string(this_index) +
+                                              " (" + transform.header.frame_id + "->" +
+                                              transform.child_frame_id + ", header.stamp " +
+                                              formatTime(transform.header.stamp) + ")";
+                     const std::string problem =
+                         poseProblem(t.translation.x, t.translation.y, t.translation.z,
+                                     t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z,
+                                     "transform.translation", "transform.rotation");
+                     if (!problem.empty()) throw error(what + ": " + problem);
+                     if (transform.child_frame_id == object) {
+                       samples.emplace_back(transform.header.stamp, what);
+                     }
+                     if (!buffer.setTransform(transform, "bag", is_static)) {
+                       throw error(what + ": tf2 refused the transform");
+                     }
+                   });
 
   calibration::PoseTrack track;
   track.source = error.source();

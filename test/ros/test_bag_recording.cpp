@@ -160,6 +160,8 @@ geometry_msgs::PoseStamped pose(double t, const std::string& frame, double x, do
   return m;
 }
 
+void expectInvalid(const BagSource& source, const std::string& field, const std::string& says);
+
 const double kC45 = std::sqrt(0.5);  // cos 45 deg = sin 45 deg
 
 // world -> table static (at (1, 2, 0.5), turned 90 deg about z), table -> cube moving: the cube at
@@ -239,6 +241,47 @@ TEST(BagRecording, MovingChainInterpolatedAtTheObjectsStamps) {
     EXPECT_NEAR(q.x(), 0.0, 1e-12);
     EXPECT_NEAR(q.y(), 0.0, 1e-12);
     EXPECT_NEAR(sign * q.z(), kC45, 1e-12);
+  }
+}
+
+// The world frame two links below the tree's root: map -> room (at (1, 0, 0)), room -> world
+// (turned 90 deg about z), so the world is at (1, 0, 0) in the map turned 90 deg about z; and
+// map -> cube (at (1, 2, 3), not turned). By hand: the cube in the world is R^T (p_cube - p_world)
+// with R^T mapping (u, v, w) to (v, -u, w): (2, 0, 3), turned -90 deg about z. A non-finite value
+// in map -> room, on the path from the cube to the world, is an error; one in map -> elsewhere is
+// not.
+TEST(BagRecording, PathThroughACommonParent) {
+  for (const bool broken : {false, true}) {
+    const std::string path = tempBag(broken ? "common_parent_broken" : "common_parent");
+    {
+      rosbag::Bag bag(path, rosbag::bagmode::Write);
+      for (int i = 1; i <= 3; ++i) {
+        const double x = broken && i == 2 ? NAN : 1.0;
+        writeTf(bag, "/tf",
+                {transform(i, "map", "room", x, 0, 0, 1, 0, 0, 0),
+                 transform(i, "room", "world", 0, 0, 0, kC45, 0, 0, kC45),
+                 transform(i, "map", "cube", 1, 2, 3, 1, 0, 0, 0),
+                 transform(i, "map", "elsewhere", NAN, 0, 0, 1, 0, 0, 0)});
+      }
+    }
+    if (broken) {
+      expectInvalid({path, "", "world", "cube"}, path + ":/tf world->cube",
+                    "(map->room, header.stamp 2 s): transform.translation.x is not finite");
+      continue;
+    }
+    const PoseTrack track = readBagPoseTrack({path, "", "world", "cube"});
+    ASSERT_EQ(track.size(), 3);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(track.position[i].x(), 2.0, 1e-12);
+      EXPECT_NEAR(track.position[i].y(), 0.0, 1e-12);
+      EXPECT_NEAR(track.position[i].z(), 3.0, 1e-12);
+      const Eigen::Quaterniond& q = track.orientation[i];
+      const double sign = q.w() < 0 ? -1.0 : 1.0;
+      EXPECT_NEAR(sign * q.w(), kC45, 1e-12);
+      EXPECT_NEAR(q.x(), 0.0, 1e-12);
+      EXPECT_NEAR(q.y(), 0.0, 1e-12);
+      EXPECT_NEAR(sign * q.z(), -kC45, 1e-12);
+    }
   }
 }
 
