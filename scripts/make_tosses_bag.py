@@ -17,7 +17,13 @@ TOSSES are the six tosses of at most 100 frames, lowest index first, whose first
 benchmark can use (a flight of at least 6 frames before the first contact, and a clear flight of at
 least 4 frames starting within 0.15 s after it; the criteria of benchmark/toss_data.h, simplified).
 
-Usage: scripts/make_tosses_bag.py [--check]   (--check: print the chosen tosses, write nothing)
+Usage: scripts/make_tosses_bag.py [--check | --held-out N]
+  --check       print the chosen tosses, write nothing
+  --held-out N  print toss N's first landing as the README's calibration section uses it, write
+                nothing: the cube's state at the last frame before the first contact (a ballistic
+                fit to the flight before it: gravity fixed, constant angular velocity) with the
+                table moved to z = 0, and the measured state after the landing (the same fit to
+                the first clear flight after it, at its first frame)
 Needs python3-rosbag, python3-tf2-msgs, python3-geometry-msgs (Debian).
 """
 import csv
@@ -72,12 +78,82 @@ def usable(rows):
     return False
 
 
+def quaternion_product(a, b):
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
+
+
+def rotation_vector(q):
+    n = math.sqrt(sum(c * c for c in q))
+    q = [c / n for c in q]
+    if q[0] < 0:
+        q = [-c for c in q]
+    s = math.sqrt(sum(c * c for c in q[1:]))
+    angle = 2 * math.atan2(s, q[0])
+    return [0.0, 0.0, 0.0] if s < 1e-12 else [angle * c / s for c in q[1:]]
+
+
+def ballistic_fit(rows, frames, t_ref):
+    """Least squares over the frames: the centre p + v (t - t_ref) + g/2 (t - t_ref)^2 (g = -9.81
+    along z), the rotation exp(w (t - t_ref)) q_ref with q_ref the frame at t_ref. Returns p, v,
+    w, q_ref and the centre's RMS residual [m]."""
+    t = [float(rows[i]["t"]) - t_ref for i in frames]
+    n, st, stt = len(t), sum(t), sum(x * x for x in t)
+    p, v, squares = [], [], 0.0
+    for c in "xyz":
+        y = [float(rows[i][c]) - (0.5 * -9.81 * s * s if c == "z" else 0.0)
+             for i, s in zip(frames, t)]
+        sy, sty = sum(y), sum(a * b for a, b in zip(t, y))
+        v.append((n * sty - st * sy) / (n * stt - st * st))
+        p.append((sy - v[-1] * st) / n)
+        squares += sum((p[-1] + v[-1] * s - yy) ** 2 for s, yy in zip(t, y))
+    ref = min(range(n), key=lambda j: abs(t[j]))
+    q_ref = [float(rows[frames[ref]][k]) for k in ("qw", "qx", "qy", "qz")]
+    inverse = (q_ref[0], -q_ref[1], -q_ref[2], -q_ref[3])
+    turns = [rotation_vector(quaternion_product([float(rows[i][k]) for k in ("qw", "qx", "qy", "qz")],
+                                                inverse)) for i in frames]
+    w = [sum(s * r[k] for s, r in zip(t, turns)) / stt for k in range(3)]
+    return p, v, w, q_ref, math.sqrt(squares / n)
+
+
+def held_out(rows):
+    heights = [lowest_corner(r) for r in rows]
+    rest = sorted(heights[-10:])
+    table = 0.5 * (rest[4] + rest[5])
+    flying = [h > table + CLEARANCE for h in heights]
+    contact = flying.index(False)
+    before = float(rows[contact - 1]["t"])
+    p, v, w, q, rms = ballistic_fit(rows, list(range(max(0, contact - 30), contact)), before)
+    print("table at z = %.5f m; first contact at frame %d; the fit over the %d frames before: "
+          "RMS %.1e m" % (table, contact, min(contact, 30), rms))
+    print("before (t = %.6f s, lowest corner %.4f m above the table):" % (before, heights[contact - 1] - table))
+    print("  position (%.4f, %.4f, %.4f), orientation w %.7f x %.7f y %.7f z %.7f"
+          % (p[0], p[1], p[2] - table, q[0], q[1], q[2], q[3]))
+    print("  v (%.3f, %.3f, %.3f) m/s, w (%.2f, %.2f, %.2f) rad/s" % (tuple(v) + tuple(w)))
+    first = contact
+    while not (first + 4 <= len(rows) and all(flying[first:first + 4])):
+        first += 1
+    last = first
+    while last < len(rows) and flying[last] and last < first + 30:
+        last += 1
+    after = float(rows[first]["t"])
+    p, v, w, q, rms = ballistic_fit(rows, list(range(first, last)), after)
+    print("after (t = %.6f s, %.4f s later; the fit over %d frames: RMS %.1e m):"
+          % (after, after - before, last - first, rms))
+    print("  v (%.3f, %.3f, %.3f) m/s, w (%.2f, %.2f, %.2f) rad/s" % (tuple(v) + tuple(w)))
+
+
 def chosen(tosses):
     return [n for n in sorted(tosses) if len(tosses[n]) <= MAX_FRAMES and usable(tosses[n])][:COUNT]
 
 
 def main():
     tosses = read_tosses()
+    if "--held-out" in sys.argv[1:]:
+        held_out(tosses[int(sys.argv[sys.argv.index("--held-out") + 1])])
+        return 0
     picks = chosen(tosses)
     print("tosses %s (%d samples)" % (picks, sum(len(tosses[n]) for n in picks)))
     if "--check" in sys.argv[1:]:
