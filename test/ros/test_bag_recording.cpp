@@ -304,6 +304,13 @@ TEST(BagRecording, MissingFile) {
   const std::string path = tempBag("does_not_exist");
   expectInvalid({path, "", "world", "cube"}, path + ":/tf world->cube", "cannot open the bag");
   expectInvalid({path, "/cube/pose", "", ""}, path + ":/cube/pose", "cannot open the bag");
+  // A file that is not a bag.
+  const std::string text = tempBag("not_a_bag");
+  std::FILE* file = std::fopen(text.c_str(), "w");
+  ASSERT_NE(file, nullptr);
+  std::fputs("toss,t,x,y,z,qw,qx,qy,qz\n", file);
+  std::fclose(file);
+  expectInvalid({text, "", "world", "cube"}, text + ":/tf world->cube", "cannot open the bag");
 }
 
 TEST(BagRecording, MissingTopicOrFrame) {
