@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "collision_response/core/compute_response.h"
@@ -50,7 +51,7 @@ struct Prepared {
   std::vector<std::pair<std::size_t, int>> dimensions;  // (index in contacts, coefficient)
   std::vector<double> variances;                        // per dimension
   std::vector<Warning> warnings;
-  std::vector<std::pair<int, int>> contact_bodies;
+  std::vector<std::pair<int, int>> contact_bodies;  // kSampled: validate()'s
 };
 
 double& coefficient(Contact& contact, int which) {
@@ -59,8 +60,8 @@ double& coefficient(Contact& contact, int which) {
                                     : contact.dynamic_friction;
 }
 
-Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& uncertainties,
-                 const SolverOptions& options, const RequestLimits& limits) {
+// The distributions checked and the mean scene (not validated: the methods validate it).
+Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& uncertainties) {
   Prepared prepared;
   prepared.mean_scene = scene;
   std::vector<bool> named(scene.contacts.size(), false);
@@ -112,20 +113,18 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
     }
     prepared.contacts.push_back(std::move(uncertain));
   }
-  prepared.contact_bodies = validate(prepared.mean_scene, options, limits);
   return prepared;
 }
 
-// P(mu_d > mu_s) for independent coefficients: E over mu_d of P(mu_s < mu_d), by the midpoint
-// rule on mu_d's quantile function.
-double overlapProbability(const UncertainContact& contact) {
+// P(mu_d > mu_s) from the normal approximation of mu_s - mu_d (same means and variances): cheap
+// enough for the linear method, whose warning it feeds.
+double approximateOverlapProbability(const UncertainContact& contact) {
   const CheckedDistribution& mu_s = contact.distributions[kStaticFriction];
   const CheckedDistribution& mu_d = contact.distributions[kDynamicFriction];
   if (mu_d.quantile(1.0) <= mu_s.quantile(0.0)) return 0.0;
-  constexpr int kNodes = 512;
-  double sum = 0.0;
-  for (int i = 0; i < kNodes; ++i) sum += mu_s.cdf(mu_d.quantile((i + 0.5) / kNodes));
-  return sum / kNodes;
+  const double variance = mu_s.variance() + mu_d.variance();
+  if (variance == 0.0) return mu_d.mean() > mu_s.mean() ? 1.0 : 0.0;
+  return standardNormalCdf((mu_d.mean() - mu_s.mean()) / std::sqrt(variance));
 }
 
 std::vector<int> movableBodies(const Scene& scene) {
@@ -164,9 +163,9 @@ std::vector<std::string> outcomeLabels(const std::vector<int>& movable, std::siz
 }
 
 std::string percentText(double fraction) {
-  std::ostringstream out;
-  out << 100.0 * fraction << " %";
-  return out.str();
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g %%", 100.0 * fraction);
+  return text;
 }
 
 // The probability that contact c sticks, from the linearised margin of its mode at the means
@@ -202,12 +201,18 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
     if (mu_s_dimension >= 0) gradient(mu_s_dimension) += impulse.normal_impulse;
   } else {
     // Slip velocity of b relative to a at the point, tangential part, and its derivatives.
-    const std::pair<int, int>& bodies = prepared.contact_bodies[c];
+    auto index = [&](const std::string& id) {
+      for (std::size_t b = 0; b < result.bodies.size(); ++b)
+        if (result.bodies[b].id == id) return static_cast<int>(b);
+      return -1;  // not a body of the scene (validation rules this out)
+    };
+    const std::pair<int, int> bodies{index(contact.body_a), index(contact.body_b)};
     const Eigen::Vector3d& n = contact.normal;
     Eigen::Vector3d slip = Eigen::Vector3d::Zero();
     Eigen::MatrixXd slip_rate = Eigen::MatrixXd::Zero(3, derivatives.jacobian.cols());
     for (const auto& [body, sign] :
          {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
+      if (body < 0) continue;
       const BodyState& state = result.bodies[static_cast<std::size_t>(body)];
       if (state.immovable()) continue;
       const Eigen::Vector3d arm = contact.point - state.worldCom();
@@ -279,12 +284,13 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
         linearStickProbability(derivatives, prepared, c, column_of_dimension);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
-    const double overlap = overlapProbability(uncertain);
+    const double overlap = approximateOverlapProbability(uncertain);
     if (overlap > kTruncationWarningMass) {
       outcome.warnings.push_back(
           {"uncertainties[" + std::to_string(uncertain.entry) + "].dynamic_friction",
-           "exceeds static_friction with probability " + percentText(overlap) +
-               " (such draws are solved with mu_d = mu_s by the sampled method; the linear "
+           "exceeds static_friction with probability about " + percentText(overlap) +
+               " (normal approximation of mu_s - mu_d;"
+               " such draws are solved with mu_d = mu_s by the sampled method; the linear "
                "method does not see the cap)",
            Warning::Kind::kInput});
     }
@@ -420,9 +426,10 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
     throw InvalidInput("options.uncertainty_samples",
                        "must be in [1, " + std::to_string(kMaxUncertaintySamples) + "], got " +
                            std::to_string(uncertainty.samples));
-  const Prepared prepared = prepare(scene, uncertainties, options, limits);
+  Prepared prepared = prepare(scene, uncertainties);
   if (uncertainty.method == UncertaintyMethod::kLinear)
     return linearDistribution(prepared, options, limits);
+  prepared.contact_bodies = validate(prepared.mean_scene, options, limits);
   return sampledDistribution(prepared, options, uncertainty, pool);
 }
 
