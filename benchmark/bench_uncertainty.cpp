@@ -11,6 +11,9 @@
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <vector>
 
@@ -126,6 +129,71 @@ BENCHMARK(BM_Sampled)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// A box struck off-centre on the ground, one contact that slides far from sticking (the sliding
+// scene of bench_derivatives).
+core::Scene slidingBox() {
+  core::Scene scene = cube4();
+  core::BodyState& box = scene.bodies[1];
+  box.mass = 1.5;
+  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
+  box.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
+  box.position = {0.1, -0.05, 0.2};
+  box.linear_velocity = {1.0, 0.3, -2.0};
+  box.angular_velocity = {0.5, -1.0, 0.2};
+  scene.contacts.resize(1);
+  scene.contacts[0].point = {0.0, 0.0, 0.0};
+  scene.contacts[0].static_friction = 0.2;
+  scene.contacts[0].dynamic_friction = 0.16;
+  return scene;
+}
+
+// `--accuracy`: how far the linear distribution is from the sampled one (16,384 samples) as the
+// spreads grow (docs/uncertainty.md): per relative spread k, every contact with
+// e ~ N(e0, e0 k), mu_s ~ N(mu_s0, mu_s0 k), mu_d ~ N(mu_d0, mu_d0 k) around the scene's own
+// coefficients; printed: the largest |mean difference| / sampled std dev and the relative
+// Frobenius error of the covariance, both over the twists, and the largest stick probability
+// difference.
+void accuracy(const char* name, const core::Scene& scene) {
+  core::SolverOptions options = newton();
+  options.time_budget = 600.0;
+  core::WorkerPool pool(2);
+  std::printf("%s\nspread  mean_err/sd  cov_rel_err  stick_p_err\n", name);
+  for (const double k : {0.01, 0.02, 0.05, 0.1, 0.2, 0.3}) {
+    std::vector<core::ContactUncertainty> all;
+    for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
+      const core::Contact& contact = scene.contacts[c];
+      core::ContactUncertainty u;
+      u.contact = c;
+      u.restitution =
+          core::CoefficientDistribution::normal(contact.restitution, contact.restitution * k);
+      u.static_friction = core::CoefficientDistribution::normal(contact.static_friction,
+                                                                contact.static_friction * k);
+      u.dynamic_friction = core::CoefficientDistribution::normal(contact.dynamic_friction,
+                                                                 contact.dynamic_friction * k);
+      all.push_back(u);
+    }
+    core::UncertaintyOptions sampled;
+    sampled.method = core::UncertaintyMethod::kSampled;
+    sampled.samples = 16384;
+    const auto lin = core::computeOutcomeDistribution(scene, all, options, {});
+    const auto smp = core::computeOutcomeDistribution(scene, all, options, sampled, &pool);
+    const Eigen::Index twists = 6 * static_cast<Eigen::Index>(scene.bodies.size() - 1);
+    double mean_error = 0.0, stick_error = 0.0;
+    for (Eigen::Index r = 0; r < twists; ++r) {
+      const double sd = std::sqrt(smp.covariance(r, r));
+      if (sd > 1e-9) mean_error = std::max(mean_error, std::abs(lin.mean(r) - smp.mean(r)) / sd);
+    }
+    for (std::size_t c = 0; c < scene.contacts.size(); ++c)
+      stick_error =
+          std::max(stick_error, std::abs(lin.stick_probability[c] - smp.stick_probability[c]));
+    const Eigen::MatrixXd lin_twists = lin.covariance.topLeftCorner(twists, twists);
+    const Eigen::MatrixXd smp_twists = smp.covariance.topLeftCorner(twists, twists);
+    std::printf("%5.2f  %11.3f  %11.3f  %11.3f\n", k, mean_error,
+                (lin_twists - smp_twists).norm() / smp_twists.norm(), stick_error);
+  }
+}
+
 // `--callgrind`: one counted call of each function, no timing (for the instruction counts above).
 int main(int argc, char** argv) {
   if (argc > 1 && std::strcmp(argv[1], "--callgrind") == 0) {
@@ -137,6 +205,11 @@ int main(int argc, char** argv) {
     benchmark::DoNotOptimize(predictOnce(scene, options));
     benchmark::DoNotOptimize(linearOnce(scene, u, options));
     benchmark::DoNotOptimize(sampledOnce(scene, u, options, 1000));
+    return 0;
+  }
+  if (argc > 1 && std::strcmp(argv[1], "--accuracy") == 0) {
+    accuracy("sliding box (1 contact)", slidingBox());
+    accuracy("cube landing flat (4 contacts)", cube4());
     return 0;
   }
   benchmark::Initialize(&argc, argv);

@@ -32,6 +32,8 @@ const char* toString(UncertaintyMethod method) {
 namespace {
 
 constexpr double kZ95 = 1.6448536269514722;  // Phi^-1(0.95)
+// A linear stick probability in [this, 1 - this] is reported: the spread reaches a switch.
+constexpr double kSwitchReachWarning = 1e-3;
 constexpr std::array<const char*, 3> kCoefficientNames = {"restitution", "static_friction",
                                                           "dynamic_friction"};
 enum Coefficient { kRestitution = 0, kStaticFriction = 1, kDynamicFriction = 2 };
@@ -294,6 +296,15 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
                "method does not see the cap)",
            Warning::Kind::kInput});
     }
+  }
+  for (std::size_t c = 0; c < contacts; ++c) {
+    const double p = outcome.stick_probability[c];
+    if (p < kSwitchReachWarning || p > 1.0 - kSwitchReachWarning) continue;
+    outcome.warnings.push_back(
+        {"contacts[" + std::to_string(c) + "]",
+         "the spread reaches its stick/slip switch (stick probability " + percentText(p) +
+             "): the linear distribution covers one mode only; use the sampled method",
+         Warning::Kind::kInput});
   }
   for (std::size_t c = 0; c < contacts; ++c) {
     const ContactDerivativeMode& mode = derivatives.contacts[c];

@@ -326,6 +326,7 @@ TEST(Uncertainty, LinearMatchesSampledForSmallSpreads) {
   // mu_s would have to reach the tail beyond ~4 standard deviations.
   EXPECT_LT(lin.stick_probability[0], 1e-3);
   EXPECT_LT(smp.stick_probability[0], 1e-3);
+  EXPECT_TRUE(lin.warnings.empty());
 }
 
 // Where the linear method stops matching: the sphere with mu_s spread across its stick/slip
@@ -347,6 +348,7 @@ TEST(Uncertainty, LinearMissesTheSpreadAcrossAStickSlipSwitch) {
   EXPECT_NEAR(smp.covariance(0, 0), jump * jump * p_slide * (1 - p_slide), 0.02 * jump * jump);
   EXPECT_GT(smp.covariance(0, 0), 0.01 * jump * jump);
   EXPECT_NEAR(lin.stick_probability[0], smp.stick_probability[0], 0.02);
+  EXPECT_TRUE(hasWarning(lin, "contacts[0]"));  // the spread reaches the switch
 }
 
 TEST(Uncertainty, BadInputNamesTheField) {

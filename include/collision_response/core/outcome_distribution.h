@@ -41,7 +41,8 @@ struct OutcomeDistribution {
   /// (ContactImpulse::sticking). kSampled: the fraction of samples; kLinear: from the linearised
   /// margin of the mode the contact is in at the means (docs/uncertainty.md).
   std::vector<double> stick_probability;
-  /// Truncated normals, mu_d > mu_s in samples (capped at mu_s), a linearisation at a mode switch.
+  /// Truncated normals, mu_d > mu_s in samples (capped at mu_s); kLinear: a linearisation at a
+  /// mode switch, a stick probability in [0.001, 0.999] (the spread reaches a stick/slip switch).
   std::vector<Warning> warnings;
 };
 
