@@ -8,6 +8,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -385,4 +387,46 @@ TEST(Uncertainty, BadInputNamesTheField) {
   core::UncertaintyOptions none;
   none.method = UncertaintyMethod::kNone;
   EXPECT_EQ(field(u, none), "options.uncertainty");
+}
+
+// The truncated normal's moments and quantiles against a quadrature of the density written here:
+// N(0.9, 0.1) conditioned on [0, 1].
+TEST(CoefficientDistribution, TruncatedNormalMomentsMatchQuadrature) {
+  std::optional<core::Warning> warning;
+  const core::CheckedDistribution d(CoefficientDistribution::normal(0.9, 0.1), 0.0, 1.0,
+                                    "uncertainties[0].restitution", &warning);
+  ASSERT_TRUE(warning.has_value());
+  EXPECT_EQ(warning->field, "uncertainties[0].restitution");
+  const int n = 200000;  // midpoint rule on [0, 1]
+  double mass = 0.0, first = 0.0, second = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double x = (i + 0.5) / n;
+    const double density = std::exp(-0.5 * std::pow((x - 0.9) / 0.1, 2));
+    mass += density;
+    first += x * density;
+    second += x * x * density;
+  }
+  const double mean = first / mass;
+  EXPECT_NEAR(d.mean(), mean, 1e-9);
+  EXPECT_NEAR(d.variance(), second / mass - mean * mean, 1e-9);
+  // The median: half the mass below it.
+  const double median = d.quantile(0.5);
+  double below = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double x = (i + 0.5) / n;
+    if (x < median) below += std::exp(-0.5 * std::pow((x - 0.9) / 0.1, 2));
+  }
+  EXPECT_NEAR(below / mass, 0.5, 1e-4);
+  EXPECT_NEAR(d.truncatedMass(), 0.5 * std::erfc(1.0 / std::sqrt(2.0)), 1e-12);  // P(Z > 1)
+}
+
+// The whole sampling is bounded by options.time_budget.
+TEST(Uncertainty, SamplingStopsAtTheTimeBudget) {
+  core::SolverOptions options = newton();
+  options.time_budget = 1e-3;
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::interval(0.2, 0.6);
+  EXPECT_THROW(core::computeOutcomeDistribution(slidingBox(), {u}, options,
+                                                sampled(core::kMaxUncertaintySamples)),
+               core::SolverTimeout);
 }
