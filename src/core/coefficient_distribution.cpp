@@ -28,11 +28,12 @@ CoefficientDistribution CoefficientDistribution::interval(double min, double max
 namespace {
 std::string rangeText(double lower, double upper) {
   std::ostringstream out;
-  out << "[" << lower << ", " << (std::isinf(upper) ? std::string("infinity") : [&] {
-    std::ostringstream u;
-    u << upper;
-    return u.str();
-  }()) << "]";
+  out << "[" << lower << ", ";
+  if (std::isinf(upper))
+    out << "infinity";
+  else
+    out << upper;
+  out << "]";
   return out.str();
 }
 }  // namespace

@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <optional>
 #include <sstream>
 
 #include "collision_response/core/compute_response.h"
@@ -87,6 +89,10 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
     auto checked = [&](int which) {
       if (!*given[which]) {
         const double value = coefficient(contact, which);
+        if (!std::isfinite(value))  // as validate() names it
+          throw InvalidInput(
+              "contacts[" + std::to_string(entry.contact) + "]." + kCoefficientNames[which],
+              "must be a finite number");
         return CheckedDistribution(CoefficientDistribution::interval(value, value), -1e300, 1e300,
                                    field);
       }
@@ -105,7 +111,9 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
         prepared.variances.push_back(uncertain.distributions[which].variance());
       }
     }
-    if (contact.dynamic_friction > contact.static_friction) {
+    // (Friction given as it is, an invalid pair is the contact's: validate() names it.)
+    if ((*given[kStaticFriction] || *given[kDynamicFriction]) &&
+        contact.dynamic_friction > contact.static_friction) {
       const int which = *given[kDynamicFriction] ? kDynamicFriction : kStaticFriction;
       std::ostringstream reason;
       reason << "the mean of dynamic_friction (" << contact.dynamic_friction
