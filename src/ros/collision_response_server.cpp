@@ -18,6 +18,7 @@
 #include "collision_response/core/validation.h"
 #include "collision_response/ros/message_conversion.h"
 #include "collision_response/ros/robot_conversion.h"
+#include "collision_response/ros/uncertainty_conversion.h"
 
 namespace collision_response {
 namespace {
@@ -64,6 +65,7 @@ void clearAnswer(ComputeResponse::Response& response) {
   response.robots.clear();
   response.effective_masses.clear();
   response.derivatives = ImpactDerivatives();
+  response.outcome_distribution = OutcomeDistribution();
 }
 
 // A batch's scene as a single ~compute request (its contents moved out of `scene`); a scene without
@@ -256,6 +258,11 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
                                  "derivatives are computed for rigid bodies only so far: ask "
                                  "without robots, or set options.derivatives to false");
       }
+      if (request.options.uncertainty != SolverOptions::UNCERTAINTY_NONE) {
+        throw core::InvalidInput("options.uncertainty",
+                                 "uncertain coefficients are propagated for rigid bodies only so "
+                                 "far: ask without robots, or set options.uncertainty to none");
+      }
       solveWithRobots(request, response, scene, validator, options, link_frames);
       response.success = true;
       return field_error;
@@ -327,6 +334,35 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
       continue;
     response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   }
+  solveUncertainty(request, response, scene, options);
+}
+
+void CollisionResponseServer::solveUncertainty(const ComputeResponse::Request& request,
+                                               ComputeResponse::Response& response,
+                                               const core::Scene& scene,
+                                               const core::SolverOptions& options) {
+  const core::UncertaintyOptions uncertainty = uncertaintyOptions(request.options);
+  if (uncertainty.method == core::UncertaintyMethod::kNone) {
+    if (!request.uncertainties.empty())
+      response.warnings.push_back(
+          "uncertainties: given but options.uncertainty is none: no distribution computed");
+    return;
+  }
+  if (request.uncertainties.empty()) {
+    // Nothing is uncertain (a batch's scenes carry no uncertainties): no distribution.
+    response.warnings.push_back(
+        "options.uncertainty: no uncertainties given: no distribution computed");
+    return;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const core::OutcomeDistribution outcome =
+      core::computeOutcomeDistribution(scene, fromMsg(request.uncertainties), options, uncertainty,
+                                       &batch_pool_, parameters_.limits);
+  response.solve_time +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  response.outcome_distribution = toMsg(outcome);
+  for (const core::Warning& warning : outcome.warnings)
+    response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
 }
 
 void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& request,

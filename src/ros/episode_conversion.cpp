@@ -16,6 +16,11 @@ void checkEpisodeRequest(const ComputeEpisode::Request& request) {
                              "episodes do not differentiate their impacts: ask ~compute for one "
                              "impact with derivatives");
   }
+  if (request.options.uncertainty != SolverOptions::UNCERTAINTY_NONE) {
+    throw core::InvalidInput("options.uncertainty",
+                             "episodes do not propagate uncertain coefficients: ask ~compute for "
+                             "one impact with uncertainties");
+  }
   if (!request.robots.empty()) {
     throw core::InvalidInput("robots", "episodes do not follow robots yet (" +
                                            std::to_string(request.robots.size()) +

@@ -98,6 +98,11 @@ class CollisionResponseServer {
   /// The part of solve() for requests of rigid bodies alone: the given contacts checked, contacts
   /// detected (wantsDetection(), within `contact_tolerance` [m]) and checked, then
   /// core::computeValidatedResponse(); fills the answer (request frame) but not its success.
+  // The outcome distribution of options.uncertainty (linear or sampled) over the request's
+  // uncertainties, on the batch pool; a warning if uncertainties come without a method.
+  void solveUncertainty(const ComputeResponse::Request& request,
+                        ComputeResponse::Response& response, const core::Scene& scene,
+                        const core::SolverOptions& options);
   void solveRigid(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                   core::Scene& scene, core::SceneValidator& validator,
                   const core::SolverOptions& options, double contact_tolerance);

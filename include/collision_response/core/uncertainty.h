@@ -1,0 +1,51 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "collision_response/core/contact_uncertainty.h"
+#include "collision_response/core/outcome_distribution.h"
+#include "collision_response/core/scene.h"
+#include "collision_response/core/solver_options.h"
+#include "collision_response/core/worker_pool.h"
+
+namespace collision_response::core {
+
+/// Largest sample count of UncertaintyOptions::samples.
+constexpr std::size_t kMaxUncertaintySamples = 100000;
+
+struct UncertaintyOptions {
+  UncertaintyMethod method = UncertaintyMethod::kLinear;
+  /// kSampled: solves, in [1, kMaxUncertaintySamples]. ROS: options.uncertainty_samples.
+  std::size_t samples = 1024;
+  /// kSampled: seed of the scrambling of the Halton sequence (the same seed, the same answer).
+  std::uint64_t seed = 0x5eed;
+};
+
+/// The distribution of the post-impact twists and contact impulses of `scene` when the contacts'
+/// coefficients follow `uncertainties` (docs/uncertainty.md).
+///
+/// kLinear: the coefficients' means (truncated normals: their own means) in the scene, the
+/// derivatives there (computeImpactDerivatives()), mean = the prediction at the means, covariance
+/// = J S J^T with S the coefficients' variances (independent). kSampled: points of a scrambled
+/// Halton sequence (one dimension per uncertain coefficient) through the coefficients' quantile
+/// functions, each sample solved by computeResponse() with `options`, spread over `pool` (nullptr:
+/// the calling thread); mean, covariance (divided by N - 1) and quantiles of the samples. A sample
+/// whose mu_d exceeds its mu_s is solved with mu_d = mu_s (Coulomb's law needs mu_d <= mu_s): the
+/// warnings give the fraction of samples (kSampled) or the probability (kLinear, which does not
+/// see the cap) per contact.
+///
+/// Throws InvalidInput naming the field: the scene (as validate()), "uncertainties[k].contact"
+/// (out of range or repeated), "uncertainties[k].restitution.std_dev" ... (CheckedDistribution),
+/// "uncertainties[k].dynamic_friction.mean" when the mean of mu_d exceeds that of mu_s,
+/// "options.uncertainty" (kNone), "options.uncertainty_samples" (0 or over the cap). SolverTimeout
+/// when the whole call runs past options.time_budget.
+OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
+                                               const std::vector<ContactUncertainty>& uncertainties,
+                                               const SolverOptions& options = {},
+                                               const UncertaintyOptions& uncertainty = {},
+                                               WorkerPool* pool = nullptr,
+                                               const RequestLimits& limits = {});
+
+}  // namespace collision_response::core

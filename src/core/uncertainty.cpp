@@ -1,0 +1,455 @@
+#include "collision_response/core/uncertainty.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <sstream>
+
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/halton_sequence.h"
+#include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/standard_normal.h"
+#include "collision_response/core/validation.h"
+
+namespace collision_response::core {
+
+const char* toString(UncertaintyMethod method) {
+  switch (method) {
+    case UncertaintyMethod::kNone:
+      return "none";
+    case UncertaintyMethod::kLinear:
+      return "linear";
+    case UncertaintyMethod::kSampled:
+      return "sampled";
+  }
+  return "unknown";
+}
+
+namespace {
+
+constexpr double kZ95 = 1.6448536269514722;  // Phi^-1(0.95)
+// A linear stick probability in [this, 1 - this] is reported: the spread reaches a switch.
+constexpr double kSwitchReachWarning = 1e-3;
+constexpr std::array<const char*, 3> kCoefficientNames = {"restitution", "static_friction",
+                                                          "dynamic_friction"};
+enum Coefficient { kRestitution = 0, kStaticFriction = 1, kDynamicFriction = 2 };
+
+// The coefficients of one contact named by the request's uncertainties: each with its
+// distribution (a fixed one, min = max, for those without), and its sampling dimension (-1: fixed).
+struct UncertainContact {
+  std::size_t contact = 0;
+  std::size_t entry = 0;  // k of uncertainties[k]
+  std::array<CheckedDistribution, 3> distributions;
+  std::array<int, 3> dimension = {-1, -1, -1};
+};
+
+struct Prepared {
+  Scene mean_scene;  // the coefficients at their means
+  std::vector<UncertainContact> contacts;
+  std::vector<std::pair<std::size_t, int>> dimensions;  // (index in contacts, coefficient)
+  std::vector<double> variances;                        // per dimension
+  std::vector<Warning> warnings;
+  std::vector<std::pair<int, int>> contact_bodies;  // kSampled: validate()'s
+};
+
+double& coefficient(Contact& contact, int which) {
+  return which == kRestitution      ? contact.restitution
+         : which == kStaticFriction ? contact.static_friction
+                                    : contact.dynamic_friction;
+}
+
+// The distributions checked and the mean scene (not validated: the methods validate it).
+Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& uncertainties) {
+  Prepared prepared;
+  prepared.mean_scene = scene;
+  std::vector<bool> named(scene.contacts.size(), false);
+  for (std::size_t k = 0; k < uncertainties.size(); ++k) {
+    const ContactUncertainty& entry = uncertainties[k];
+    const std::string field = "uncertainties[" + std::to_string(k) + "]";
+    if (entry.contact >= scene.contacts.size())
+      throw InvalidInput(field + ".contact", "no contact " + std::to_string(entry.contact) +
+                                                 " (the request has " +
+                                                 std::to_string(scene.contacts.size()) + ")");
+    if (named[entry.contact])
+      throw InvalidInput(field + ".contact", "contact " + std::to_string(entry.contact) +
+                                                 " is named by an earlier entry");
+    named[entry.contact] = true;
+    const std::array<const std::optional<CoefficientDistribution>*, 3> given = {
+        &entry.restitution, &entry.static_friction, &entry.dynamic_friction};
+    if (!*given[0] && !*given[1] && !*given[2]) continue;
+    Contact& contact = prepared.mean_scene.contacts[entry.contact];
+    const std::array<double, 3> uppers = {1.0, std::numeric_limits<double>::infinity(),
+                                          std::numeric_limits<double>::infinity()};
+    auto checked = [&](int which) {
+      if (!*given[which]) {
+        const double value = coefficient(contact, which);
+        if (!std::isfinite(value))  // as validate() names it
+          throw InvalidInput(
+              "contacts[" + std::to_string(entry.contact) + "]." + kCoefficientNames[which],
+              "must be a finite number");
+        return CheckedDistribution(CoefficientDistribution::interval(value, value), -1e300, 1e300,
+                                   field);
+      }
+      std::optional<Warning> warning;
+      CheckedDistribution distribution(**given[which], 0.0, uppers[which],
+                                       field + "." + kCoefficientNames[which], &warning);
+      if (warning) prepared.warnings.push_back(*warning);
+      return distribution;
+    };
+    UncertainContact uncertain{entry.contact, k, {checked(0), checked(1), checked(2)}, {}};
+    for (int which = 0; which < 3; ++which) {
+      coefficient(contact, which) = uncertain.distributions[which].mean();
+      if (uncertain.distributions[which].variance() > 0.0) {
+        uncertain.dimension[which] = static_cast<int>(prepared.dimensions.size());
+        prepared.dimensions.emplace_back(prepared.contacts.size(), which);
+        prepared.variances.push_back(uncertain.distributions[which].variance());
+      }
+    }
+    // (Friction given as it is, an invalid pair is the contact's: validate() names it.)
+    if ((*given[kStaticFriction] || *given[kDynamicFriction]) &&
+        contact.dynamic_friction > contact.static_friction) {
+      const int which = *given[kDynamicFriction] ? kDynamicFriction : kStaticFriction;
+      std::ostringstream reason;
+      reason << "the mean of dynamic_friction (" << contact.dynamic_friction
+             << ") exceeds that of static_friction (" << contact.static_friction
+             << "): Coulomb's law needs mu_d <= mu_s";
+      throw InvalidInput(field + "." + kCoefficientNames[which], reason.str());
+    }
+    prepared.contacts.push_back(std::move(uncertain));
+  }
+  return prepared;
+}
+
+// P(mu_d > mu_s) from the normal approximation of mu_s - mu_d (same means and variances): cheap
+// enough for the linear method, whose warning it feeds.
+double approximateOverlapProbability(const UncertainContact& contact) {
+  const CheckedDistribution& mu_s = contact.distributions[kStaticFriction];
+  const CheckedDistribution& mu_d = contact.distributions[kDynamicFriction];
+  if (mu_d.quantile(1.0) <= mu_s.quantile(0.0)) return 0.0;
+  const double variance = mu_s.variance() + mu_d.variance();
+  if (variance == 0.0) return mu_d.mean() > mu_s.mean() ? 1.0 : 0.0;
+  return standardNormalCdf((mu_d.mean() - mu_s.mean()) / std::sqrt(variance));
+}
+
+std::vector<int> movableBodies(const Scene& scene) {
+  std::vector<int> movable;
+  for (std::size_t b = 0; b < scene.bodies.size(); ++b)
+    if (!scene.bodies[b].immovable()) movable.push_back(static_cast<int>(b));
+  return movable;
+}
+
+// The quantities of a prediction, in the order of OutcomeDistribution.
+template <typename Row>
+void fillOutcome(const CollisionResult& result, const std::vector<int>& movable, Row&& row) {
+  Eigen::Index r = 0;
+  for (const int b : movable) {
+    row(r++) = result.bodies[b].linear_velocity.x();
+    row(r++) = result.bodies[b].linear_velocity.y();
+    row(r++) = result.bodies[b].linear_velocity.z();
+    row(r++) = result.bodies[b].angular_velocity.x();
+    row(r++) = result.bodies[b].angular_velocity.y();
+    row(r++) = result.bodies[b].angular_velocity.z();
+  }
+  for (const ContactImpulse& impulse : result.impulses) {
+    row(r++) = impulse.normal_impulse;
+    row(r++) = impulse.friction_impulse.x();
+    row(r++) = impulse.friction_impulse.y();
+    row(r++) = impulse.friction_impulse.z();
+  }
+}
+
+std::vector<std::string> outcomeLabels(const std::vector<int>& movable, std::size_t contacts) {
+  ImpactDerivatives layout;
+  layout.movable_bodies = movable;
+  layout.contact_count = contacts;
+  layout.jacobian.resize(layout.velocityCount() + layout.impulseCount(), 0);
+  return layout.rowLabels();
+}
+
+std::string percentText(double fraction) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g %%", 100.0 * fraction);
+  return text;
+}
+
+// The probability that contact c sticks, from the linearised margin of its mode at the means
+// (docs/uncertainty.md): sticking, mu_s P_n - |P_t|; sliding, mu_s minus the mu_d at which the
+// linearised slip speed would vanish.
+double linearStickProbability(const ImpactDerivatives& derivatives, const Prepared& prepared,
+                              std::size_t c, const std::vector<int>& column_of_dimension) {
+  const CollisionResult& result = derivatives.result;
+  const ContactImpulse& impulse = result.impulses[c];
+  const Contact& contact = prepared.mean_scene.contacts[c];
+  if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
+  const ImpactMode mode = derivatives.contacts[c].mode;
+  if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
+  const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
+  // The dimension of this contact's mu_s, if uncertain.
+  int mu_s_dimension = -1;
+  for (const UncertainContact& uncertain : prepared.contacts)
+    if (uncertain.contact == c) mu_s_dimension = uncertain.dimension[kStaticFriction];
+  Eigen::VectorXd gradient = Eigen::VectorXd::Zero(dims);
+  double margin = 0.0;
+  const Eigen::Index row = derivatives.velocityCount() + 4 * static_cast<Eigen::Index>(c);
+  if (mode == ImpactMode::kSticking) {
+    const double tangential = impulse.friction_impulse.norm();
+    const Eigen::Vector3d direction = tangential > 0.0
+                                          ? Eigen::Vector3d(impulse.friction_impulse / tangential)
+                                          : Eigen::Vector3d::Zero();
+    margin = contact.static_friction * impulse.normal_impulse - tangential;
+    for (Eigen::Index j = 0; j < dims; ++j) {
+      const Eigen::Index k = column_of_dimension[j];
+      gradient(j) = contact.static_friction * derivatives.jacobian(row, k) -
+                    direction.dot(derivatives.jacobian.block<3, 1>(row + 1, k));
+    }
+    if (mu_s_dimension >= 0) gradient(mu_s_dimension) += impulse.normal_impulse;
+  } else {
+    // Slip velocity of b relative to a at the point, tangential part, and its derivatives.
+    auto index = [&](const std::string& id) {
+      for (std::size_t b = 0; b < result.bodies.size(); ++b)
+        if (result.bodies[b].id == id) return static_cast<int>(b);
+      return -1;  // not a body of the scene (validation rules this out)
+    };
+    const std::pair<int, int> bodies{index(contact.body_a), index(contact.body_b)};
+    const Eigen::Vector3d& n = contact.normal;
+    Eigen::Vector3d slip = Eigen::Vector3d::Zero();
+    Eigen::MatrixXd slip_rate = Eigen::MatrixXd::Zero(3, derivatives.jacobian.cols());
+    for (const auto& [body, sign] :
+         {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
+      if (body < 0) continue;
+      const BodyState& state = result.bodies[static_cast<std::size_t>(body)];
+      if (state.immovable()) continue;
+      const Eigen::Vector3d arm = contact.point - state.worldCom();
+      slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
+      const auto at =
+          std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
+      const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
+      for (Eigen::Index k = 0; k < slip_rate.cols(); ++k) {
+        const Eigen::Vector3d dv = derivatives.jacobian.block<3, 1>(rows, k);
+        const Eigen::Vector3d dw = derivatives.jacobian.block<3, 1>(rows + 3, k);
+        slip_rate.col(k) += sign * (dv + dw.cross(arm));
+      }
+    }
+    const Eigen::Matrix3d tangent_projection = Eigen::Matrix3d::Identity() - n * n.transpose();
+    slip = tangent_projection * slip;
+    const double speed = slip.norm();
+    if (speed == 0.0) return 0.0;
+    const Eigen::RowVectorXd speed_rate =
+        (slip / speed).transpose() * tangent_projection * slip_rate;
+    const Eigen::Index mu_d_column =
+        derivatives.velocityCount() + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
+    const double by_mu_d = speed_rate(mu_d_column);
+    if (!(by_mu_d < 0.0)) return 0.0;  // more friction does not slow the slip: it never sticks
+    margin = contact.static_friction - contact.dynamic_friction + speed / by_mu_d;
+    for (Eigen::Index j = 0; j < dims; ++j) {
+      const Eigen::Index k = column_of_dimension[j];
+      if (k == mu_d_column) continue;  // mu_d decides how it slides, not whether it sticks
+      gradient(j) = speed_rate(k) / by_mu_d;
+    }
+    if (mu_s_dimension >= 0) gradient(mu_s_dimension) += 1.0;
+  }
+  double variance = 0.0;
+  for (Eigen::Index j = 0; j < dims; ++j)
+    variance += gradient(j) * gradient(j) * prepared.variances[j];
+  if (variance == 0.0) return margin >= 0.0 ? 1.0 : 0.0;
+  return standardNormalCdf(margin / std::sqrt(variance));
+}
+
+OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
+                                       const RequestLimits& limits) {
+  const ImpactDerivatives derivatives =
+      computeImpactDerivatives(prepared.mean_scene, options, limits);
+  OutcomeDistribution outcome;
+  outcome.method = UncertaintyMethod::kLinear;
+  const Eigen::Index m = derivatives.velocityCount() + derivatives.impulseCount();
+  outcome.labels = derivatives.rowLabels();
+  outcome.mean.resize(m);
+  fillOutcome(derivatives.result, derivatives.movable_bodies,
+              [&](Eigen::Index r) -> double& { return outcome.mean(r); });
+  const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
+  std::vector<int> column_of_dimension(prepared.dimensions.size());
+  Eigen::MatrixXd scaled(m, dims);  // J columns times the standard deviations
+  for (Eigen::Index j = 0; j < dims; ++j) {
+    const auto& [index, which] = prepared.dimensions[j];
+    column_of_dimension[j] =
+        static_cast<int>(derivatives.velocityCount() +
+                         3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
+    scaled.col(j) =
+        derivatives.jacobian.col(column_of_dimension[j]) * std::sqrt(prepared.variances[j]);
+  }
+  outcome.covariance = scaled * scaled.transpose();
+  const Eigen::VectorXd spread = outcome.covariance.diagonal().cwiseSqrt();
+  outcome.q05 = outcome.mean - kZ95 * spread;
+  outcome.q95 = outcome.mean + kZ95 * spread;
+  const std::size_t contacts = prepared.mean_scene.contacts.size();
+  outcome.stick_probability.resize(contacts);
+  for (std::size_t c = 0; c < contacts; ++c)
+    outcome.stick_probability[c] =
+        linearStickProbability(derivatives, prepared, c, column_of_dimension);
+  outcome.warnings = prepared.warnings;
+  for (const UncertainContact& uncertain : prepared.contacts) {
+    const double overlap = approximateOverlapProbability(uncertain);
+    if (overlap > kTruncationWarningMass) {
+      outcome.warnings.push_back(
+          {"uncertainties[" + std::to_string(uncertain.entry) + "].dynamic_friction",
+           "exceeds static_friction with probability about " + percentText(overlap) +
+               " (normal approximation of mu_s - mu_d;"
+               " such draws are solved with mu_d = mu_s by the sampled method; the linear "
+               "method does not see the cap)",
+           Warning::Kind::kInput});
+    }
+  }
+  for (std::size_t c = 0; c < contacts; ++c) {
+    const double p = outcome.stick_probability[c];
+    if (p < kSwitchReachWarning || p > 1.0 - kSwitchReachWarning) continue;
+    outcome.warnings.push_back(
+        {"contacts[" + std::to_string(c) + "]",
+         "the spread reaches its stick/slip switch (stick probability " + percentText(p) +
+             "): the linear distribution covers one mode only; use the sampled method",
+         Warning::Kind::kInput});
+  }
+  for (std::size_t c = 0; c < contacts; ++c) {
+    const ContactDerivativeMode& mode = derivatives.contacts[c];
+    if (!mode.at_switch) continue;
+    outcome.warnings.push_back({"contacts[" + std::to_string(c) + "]",
+                                "linearised at a mode switch (" + mode.switch_detail +
+                                    "): the linear distribution holds on one side only; use the "
+                                    "sampled method",
+                                Warning::Kind::kInput});
+  }
+  return outcome;
+}
+
+double quantile(std::vector<double>& sorted, double p) {
+  const double h = p * static_cast<double>(sorted.size() - 1);
+  const auto low = static_cast<std::size_t>(std::floor(h));
+  const std::size_t high = std::min(low + 1, sorted.size() - 1);
+  return sorted[low] + (h - static_cast<double>(low)) * (sorted[high] - sorted[low]);
+}
+
+OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOptions& options,
+                                        const UncertaintyOptions& uncertainty, WorkerPool* pool) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::size_t dims = prepared.dimensions.size();
+  if (dims > HaltonSequence::kMaxDimensions)
+    throw InvalidInput("uncertainties", "the sampled method takes at most " +
+                                            std::to_string(HaltonSequence::kMaxDimensions) +
+                                            " uncertain coefficients (with a spread) per request");
+  const HaltonSequence sequence(dims, uncertainty.seed);
+  const Scene& scene = prepared.mean_scene;
+  const std::vector<int> movable = movableBodies(scene);
+  const std::size_t contacts = scene.contacts.size();
+  const auto n = static_cast<Eigen::Index>(uncertainty.samples);
+  const Eigen::Index m =
+      6 * static_cast<Eigen::Index>(movable.size()) + 4 * static_cast<Eigen::Index>(contacts);
+  Eigen::MatrixXd values(m, n);  // one column per sample
+  std::vector<unsigned char> sticking(uncertainty.samples * contacts, 0);
+  std::vector<unsigned char> capped(uncertainty.samples * prepared.contacts.size(), 0);
+  constexpr std::size_t kChunk = 32;
+  const std::size_t chunks = (uncertainty.samples + kChunk - 1) / kChunk;
+  auto run = [&](std::size_t chunk) {
+    Scene sample = scene;
+    const std::size_t end = std::min(uncertainty.samples, (chunk + 1) * kChunk);
+    for (std::size_t i = chunk * kChunk; i < end; ++i) {
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
+          options.time_budget)
+        throw SolverTimeout("uncertainty sampling ran past options.time_budget");
+      for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
+        const UncertainContact& uncertain = prepared.contacts[u];
+        std::array<double, 3> drawn;
+        for (int which = 0; which < 3; ++which) {
+          const int dimension = uncertain.dimension[which];
+          drawn[which] =
+              dimension < 0
+                  ? uncertain.distributions[which].mean()
+                  : uncertain.distributions[which].quantile(sequence.coordinate(i, dimension));
+        }
+        if (drawn[kDynamicFriction] > drawn[kStaticFriction]) {
+          drawn[kDynamicFriction] = drawn[kStaticFriction];
+          capped[i * prepared.contacts.size() + u] = 1;
+        }
+        Contact& contact = sample.contacts[uncertain.contact];
+        for (int which = 0; which < 3; ++which) coefficient(contact, which) = drawn[which];
+      }
+      const CollisionResult result =
+          computeValidatedResponse(sample, prepared.contact_bodies, options);
+      fillOutcome(result, movable, [&](Eigen::Index r) -> double& {
+        return values(r, static_cast<Eigen::Index>(i));
+      });
+      for (std::size_t c = 0; c < contacts; ++c)
+        sticking[i * contacts + c] = result.impulses[c].sticking ? 1 : 0;
+    }
+  };
+  if (pool != nullptr) {
+    pool->parallelFor(chunks, run);
+  } else {
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) run(chunk);
+  }
+
+  OutcomeDistribution outcome;
+  outcome.method = UncertaintyMethod::kSampled;
+  outcome.samples = uncertainty.samples;
+  outcome.labels = outcomeLabels(movable, contacts);
+  outcome.mean = values.rowwise().mean();
+  const Eigen::MatrixXd centred = values.colwise() - outcome.mean;
+  outcome.covariance = n > 1 ? Eigen::MatrixXd(centred * centred.transpose() / double(n - 1))
+                             : Eigen::MatrixXd::Zero(m, m);
+  outcome.q05.resize(m);
+  outcome.q95.resize(m);
+  std::vector<double> row(uncertainty.samples);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    for (Eigen::Index i = 0; i < n; ++i) row[static_cast<std::size_t>(i)] = values(r, i);
+    std::sort(row.begin(), row.end());
+    outcome.q05(r) = quantile(row, 0.05);
+    outcome.q95(r) = quantile(row, 0.95);
+  }
+  outcome.stick_probability.assign(contacts, 0.0);
+  for (std::size_t i = 0; i < uncertainty.samples; ++i)
+    for (std::size_t c = 0; c < contacts; ++c)
+      outcome.stick_probability[c] += sticking[i * contacts + c];
+  for (double& p : outcome.stick_probability) p /= static_cast<double>(uncertainty.samples);
+  outcome.warnings = prepared.warnings;
+  for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < uncertainty.samples; ++i)
+      count += capped[i * prepared.contacts.size() + u];
+    if (count == 0) continue;
+    outcome.warnings.push_back(
+        {"uncertainties[" + std::to_string(prepared.contacts[u].entry) + "].dynamic_friction",
+         "exceeded static_friction in " + std::to_string(count) + " of " +
+             std::to_string(uncertainty.samples) + " samples (" +
+             percentText(static_cast<double>(count) / uncertainty.samples) +
+             "): those were solved with mu_d = mu_s",
+         Warning::Kind::kInput});
+  }
+  return outcome;
+}
+
+}  // namespace
+
+OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
+                                               const std::vector<ContactUncertainty>& uncertainties,
+                                               const SolverOptions& options,
+                                               const UncertaintyOptions& uncertainty,
+                                               WorkerPool* pool, const RequestLimits& limits) {
+  if (uncertainty.method == UncertaintyMethod::kNone)
+    throw InvalidInput("options.uncertainty", "no method: ask for linear or sampled");
+  if (uncertainty.method == UncertaintyMethod::kSampled &&
+      (uncertainty.samples == 0 || uncertainty.samples > kMaxUncertaintySamples))
+    throw InvalidInput("options.uncertainty_samples",
+                       "must be in [1, " + std::to_string(kMaxUncertaintySamples) + "], got " +
+                           std::to_string(uncertainty.samples));
+  Prepared prepared = prepare(scene, uncertainties);
+  if (uncertainty.method == UncertaintyMethod::kLinear)
+    return linearDistribution(prepared, options, limits);
+  prepared.contact_bodies = validate(prepared.mean_scene, options, limits);
+  return sampledDistribution(prepared, options, uncertainty, pool);
+}
+
+}  // namespace collision_response::core

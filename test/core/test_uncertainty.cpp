@@ -1,0 +1,432 @@
+// Outcome distributions of impacts with uncertain coefficients (uncertainty.h,
+// docs/uncertainty.md). References, each computed here independently of the code under test:
+// a plain Monte Carlo loop over computeResponse() with std::mt19937 draws (truncation by
+// rejection, the mu_d cap by hand), the stick condition of a sphere landing on its pole derived
+// in closed form, and erf-based values of the standard normal.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/halton_sequence.h"
+#include "collision_response/core/standard_normal.h"
+#include "collision_response/core/uncertainty.h"
+#include "collision_response/core/worker_pool.h"
+
+namespace core = collision_response::core;
+using core::CoefficientDistribution;
+using core::ContactUncertainty;
+using core::UncertaintyMethod;
+
+namespace {
+
+// A box struck off-centre on the ground (u = (1, 0.3, -2) m/s at the contact): it slides for
+// mu_s = 0.2, far from sticking.
+core::Scene slidingBox() {
+  core::BodyState ground;
+  ground.id = "ground";
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 1.5;
+  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
+  box.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
+  box.position = {0.1, -0.05, 0.2};
+  box.linear_velocity = {1.0, 0.3, -2.0};
+  box.angular_velocity = {0.5, -1.0, 0.2};
+  core::Contact contact;
+  contact.body_a = "ground";
+  contact.body_b = "box";
+  contact.normal = {0.0, 0.0, 1.0};
+  contact.restitution = 0.5;
+  contact.static_friction = 0.2;
+  contact.dynamic_friction = 0.16;
+  core::Scene scene;
+  scene.bodies = {ground, box};
+  scene.contacts = {contact};
+  return scene;
+}
+
+// A uniform sphere (mass m, radius r, no spin) landing on its pole with velocity (u_t, 0, -u_n).
+// The contact lies below the centre: normal and tangential directions decouple, with
+// K_n = 1/m and K_t = 1/m + r^2 / (2/5 m r^2) = 7 / (2 m). Newton's law: P_n = (1 + e) m u_n;
+// sticking needs P_t = u_t / K_t = 2 m u_t / 7, inside the static cone iff
+//   mu_s >= 2 u_t / (7 (1 + e) u_n) =: k / (1 + e),  k = 2 u_t / (7 u_n).
+constexpr double kSphereMass = 2.0;
+constexpr double kSphereRadius = 0.1;
+constexpr double kUt = 0.5;
+constexpr double kUn = 2.0;
+constexpr double kStickK = 2.0 * kUt / (7.0 * kUn);
+
+core::Scene sphere(double e, double mu_s, double mu_d) {
+  core::BodyState ground;
+  ground.id = "ground";
+  core::BodyState ball;
+  ball.id = "ball";
+  ball.mass = kSphereMass;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.4 * kSphereMass * kSphereRadius * kSphereRadius;
+  ball.position = {0.0, 0.0, kSphereRadius};
+  ball.linear_velocity = {kUt, 0.0, -kUn};
+  core::Contact contact;
+  contact.body_a = "ground";
+  contact.body_b = "ball";
+  contact.normal = {0.0, 0.0, 1.0};
+  contact.restitution = e;
+  contact.static_friction = mu_s;
+  contact.dynamic_friction = mu_d;
+  core::Scene scene;
+  scene.bodies = {ground, ball};
+  scene.contacts = {contact};
+  return scene;
+}
+
+core::SolverOptions newton() {
+  core::SolverOptions options;
+  options.law = core::ImpactLaw::kNewton;
+  return options;
+}
+
+core::UncertaintyOptions sampled(std::size_t samples) {
+  core::UncertaintyOptions options;
+  options.method = UncertaintyMethod::kSampled;
+  options.samples = samples;
+  return options;
+}
+
+core::UncertaintyOptions linear() {
+  core::UncertaintyOptions options;
+  options.method = UncertaintyMethod::kLinear;
+  return options;
+}
+
+bool hasWarning(const core::OutcomeDistribution& outcome, const std::string& field) {
+  return std::any_of(outcome.warnings.begin(), outcome.warnings.end(),
+                     [&](const core::Warning& w) { return w.field == field; });
+}
+
+std::string errorField(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const core::InvalidInput& e) {
+    return e.field();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST(StandardNormal, QuantileInvertsTheCdfAndKnownValues) {
+  EXPECT_NEAR(core::standardNormalQuantile(0.975), 1.959963984540054, 1e-12);
+  EXPECT_NEAR(core::standardNormalQuantile(0.05), -1.6448536269514722, 1e-12);
+  for (const double p : {1e-12, 1e-6, 0.01, 0.3, 0.5, 0.77, 0.999, 1.0 - 1e-9}) {
+    const double x = core::standardNormalQuantile(p);
+    // Phi from erfc, written out here.
+    EXPECT_NEAR(0.5 * std::erfc(-x / std::sqrt(2.0)), p, 1e-12 * std::min(p, 1.0 - p)) << p;
+  }
+}
+
+TEST(HaltonSequence, CoordinatesAreUniformAndSeeded) {
+  const core::HaltonSequence a(5, 7);
+  const core::HaltonSequence b(5, 7);
+  const core::HaltonSequence c(5, 8);
+  const int n = 4096;
+  for (std::size_t d = 0; d < 5; ++d) {
+    double sum = 0.0;
+    int below_tenth = 0;
+    for (int i = 0; i < n; ++i) {
+      const double x = a.coordinate(i, d);
+      ASSERT_GT(x, 0.0);
+      ASSERT_LT(x, 1.0);
+      EXPECT_EQ(x, b.coordinate(i, d));
+      sum += x;
+      below_tenth += x < 0.1;
+    }
+    // A low-discrepancy set: far closer than the 1/sqrt(12 n) = 0.0045 of random points.
+    EXPECT_NEAR(sum / n, 0.5, 1e-3) << d;
+    EXPECT_NEAR(below_tenth / double(n), 0.1, 2e-3) << d;
+  }
+  EXPECT_NE(a.coordinate(3, 2), c.coordinate(3, 2));
+}
+
+namespace {
+
+// The sampled method against a plain Monte Carlo loop over computeResponse() (Stronge, the
+// default law), with a truncated normal restitution (15.9 % of N(0.9, 0.1) lies above 1) and a
+// dynamic friction that often exceeds the static one (capped): mu_s ~ U[a, b],
+// mu_d ~ N(mean_d, sd_d).
+void expectSampledMatchesMonteCarlo(const core::Scene& scene, double a, double b, double mean_d,
+                                    double sd_d, bool both_modes) {
+  const core::SolverOptions options;  // Stronge
+  ContactUncertainty u;
+  u.contact = 0;
+  u.restitution = CoefficientDistribution::normal(0.9, 0.1);
+  u.static_friction = CoefficientDistribution::interval(a, b);
+  u.dynamic_friction = CoefficientDistribution::normal(mean_d, sd_d);
+  core::WorkerPool pool(2);
+  const std::size_t ns = 4096;
+  const core::OutcomeDistribution outcome =
+      core::computeOutcomeDistribution(scene, {u}, options, sampled(ns), &pool);
+  ASSERT_EQ(outcome.mean.size(), 10);
+  EXPECT_EQ(outcome.samples, ns);
+  EXPECT_EQ(outcome.labels[0], "bodies[1].twist.linear.x");
+  EXPECT_EQ(outcome.labels[6], "impulses[0].normal_impulse");
+  EXPECT_TRUE(hasWarning(outcome, "uncertainties[0].restitution"));
+  EXPECT_TRUE(hasWarning(outcome, "uncertainties[0].dynamic_friction"));
+
+  // The reference: pseudo-random draws, truncation by rejection, the cap by hand.
+  std::mt19937 random(12345);
+  std::normal_distribution<double> e_draw(0.9, 0.1);
+  std::uniform_real_distribution<double> mu_s_draw(a, b);
+  std::normal_distribution<double> mu_d_draw(mean_d, sd_d);
+  const int nm = 20000;
+  Eigen::MatrixXd values(10, nm);
+  std::vector<double> sticks(nm);
+  for (int i = 0; i < nm; ++i) {
+    double e = 0.0, mu_d = 0.0;
+    do e = e_draw(random);
+    while (e < 0.0 || e > 1.0);
+    const double mu_s = mu_s_draw(random);
+    do mu_d = mu_d_draw(random);
+    while (mu_d < 0.0);
+    core::Scene sample = scene;
+    sample.contacts[0].restitution = e;
+    sample.contacts[0].static_friction = mu_s;
+    sample.contacts[0].dynamic_friction = std::min(mu_d, mu_s);
+    const core::CollisionResult result = core::computeResponse(sample, options);
+    values.col(i) << result.bodies[1].linear_velocity, result.bodies[1].angular_velocity,
+        result.impulses[0].normal_impulse, result.impulses[0].friction_impulse;
+    sticks[i] = result.impulses[0].sticking ? 1.0 : 0.0;
+  }
+  const Eigen::VectorXd mean = values.rowwise().mean();
+  const Eigen::MatrixXd centred = values.colwise() - mean;
+  const Eigen::MatrixXd cov = centred * centred.transpose() / (nm - 1);
+  const double weight = 1.0 / nm + 1.0 / ns;  // both treated as Monte Carlo (conservative)
+  for (int r = 0; r < 10; ++r) {
+    SCOPED_TRACE(outcome.labels[r]);
+    EXPECT_NEAR(outcome.mean(r), mean(r), 4.0 * std::sqrt(cov(r, r) * weight) + 1e-12);
+    for (int c = 0; c < 10; ++c) {
+      // Standard error of a sample covariance (normal approximation), and of the variance from
+      // the fourth central moment.
+      double se = std::sqrt((cov(r, r) * cov(c, c) + cov(r, c) * cov(r, c)) * weight);
+      if (r == c) {
+        const double m4 = centred.row(r).array().pow(4).mean();
+        se = std::sqrt(std::max(0.0, m4 - cov(r, r) * cov(r, r)) * weight);
+      }
+      EXPECT_NEAR(outcome.covariance(r, c), cov(r, c), 4.0 * se + 1e-12) << c;
+    }
+    // The quantiles: q is a p-quantile of the reference if at most p of it lies below q and at
+    // least p at or below (atoms, e.g. every sticking sample's v_x, make both matter).
+    for (const auto& [q, level] :
+         {std::pair{outcome.q05(r), 0.05}, std::pair{outcome.q95(r), 0.95}}) {
+      const double tolerance = 4.0 * std::sqrt(level * (1 - level) * weight);
+      EXPECT_LE((values.row(r).array() < q).cast<double>().mean(), level + tolerance) << level;
+      EXPECT_GE((values.row(r).array() <= q).cast<double>().mean(), level - tolerance) << level;
+    }
+  }
+  double p = 0.0;
+  for (const double s : sticks) p += s;
+  p /= nm;
+  if (both_modes) {
+    EXPECT_GT(p, 0.05);
+    EXPECT_LT(p, 0.95);
+  }
+  EXPECT_NEAR(outcome.stick_probability[0], p, 4.0 * std::sqrt(p * (1.0 - p) * weight) + 1e-12);
+}
+
+}  // namespace
+
+TEST(Uncertainty, SampledMatchesPlainMonteCarloOnASlidingBox) {
+  expectSampledMatchesMonteCarlo(slidingBox(), 0.15, 0.3, 0.15, 0.05, false);
+}
+
+TEST(Uncertainty, SampledMatchesPlainMonteCarloOnASphereThatSticksOrSlides) {
+  expectSampledMatchesMonteCarlo(sphere(0.5, 0.05, 0.03), 0.02, 0.08, 0.03, 0.02, true);
+}
+
+// The same answer, bit for bit, on 1 and 2 threads and from the same seed.
+TEST(Uncertainty, SampledIsDeterministic) {
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::interval(0.2, 0.6);
+  u.static_friction = CoefficientDistribution::normal(0.2, 0.05);
+  const core::Scene scene = slidingBox();
+  core::WorkerPool pool(2);
+  const auto one = core::computeOutcomeDistribution(scene, {u}, newton(), sampled(500));
+  const auto two = core::computeOutcomeDistribution(scene, {u}, newton(), sampled(500), &pool);
+  EXPECT_EQ(one.mean, two.mean);
+  EXPECT_EQ(one.covariance, two.covariance);
+  EXPECT_EQ(one.q05, two.q05);
+  EXPECT_EQ(one.stick_probability, two.stick_probability);
+}
+
+// Stick probability of the sphere: e ~ U[e1, e2], mu_s ~ U[a, b], independent; the threshold
+// k / (1 + e) stays inside [a, b], so P = (1 / (e2 - e1)) int (b - k / (1 + e)) / (b - a) de
+//   = (b - k ln((1 + e2) / (1 + e1)) / (e2 - e1)) / (b - a).
+TEST(Uncertainty, StickProbabilityOfASphereMatchesTheClosedForm) {
+  const double e1 = 0.2, e2 = 0.6, a = 0.03, b = 0.08;
+  ASSERT_GT(kStickK / (1 + e1), a);
+  ASSERT_LT(kStickK / (1 + e2), b);
+  ASSERT_LT(kStickK / (1 + e1), b);
+  const double exact = (b - kStickK * std::log((1 + e2) / (1 + e1)) / (e2 - e1)) / (b - a);
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::interval(e1, e2);
+  u.static_friction = CoefficientDistribution::interval(a, b);
+  const auto outcome =
+      core::computeOutcomeDistribution(sphere(0.4, 0.05, 0.02), {u}, newton(), sampled(8192));
+  EXPECT_NEAR(outcome.stick_probability[0], exact, 5e-3);
+  EXPECT_FALSE(hasWarning(outcome, "uncertainties[0].dynamic_friction"));  // mu_d < a
+}
+
+// With e fixed and mu_s ~ N(m, s), the sphere sticks with probability Phi((m - t) / s),
+// t = k / (1 + e): exactly linear in mu_s on both sides (sticking: the margin mu_s P_n - |P_t| is
+// linear in mu_s; sliding: the slip u_t - 3.5 mu_d (1 + e) u_n is linear in mu_d), so the linear
+// method gives it exactly from either mode.
+TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInMuS) {
+  const double e = 0.4;
+  const double t = kStickK / (1.0 + e);
+  for (const double m : {t + 0.009, t - 0.006}) {
+    const double s = 0.005;
+    ContactUncertainty u;
+    u.static_friction = CoefficientDistribution::normal(m, s);
+    const double exact = 0.5 * std::erfc(-((m - t) / s) / std::sqrt(2.0));
+    const auto lin = core::computeOutcomeDistribution(sphere(e, m, 0.01), {u}, newton(), linear());
+    EXPECT_NEAR(lin.stick_probability[0], exact, 1e-6) << m;
+    const auto smp =
+        core::computeOutcomeDistribution(sphere(e, m, 0.01), {u}, newton(), sampled(4096));
+    EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3) << m;
+  }
+}
+
+// Small spreads on a smooth scene (one contact sliding far from sticking): the linear
+// distribution agrees with the sampled one to a few percent of the spreads.
+TEST(Uncertainty, LinearMatchesSampledForSmallSpreads) {
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::normal(0.5, 0.01);
+  u.static_friction = CoefficientDistribution::normal(0.2, 0.005);
+  u.dynamic_friction = CoefficientDistribution::normal(0.16, 0.006);
+  const core::Scene scene = slidingBox();
+  const auto lin = core::computeOutcomeDistribution(scene, {u}, newton(), linear());
+  const auto smp = core::computeOutcomeDistribution(scene, {u}, newton(), sampled(4096));
+  EXPECT_EQ(lin.labels, smp.labels);
+  const Eigen::VectorXd sd = smp.covariance.diagonal().cwiseSqrt();
+  ASSERT_GT(sd.maxCoeff(), 1e-3);
+  for (Eigen::Index r = 0; r < sd.size(); ++r) {
+    SCOPED_TRACE(lin.labels[r]);
+    EXPECT_NEAR(lin.mean(r), smp.mean(r), 0.02 * sd(r) + 1e-12);
+    EXPECT_NEAR(lin.q05(r), smp.q05(r), 0.05 * sd(r) + 1e-12);
+    EXPECT_NEAR(lin.q95(r), smp.q95(r), 0.05 * sd(r) + 1e-12);
+    for (Eigen::Index c = 0; c < sd.size(); ++c)
+      EXPECT_NEAR(lin.covariance(r, c), smp.covariance(r, c), 0.03 * sd(r) * sd(c) + 1e-14);
+  }
+  // mu_s would have to reach the tail beyond ~4 standard deviations.
+  EXPECT_LT(lin.stick_probability[0], 1e-3);
+  EXPECT_LT(smp.stick_probability[0], 1e-3);
+  EXPECT_TRUE(lin.warnings.empty());
+}
+
+// Where the linear method stops matching: the sphere with mu_s spread across its stick/slip
+// switch. At the mean it sticks, where the twist does not depend on mu_s: the linear variance of
+// the post-impact v_x is 0, while the samples that slide (with mu_d well below mu_s) leave a
+// spread. The stick probability (a linear margin) still matches.
+TEST(Uncertainty, LinearMissesTheSpreadAcrossAStickSlipSwitch) {
+  const double e = 0.4;
+  const double t = kStickK / (1.0 + e);
+  ContactUncertainty u;
+  u.static_friction = CoefficientDistribution::normal(t + 0.001, 0.01);
+  const core::Scene scene = sphere(e, t + 0.001, 0.02);
+  const auto lin = core::computeOutcomeDistribution(scene, {u}, newton(), linear());
+  const auto smp = core::computeOutcomeDistribution(scene, {u}, newton(), sampled(4096));
+  EXPECT_NEAR(lin.covariance(0, 0), 0.0, 1e-20);
+  // Sliding samples: v_x' = u_t - mu_d (1 + e) u_n against 5/7 u_t sticking.
+  const double jump = (kUt - 0.02 * (1 + e) * kUn) - 5.0 / 7.0 * kUt;
+  const double p_slide = 1.0 - smp.stick_probability[0];
+  EXPECT_NEAR(smp.covariance(0, 0), jump * jump * p_slide * (1 - p_slide), 0.02 * jump * jump);
+  EXPECT_GT(smp.covariance(0, 0), 0.01 * jump * jump);
+  EXPECT_NEAR(lin.stick_probability[0], smp.stick_probability[0], 0.02);
+  EXPECT_TRUE(hasWarning(lin, "contacts[0]"));  // the spread reaches the switch
+}
+
+TEST(Uncertainty, BadInputNamesTheField) {
+  const core::Scene scene = slidingBox();
+  auto field = [&](const ContactUncertainty& u, const core::UncertaintyOptions& o = sampled(10)) {
+    return errorField([&] { core::computeOutcomeDistribution(scene, {u}, newton(), o); });
+  };
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::normal(0.5, -0.1);
+  EXPECT_EQ(field(u), "uncertainties[0].restitution.std_dev");
+  u.restitution = CoefficientDistribution::interval(0.6, 0.4);
+  EXPECT_EQ(field(u), "uncertainties[0].restitution.min");
+  u.restitution = CoefficientDistribution::interval(0.5, 1.2);
+  EXPECT_EQ(field(u), "uncertainties[0].restitution.max");
+  u.restitution = CoefficientDistribution::normal(1.1, 0.1);
+  EXPECT_EQ(field(u), "uncertainties[0].restitution.mean");
+  u.restitution.reset();
+  u.static_friction = CoefficientDistribution::interval(-0.1, 0.2);
+  EXPECT_EQ(field(u), "uncertainties[0].static_friction.min");
+  u.static_friction = CoefficientDistribution::normal(0.1, 0.01);
+  u.dynamic_friction = CoefficientDistribution::normal(0.15, 0.01);
+  EXPECT_EQ(field(u), "uncertainties[0].dynamic_friction");
+  u.dynamic_friction.reset();
+  u.static_friction = CoefficientDistribution::normal(0.3, 0.01);
+  EXPECT_EQ(field(u, sampled(core::kMaxUncertaintySamples + 1)), "options.uncertainty_samples");
+  EXPECT_EQ(field(u, sampled(0)), "options.uncertainty_samples");
+  u.contact = 1;
+  EXPECT_EQ(field(u), "uncertainties[0].contact");
+  u.contact = 0;
+  EXPECT_EQ(errorField([&] {
+              core::computeOutcomeDistribution(scene, {u, u}, newton(), linear());
+            }),
+            "uncertainties[1].contact");
+  core::UncertaintyOptions none;
+  none.method = UncertaintyMethod::kNone;
+  EXPECT_EQ(field(u, none), "options.uncertainty");
+}
+
+// The truncated normal's moments and quantiles against a quadrature of the density written here:
+// N(0.9, 0.1) conditioned on [0, 1].
+TEST(CoefficientDistribution, TruncatedNormalMomentsMatchQuadrature) {
+  std::optional<core::Warning> warning;
+  const core::CheckedDistribution d(CoefficientDistribution::normal(0.9, 0.1), 0.0, 1.0,
+                                    "uncertainties[0].restitution", &warning);
+  ASSERT_TRUE(warning.has_value());
+  EXPECT_EQ(warning->field, "uncertainties[0].restitution");
+  const int n = 200000;  // midpoint rule on [0, 1]
+  double mass = 0.0, first = 0.0, second = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double x = (i + 0.5) / n;
+    const double density = std::exp(-0.5 * std::pow((x - 0.9) / 0.1, 2));
+    mass += density;
+    first += x * density;
+    second += x * x * density;
+  }
+  const double mean = first / mass;
+  EXPECT_NEAR(d.mean(), mean, 1e-9);
+  EXPECT_NEAR(d.variance(), second / mass - mean * mean, 1e-9);
+  // The median: half the mass below it.
+  const double median = d.quantile(0.5);
+  double below = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double x = (i + 0.5) / n;
+    if (x < median) below += std::exp(-0.5 * std::pow((x - 0.9) / 0.1, 2));
+  }
+  EXPECT_NEAR(below / mass, 0.5, 1e-4);
+  EXPECT_NEAR(d.truncatedMass(), 0.5 * std::erfc(1.0 / std::sqrt(2.0)), 1e-12);  // P(Z > 1)
+}
+
+// The whole sampling is bounded by options.time_budget.
+TEST(Uncertainty, SamplingStopsAtTheTimeBudget) {
+  core::SolverOptions options = newton();
+  options.time_budget = 1e-3;
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::interval(0.2, 0.6);
+  EXPECT_THROW(core::computeOutcomeDistribution(slidingBox(), {u}, options,
+                                                sampled(core::kMaxUncertaintySamples)),
+               core::SolverTimeout);
+}

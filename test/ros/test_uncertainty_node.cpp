@@ -1,0 +1,142 @@
+// Integration test: uncertain contact coefficients through the node's ~compute service
+// (options.uncertainty, request.uncertainties, response.outcome_distribution; docs/uncertainty.md).
+// The reference is the stick condition of a sphere landing on its pole, in closed form: with
+// K_n = 1/m and K_t = 7 / (2 m), Newton's law sticks iff mu_s >= 2 u_t / (7 (1 + e) u_n).
+#include <collision_response/ComputeResponse.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include <cmath>
+
+#include "node_test_messages.h"
+
+namespace cr = collision_response;
+using namespace collision_response::testing;
+
+namespace {
+
+constexpr double kUt = 0.5;
+constexpr double kUn = 2.0;
+constexpr double kE = 0.4;
+const double kThreshold = 2.0 * kUt / (7.0 * (1.0 + kE) * kUn);
+
+cr::Distribution normal(double mean, double std_dev) {
+  cr::Distribution d;
+  d.type = cr::Distribution::TYPE_NORMAL;
+  d.mean = mean;
+  d.std_dev = std_dev;
+  return d;
+}
+
+cr::Distribution interval(double min, double max) {
+  cr::Distribution d;
+  d.type = cr::Distribution::TYPE_INTERVAL;
+  d.min = min;
+  d.max = max;
+  return d;
+}
+
+// A 2 kg sphere of radius 0.1 m landing at (0.5, 0, -2) m/s on the ground, Newton's law; mu_s
+// uncertain ~ N(mean, 0.005), mu_d = 0.01.
+cr::ComputeResponse landingSphere(std::uint8_t method, double mean) {
+  cr::ComputeResponse srv;
+  srv.request.header.frame_id = "world";
+  cr::BodyState ground;
+  ground.id = "ground";
+  ground.pose.orientation.w = 1.0;
+  cr::BodyState ball = sphere("ball", 2.0, 0.1, pose(0, 0, 0.1));
+  ball.twist.linear.x = kUt;
+  ball.twist.linear.z = -kUn;
+  srv.request.bodies = {ground, ball};
+  srv.request.contacts = {contact("ground", "ball", 0, 0, 0, 0, 0, 1, kE, mean, 0.01)};
+  srv.request.options.law = cr::SolverOptions::LAW_NEWTON;
+  srv.request.options.uncertainty = method;
+  srv.request.options.uncertainty_samples = 4096;
+  cr::ContactUncertainty u;
+  u.contact = 0;
+  u.static_friction = normal(mean, 0.005);
+  srv.request.uncertainties = {u};
+  return srv;
+}
+
+class UncertaintyNodeTest : public ServiceTest {};
+
+TEST_F(UncertaintyNodeTest, StickProbabilityMatchesTheClosedForm) {
+  for (const double mean : {kThreshold + 0.004, kThreshold - 0.006}) {
+    const double exact = 0.5 * std::erfc(-((mean - kThreshold) / 0.005) / std::sqrt(2.0));
+    for (const std::uint8_t method :
+         {cr::SolverOptions::UNCERTAINTY_LINEAR, cr::SolverOptions::UNCERTAINTY_SAMPLED}) {
+      SCOPED_TRACE(std::to_string(mean) + " method " + std::to_string(method));
+      const auto response = call(landingSphere(method, mean));
+      ASSERT_TRUE(response.success) << response.message;
+      const cr::OutcomeDistribution& d = response.outcome_distribution;
+      EXPECT_EQ(d.method, method == cr::SolverOptions::UNCERTAINTY_LINEAR ? "linear" : "sampled");
+      EXPECT_EQ(d.samples, method == cr::SolverOptions::UNCERTAINTY_LINEAR ? 0u : 4096u);
+      ASSERT_EQ(d.labels.size(), 10u);
+      EXPECT_EQ(d.labels[0], "bodies[1].twist.linear.x");
+      EXPECT_EQ(d.labels[6], "impulses[0].normal_impulse");
+      EXPECT_EQ(d.mean.size(), 10u);
+      EXPECT_EQ(d.covariance.size(), 100u);
+      EXPECT_EQ(d.q05.size(), 10u);
+      EXPECT_EQ(d.q95.size(), 10u);
+      ASSERT_EQ(d.stick_probability.size(), 1u);
+      EXPECT_NEAR(d.stick_probability[0], exact,
+                  method == cr::SolverOptions::UNCERTAINTY_LINEAR ? 1e-6 : 5e-3);
+      // The normal impulse (1 + e) m u_n does not depend on mu_s.
+      EXPECT_NEAR(d.mean[6], (1 + kE) * 2.0 * kUn, 1e-9);
+      EXPECT_NEAR(d.covariance[6 * 10 + 6], 0.0, 1e-12);
+      // The answer itself stays the prediction with the contact's own coefficients.
+      EXPECT_EQ(response.impulses[0].sticking, mean >= kThreshold);
+    }
+  }
+}
+
+TEST_F(UncertaintyNodeTest, NoMethodNoDistribution) {
+  const auto response = call(landingSphere(cr::SolverOptions::UNCERTAINTY_NONE, 0.05));
+  ASSERT_TRUE(response.success) << response.message;
+  EXPECT_TRUE(response.outcome_distribution.method.empty());
+  EXPECT_TRUE(response.outcome_distribution.mean.empty());
+  bool warned = false;
+  for (const std::string& w : response.warnings) warned |= w.rfind("uncertainties:", 0) == 0;
+  EXPECT_TRUE(warned);
+}
+
+TEST_F(UncertaintyNodeTest, BadInputIsRejectedNamingTheField) {
+  const auto sampled = cr::SolverOptions::UNCERTAINTY_SAMPLED;
+  auto rejected = [&](const cr::ComputeResponse& srv, const std::string& field) {
+    const auto response = expectRejected(srv, field);
+    EXPECT_TRUE(response.outcome_distribution.mean.empty());
+  };
+  cr::ComputeResponse srv = landingSphere(sampled, 0.05);
+  srv.request.uncertainties[0].static_friction.std_dev = -0.01;
+  rejected(srv, "uncertainties[0].static_friction.std_dev");
+  srv = landingSphere(sampled, 0.05);
+  srv.request.uncertainties[0].restitution = interval(0.6, 0.4);
+  rejected(srv, "uncertainties[0].restitution.min");
+  srv = landingSphere(sampled, 0.05);
+  srv.request.uncertainties[0].restitution = interval(0.5, 1.1);
+  rejected(srv, "uncertainties[0].restitution.max");
+  srv = landingSphere(sampled, 0.05);
+  srv.request.uncertainties[0].restitution.type = 7;
+  rejected(srv, "uncertainties[0].restitution.type");
+  srv = landingSphere(sampled, 0.05);
+  srv.request.options.uncertainty_samples = 100001;
+  rejected(srv, "options.uncertainty_samples");
+  srv = landingSphere(sampled, 0.05);
+  srv.request.options.uncertainty = 9;
+  rejected(srv, "options.uncertainty");
+  srv = landingSphere(sampled, 0.05);
+  srv.request.uncertainties[0].contact = 3;
+  rejected(srv, "uncertainties[0].contact");
+  EXPECT_TRUE(call(landingSphere(sampled, 0.05)).success) << "node stopped serving";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_uncertainty_node");
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
