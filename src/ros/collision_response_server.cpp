@@ -63,6 +63,10 @@ void clearAnswer(ComputeResponse::Response& response) {
   response.warnings.clear();
   response.robots.clear();
   response.effective_masses.clear();
+  response.reflected_masses_a.clear();
+  response.reflected_masses_b.clear();
+  response.approach_speeds.clear();
+  response.transferred_energies.clear();
   response.derivatives = ImpactDerivatives();
 }
 
@@ -92,6 +96,10 @@ void moveAnswer(ComputeResponse::Response& answer, SceneResult& result) {
   result.solve_time = answer.solve_time;
   result.robots = std::move(answer.robots);
   result.effective_masses = std::move(answer.effective_masses);
+  result.reflected_masses_a = std::move(answer.reflected_masses_a);
+  result.reflected_masses_b = std::move(answer.reflected_masses_b);
+  result.approach_speeds = std::move(answer.approach_speeds);
+  result.transferred_energies = std::move(answer.transferred_energies);
   result.derivatives = std::move(answer.derivatives);
 }
 
@@ -404,6 +412,7 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   for (const core::Warning& warning : result.warnings)
     response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   response.robots = robotAnswers(robots, rigid_count, points, result.impulses, request.header);
+  addSafetyOutputs(models, points, result.impulses, robots, response);
   for (const RobotResult& robot : response.robots) energy_after += robot.kinetic_energy_after;
   response.kinetic_energy_before = energy_before;
   response.kinetic_energy_after = energy_after;

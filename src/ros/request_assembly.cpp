@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <unordered_set>
 
+#include "collision_response/core/contact_safety.h"
 #include "collision_response/core/errors.h"
+#include "collision_response/robot/joint_safety.h"
 #include "collision_response/ros/message_conversion.h"
 #include "collision_response/ros/robot_conversion.h"
 
@@ -261,8 +263,32 @@ std::vector<RobotResult> robotAnswers(const std::vector<RequestRobot>& robots, i
     const Eigen::VectorXd torques =
         robot.model->restingContactTorques(rigid_count + static_cast<int>(r), points, impulses);
     answers.back().contact_joint_torques.assign(torques.data(), torques.data() + torques.size());
+    const robot::ArticulatedBody& model = *robot.model;
+    for (int joint = 0; joint < model.jointCount(); ++joint)
+      answers.back().joint_velocity_limits.push_back(model.velocityLimit(joint));
+    const Eigen::VectorXd impulse =
+        robot::impactJointImpulses(model, rigid_count + static_cast<int>(r), points, impulses);
+    answers.back().joint_impulses.assign(impulse.data(), impulse.data() + impulse.size());
   }
   return answers;
+}
+
+void addSafetyOutputs(const std::vector<core::BodyModel*>& models,
+                      const std::vector<core::ContactPoint>& points,
+                      const std::vector<core::ContactImpulse>& impulses,
+                      const std::vector<RequestRobot>& robots,
+                      ComputeResponse::Response& response) {
+  for (const core::ContactSafety& contact : core::contactSafety(models, points, impulses)) {
+    response.reflected_masses_a.push_back(contact.reflected_mass_a);
+    response.reflected_masses_b.push_back(contact.reflected_mass_b);
+    response.approach_speeds.push_back(contact.approach_speed);
+    response.transferred_energies.push_back(contact.transferred_energy);
+  }
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const std::string field = "robots[" + std::to_string(r) + "]";
+    for (const core::Warning& warning : robot::velocityLimitWarnings(*robots[r].model, field))
+      response.warnings.push_back(warning.text());
+  }
 }
 
 }  // namespace collision_response

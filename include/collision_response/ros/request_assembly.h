@@ -130,12 +130,23 @@ std::vector<ContactLinkFrame> contactLinkFrames(const std::vector<core::ContactP
                                                 const std::vector<RequestRobot>& robots,
                                                 int rigid_count);
 
-/// The robots' answers, in order: each robot after the impact (`model`), and the joint torques
+/// The robots' answers, in order: each robot after the impact (`model`), the joint torques
 /// [N m | N] its resting contacts take (ArticulatedBody::restingContactTorques() with `impulses`,
-/// the robot being model rigid_count + r). Frames: the request's `header`.
+/// the robot being model rigid_count + r), and the safety outputs per joint: the velocity limits
+/// and the impact's joint impulses (robot/joint_safety.h). Frames: the request's `header`.
 std::vector<RobotResult> robotAnswers(const std::vector<RequestRobot>& robots, int rigid_count,
                                       const std::vector<core::ContactPoint>& points,
                                       const std::vector<core::ContactImpulse>& impulses,
                                       const std_msgs::Header& header);
+
+/// The safety outputs per contact (docs/robots.md, "Safety outputs"): the response's
+/// reflected_masses_a / _b, approach_speeds and transferred_energies from core::contactSafety()
+/// over `models` (the bodies after the impact: the masses depend on the configuration only) and
+/// the answer's `impulses`; and a warning "robots[r].joint_state.velocity[j]: ..." in `warnings`
+/// for each joint that the impact leaves beyond its velocity limit (r the answer's robot index).
+void addSafetyOutputs(const std::vector<core::BodyModel*>& models,
+                      const std::vector<core::ContactPoint>& points,
+                      const std::vector<core::ContactImpulse>& impulses,
+                      const std::vector<RequestRobot>& robots, ComputeResponse::Response& response);
 
 }  // namespace collision_response
