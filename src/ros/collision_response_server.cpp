@@ -10,6 +10,7 @@
 #include <chrono>
 #include <optional>
 
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/errors.h"
@@ -259,11 +260,6 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     // valid poses), the detected contacts after it.
     core::SceneValidator validator(scene, options, parameters_.limits);
     if (involvesRobots(request, robots_)) {
-      if (request.options.derivatives) {
-        throw core::InvalidInput("options.derivatives",
-                                 "derivatives are computed for rigid bodies only so far: ask "
-                                 "without robots, or set options.derivatives to false");
-      }
       solveWithRobots(request, response, scene, validator, options, link_frames);
       response.success = true;
       return field_error;
@@ -388,7 +384,16 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   for (const RequestRobot& robot : robots) energy_before += robot.energy_before;
 
   const auto start = std::chrono::steady_clock::now();
-  const core::BodyResponse result = core::computeBodyResponse(models, points, options);
+  core::BodyResponse result;
+  if (request.options.derivatives) {
+    // With its Jacobians (docs/robots.md, "Derivatives of robot impacts").
+    core::BodyImpactDerivatives derivatives =
+        core::computeBodyImpactDerivatives(models, points, options);
+    response.derivatives = toMsg(derivatives, rigid_count, robots);
+    result = std::move(derivatives.result);
+  } else {
+    result = core::computeBodyResponse(models, points, options);
+  }
   response.solve_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

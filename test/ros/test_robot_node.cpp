@@ -392,16 +392,49 @@ TEST_F(RobotNodeTest, FloatingBaseConservesMomentum) {
   EXPECT_GT(response.impulses[0].normal_velocity_after, 0.0);
 }
 
-// Derivatives are the rigid-body library's so far: a request with a robot asking for them is
-// refused, naming the option, and the same request without it is answered.
-TEST_F(RobotNodeTest, DerivativesWithRobotsAreRefusedNamingTheOption) {
-  cr::ComputeResponse srv = strikeRequest(strikeOf(publishedArm()));
+// Derivatives with a robot (docs/robots.md, "Derivatives of robot impacts"): the frictionless
+// strike through the box's centre under Newton: the block of the arm's joint velocities after by
+// those before is I - (1 + e) M^-1 j^T j / (j M^-1 j^T + 1 / m_box) with j = n^T J(p) (J and M of
+// the reference model), analytic, rows and columns labelled "robots[0].joint_state.velocity[j]";
+// with friction, finite differences, the same labels.
+TEST_F(RobotNodeTest, DerivativesWithRobotsThroughTheService) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  cr::ComputeResponse srv = strikeRequest(strike);
+  srv.request.contacts[0].static_friction = srv.request.contacts[0].dynamic_friction = 0.0;
+  srv.request.options.law = cr::SolverOptions::LAW_NEWTON;
   srv.request.options.derivatives = true;
-  const auto refused = ServiceTest::expectRejected(srv, "options.derivatives");
-  EXPECT_NE(refused.message.find("rigid bodies only"), std::string::npos) << refused.message;
-  EXPECT_EQ(refused.derivatives.rows, 0u);
-  srv.request.options.derivatives = false;
-  EXPECT_TRUE(call(srv).success);
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  const cr::ImpactDerivatives& d = response.derivatives;
+  EXPECT_EQ(d.method, "analytic");
+  const int joints = arm.jointCount();  // every joint free: one unknown each, model order
+  ASSERT_EQ(d.rows, static_cast<uint32_t>(6 + joints + 4));  // box twist, joints, one contact
+  ASSERT_EQ(d.columns, static_cast<uint32_t>(6 + joints + 3));
+  ASSERT_EQ(d.jacobian.size(), static_cast<std::size_t>(d.rows) * d.columns);
+  EXPECT_EQ(d.row_labels[0], "bodies[0].twist.linear.x");
+  EXPECT_EQ(d.column_labels[6 + 3], "robots[0].joint_state.velocity[3]");
+  EXPECT_EQ(d.row_labels[6 + joints], "impulses[0].normal_impulse");
+  EXPECT_EQ(d.column_labels[6 + joints], "contacts[0].restitution");
+  const double e = srv.request.contacts[0].restitution;
+  const Eigen::MatrixXd j =
+      strike.normal.transpose() * arm.linkPointJacobian(arm.linkIndex("hand"), strike.point);
+  const Eigen::MatrixXd Minv = arm.massMatrix().inverse();
+  const double w = (j * Minv * j.transpose())(0, 0) + 1.0 / 2.0;
+  const Eigen::MatrixXd want =
+      Eigen::MatrixXd::Identity(joints, joints) - (1 + e) * Minv * j.transpose() * j / w;
+  for (int r = 0; r < joints; ++r)
+    for (int k = 0; k < joints; ++k)
+      EXPECT_NEAR(d.jacobian[(6 + r) * d.columns + 6 + k], want(r, k), 1e-9) << r << ", " << k;
+
+  srv.request.contacts[0].static_friction = 0.5;
+  srv.request.contacts[0].dynamic_friction = 0.4;
+  const auto frictional = call(srv);
+  ASSERT_TRUE(frictional.success) << frictional.message;
+  EXPECT_EQ(frictional.derivatives.method, "finite_difference");
+  EXPECT_EQ(frictional.derivatives.column_labels, d.column_labels);
+  ASSERT_EQ(frictional.derivatives.contacts.size(), 1u);
+  EXPECT_EQ(frictional.derivatives.contacts[0].method, "finite_difference");
 }
 
 TEST_F(RobotNodeTest, BadRobotInputIsNamed) {

@@ -6,6 +6,7 @@
 // the served robots and a tf2 buffer; the server keeps the callbacks (collision_response_server.h).
 
 #include <collision_response/ComputeResponse.h>
+#include <collision_response/ImpactDerivatives.h>
 #include <collision_response/RobotResult.h>
 #include <collision_response/RobotState.h>
 #include <ros/duration.h>
@@ -19,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_model.h"
 #include "collision_response/core/contact_impulse.h"
 #include "collision_response/core/contact_point.h"
@@ -148,5 +150,14 @@ void addSafetyOutputs(const std::vector<core::BodyModel*>& models,
                       const std::vector<core::ContactPoint>& points,
                       const std::vector<core::ContactImpulse>& impulses,
                       const std::vector<RequestRobot>& robots, ComputeResponse::Response& response);
+
+/// The Jacobians of a request with robots as the response's `derivatives` (ImpactDerivatives.msg):
+/// rows and columns labelled by the fields they are read from, the rigid bodies' twists
+/// "bodies[i].twist.linear.x" .. (the models before `rigid_count`, those with unknowns), each
+/// robot's unknowns "robots[r].base_twist.linear.x" .. (floating) and
+/// "robots[r].joint_state.velocity[j]" (a free joint, or a mimic group's root), the impulses and
+/// coefficients per contact as for rigid bodies.
+ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
+                        const std::vector<RequestRobot>& robots);
 
 }  // namespace collision_response
