@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <string>
 #include <utility>
 
 #include "collision_response/core/errors.h"
@@ -105,6 +107,7 @@ RobotModel::RobotModel(const KDL::Tree& tree, BaseType base,
   }
   joint_models_.assign(joint_names_.size(), JointModel::kFree);
   armatures_.assign(joint_names_.size(), 0.0);
+  velocity_limits_.assign(joint_names_.size(), std::numeric_limits<double>::infinity());
   mimic_root_.resize(joint_names_.size());
   for (int j = 0; j < jointCount(); ++j) mimic_root_[j] = j;
   mimic_multiplier_.assign(joint_names_.size(), 1.0);
@@ -151,6 +154,17 @@ void RobotModel::setJointModel(int joint, JointModel model, double armature) {
   if (!(armature >= 0.0)) throw core::InvalidInput("armature", "a negative armature");
   joint_models_[joint] = model;
   armatures_[joint] = model == JointModel::kArmature ? armature : 0.0;
+}
+
+void RobotModel::setVelocityLimit(int joint, double limit) {
+  if (joint < 0 || joint >= jointCount()) {
+    throw core::InvalidInput("joint", "no joint " + std::to_string(joint));
+  }
+  if (!(limit > 0.0)) {
+    throw core::InvalidInput(
+        "velocity_limit", "joint '" + joint_names_[joint] + "': a velocity limit that is not > 0");
+  }
+  velocity_limits_[joint] = limit;
 }
 
 void RobotModel::setMimicJoints(const std::vector<MimicJoint>& mimics) {

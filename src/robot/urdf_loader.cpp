@@ -96,6 +96,10 @@ void requireUsableModel(const urdf::Model& model) {
                     "finite and within " +
                         std::to_string(Limits::kLength) + " rad or m");
     }
+    // The velocity limit the answer checks (0 is "not given": exporters write it as a placeholder).
+    requireUsable(!joint->limits ||
+                      (std::isfinite(joint->limits->velocity) && joint->limits->velocity >= 0.0),
+                  element, "<limit> velocity must be finite and >= 0");
   }
 }
 
@@ -121,6 +125,13 @@ std::shared_ptr<RobotModel> robotModelFromUrdfString(const std::string& xml, Bas
     if (!joint || !joint->mimic) continue;
     mimics.push_back(
         {name, joint->mimic->joint_name, joint->mimic->multiplier, joint->mimic->offset});
+  }
+  // <limit velocity>: kept for the answer's check (docs/robots.md, "Safety outputs"); 0 or no
+  // <limit> (a continuous joint) leaves the joint without one (infinity).
+  for (const auto& [name, joint] : model.joints_) {
+    if (!joint || !joint->limits || !(joint->limits->velocity > 0.0)) continue;
+    const int index = robot->findJoint(name);
+    if (index >= 0) robot->setVelocityLimit(index, joint->limits->velocity);
   }
   if (!mimics.empty()) {
     try {

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <optional>
 
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/errors.h"
@@ -64,6 +65,10 @@ void clearAnswer(ComputeResponse::Response& response) {
   response.warnings.clear();
   response.robots.clear();
   response.effective_masses.clear();
+  response.reflected_masses_a.clear();
+  response.reflected_masses_b.clear();
+  response.approach_speeds.clear();
+  response.transferred_energies.clear();
   response.derivatives = ImpactDerivatives();
   response.outcome_distribution = OutcomeDistribution();
 }
@@ -94,6 +99,10 @@ void moveAnswer(ComputeResponse::Response& answer, SceneResult& result) {
   result.solve_time = answer.solve_time;
   result.robots = std::move(answer.robots);
   result.effective_masses = std::move(answer.effective_masses);
+  result.reflected_masses_a = std::move(answer.reflected_masses_a);
+  result.reflected_masses_b = std::move(answer.reflected_masses_b);
+  result.approach_speeds = std::move(answer.approach_speeds);
+  result.transferred_energies = std::move(answer.transferred_energies);
   result.derivatives = std::move(answer.derivatives);
 }
 
@@ -253,11 +262,6 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     // valid poses), the detected contacts after it.
     core::SceneValidator validator(scene, options, parameters_.limits);
     if (involvesRobots(request, robots_)) {
-      if (request.options.derivatives) {
-        throw core::InvalidInput("options.derivatives",
-                                 "derivatives are computed for rigid bodies only so far: ask "
-                                 "without robots, or set options.derivatives to false");
-      }
       if (request.options.uncertainty != SolverOptions::UNCERTAINTY_NONE) {
         throw core::InvalidInput("options.uncertainty",
                                  "uncertain coefficients are propagated for rigid bodies only so "
@@ -416,7 +420,16 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   for (const RequestRobot& robot : robots) energy_before += robot.energy_before;
 
   const auto start = std::chrono::steady_clock::now();
-  const core::BodyResponse result = core::computeBodyResponse(models, points, options);
+  core::BodyResponse result;
+  if (request.options.derivatives) {
+    // With its Jacobians (docs/robots.md, "Derivatives of robot impacts").
+    core::BodyImpactDerivatives derivatives =
+        core::computeBodyImpactDerivatives(models, points, options);
+    response.derivatives = toMsg(derivatives, rigid_count, robots);
+    result = std::move(derivatives.result);
+  } else {
+    result = core::computeBodyResponse(models, points, options);
+  }
   response.solve_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -440,6 +453,7 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   for (const core::Warning& warning : result.warnings)
     response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   response.robots = robotAnswers(robots, rigid_count, points, result.impulses, request.header);
+  addSafetyOutputs(models, points, result.impulses, robots, response);
   for (const RobotResult& robot : response.robots) energy_after += robot.kinetic_energy_after;
   response.kinetic_energy_before = energy_before;
   response.kinetic_energy_after = energy_after;

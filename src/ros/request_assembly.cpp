@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <unordered_set>
 
+#include "collision_response/core/contact_safety.h"
 #include "collision_response/core/errors.h"
+#include "collision_response/robot/joint_safety.h"
 #include "collision_response/ros/message_conversion.h"
 #include "collision_response/ros/robot_conversion.h"
 
@@ -261,8 +263,87 @@ std::vector<RobotResult> robotAnswers(const std::vector<RequestRobot>& robots, i
     const Eigen::VectorXd torques =
         robot.model->restingContactTorques(rigid_count + static_cast<int>(r), points, impulses);
     answers.back().contact_joint_torques.assign(torques.data(), torques.data() + torques.size());
+    const robot::ArticulatedBody& model = *robot.model;
+    for (int joint = 0; joint < model.jointCount(); ++joint)
+      answers.back().joint_velocity_limits.push_back(model.velocityLimit(joint));
+    const Eigen::VectorXd impulse =
+        robot::impactJointImpulses(model, rigid_count + static_cast<int>(r), points, impulses);
+    answers.back().joint_impulses.assign(impulse.data(), impulse.data() + impulse.size());
   }
   return answers;
+}
+
+void addSafetyOutputs(const std::vector<core::BodyModel*>& models,
+                      const std::vector<core::ContactPoint>& points,
+                      const std::vector<core::ContactImpulse>& impulses,
+                      const std::vector<RequestRobot>& robots,
+                      ComputeResponse::Response& response) {
+  for (const core::ContactSafety& contact : core::contactSafety(models, points, impulses)) {
+    response.reflected_masses_a.push_back(contact.reflected_mass_a);
+    response.reflected_masses_b.push_back(contact.reflected_mass_b);
+    response.approach_speeds.push_back(contact.approach_speed);
+    response.transferred_energies.push_back(contact.transferred_energy);
+  }
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const std::string field = "robots[" + std::to_string(r) + "]";
+    for (const core::Warning& warning : robot::velocityLimitWarnings(*robots[r].model, field))
+      response.warnings.push_back(warning.text());
+  }
+}
+
+ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
+                        const std::vector<RequestRobot>& robots) {
+  std::vector<std::string> velocities;
+  velocities.reserve(static_cast<std::size_t>(derivatives.velocity_count));
+  for (std::size_t b = 0; b < derivatives.velocity_offset.size(); ++b) {
+    if (derivatives.velocity_offset[b] < 0) continue;
+    const int index = static_cast<int>(b);
+    if (index < rigid_count) {
+      const std::string name = "bodies[" + std::to_string(index) + "].twist.";
+      for (const char* part : {"linear.", "angular."})
+        for (const char* axis : {"x", "y", "z"}) velocities.push_back(name + part + axis);
+      continue;
+    }
+    const std::string name = "robots[" + std::to_string(index - rigid_count) + "].";
+    const robot::ArticulatedBody& model = *robots[index - rigid_count].model;
+    for (int k = 0; k < model.velocityCount(); ++k) {
+      const int joint = model.jointOfUnknown(k);
+      if (joint >= 0) {
+        velocities.push_back(name + "joint_state.velocity[" + std::to_string(joint) + "]");
+      } else {
+        velocities.push_back(name + "base_twist." + (k < 3 ? "linear." : "angular.") +
+                             std::string(1, static_cast<char>('x' + k % 3)));
+      }
+    }
+  }
+  ImpactDerivatives msg;
+  msg.method = core::toString(derivatives.method);
+  const Eigen::MatrixXd& jacobian = derivatives.jacobian;
+  msg.rows = static_cast<uint32_t>(jacobian.rows());
+  msg.columns = static_cast<uint32_t>(jacobian.cols());
+  msg.row_labels = velocities;
+  msg.column_labels = velocities;
+  for (std::size_t c = 0; c < derivatives.contact_count; ++c) {
+    const std::string impulse = "impulses[" + std::to_string(c) + "].";
+    msg.row_labels.push_back(impulse + "normal_impulse");
+    for (const char* axis : {"x", "y", "z"})
+      msg.row_labels.push_back(impulse + "friction_impulse." + axis);
+    const std::string contact = "contacts[" + std::to_string(c) + "].";
+    for (const char* field : {"restitution", "static_friction", "dynamic_friction"})
+      msg.column_labels.push_back(contact + field);
+  }
+  msg.jacobian.reserve(static_cast<std::size_t>(jacobian.size()));
+  for (Eigen::Index r = 0; r < jacobian.rows(); ++r)
+    for (Eigen::Index k = 0; k < jacobian.cols(); ++k) msg.jacobian.push_back(jacobian(r, k));
+  for (const core::ContactDerivativeMode& contact : derivatives.contacts) {
+    ContactDerivative entry;
+    entry.mode = core::toString(contact.mode);
+    entry.method = core::toString(contact.method);
+    entry.at_switch = contact.at_switch;
+    entry.switch_detail = contact.switch_detail;
+    msg.contacts.push_back(std::move(entry));
+  }
+  return msg;
 }
 
 }  // namespace collision_response

@@ -99,19 +99,29 @@ std::vector<std::string> warningsNaming(const cr::ComputeResponse::Response& res
   return out;
 }
 
+// The warnings other than the joints' velocity limits (the strikes throw the 0.1 kg fingers beyond
+// their 0.2 m/s: docs/robots.md, "Safety outputs").
+std::vector<std::string> otherThanLimits(const cr::ComputeResponse::Response& response) {
+  std::vector<std::string> out;
+  for (const std::string& w : response.warnings) {
+    if (w.find("leaves its velocity limit") == std::string::npos) out.push_back(w);
+  }
+  return out;
+}
+
 class MimicNodeTest : public ServiceTest {};
 
 // A strike on either finger: the node's answer is the core's for the same coupled model; both
 // fingers are reported, at one velocity after as before; the fingers' generalized impulse is
 // J_f1^T P + J_f2^T P with the columns of the uncoupled gripper (no mimic code) and P the contact
 // impulse on the gripper, and finger2's entry (its own coordinate, multiplier 1) equals it; no
-// warning: finger2's state is derived, not missing.
+// warning but the fingers' velocity limits: finger2's state is derived, not missing.
 TEST_F(MimicNodeTest, StruckFingerMovesBothFingers) {
   for (const std::string finger : {"finger1", "finger2"}) {
     const Strike strike = strikeOn(finger);
     const auto response = call(strike.srv);
     ASSERT_TRUE(response.success) << response.message;
-    EXPECT_TRUE(response.warnings.empty()) << response.warnings.front();
+    EXPECT_TRUE(otherThanLimits(response).empty()) << otherThanLimits(response).front();
     ASSERT_EQ(response.robots.size(), 1u);
     const cr::RobotResult& robot = response.robots[0];
     const int wrist = jointIndex(robot, "wrist"), f1 = jointIndex(robot, "finger1_joint"),
@@ -121,6 +131,15 @@ TEST_F(MimicNodeTest, StruckFingerMovesBothFingers) {
     EXPECT_EQ(robot.joint_state_before.velocity[f2], kFingerRate);
     EXPECT_EQ(robot.joint_state_before.velocity[f1], kFingerRate);
     EXPECT_NE(robot.joint_state.velocity[f1], kFingerRate) << "the strike moved the fingers";
+    // Beyond the fingers' 0.2 m/s (gripper.urdf), both are named: the follower's velocity too.
+    ASSERT_GT(std::abs(robot.joint_state.velocity[f1]), 0.2);
+    for (const int f : {f1, f2}) {
+      EXPECT_EQ(
+          warningsNaming(response, "robots[0].joint_state.velocity[" + std::to_string(f) + "]: ")
+              .size(),
+          1u)
+          << f;
+    }
     ASSERT_EQ(response.impulses.size(), 1u);
     ASSERT_GT(response.impulses[0].normal_impulse, 0.0);
 
@@ -175,7 +194,7 @@ TEST_F(MimicNodeTest, DisagreeingMimicStateInTheRequestIsNamed) {
   state.joint_state.velocity.push_back(kFingerRate - 5e-7);
   const auto quiet = call(agreeing);
   ASSERT_TRUE(quiet.success) << quiet.message;
-  EXPECT_TRUE(quiet.warnings.empty()) << quiet.warnings.front();
+  EXPECT_TRUE(otherThanLimits(quiet).empty()) << otherThanLimits(quiet).front();
 
   cr::ComputeResponse disagreeing = strike.srv;
   cr::RobotState& bad = disagreeing.request.robots[0];

@@ -15,6 +15,8 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <set>
+#include <string>
 
 #include "arm_strike.h"
 #include "collision_response/core/body_response.h"
@@ -200,6 +202,70 @@ TEST_F(RobotNodeTest, FrictionlessStrikeMatchesTheClosedForm) {
               response.impulses[0].normal_impulse / 2.0, 1e-12);
 }
 
+// Safety outputs through the service (docs/robots.md, "Safety outputs"). The frictionless strike
+// through the box's centre: the arm's reflected mass 1 / (n^T J M^-1 J^T n) (J and M of the
+// reference model), the box's its 2 kg (no lever arm), the approach speed -u_n and the energy
+// 0.5 m_red u_n^2 with m_red = 1 / (n^T J M^-1 J^T n + 1 / 2); each joint's limit as arm7.urdf
+// gives it (2.5 rad/s, the fingers 0.2 m/s); the joint impulses equal the efforts (no joint locked,
+// no mimics). Then a 20 kg box thrown at the hand: exactly the joints whose |velocity| after the
+// impact exceeds its limit are named in the warnings, "robots[0].joint_state.velocity[j]".
+TEST_F(RobotNodeTest, SafetyOutputsThroughTheService) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  cr::ComputeResponse srv = strikeRequest(strike);
+  srv.request.contacts[0].static_friction = srv.request.contacts[0].dynamic_friction = 0.0;
+  const Eigen::MatrixXd jacobian = arm.linkPointJacobian(arm.linkIndex("hand"), strike.point);
+  const Eigen::VectorXd jn = jacobian.transpose() * strike.normal;
+  const double w_arm = jn.dot(arm.massMatrix().inverse() * jn);
+  const double u_n = -strike.normal.dot(jacobian * arm.velocity());  // box at rest
+  ASSERT_LT(u_n, 0.0);
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_EQ(response.reflected_masses_a.size(), 1u);
+  ASSERT_EQ(response.reflected_masses_b.size(), 1u);
+  ASSERT_EQ(response.approach_speeds.size(), 1u);
+  ASSERT_EQ(response.transferred_energies.size(), 1u);
+  EXPECT_NEAR(response.reflected_masses_a[0], 1.0 / w_arm, 1e-9 / w_arm);
+  EXPECT_NEAR(response.reflected_masses_b[0], 2.0, 1e-9);
+  EXPECT_NEAR(response.approach_speeds[0], -u_n, 1e-12);
+  const double energy = 0.5 * u_n * u_n / (w_arm + 0.5);
+  EXPECT_NEAR(response.transferred_energies[0], energy, 1e-9 * energy);
+  ASSERT_EQ(response.robots.size(), 1u);
+  const cr::RobotResult& robot = response.robots[0];
+  ASSERT_EQ(robot.joint_velocity_limits.size(), kJoints.size());
+  ASSERT_EQ(robot.joint_impulses.size(), kJoints.size());
+  for (std::size_t j = 0; j < kJoints.size(); ++j) {
+    EXPECT_EQ(robot.joint_velocity_limits[j], j < 7 ? 2.5 : 0.2) << kJoints[j];
+    EXPECT_NEAR(robot.joint_impulses[j], robot.joint_state.effort[j], 1e-9) << kJoints[j];
+  }
+
+  const auto limit_warnings = [](const cr::ComputeResponse::Response& answer) {
+    std::set<std::string> named;
+    for (const std::string& warning : answer.warnings)
+      if (warning.find(".joint_state.velocity[") != std::string::npos)
+        named.insert(warning.substr(0, warning.find(':')));
+    return named;
+  };
+  const auto beyond_limits = [](const cr::ComputeResponse::Response& answer) {
+    std::set<std::string> joints;
+    const cr::RobotResult& result = answer.robots.at(0);
+    for (std::size_t j = 0; j < result.joint_state.velocity.size(); ++j)
+      if (std::abs(result.joint_state.velocity[j]) > (j < 7 ? 2.5 : 0.2))
+        joints.insert("robots[0].joint_state.velocity[" + std::to_string(j) + "]");
+    return joints;
+  };
+  EXPECT_EQ(limit_warnings(response), beyond_limits(response));
+  cr::ComputeResponse hard = strikeRequest(strike, 8.0);
+  hard.request.bodies[0].inertia.m = 20.0;
+  hard.request.bodies[0].inertia.ixx = hard.request.bodies[0].inertia.iyy =
+      hard.request.bodies[0].inertia.izz = 20.0 * 0.01 / 6.0;
+  const auto thrown = call(hard);
+  ASSERT_TRUE(thrown.success) << thrown.message;
+  const std::set<std::string> beyond = beyond_limits(thrown);
+  ASSERT_FALSE(beyond.empty());
+  EXPECT_EQ(limit_warnings(thrown), beyond);
+}
+
 TEST_F(RobotNodeTest, ContactNamingALinkIsEnough) {
   const cr::robot::ArticulatedBody arm = publishedArm();
   const cr::ComputeResponse srv = strikeRequest(strikeOf(arm));  // no robots field
@@ -326,16 +392,49 @@ TEST_F(RobotNodeTest, FloatingBaseConservesMomentum) {
   EXPECT_GT(response.impulses[0].normal_velocity_after, 0.0);
 }
 
-// Derivatives are the rigid-body library's so far: a request with a robot asking for them is
-// refused, naming the option, and the same request without it is answered.
-TEST_F(RobotNodeTest, DerivativesWithRobotsAreRefusedNamingTheOption) {
-  cr::ComputeResponse srv = strikeRequest(strikeOf(publishedArm()));
+// Derivatives with a robot (docs/robots.md, "Derivatives of robot impacts"): the frictionless
+// strike through the box's centre under Newton: the block of the arm's joint velocities after by
+// those before is I - (1 + e) M^-1 j^T j / (j M^-1 j^T + 1 / m_box) with j = n^T J(p) (J and M of
+// the reference model), analytic, rows and columns labelled "robots[0].joint_state.velocity[j]";
+// with friction, finite differences, the same labels.
+TEST_F(RobotNodeTest, DerivativesWithRobotsThroughTheService) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  cr::ComputeResponse srv = strikeRequest(strike);
+  srv.request.contacts[0].static_friction = srv.request.contacts[0].dynamic_friction = 0.0;
+  srv.request.options.law = cr::SolverOptions::LAW_NEWTON;
   srv.request.options.derivatives = true;
-  const auto refused = ServiceTest::expectRejected(srv, "options.derivatives");
-  EXPECT_NE(refused.message.find("rigid bodies only"), std::string::npos) << refused.message;
-  EXPECT_EQ(refused.derivatives.rows, 0u);
-  srv.request.options.derivatives = false;
-  EXPECT_TRUE(call(srv).success);
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  const cr::ImpactDerivatives& d = response.derivatives;
+  EXPECT_EQ(d.method, "analytic");
+  const int joints = arm.jointCount();  // every joint free: one unknown each, model order
+  ASSERT_EQ(d.rows, static_cast<uint32_t>(6 + joints + 4));  // box twist, joints, one contact
+  ASSERT_EQ(d.columns, static_cast<uint32_t>(6 + joints + 3));
+  ASSERT_EQ(d.jacobian.size(), static_cast<std::size_t>(d.rows) * d.columns);
+  EXPECT_EQ(d.row_labels[0], "bodies[0].twist.linear.x");
+  EXPECT_EQ(d.column_labels[6 + 3], "robots[0].joint_state.velocity[3]");
+  EXPECT_EQ(d.row_labels[6 + joints], "impulses[0].normal_impulse");
+  EXPECT_EQ(d.column_labels[6 + joints], "contacts[0].restitution");
+  const double e = srv.request.contacts[0].restitution;
+  const Eigen::MatrixXd j =
+      strike.normal.transpose() * arm.linkPointJacobian(arm.linkIndex("hand"), strike.point);
+  const Eigen::MatrixXd Minv = arm.massMatrix().inverse();
+  const double w = (j * Minv * j.transpose())(0, 0) + 1.0 / 2.0;
+  const Eigen::MatrixXd want =
+      Eigen::MatrixXd::Identity(joints, joints) - (1 + e) * Minv * j.transpose() * j / w;
+  for (int r = 0; r < joints; ++r)
+    for (int k = 0; k < joints; ++k)
+      EXPECT_NEAR(d.jacobian[(6 + r) * d.columns + 6 + k], want(r, k), 1e-9) << r << ", " << k;
+
+  srv.request.contacts[0].static_friction = 0.5;
+  srv.request.contacts[0].dynamic_friction = 0.4;
+  const auto frictional = call(srv);
+  ASSERT_TRUE(frictional.success) << frictional.message;
+  EXPECT_EQ(frictional.derivatives.method, "finite_difference");
+  EXPECT_EQ(frictional.derivatives.column_labels, d.column_labels);
+  ASSERT_EQ(frictional.derivatives.contacts.size(), 1u);
+  EXPECT_EQ(frictional.derivatives.contacts[0].method, "finite_difference");
 }
 
 TEST_F(RobotNodeTest, BadRobotInputIsNamed) {
@@ -483,12 +582,14 @@ TEST_F(RobotNodeTest, LockedArmIntoAWallIsLeftApproachingAndWarned) {
       << response.warnings[0];
   EXPECT_NE(response.warnings[0].find("no impulse along the normal can move it"), std::string::npos)
       << response.warnings[0];
-  // Unlocked, the same strike is resolved: no warning.
+  // Unlocked, the same strike is resolved: nothing left approaching (the rebound may throw a
+  // joint beyond its velocity limit: that warning alone may come, "Safety outputs").
   srv.request.robots[0].override_locked_joints = false;
   const auto unlocked = call(srv);
   ASSERT_TRUE(unlocked.success) << unlocked.message;
   EXPECT_GE(unlocked.impulses[0].normal_velocity_after, 0.0);
-  EXPECT_TRUE(unlocked.warnings.empty()) << unlocked.warnings[0];
+  for (const std::string& warning : unlocked.warnings)
+    EXPECT_NE(warning.find("leaves its velocity limit"), std::string::npos) << warning;
 }
 
 // Resting contacts through the node: the arm at rest at the published positions, its hand on a

@@ -14,6 +14,7 @@ struct Warning {
     kInput,            ///< a value of the request (a body with no mass, ...)
     kSeparating,       ///< a contact separating with no impulse (its normal may be flipped)
     kLeftApproaching,  ///< the answer leaves a contact approaching (approach_warnings.h)
+    kJointLimit,       ///< the answer leaves a robot joint beyond its velocity limit
   };
 
   /// Path of the value in the request, spelled as in the ROS messages and as InvalidInput::field()

@@ -85,6 +85,8 @@ class ArticulatedBody final : public core::BodyModel {
   /// multiplier^2 I_a to its root's diagonal.
   void setJointModel(int joint, JointModel model, double armature = 0.0);
   JointModel jointModel(int joint) const { return model_->jointModel(joint); }
+  /// The joint's velocity limit [rad/s | m/s] (URDF <limit velocity>), infinity when it has none.
+  double velocityLimit(int joint) const { return model_->velocityLimit(joint); }
   /// Whether the joint keeps its velocity in an impact: its own model, this body's locks
   /// (setLockedJoints()), or its mimic group's lock.
   bool isLocked(int joint) const { return data_.unknown_of_joint[joint] < 0; }

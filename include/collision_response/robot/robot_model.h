@@ -57,12 +57,13 @@ struct LinkModel {
 
 /// What a robot is, apart from any state (Pinocchio's model; docs/robots.md, "Model and data"):
 /// the links in topological order (KDL::Tree; revolute, continuous, prismatic and fixed joints,
-/// limits unused), the base type and inertia, each joint's model and armature, the mimic
-/// relations resolved to their roots, the default link and the name indices. The configuration
-/// functions (setJointModel(), setMimicJoints(), setDefaultLink()) are for building it; once
-/// shared (std::shared_ptr<const RobotModel>) it is never changed, so any number of requests and
-/// threads read it at once, each with its own RobotData. The joint models here are the robot's
-/// own; a request locks further joints in its data (RobotData::locked).
+/// velocity limits kept for the answer's check, position limits unused), the base type and inertia,
+/// each joint's model and armature, the mimic relations resolved to their roots, the default link
+/// and the name indices. The configuration functions (setJointModel(), setMimicJoints(),
+/// setDefaultLink()) are for building it; once shared (std::shared_ptr<const RobotModel>) it is
+/// never changed, so any number of requests and threads read it at once, each with its own
+/// RobotData. The joint models here are the robot's own; a request locks further joints in its data
+/// (RobotData::locked).
 ///
 /// Errors are core::InvalidInput naming the argument: "joint", "link", "armature", "tree",
 /// "base", "mimic_joints".
@@ -88,6 +89,11 @@ class RobotModel {
   void setMimicJoints(const std::vector<MimicJoint>& mimics);
   /// The link the part-less BodyModel functions use. Throws naming "link" if out of range.
   void setDefaultLink(int link);
+  /// The joint's velocity limit [rad/s | m/s] (URDF <limit velocity>; docs/robots.md, "Safety
+  /// outputs"): the impact does not use it, the answer compares the post-impact velocity with it.
+  /// Infinity (the default) for none. Throws naming "joint" for an index out of range,
+  /// "velocity_limit" for a limit that is not > 0 (NaN included).
+  void setVelocityLimit(int joint, double limit);
 
   // --- Description
   // --------------------------------------------------------------------------------
@@ -118,6 +124,8 @@ class RobotModel {
   JointModel jointModel(int joint) const { return joint_models_[joint]; }
   /// The rotor inertia added on M's diagonal (0 unless the joint's model is kArmature).
   double armature(int joint) const { return armatures_[joint]; }
+  /// The joint's velocity limit [rad/s | m/s]; infinity when it has none.
+  double velocityLimit(int joint) const { return velocity_limits_[joint]; }
 
   bool hasMimicJoints() const { return has_mimics_; }
   /// The independent joint a joint's coordinate follows (itself if it mimics nothing), and the
@@ -135,6 +143,7 @@ class RobotModel {
   std::vector<int> link_of_joint_;
   std::vector<JointModel> joint_models_;
   std::vector<double> armatures_;
+  std::vector<double> velocity_limits_;
   std::vector<int> mimic_root_;
   std::vector<double> mimic_multiplier_, mimic_offset_;
   bool has_mimics_ = false;

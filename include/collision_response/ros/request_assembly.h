@@ -6,6 +6,7 @@
 // the served robots and a tf2 buffer; the server keeps the callbacks (collision_response_server.h).
 
 #include <collision_response/ComputeResponse.h>
+#include <collision_response/ImpactDerivatives.h>
 #include <collision_response/RobotResult.h>
 #include <collision_response/RobotState.h>
 #include <ros/duration.h>
@@ -19,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_model.h"
 #include "collision_response/core/contact_impulse.h"
 #include "collision_response/core/contact_point.h"
@@ -130,12 +132,32 @@ std::vector<ContactLinkFrame> contactLinkFrames(const std::vector<core::ContactP
                                                 const std::vector<RequestRobot>& robots,
                                                 int rigid_count);
 
-/// The robots' answers, in order: each robot after the impact (`model`), and the joint torques
+/// The robots' answers, in order: each robot after the impact (`model`), the joint torques
 /// [N m | N] its resting contacts take (ArticulatedBody::restingContactTorques() with `impulses`,
-/// the robot being model rigid_count + r). Frames: the request's `header`.
+/// the robot being model rigid_count + r), and the safety outputs per joint: the velocity limits
+/// and the impact's joint impulses (robot/joint_safety.h). Frames: the request's `header`.
 std::vector<RobotResult> robotAnswers(const std::vector<RequestRobot>& robots, int rigid_count,
                                       const std::vector<core::ContactPoint>& points,
                                       const std::vector<core::ContactImpulse>& impulses,
                                       const std_msgs::Header& header);
+
+/// The safety outputs per contact (docs/robots.md, "Safety outputs"): the response's
+/// reflected_masses_a / _b, approach_speeds and transferred_energies from core::contactSafety()
+/// over `models` (the bodies after the impact: the masses depend on the configuration only) and
+/// the answer's `impulses`; and a warning "robots[r].joint_state.velocity[j]: ..." in `warnings`
+/// for each joint that the impact leaves beyond its velocity limit (r the answer's robot index).
+void addSafetyOutputs(const std::vector<core::BodyModel*>& models,
+                      const std::vector<core::ContactPoint>& points,
+                      const std::vector<core::ContactImpulse>& impulses,
+                      const std::vector<RequestRobot>& robots, ComputeResponse::Response& response);
+
+/// The Jacobians of a request with robots as the response's `derivatives` (ImpactDerivatives.msg):
+/// rows and columns labelled by the fields they are read from, the rigid bodies' twists
+/// "bodies[i].twist.linear.x" .. (the models before `rigid_count`, those with unknowns), each
+/// robot's unknowns "robots[r].base_twist.linear.x" .. (floating) and
+/// "robots[r].joint_state.velocity[j]" (a free joint, or a mimic group's root), the impulses and
+/// coefficients per contact as for rigid bodies.
+ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
+                        const std::vector<RequestRobot>& robots);
 
 }  // namespace collision_response

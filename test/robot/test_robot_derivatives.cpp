@@ -1,0 +1,227 @@
+// Derivatives of robot impacts (core/body_impact_derivatives.h): the frictionless closed form
+// dv'/dv = I - (1 + e) M^-1 J^T (J M^-1 J^T)^-1 J on the shipped arm, and every block against
+// central differences of computeBodyResponse() taken here at random states (frictionless Newton,
+// analytic; with friction and under Stronge, the library's own differences), to 1e-6 relative.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "collision_response/core/body_impact_derivatives.h"
+#include "collision_response/core/body_response.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/urdf_loader.h"
+
+namespace cr = collision_response::core;
+namespace rb = collision_response::robot;
+using Eigen::MatrixXd;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+
+namespace {
+
+const std::string kArm7 = ARM7_URDF;
+
+cr::RigidBody sphere(double mass, double radius, const Vector3d& centre, const Vector3d& velocity) {
+  cr::RigidBody out;
+  out.inverse_mass = 1.0 / mass;
+  out.inverse_inertia = Eigen::Matrix3d::Identity() / (0.4 * mass * radius * radius);
+  out.com = centre;
+  out.linear_velocity = velocity;
+  return out;
+}
+
+cr::SolverOptions withLaw(cr::ImpactLaw law) {
+  cr::SolverOptions options;
+  options.law = law;
+  return options;
+}
+
+// The arm at a random state (joint positions in +-pi, velocities in +-1 rad/s, fingers still).
+rb::ArticulatedBody randomArm(std::mt19937& rng) {
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI), unit(-1.0, 1.0);
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
+  const int n = arm.jointCount();
+  VectorXd q(n), qdot(n);
+  for (int i = 0; i < n; ++i) {
+    q(i) = i < 7 ? angle(rng) : 0.02;
+    qdot(i) = i < 7 ? unit(rng) : 0.0;
+  }
+  arm.setState(q, qdot);
+  return arm;
+}
+
+// The test's own central differences of computeBodyResponse() (step h, the bodies restored from
+// copies): outputs as the library lays them out (arm's unknowns, then the sphere's twist if any,
+// then 4 per contact), inputs the same unknowns then e, mu_s, mu_d per contact.
+struct Scene {
+  rb::ArticulatedBody arm;
+  cr::RigidBody ball;
+  bool with_ball = true;
+  std::vector<cr::ContactPoint> contacts;
+
+  VectorXd outputs(const VectorXd& input, const cr::SolverOptions& options) const {
+    rb::ArticulatedBody a = arm;
+    cr::RigidBody b = ball;
+    cr::RigidBody wall;
+    const int n = a.velocityCount();
+    a.addVelocityChange(input.head(n) - a.velocity());
+    if (with_ball) {
+      b.linear_velocity = input.segment<3>(n);
+      b.angular_velocity = input.segment<3>(n + 3);
+    }
+    std::vector<cr::ContactPoint> cs = contacts;
+    const int N = n + (with_ball ? 6 : 0);
+    for (std::size_t c = 0; c < cs.size(); ++c) {
+      cs[c].restitution = input(N + 3 * c);
+      cs[c].static_friction = input(N + 3 * c + 1);
+      cs[c].dynamic_friction = input(N + 3 * c + 2);
+    }
+    std::vector<cr::BodyModel*> bodies{&a, with_ball ? static_cast<cr::BodyModel*>(&b) : &wall};
+    const cr::BodyResponse r = cr::computeBodyResponse(bodies, cs, options);
+    VectorXd out(N + 4 * cs.size());
+    out.head(n) = a.velocity();
+    if (with_ball) out.segment(n, 6) = b.velocity();
+    for (std::size_t c = 0; c < cs.size(); ++c) {
+      out(N + 4 * c) = r.impulses[c].normal_impulse;
+      out.segment<3>(N + 4 * c + 1) = r.impulses[c].friction_impulse;
+    }
+    return out;
+  }
+  VectorXd inputs() const {
+    const int n = arm.velocityCount(), N = n + (with_ball ? 6 : 0);
+    VectorXd in(N + 3 * contacts.size());
+    in.head(n) = arm.velocity();
+    if (with_ball) in.segment(n, 6) = ball.velocity();
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      in(N + 3 * c) = contacts[c].restitution;
+      in(N + 3 * c + 1) = contacts[c].static_friction;
+      in(N + 3 * c + 2) = contacts[c].dynamic_friction;
+    }
+    return in;
+  }
+  // Central differences over the columns [0, columns).
+  MatrixXd differences(const cr::SolverOptions& options, int columns, double h) const {
+    const VectorXd x = inputs();
+    MatrixXd D(outputs(x, options).size(), columns);
+    for (int k = 0; k < columns; ++k) {
+      VectorXd plus = x, minus = x;
+      plus(k) += h;
+      minus(k) -= h;
+      D.col(k) = (outputs(plus, options) - outputs(minus, options)) / (2 * h);
+    }
+    return D;
+  }
+  cr::BodyImpactDerivatives derivatives(const cr::SolverOptions& options) const {
+    rb::ArticulatedBody a = arm;
+    cr::RigidBody b = ball;
+    cr::RigidBody wall;
+    std::vector<cr::BodyModel*> bodies{&a, with_ball ? static_cast<cr::BodyModel*>(&b) : &wall};
+    return cr::computeBodyImpactDerivatives(bodies, contacts, options);
+  }
+};
+
+double relativeError(const MatrixXd& got, const MatrixXd& want) {
+  return (got - want).cwiseAbs().maxCoeff() / std::max(1.0, want.cwiseAbs().maxCoeff());
+}
+
+}  // namespace
+
+// The arm's hand point against an immovable wall along a random normal that the point approaches,
+// frictionless, Newton: dv'/dv = I - (1 + e) M^-1 J^T (J M^-1 J^T)^-1 J with J the contact's
+// normal row (u_n = J v) and dv'/de = -M^-1 J^T (J M^-1 J^T)^-1 u_n, from the arm's M and point
+// Jacobian at each state.
+TEST(RobotDerivatives, FrictionlessArmAgainstAWallIsTheClosedForm) {
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), restitution(0.1, 0.9);
+  for (int trial = 0; trial < 10; ++trial) {
+    Scene s{randomArm(rng)};
+    s.with_ball = false;
+    const int link = s.arm.linkIndex(trial % 2 ? "hand" : "link5");
+    const Vector3d p = s.arm.linkPose(link) * Vector3d(0.02, -0.01, 0.04);
+    const Vector3d v = s.arm.partPointVelocity(link, p);
+    Vector3d n = (v + 0.3 * v.norm() * Vector3d(unit(rng), unit(rng), unit(rng))).normalized();
+    if (n.dot(v) <= 0.05 * v.norm()) n = v.normalized();  // the point moves towards the wall
+    const double e = restitution(rng);
+    cr::ContactPoint contact(0, 1, p, n, e, 0.0, 0.0);  // arm (a) -> wall (b)
+    contact.part_a = link;
+    s.contacts = {contact};
+    const cr::BodyImpactDerivatives d = s.derivatives(withLaw(cr::ImpactLaw::kNewton));
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    ASSERT_GT(d.result.impulses[0].normal_impulse, 0.0);
+
+    // J: the contact's normal row, u_n = n . (v_wall - v_arm(p)) = J v, so J = -n^T J(p) (1 x N).
+    const MatrixXd Minv = s.arm.massMatrix().inverse();
+    const MatrixXd J = -n.transpose() * s.arm.linkPointJacobian(link, p);
+    const double w = (J * Minv * J.transpose())(0, 0);
+    const int N = s.arm.velocityCount();
+    const MatrixXd want = MatrixXd::Identity(N, N) - (1 + e) * Minv * J.transpose() * J / w;
+    const double u_n = (J * s.arm.velocity())(0);
+    ASSERT_LT(u_n, 0.0);
+    const VectorXd want_e = -Minv * J.transpose() * u_n / w;
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    EXPECT_LE(relativeError(d.velocitiesByVelocities(), want), 1e-10);
+    EXPECT_LE(relativeError(d.velocitiesByCoefficients().col(0), want_e), 1e-10);
+  }
+}
+
+// Every block against the test's central differences of the solver at random states: the arm
+// struck by a free sphere at two points (Newton frictionless: the analytic active-set formula,
+// two contacts through the exact solver), and with friction under Newton and Stronge (the library's
+// differences): to 1e-6 relative.
+TEST(RobotDerivatives, EveryBlockMatchesCentralDifferencesOfTheSolver) {
+  std::mt19937 rng(26);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  struct Case {
+    cr::ImpactLaw law;
+    double mu_s, mu_d;
+    int contacts;
+    cr::DerivativeMethod method;
+  };
+  const std::vector<Case> cases = {
+      {cr::ImpactLaw::kNewton, 0.0, 0.0, 1, cr::DerivativeMethod::kAnalytic},
+      {cr::ImpactLaw::kNewton, 0.0, 0.0, 2, cr::DerivativeMethod::kAnalytic},
+      {cr::ImpactLaw::kNewton, 0.6, 0.4, 1, cr::DerivativeMethod::kFiniteDifference},
+      {cr::ImpactLaw::kStronge, 0.6, 0.4, 1, cr::DerivativeMethod::kFiniteDifference}};
+  int checked = 0;
+  for (const Case& test : cases) {
+    for (int trial = 0; trial < 4; ++trial) {
+      Scene s{randomArm(rng)};
+      const int link = s.arm.linkIndex("link7");
+      const Vector3d p = s.arm.linkPose(link) * Vector3d(0.0, 0.0, 0.05);
+      const Vector3d n = Vector3d(unit(rng), unit(rng), unit(rng)).normalized();  // ball -> arm
+      s.ball = sphere(1.5, 0.05, p - 0.05 * n,
+                      (n.dot(s.arm.partPointVelocity(link, p)) + 2.0) * n +
+                          0.3 * Vector3d(unit(rng), unit(rng), unit(rng)));
+      cr::ContactPoint contact(1, 0, p, n, 0.5, test.mu_s, test.mu_d);  // ball (a) -> arm (b)
+      contact.body_a = 1;
+      contact.body_b = 0;
+      contact.part_b = link;
+      s.contacts = {contact};
+      if (test.contacts == 2) {
+        // A second point of the same link, on the ball's surface: two contacts, one island.
+        const Vector3d n2 = (n + 0.4 * n.unitOrthogonal()).normalized();
+        cr::ContactPoint second(1, 0, s.ball.com + 0.05 * n2, n2, 0.3, 0.0, 0.0);
+        second.part_b = link;
+        s.contacts.push_back(second);
+      }
+      // Skip states at a mode switch (a contact barely active or barely separating).
+      const cr::BodyImpactDerivatives d = s.derivatives(withLaw(test.law));
+      bool clear = true;
+      for (const cr::ContactImpulse& impulse : d.result.impulses)
+        clear &= impulse.normal_impulse > 1e-3 || impulse.normal_velocity_after > 1e-3;
+      if (!clear) continue;
+      EXPECT_EQ(d.method, test.method);
+      const int N = static_cast<int>(d.velocity_count);
+      const MatrixXd want = s.differences(withLaw(test.law), N + 1, 1e-5);  // velocities and e
+      SCOPED_TRACE(std::string(cr::toString(test.law)) + " mu " + std::to_string(test.mu_s) + ", " +
+                   std::to_string(test.contacts) + " contacts, trial " + std::to_string(trial));
+      EXPECT_LE(relativeError(d.jacobian.leftCols(N + 1), want), 1e-6);
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 10);
+}
