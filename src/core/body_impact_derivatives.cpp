@@ -2,7 +2,11 @@
 
 #include <Eigen/QR>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <string>
+
+#include "collision_response/core/errors.h"
 
 namespace collision_response::core {
 namespace {
@@ -29,11 +33,21 @@ void setVelocities(const std::vector<BodyModel*>& bodies, const std::vector<Vect
 }
 
 // The outputs (rows of the layout) of one solve from the velocities `before`.
+// `end`: when the call's one time budget (options.time_budget, from the start of
+// computeBodyImpactDerivatives()) runs out; each perturbed solve gets what is left of it.
 VectorXd evaluate(const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& contacts,
-                  const SolverOptions& options, const std::vector<VectorXd>& before,
-                  const std::vector<int>& offset, Index velocity_count) {
+                  const SolverOptions& options, std::chrono::steady_clock::time_point end,
+                  const std::vector<VectorXd>& before, const std::vector<int>& offset,
+                  Index velocity_count) {
+  SolverOptions remaining = options;
+  remaining.time_budget =
+      std::chrono::duration<double>(end - std::chrono::steady_clock::now()).count();
+  if (!(remaining.time_budget > 0.0)) {
+    throw SolverTimeout("the derivatives' finite differences exceeded the time budget of " +
+                        std::to_string(options.time_budget) + " s");
+  }
   setVelocities(bodies, before);
-  const BodyResponse result = computeBodyResponse(bodies, contacts, options);
+  const BodyResponse result = computeBodyResponse(bodies, contacts, remaining);
   VectorXd out(velocity_count + 4 * static_cast<Index>(contacts.size()));
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     if (offset[b] >= 0) out.segment(offset[b], bodies[b]->velocityCount()) = bodies[b]->velocity();
@@ -64,6 +78,10 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
       out.velocity_count += bodies[b]->velocityCount();
     }
   }
+  // One time budget for the whole call: the prediction and every perturbed solve.
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(options.time_budget));
   const std::vector<VectorXd> before = velocities(bodies);
   out.result = computeBodyResponse(bodies, contacts, options);  // validates
   const std::vector<VectorXd> after = velocities(bodies);
@@ -77,8 +95,15 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
 
   const bool frictionless = std::all_of(contacts.begin(), contacts.end(),
                                         [](const ContactPoint& c) { return c.frictionless(); });
-  const bool analytic = options.law == ImpactLaw::kNewton && frictionless &&
-                        options.method != SolverMethod::kIterative;
+  // The active-set formula holds where the answer is exact: every island solved in closed form or
+  // by the exact solver (not by the iterative one, which kAuto takes beyond
+  // kExactSolverMaxContacts, and not as resting contacts, whose answer is forces).
+  const bool exact_islands =
+      std::all_of(out.result.islands.begin(), out.result.islands.end(), [](const SolveReport& r) {
+        return r.method == SolveMethod::kNone || r.method == SolveMethod::kClosedForm ||
+               r.method == SolveMethod::kExact;
+      });
+  const bool analytic = options.law == ImpactLaw::kNewton && frictionless && exact_islands;
   std::vector<Index> fd_columns;  // columns taken by central differences
   if (analytic) {
     // Along the normals: j_i = n_i^T (J_b - J_a) (1 x N), MinvJ column i = M^-1 j_i^T.
@@ -147,7 +172,7 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
 
   // Differences of the solver itself, column by column.
   const auto solve = [&](const std::vector<VectorXd>& v, const std::vector<ContactPoint>& cs) {
-    return evaluate(bodies, cs, options, v, out.velocity_offset, N);
+    return evaluate(bodies, cs, options, end, v, out.velocity_offset, N);
   };
   for (const Index column : fd_columns) {
     std::vector<VectorXd> v_plus = before, v_minus = before;

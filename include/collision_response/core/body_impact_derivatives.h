@@ -43,13 +43,17 @@ struct BodyImpactDerivatives {
 
 /// Predicts the impact as computeBodyResponse() does (the bodies are left at their post-impact
 /// velocities, as it leaves them) and differentiates it. Analytic under Newton's law with the
-/// automatic or exact solver when every contact is frictionless: on the final active set A (the
-/// contacts with an impulse), W_AA P_A = -(1 + e_A) u_A along the normals, so dP_A / dv = -W_AA^+
-/// (1 + e_A) J_A and dP_A / de_i = -W_AA^+ 1_i u_i (least-norm for redundant contacts), the
-/// friction columns by one-sided differences (friction raised from 0, flagged). Everything else
-/// (friction, Poisson, Stronge, the iterative solver) by central differences of
+/// automatic or exact solver when every contact is frictionless and every island was solved in
+/// closed form or by the exact solver (not iteratively, not as resting contacts): on the final
+/// active set A (the contacts with an impulse), W_AA P_A = -(1 + e_A) u_A along the normals, so
+/// dP_A / dv = -W_AA^+ (1 + e_A) J_A and dP_A / de_i = -W_AA^+ 1_i u_i (least-norm for redundant
+/// contacts), the friction columns by one-sided differences (friction raised from 0, flagged).
+/// Everything else (friction, Poisson, Stronge, the iterative solver) by central differences of
 /// computeBodyResponse() itself (one-sided where a coefficient sits at its bound), reported per
-/// contact as kFiniteDifference. Throws what computeBodyResponse() throws.
+/// contact as kFiniteDifference; the differences are not mode-checked (a column across a
+/// stick/slip switch mixes both sides). options.time_budget bounds the whole call (the prediction
+/// and every perturbed solve): SolverTimeout when it runs out. Throws what computeBodyResponse()
+/// throws.
 BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>& bodies,
                                                    const std::vector<ContactPoint>& contacts,
                                                    const SolverOptions& options = {});
