@@ -128,11 +128,16 @@ class IslandLcp {
   /// The all-sticking answer P (frame unknowns, contact i's from first[i]) if it is admissible
   /// and consistent (solveAllSticking()): then read, and true.
   bool acceptSticking(const double* P, const Index* first, const double* rhs, double rhs_scale);
+  /// The all-sticking impulses of a frictionless chain (A tridiagonal, nonsingular) by an O(n)
+  /// LDL^T; false (P untouched) if the island is not one.
+  bool stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P) const;
   /// The all-sticking impulses from the Delassus matrix (least-norm if singular).
   Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
                                      const Eigen::VectorXd& rhs) const;
-  /// Small islands: the frame Delassus matrix S^T W S into small_A_ and the contacts' frame
-  /// data into modes_.
+  /// Small islands: the contacts' frame data (first unknown, u in the frame, target) into modes_.
+  void assembleSmallFrames();
+  /// Small islands: the frame Delassus matrix S^T W S into small_A_ (and the frame data if not
+  /// yet there); once per solve.
   void assembleSmall();
   /// The LCP by modes (small islands); false if no mode fitted (nothing changed then).
   bool solveByModes(std::size_t& work);
@@ -149,6 +154,7 @@ class IslandLcp {
   std::vector<LcpContact>& contacts_;
   // Small islands: the frame Delassus matrix and each contact's mode (warm start, answer).
   bool small_ = false;
+  bool small_frames_ = false;
   bool small_assembled_ = false;
   bool modes_warm_ = false;    // modes_ hold a warm start
   bool inconsistent_ = false;  // the last all-sticking impulses missed the targets in body space
@@ -169,26 +175,31 @@ class IslandLcp {
 /// of full column rank, every body pinned by its contacts: false if one keeps a free direction,
 /// or if a body is not a free rigid body. Each body's moment columns are scaled by its largest
 /// lever arm L_b, for conditioning. `Columns`: 6 for one body (fixed-size), Eigen::Dynamic for
-/// several.
-template <int Columns>
+/// several. `MaxRows`: a bound on the frame unknowns (kModeSolverMaxUnknowns for small islands:
+/// then J lives on the stack) or Eigen::Dynamic; `first[i]`: contact i's first frame unknown.
+template <int Columns, int MaxRows, class Rhs, class Out>
 bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
-                         const std::vector<ProblemBody>& bodies, const std::vector<Index>& first,
-                         const Eigen::VectorXd& rhs, Eigen::VectorXd& P) {
-  using MatrixJ = Eigen::Matrix<double, Eigen::Dynamic, Columns>;
+                         const std::vector<ProblemBody>& bodies, const Index* first, const Rhs& rhs,
+                         Out& P) {
+  using MatrixJ = Eigen::Matrix<double, Eigen::Dynamic, Columns, Eigen::ColMajor, MaxRows, Columns>;
   using MatrixG = Eigen::Matrix<double, Columns, Columns>;
   using VectorG = Eigen::Matrix<double, Columns, 1>;
+  // L_b per body: one entry for a single body (Columns == 6), on the stack.
+  using VectorL = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor,
+                                Columns == Eigen::Dynamic ? Eigen::Dynamic : Columns / 6, 1>;
   const Index count = static_cast<Index>(bodies.size());
+  if (Columns != Eigen::Dynamic && 6 * count != Columns) return false;
   for (const ProblemBody& body : bodies) {
     if (!body.rigid()) return false;
   }
-  std::vector<double> L(bodies.size(), 0.0);
+  VectorL L = VectorL::Zero(count);
   for (const LcpContact& c : contacts) {
     for (int side = 0; side < 2; ++side) {
-      if (c.local[side] >= 0) L[c.local[side]] = std::max(L[c.local[side]], c.r(side).norm());
+      if (c.local[side] >= 0) L(c.local[side]) = std::max(L(c.local[side]), c.r(side).norm());
     }
   }
-  for (const double l : L) {
-    if (!(l > 0.0)) return false;  // touched only at its centre of mass: rotations are free
+  for (Index b = 0; b < count; ++b) {
+    if (!(L(b) > 0.0)) return false;  // touched only at its centre of mass: rotations are free
   }
   // Rows s [d^T, (r x d)^T / L_b] for each body b a contact touches (side s = -1 for a, +1 for b).
   MatrixJ J = MatrixJ::Zero(rhs.size(), 6 * count);
@@ -201,7 +212,7 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
       for (Index j = 0; j < (c.frictional ? 3 : 1); ++j) {
         const Eigen::Vector3d d = (side == 0 ? -1.0 : 1.0) * D.col(j);
         J.template block<1, 3>(first[i] + j, 6 * b) += d.transpose();
-        J.template block<1, 3>(first[i] + j, 6 * b + 3) += c.r(side).cross(d).transpose() / L[b];
+        J.template block<1, 3>(first[i] + j, 6 * b + 3) += c.r(side).cross(d).transpose() / L(b);
       }
     }
   }
@@ -215,15 +226,26 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
   if (ldlt.info() != Eigen::Success) return false;
   const VectorG d = ldlt.vectorD();
   if (!(d.minCoeff() > kRegularPivot * d.maxCoeff())) return false;
-  const VectorG change = ldlt.solve(J.transpose() * rhs);  // [dv_b; L_b dw_b]
-  VectorG momentum = VectorG::Zero(6 * count);             // S M S [dv_b; L_b dw_b]
+  VectorG Jt_rhs;
+  if constexpr (Columns == Eigen::Dynamic) {
+    Jt_rhs.noalias() = J.transpose() * rhs;
+  } else {
+    Jt_rhs.noalias() = J.transpose().lazyProduct(rhs);
+  }
+  const VectorG change = ldlt.solve(Jt_rhs);    // [dv_b; L_b dw_b]
+  VectorG momentum = VectorG::Zero(6 * count);  // S M S [dv_b; L_b dw_b]
   for (Index b = 0; b < count; ++b) {
     const ProblemBody& body = bodies[b];
     momentum.template segment<3>(6 * b) = change.template segment<3>(6 * b) / body.inverse_mass;
     momentum.template segment<3>(6 * b + 3) =
-        body.inverse_inertia.llt().solve(change.template segment<3>(6 * b + 3)) / (L[b] * L[b]);
+        body.inverse_inertia.llt().solve(change.template segment<3>(6 * b + 3)) / (L(b) * L(b));
   }
-  P = J * ldlt.solve(momentum);
+  const VectorG y = ldlt.solve(momentum);
+  if constexpr (Columns == Eigen::Dynamic) {
+    P.noalias() = J * y;
+  } else {
+    P.noalias() = J.lazyProduct(y);
+  }
   return true;
 }
 
@@ -268,22 +290,35 @@ IslandLcp::IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& sto
   velocity_changes_.setZero(problem.unknowns());
 }
 
-void IslandLcp::assembleSmall() {
-  small_A_.setZero(frame_unknowns_, frame_unknowns_);
+void IslandLcp::assembleSmallFrames() {
   Index first = 0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const LcpContact& c = contacts_[i];
     const Index k = c.frictional ? 3 : 1;
-    const Eigen::Matrix3d S = stickingDirections(c);
-    small_A_.block(first, first, k, k) =
-        (S.transpose() * c.entry->delassus * S).topLeftCorner(k, k);
     ModeContact& m = modes_[i];
     m.frictional = c.frictional;
     m.first = static_cast<int>(first);
-    m.u = S.transpose() * c.u;
-    if (!c.frictional) m.u.tail<2>().setZero();
+    if (c.frictional) {
+      m.u = stickingDirections(c).transpose() * c.u;
+    } else {
+      m.u = Eigen::Vector3d(c.directions.col(0).dot(c.u), 0.0, 0.0);
+    }
     m.target = c.target_u_n;
     first += k;
+  }
+  small_frames_ = true;
+}
+
+void IslandLcp::assembleSmall() {
+  if (small_assembled_) return;
+  if (!small_frames_) assembleSmallFrames();
+  small_A_.setZero(frame_unknowns_, frame_unknowns_);
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const LcpContact& c = contacts_[i];
+    const Index k = c.frictional ? 3 : 1;
+    const Eigen::Matrix3d S = stickingDirections(c);
+    small_A_.block(modes_[i].first, modes_[i].first, k, k) =
+        (S.transpose() * c.entry->delassus * S).topLeftCorner(k, k);
   }
   for (const auto& [i, j] : problem_.couplings()) {
     const LcpContact& ci = contacts_[i];
@@ -401,7 +436,7 @@ bool IslandLcp::solveAllSticking() {
     // Small islands: the frame Delassus matrix (needed by the modes anyway), solved on the stack
     // (least-norm if singular: the same impulses as the body-space solve or the complete
     // orthogonal decomposition below).
-    assembleSmall();
+    assembleSmallFrames();
     const Index n = frame_unknowns_;
     Index first[kModeSolverMaxUnknowns];
     ModeVector rhs(n), P;
@@ -413,13 +448,12 @@ bool IslandLcp::solveAllSticking() {
       rhs(m.first) += m.target;                // ... but u'_n = -e u_n
     }
     // More unknowns than the bodies' freedoms (redundant contacts, as under a box): the 6 x 6
-    // body-space solve is cheaper than the frame matrix's; otherwise the frame matrix.
-    Eigen::VectorXd body_space;
-    const std::vector<Index> starts(first, first + contacts_.size());
-    if (n > problem_.unknowns() && problem_.bodies().size() == 1 &&
-        stickingInBodySpace<6>(contacts_, problem_.bodies(), starts, rhs, body_space)) {
-      P = body_space;
-    } else {
+    // body-space solve is cheaper than the frame matrix's (which is then assembled only if the
+    // modes need it); otherwise the frame matrix.
+    if (!(n > problem_.unknowns() && problem_.bodies().size() == 1 &&
+          stickingInBodySpace<6, kModeSolverMaxUnknowns>(contacts_, problem_.bodies(), first, rhs,
+                                                         P))) {
+      assembleSmall();
       ModeMatrix K = small_A_;
       ModeVector b = rhs;
       solveLeastNorm(K, b, P);
@@ -465,9 +499,10 @@ bool IslandLcp::solveAllSticking() {
   Eigen::VectorXd P;
   const bool in_body_space =
       unknowns > problem_.unknowns() &&
-      (problem_.bodies().size() == 1
-           ? stickingInBodySpace<6>(contacts_, problem_.bodies(), first, rhs, P)
-           : stickingInBodySpace<Eigen::Dynamic>(contacts_, problem_.bodies(), first, rhs, P));
+      (problem_.bodies().size() == 1 ? stickingInBodySpace<6, Eigen::Dynamic>(
+                                           contacts_, problem_.bodies(), first.data(), rhs, P)
+                                     : stickingInBodySpace<Eigen::Dynamic, Eigen::Dynamic>(
+                                           contacts_, problem_.bodies(), first.data(), rhs, P));
   if (!in_body_space) P = stickingByDelassus(first, rhs);
   return acceptSticking(P.data(), first.data(), rhs.data(), rhs.cwiseAbs().maxCoeff());
 }
@@ -513,10 +548,47 @@ bool IslandLcp::acceptSticking(const double* P, const Index* first, const double
   return true;
 }
 
+bool IslandLcp::stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P) const {
+  // Frictionless contacts each coupled only to the next in the problem's order (a row of bodies,
+  // each touching its neighbours): A is tridiagonal, A_ii = n_i^T W_ii n_i, A_i,i+1 = n_i^T
+  // W_i,i+1 n_(i+1), and its LDL^T without pivoting (A positive definite) costs O(n).
+  const Index n = static_cast<Index>(contacts_.size());
+  if (n < 3 || rhs.size() != n) return false;
+  for (const LcpContact& c : contacts_) {
+    if (c.frictional) return false;
+  }
+  const std::vector<std::pair<int, int>>& couplings = problem_.couplings();
+  for (const auto& [i, j] : couplings) {
+    if (j != i + 1) return false;
+  }
+  Eigen::VectorXd d(n), l = Eigen::VectorXd::Zero(n);  // l(i): L_i,i-1
+  for (Index i = 0; i < n; ++i) {
+    const Eigen::Vector3d& normal = contacts_[i].entry->normal;
+    d(i) = normal.dot(contacts_[i].entry->delassus * normal);
+  }
+  for (const auto& [i, j] : couplings) {
+    l(j) = contacts_[i].entry->normal.dot(problem_.delassusBlock(i, j) *
+                                          contacts_[j].entry->normal);  // A_ij for now
+  }
+  for (Index i = 1; i < n; ++i) {
+    const double a = l(i);
+    l(i) = a / d(i - 1);
+    d(i) -= l(i) * a;
+  }
+  if (!(d.minCoeff() > kRegularPivot * d.maxCoeff())) return false;  // the general path decides
+  P = rhs;
+  for (Index i = 1; i < n; ++i) P(i) -= l(i) * P(i - 1);
+  P.array() /= d.array();
+  for (Index i = n - 2; i >= 0; --i) P(i) -= l(i + 1) * P(i + 1);
+  return true;
+}
+
 Eigen::VectorXd IslandLcp::stickingByDelassus(const std::vector<Index>& first,
                                               const Eigen::VectorXd& rhs) const {
   // A = S^T W S over the sticking unknowns (S_i = n_i, or [n_i t1_i t2_i]), from the problem's
   // Delassus blocks: the contact's own and those of the contacts it shares a body with.
+  Eigen::VectorXd P;
+  if (stickingTridiagonal(rhs, P)) return P;
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rhs.size(), rhs.size());
   const auto count = [](const LcpContact& c) -> Index { return c.frictional ? 3 : 1; };
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
