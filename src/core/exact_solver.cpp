@@ -93,12 +93,19 @@ Eigen::Matrix3d stickingDirections(const LcpContact& c) {
 /// An LDL^T whose smallest pivot is below this fraction of the largest is treated as singular.
 constexpr double kRegularPivot = 1e-10;
 
+// Per-thread storage of the exact solver, whose capacity is kept from one solve to the next (no
+// allocation per solve once it has seen islands of this size).
+struct ExactWorkspace {
+  std::vector<LcpContact> contacts;
+  Eigen::VectorXd velocity_changes;  // of the problem's unknowns
+};
+
 // The LCP of one island's contact problem and what is needed to read its solution.
 class IslandLcp {
  public:
   /// Step 1 of the construction: directions, targets and the LCP layout of every contact, in
-  /// `storage` (a per-thread workspace whose capacity is kept from one solve to the next).
-  IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& storage);
+  /// `workspace` (per thread).
+  IslandLcp(const ContactProblem& problem, ExactWorkspace& workspace);
 
   /// Largest pre-impact |u| [m/s].
   double speed() const { return u_reference_; }
@@ -163,10 +170,11 @@ class IslandLcp {
   std::array<ModeContact, kModeSolverMaxUnknowns> modes_;
   Eigen::MatrixXd M_;
   Eigen::VectorXd q_;
-  Eigen::VectorXd velocity_changes_;  // of the problem's unknowns
+  Eigen::VectorXd& velocity_changes_;  // of the problem's unknowns (in the workspace)
   double u_reference_ = 0.0;
   Index unknowns_ = 0;  // LCP size
   bool assembled_ = false;
+  bool pyramids_complete_ = false;  // every d_k of the frictional contacts set
 };
 
 /// The least-norm all-sticking impulses P (A P = rhs) solved in body space, for free rigid bodies:
@@ -249,8 +257,10 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
   return true;
 }
 
-IslandLcp::IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& storage)
-    : problem_(problem), contacts_(storage) {
+IslandLcp::IslandLcp(const ContactProblem& problem, ExactWorkspace& workspace)
+    : problem_(problem),
+      contacts_(workspace.contacts),
+      velocity_changes_(workspace.velocity_changes) {
   contacts_.resize(problem.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < problem.size(); ++i) {
@@ -387,6 +397,8 @@ bool IslandLcp::solveByModes(std::size_t& work) {
 }
 
 void IslandLcp::completePyramids() {
+  if (pyramids_complete_) return;
+  pyramids_complete_ = true;
   // d_k = cos(2 pi k / D) t1 + sin(2 pi k / D) t2.
   const std::array<Eigen::Vector2d, kD>& angles = pyramidAngles();
   for (LcpContact& c : contacts_) {
@@ -703,8 +715,8 @@ SolveReport solveExact(ContactProblem& problem, const SolverOptions& options,
                        std::vector<ContactImpulse>& impulses) {
   SolveReport report;
   report.method = SolveMethod::kExact;
-  thread_local std::vector<LcpContact> storage;  // per-thread workspace: no allocation per solve
-  IslandLcp lcp(problem, storage);
+  thread_local ExactWorkspace workspace;  // no allocation per solve
+  IslandLcp lcp(problem, workspace);
   const bool all_sticking = lcp.solveAllSticking();  // checked against its targets already
   bool solved = all_sticking;
   while (!solved && lcp.solve(report.iterations, options.deadline)) {
