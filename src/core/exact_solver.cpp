@@ -264,9 +264,13 @@ IslandLcp::IslandLcp(const ContactProblem& problem, ExactWorkspace& workspace)
   contacts_.resize(problem.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < problem.size(); ++i) {
-    LcpContact& c = contacts_[i];
-    c = LcpContact();
+    LcpContact& c = contacts_[i];  // reused storage: every field read later is set here
     const ProblemContact& entry = problem.contact(i);
+    c.columns = 1;
+    c.dynamic = false;
+    c.P_n = 0.0;
+    c.beta.setZero();
+    c.P_t.setZero();
     c.entry = &entry;
     c.index = static_cast<int>(i);
     c.local[0] = entry.local_a;
