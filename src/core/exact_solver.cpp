@@ -98,6 +98,10 @@ constexpr double kRegularPivot = 1e-10;
 struct ExactWorkspace {
   std::vector<LcpContact> contacts;
   Eigen::VectorXd velocity_changes;  // of the problem's unknowns
+  // The general all-sticking solve: each contact's first unknown, the targets, the impulses, and
+  // a tridiagonal factor's D and L.
+  std::vector<Index> first;
+  Eigen::VectorXd rhs, P, d, l;
 };
 
 // The LCP of one island's contact problem and what is needed to read its solution.
@@ -137,7 +141,7 @@ class IslandLcp {
   bool acceptSticking(const double* P, const Index* first, const double* rhs, double rhs_scale);
   /// The all-sticking impulses of a frictionless chain (A tridiagonal, nonsingular) by an O(n)
   /// LDL^T; false (P untouched) if the island is not one.
-  bool stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P) const;
+  bool stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P);
   /// The all-sticking impulses from the Delassus matrix (least-norm if singular).
   Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
                                      const Eigen::VectorXd& rhs) const;
@@ -159,6 +163,7 @@ class IslandLcp {
 
   const ContactProblem& problem_;
   std::vector<LcpContact>& contacts_;
+  ExactWorkspace& workspace_;
   // Small islands: the frame Delassus matrix and each contact's mode (warm start, answer).
   bool small_ = false;
   bool small_frames_ = false;
@@ -260,6 +265,7 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
 IslandLcp::IslandLcp(const ContactProblem& problem, ExactWorkspace& workspace)
     : problem_(problem),
       contacts_(workspace.contacts),
+      workspace_(workspace),
       velocity_changes_(workspace.velocity_changes) {
   contacts_.resize(problem.size());
   Index unknowns = 0;
@@ -497,13 +503,15 @@ bool IslandLcp::solveAllSticking() {
     if (!inconsistent_) return false;
   }
   // Unknowns: P_n per contact, and (t1, t2) components for frictional ones.
-  std::vector<Index> first(contacts_.size());
+  std::vector<Index>& first = workspace_.first;
+  first.resize(contacts_.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     first[i] = unknowns;
     unknowns += contacts_[i].frictional ? 3 : 1;
   }
-  Eigen::VectorXd rhs(unknowns);
+  Eigen::VectorXd& rhs = workspace_.rhs;
+  rhs.resize(unknowns);
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const LcpContact& c = contacts_[i];
     const Eigen::Vector3d change = stickingDirections(c).transpose() * -c.u;  // to u' = 0 ...
@@ -512,14 +520,14 @@ bool IslandLcp::solveAllSticking() {
   }
   // More unknowns than the bodies' degrees of freedom (redundant contacts, as under a box): solved
   // in body space; otherwise, or if a body keeps a free direction, with the Delassus matrix.
-  Eigen::VectorXd P;
+  Eigen::VectorXd& P = workspace_.P;
   const bool in_body_space =
       unknowns > problem_.unknowns() &&
       (problem_.bodies().size() == 1 ? stickingInBodySpace<6, Eigen::Dynamic>(
                                            contacts_, problem_.bodies(), first.data(), rhs, P)
                                      : stickingInBodySpace<Eigen::Dynamic, Eigen::Dynamic>(
                                            contacts_, problem_.bodies(), first.data(), rhs, P));
-  if (!in_body_space) P = stickingByDelassus(first, rhs);
+  if (!in_body_space && !stickingTridiagonal(rhs, P)) P = stickingByDelassus(first, rhs);
   return acceptSticking(P.data(), first.data(), rhs.data(), rhs.cwiseAbs().maxCoeff());
 }
 
@@ -564,7 +572,7 @@ bool IslandLcp::acceptSticking(const double* P, const Index* first, const double
   return true;
 }
 
-bool IslandLcp::stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P) const {
+bool IslandLcp::stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P) {
   // Frictionless contacts each coupled only to the next in the problem's order (a row of bodies,
   // each touching its neighbours): A is tridiagonal, A_ii = n_i^T W_ii n_i, A_i,i+1 = n_i^T
   // W_i,i+1 n_(i+1), and its LDL^T without pivoting (A positive definite) costs O(n).
@@ -577,7 +585,10 @@ bool IslandLcp::stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd&
   for (const auto& [i, j] : couplings) {
     if (j != i + 1) return false;
   }
-  Eigen::VectorXd d(n), l = Eigen::VectorXd::Zero(n);  // l(i): L_i,i-1
+  Eigen::VectorXd& d = workspace_.d;
+  Eigen::VectorXd& l = workspace_.l;  // l(i): L_i,i-1
+  d.resize(n);
+  l.setZero(n);
   for (Index i = 0; i < n; ++i) {
     const Eigen::Vector3d& normal = contacts_[i].entry->normal;
     d(i) = normal.dot(contacts_[i].entry->delassus * normal);
@@ -603,8 +614,6 @@ Eigen::VectorXd IslandLcp::stickingByDelassus(const std::vector<Index>& first,
                                               const Eigen::VectorXd& rhs) const {
   // A = S^T W S over the sticking unknowns (S_i = n_i, or [n_i t1_i t2_i]), from the problem's
   // Delassus blocks: the contact's own and those of the contacts it shares a body with.
-  Eigen::VectorXd P;
-  if (stickingTridiagonal(rhs, P)) return P;
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rhs.size(), rhs.size());
   const auto count = [](const LcpContact& c) -> Index { return c.frictional ? 3 : 1; };
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
