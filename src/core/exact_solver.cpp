@@ -142,6 +142,9 @@ class IslandLcp {
   /// The all-sticking impulses of a frictionless chain (A tridiagonal, nonsingular) by an O(n)
   /// LDL^T; false (P untouched) if the island is not one.
   bool stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P);
+  /// n_i^T W_ij n_j, from the shared bodies' masses and inertias when they are free rigid bodies
+  /// (the problem's delassusBlock() otherwise).
+  double normalCoupling(int i, int j) const;
   /// The all-sticking impulses from the Delassus matrix (least-norm if singular).
   Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
                                      const Eigen::VectorXd& rhs) const;
@@ -572,6 +575,29 @@ bool IslandLcp::acceptSticking(const double* P, const Index* first, const double
   return true;
 }
 
+double IslandLcp::normalCoupling(int i, int j) const {
+  const ProblemContact& ci = *contacts_[i].entry;
+  const ProblemContact& cj = *contacts_[j].entry;
+  const int local_i[2] = {ci.local_a, ci.local_b};
+  const int local_j[2] = {cj.local_a, cj.local_b};
+  double sum = 0.0;
+  for (int si = 0; si < 2; ++si) {
+    if (local_i[si] < 0) continue;
+    for (int sj = 0; sj < 2; ++sj) {
+      if (local_j[sj] != local_i[si]) continue;
+      const ProblemBody& body = problem_.bodies()[local_i[si]];
+      if (!body.rigid()) return ci.normal.dot(problem_.delassusBlock(i, j) * cj.normal);
+      // The shared body's part of W_ij, +-(m^-1 I - [r_i]x I^-1 [r_j]x), between the normals
+      // (+ when both contacts push it from the same side, body a receiving -P and b +P).
+      const Eigen::Vector3d torque_i = contacts_[i].r(si).cross(ci.normal);
+      const Eigen::Vector3d torque_j = contacts_[j].r(sj).cross(cj.normal);
+      sum += (si == sj ? 1.0 : -1.0) * (body.inverse_mass * ci.normal.dot(cj.normal) +
+                                        torque_i.dot(body.inverse_inertia * torque_j));
+    }
+  }
+  return sum;
+}
+
 bool IslandLcp::stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P) {
   // Frictionless contacts each coupled only to the next in the problem's order (a row of bodies,
   // each touching its neighbours): A is tridiagonal, A_ii = n_i^T W_ii n_i, A_i,i+1 = n_i^T
@@ -593,10 +619,7 @@ bool IslandLcp::stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd&
     const Eigen::Vector3d& normal = contacts_[i].entry->normal;
     d(i) = normal.dot(contacts_[i].entry->delassus * normal);
   }
-  for (const auto& [i, j] : couplings) {
-    l(j) = contacts_[i].entry->normal.dot(problem_.delassusBlock(i, j) *
-                                          contacts_[j].entry->normal);  // A_ij for now
-  }
+  for (const auto& [i, j] : couplings) l(j) = normalCoupling(i, j);  // A_ij for now
   for (Index i = 1; i < n; ++i) {
     const double a = l(i);
     l(i) = a / d(i - 1);
