@@ -6,9 +6,15 @@
 // 1..256 iterations, each with Poisson and with Newton restitution). Writes one CSV row per
 // (scene, method, setting).
 //   accuracy_sweep [--out FILE] [--reps N] [--scenes NAME,NAME,...] [--calls N]
+//                  [--peer CONFIG --peer-calls N]
 // --scenes: only the named scenes (default: all). --calls N: no timing, no peers, no CSV: runs our
-// newton_exact N times on each instance of the scenes (for callgrind: --toggle-collect on
-// collision_response::core::solveIsland*).
+// newton_exact N times on each instance of the scenes (for callgrind: compare the instruction
+// counts of two runs with different N; a --toggle-collect on solveIsland* would miss the inner
+// solveIsland, which toggles collection off again). --peer CONFIG --peer-calls N: the same for a
+// peer's contact-resolving step, N repetitions on each instance; CONFIG is bullet_si:ITERATIONS,
+// bullet_mlcp_dantzig, ode_step or ode_quickstep:ITERATIONS (for callgrind: --toggle-collect on
+// btSequentialImpulseConstraintSolver::solveGroup*, dWorldStep or dWorldQuickStep, whose
+// instruction count divided by N x instances is the step's).
 // Timing: steady_clock, warm cache, median over repetitions of a block of calls on pre-built
 // inputs (ours: the solver call alone; peers: their contact-resolving step alone), averaged over
 // the instances of a batch. Errors: bench_metrics.h, the largest over the instances.
@@ -268,6 +274,8 @@ int main(int argc, char** argv) {
   std::string out_path = "benchmark/results.csv";
   int reps = 15;
   int profile_calls = 0;
+  int peer_calls = 0;
+  std::string peer_config;
   std::string only;  // ",name,name," or empty for every scene
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--out") && i + 1 < argc) out_path = argv[++i];
@@ -275,6 +283,8 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--scenes") && i + 1 < argc)
       only = "," + std::string(argv[++i]) + ",";
     if (!std::strcmp(argv[i], "--calls") && i + 1 < argc) profile_calls = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--peer") && i + 1 < argc) peer_config = argv[++i];
+    if (!std::strcmp(argv[i], "--peer-calls") && i + 1 < argc) peer_calls = std::atoi(argv[++i]);
   }
   const auto selected = [&only](const std::string& name) {
     return only.empty() || only.find("," + name + ",") != std::string::npos;
@@ -297,6 +307,40 @@ int main(int argc, char** argv) {
       }
       std::fprintf(stderr, "accuracy_sweep: %s, newton_exact x %d\n", s.name.c_str(),
                    profile_calls);
+    }
+    return 0;
+  }
+  if (peer_calls > 0) {
+    const std::size_t colon = peer_config.find(':');
+    const std::string name = peer_config.substr(0, colon);
+    const int iterations = colon == std::string::npos ? 10 : std::atoi(&peer_config[colon + 1]);
+    for (const auto& s : bench::makeScenes()) {
+      if (!selected(s.name)) continue;
+      for (const auto& inst : s.instances) {
+        bench::PeerRun run;
+        if (false) {
+#ifdef HAVE_BULLET
+        } else if (name == "bullet_si") {
+          run = bench::runBullet(inst, {bench::BulletSolver::kSequentialImpulse, iterations},
+                                 peer_calls);
+        } else if (name == "bullet_mlcp_dantzig") {
+          run = bench::runBullet(inst, {bench::BulletSolver::kMlcpDantzig, 10}, peer_calls);
+#endif
+#ifdef HAVE_ODE
+        } else if (name == "ode_step") {
+          run = bench::runOde(inst, {bench::OdeStepper::kStep, 20}, peer_calls);
+        } else if (name == "ode_quickstep") {
+          run = bench::runOde(inst, {bench::OdeStepper::kQuickStep, iterations}, peer_calls);
+#endif
+        } else {
+          std::fprintf(stderr, "accuracy_sweep: unknown or unavailable peer '%s'\n",
+                       peer_config.c_str());
+          return 1;
+        }
+        keep(run);
+      }
+      std::fprintf(stderr, "accuracy_sweep: %s, %s x %d per instance (%zu instances)\n",
+                   s.name.c_str(), peer_config.c_str(), peer_calls, s.instances.size());
     }
     return 0;
   }

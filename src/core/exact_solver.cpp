@@ -93,12 +93,23 @@ Eigen::Matrix3d stickingDirections(const LcpContact& c) {
 /// An LDL^T whose smallest pivot is below this fraction of the largest is treated as singular.
 constexpr double kRegularPivot = 1e-10;
 
+// Per-thread storage of the exact solver, whose capacity is kept from one solve to the next (no
+// allocation per solve once it has seen islands of this size).
+struct ExactWorkspace {
+  std::vector<LcpContact> contacts;
+  Eigen::VectorXd velocity_changes;  // of the problem's unknowns
+  // The general all-sticking solve: each contact's first unknown, the targets, the impulses, and
+  // a tridiagonal factor's D and L.
+  std::vector<Index> first;
+  Eigen::VectorXd rhs, P, d, l;
+};
+
 // The LCP of one island's contact problem and what is needed to read its solution.
 class IslandLcp {
  public:
   /// Step 1 of the construction: directions, targets and the LCP layout of every contact, in
-  /// `storage` (a per-thread workspace whose capacity is kept from one solve to the next).
-  IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& storage);
+  /// `workspace` (per thread).
+  IslandLcp(const ContactProblem& problem, ExactWorkspace& workspace);
 
   /// Largest pre-impact |u| [m/s].
   double speed() const { return u_reference_; }
@@ -128,11 +139,19 @@ class IslandLcp {
   /// The all-sticking answer P (frame unknowns, contact i's from first[i]) if it is admissible
   /// and consistent (solveAllSticking()): then read, and true.
   bool acceptSticking(const double* P, const Index* first, const double* rhs, double rhs_scale);
+  /// The all-sticking impulses of a frictionless chain (A tridiagonal, nonsingular) by an O(n)
+  /// LDL^T; false (P untouched) if the island is not one.
+  bool stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P);
+  /// n_i^T W_ij n_j, from the shared bodies' masses and inertias when they are free rigid bodies
+  /// (the problem's delassusBlock() otherwise).
+  double normalCoupling(int i, int j) const;
   /// The all-sticking impulses from the Delassus matrix (least-norm if singular).
   Eigen::VectorXd stickingByDelassus(const std::vector<Index>& first,
                                      const Eigen::VectorXd& rhs) const;
-  /// Small islands: the frame Delassus matrix S^T W S into small_A_ and the contacts' frame
-  /// data into modes_.
+  /// Small islands: the contacts' frame data (first unknown, u in the frame, target) into modes_.
+  void assembleSmallFrames();
+  /// Small islands: the frame Delassus matrix S^T W S into small_A_ (and the frame data if not
+  /// yet there); once per solve.
   void assembleSmall();
   /// The LCP by modes (small islands); false if no mode fitted (nothing changed then).
   bool solveByModes(std::size_t& work);
@@ -147,8 +166,10 @@ class IslandLcp {
 
   const ContactProblem& problem_;
   std::vector<LcpContact>& contacts_;
+  ExactWorkspace& workspace_;
   // Small islands: the frame Delassus matrix and each contact's mode (warm start, answer).
   bool small_ = false;
+  bool small_frames_ = false;
   bool small_assembled_ = false;
   bool modes_warm_ = false;    // modes_ hold a warm start
   bool inconsistent_ = false;  // the last all-sticking impulses missed the targets in body space
@@ -157,10 +178,11 @@ class IslandLcp {
   std::array<ModeContact, kModeSolverMaxUnknowns> modes_;
   Eigen::MatrixXd M_;
   Eigen::VectorXd q_;
-  Eigen::VectorXd velocity_changes_;  // of the problem's unknowns
+  Eigen::VectorXd& velocity_changes_;  // of the problem's unknowns (in the workspace)
   double u_reference_ = 0.0;
   Index unknowns_ = 0;  // LCP size
   bool assembled_ = false;
+  bool pyramids_complete_ = false;  // every d_k of the frictional contacts set
 };
 
 /// The least-norm all-sticking impulses P (A P = rhs) solved in body space, for free rigid bodies:
@@ -169,26 +191,31 @@ class IslandLcp {
 /// of full column rank, every body pinned by its contacts: false if one keeps a free direction,
 /// or if a body is not a free rigid body. Each body's moment columns are scaled by its largest
 /// lever arm L_b, for conditioning. `Columns`: 6 for one body (fixed-size), Eigen::Dynamic for
-/// several.
-template <int Columns>
+/// several. `MaxRows`: a bound on the frame unknowns (kModeSolverMaxUnknowns for small islands:
+/// then J lives on the stack) or Eigen::Dynamic; `first[i]`: contact i's first frame unknown.
+template <int Columns, int MaxRows, class Rhs, class Out>
 bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
-                         const std::vector<ProblemBody>& bodies, const std::vector<Index>& first,
-                         const Eigen::VectorXd& rhs, Eigen::VectorXd& P) {
-  using MatrixJ = Eigen::Matrix<double, Eigen::Dynamic, Columns>;
+                         const std::vector<ProblemBody>& bodies, const Index* first, const Rhs& rhs,
+                         Out& P) {
+  using MatrixJ = Eigen::Matrix<double, Eigen::Dynamic, Columns, Eigen::ColMajor, MaxRows, Columns>;
   using MatrixG = Eigen::Matrix<double, Columns, Columns>;
   using VectorG = Eigen::Matrix<double, Columns, 1>;
+  // L_b per body: one entry for a single body (Columns == 6), on the stack.
+  using VectorL = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor,
+                                Columns == Eigen::Dynamic ? Eigen::Dynamic : Columns / 6, 1>;
   const Index count = static_cast<Index>(bodies.size());
+  if (Columns != Eigen::Dynamic && 6 * count != Columns) return false;
   for (const ProblemBody& body : bodies) {
     if (!body.rigid()) return false;
   }
-  std::vector<double> L(bodies.size(), 0.0);
+  VectorL L = VectorL::Zero(count);
   for (const LcpContact& c : contacts) {
     for (int side = 0; side < 2; ++side) {
-      if (c.local[side] >= 0) L[c.local[side]] = std::max(L[c.local[side]], c.r(side).norm());
+      if (c.local[side] >= 0) L(c.local[side]) = std::max(L(c.local[side]), c.r(side).norm());
     }
   }
-  for (const double l : L) {
-    if (!(l > 0.0)) return false;  // touched only at its centre of mass: rotations are free
+  for (Index b = 0; b < count; ++b) {
+    if (!(L(b) > 0.0)) return false;  // touched only at its centre of mass: rotations are free
   }
   // Rows s [d^T, (r x d)^T / L_b] for each body b a contact touches (side s = -1 for a, +1 for b).
   MatrixJ J = MatrixJ::Zero(rhs.size(), 6 * count);
@@ -201,7 +228,7 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
       for (Index j = 0; j < (c.frictional ? 3 : 1); ++j) {
         const Eigen::Vector3d d = (side == 0 ? -1.0 : 1.0) * D.col(j);
         J.template block<1, 3>(first[i] + j, 6 * b) += d.transpose();
-        J.template block<1, 3>(first[i] + j, 6 * b + 3) += c.r(side).cross(d).transpose() / L[b];
+        J.template block<1, 3>(first[i] + j, 6 * b + 3) += c.r(side).cross(d).transpose() / L(b);
       }
     }
   }
@@ -215,26 +242,44 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
   if (ldlt.info() != Eigen::Success) return false;
   const VectorG d = ldlt.vectorD();
   if (!(d.minCoeff() > kRegularPivot * d.maxCoeff())) return false;
-  const VectorG change = ldlt.solve(J.transpose() * rhs);  // [dv_b; L_b dw_b]
-  VectorG momentum = VectorG::Zero(6 * count);             // S M S [dv_b; L_b dw_b]
+  VectorG Jt_rhs;
+  if constexpr (Columns == Eigen::Dynamic) {
+    Jt_rhs.noalias() = J.transpose() * rhs;
+  } else {
+    Jt_rhs.noalias() = J.transpose().lazyProduct(rhs);
+  }
+  const VectorG change = ldlt.solve(Jt_rhs);    // [dv_b; L_b dw_b]
+  VectorG momentum = VectorG::Zero(6 * count);  // S M S [dv_b; L_b dw_b]
   for (Index b = 0; b < count; ++b) {
     const ProblemBody& body = bodies[b];
     momentum.template segment<3>(6 * b) = change.template segment<3>(6 * b) / body.inverse_mass;
     momentum.template segment<3>(6 * b + 3) =
-        body.inverse_inertia.llt().solve(change.template segment<3>(6 * b + 3)) / (L[b] * L[b]);
+        body.inverse_inertia.llt().solve(change.template segment<3>(6 * b + 3)) / (L(b) * L(b));
   }
-  P = J * ldlt.solve(momentum);
+  const VectorG y = ldlt.solve(momentum);
+  if constexpr (Columns == Eigen::Dynamic) {
+    P.noalias() = J * y;
+  } else {
+    P.noalias() = J.lazyProduct(y);
+  }
   return true;
 }
 
-IslandLcp::IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& storage)
-    : problem_(problem), contacts_(storage) {
+IslandLcp::IslandLcp(const ContactProblem& problem, ExactWorkspace& workspace)
+    : problem_(problem),
+      contacts_(workspace.contacts),
+      workspace_(workspace),
+      velocity_changes_(workspace.velocity_changes) {
   contacts_.resize(problem.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < problem.size(); ++i) {
-    LcpContact& c = contacts_[i];
-    c = LcpContact();
+    LcpContact& c = contacts_[i];  // reused storage: every field read later is set here
     const ProblemContact& entry = problem.contact(i);
+    c.columns = 1;
+    c.dynamic = false;
+    c.P_n = 0.0;
+    c.beta.setZero();
+    c.P_t.setZero();
     c.entry = &entry;
     c.index = static_cast<int>(i);
     c.local[0] = entry.local_a;
@@ -268,22 +313,35 @@ IslandLcp::IslandLcp(const ContactProblem& problem, std::vector<LcpContact>& sto
   velocity_changes_.setZero(problem.unknowns());
 }
 
-void IslandLcp::assembleSmall() {
-  small_A_.setZero(frame_unknowns_, frame_unknowns_);
+void IslandLcp::assembleSmallFrames() {
   Index first = 0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const LcpContact& c = contacts_[i];
     const Index k = c.frictional ? 3 : 1;
-    const Eigen::Matrix3d S = stickingDirections(c);
-    small_A_.block(first, first, k, k) =
-        (S.transpose() * c.entry->delassus * S).topLeftCorner(k, k);
     ModeContact& m = modes_[i];
     m.frictional = c.frictional;
     m.first = static_cast<int>(first);
-    m.u = S.transpose() * c.u;
-    if (!c.frictional) m.u.tail<2>().setZero();
+    if (c.frictional) {
+      m.u = stickingDirections(c).transpose() * c.u;
+    } else {
+      m.u = Eigen::Vector3d(c.directions.col(0).dot(c.u), 0.0, 0.0);
+    }
     m.target = c.target_u_n;
     first += k;
+  }
+  small_frames_ = true;
+}
+
+void IslandLcp::assembleSmall() {
+  if (small_assembled_) return;
+  if (!small_frames_) assembleSmallFrames();
+  small_A_.setZero(frame_unknowns_, frame_unknowns_);
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const LcpContact& c = contacts_[i];
+    const Index k = c.frictional ? 3 : 1;
+    const Eigen::Matrix3d S = stickingDirections(c);
+    small_A_.block(modes_[i].first, modes_[i].first, k, k) =
+        (S.transpose() * c.entry->delassus * S).topLeftCorner(k, k);
   }
   for (const auto& [i, j] : problem_.couplings()) {
     const LcpContact& ci = contacts_[i];
@@ -352,6 +410,8 @@ bool IslandLcp::solveByModes(std::size_t& work) {
 }
 
 void IslandLcp::completePyramids() {
+  if (pyramids_complete_) return;
+  pyramids_complete_ = true;
   // d_k = cos(2 pi k / D) t1 + sin(2 pi k / D) t2.
   const std::array<Eigen::Vector2d, kD>& angles = pyramidAngles();
   for (LcpContact& c : contacts_) {
@@ -401,7 +461,7 @@ bool IslandLcp::solveAllSticking() {
     // Small islands: the frame Delassus matrix (needed by the modes anyway), solved on the stack
     // (least-norm if singular: the same impulses as the body-space solve or the complete
     // orthogonal decomposition below).
-    assembleSmall();
+    assembleSmallFrames();
     const Index n = frame_unknowns_;
     Index first[kModeSolverMaxUnknowns];
     ModeVector rhs(n), P;
@@ -413,13 +473,12 @@ bool IslandLcp::solveAllSticking() {
       rhs(m.first) += m.target;                // ... but u'_n = -e u_n
     }
     // More unknowns than the bodies' freedoms (redundant contacts, as under a box): the 6 x 6
-    // body-space solve is cheaper than the frame matrix's; otherwise the frame matrix.
-    Eigen::VectorXd body_space;
-    const std::vector<Index> starts(first, first + contacts_.size());
-    if (n > problem_.unknowns() && problem_.bodies().size() == 1 &&
-        stickingInBodySpace<6>(contacts_, problem_.bodies(), starts, rhs, body_space)) {
-      P = body_space;
-    } else {
+    // body-space solve is cheaper than the frame matrix's (which is then assembled only if the
+    // modes need it); otherwise the frame matrix.
+    if (!(n > problem_.unknowns() && problem_.bodies().size() == 1 &&
+          stickingInBodySpace<6, kModeSolverMaxUnknowns>(contacts_, problem_.bodies(), first, rhs,
+                                                         P))) {
+      assembleSmall();
       ModeMatrix K = small_A_;
       ModeVector b = rhs;
       solveLeastNorm(K, b, P);
@@ -447,13 +506,15 @@ bool IslandLcp::solveAllSticking() {
     if (!inconsistent_) return false;
   }
   // Unknowns: P_n per contact, and (t1, t2) components for frictional ones.
-  std::vector<Index> first(contacts_.size());
+  std::vector<Index>& first = workspace_.first;
+  first.resize(contacts_.size());
   Index unknowns = 0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     first[i] = unknowns;
     unknowns += contacts_[i].frictional ? 3 : 1;
   }
-  Eigen::VectorXd rhs(unknowns);
+  Eigen::VectorXd& rhs = workspace_.rhs;
+  rhs.resize(unknowns);
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const LcpContact& c = contacts_[i];
     const Eigen::Vector3d change = stickingDirections(c).transpose() * -c.u;  // to u' = 0 ...
@@ -462,13 +523,14 @@ bool IslandLcp::solveAllSticking() {
   }
   // More unknowns than the bodies' degrees of freedom (redundant contacts, as under a box): solved
   // in body space; otherwise, or if a body keeps a free direction, with the Delassus matrix.
-  Eigen::VectorXd P;
+  Eigen::VectorXd& P = workspace_.P;
   const bool in_body_space =
       unknowns > problem_.unknowns() &&
-      (problem_.bodies().size() == 1
-           ? stickingInBodySpace<6>(contacts_, problem_.bodies(), first, rhs, P)
-           : stickingInBodySpace<Eigen::Dynamic>(contacts_, problem_.bodies(), first, rhs, P));
-  if (!in_body_space) P = stickingByDelassus(first, rhs);
+      (problem_.bodies().size() == 1 ? stickingInBodySpace<6, Eigen::Dynamic>(
+                                           contacts_, problem_.bodies(), first.data(), rhs, P)
+                                     : stickingInBodySpace<Eigen::Dynamic, Eigen::Dynamic>(
+                                           contacts_, problem_.bodies(), first.data(), rhs, P));
+  if (!in_body_space && !stickingTridiagonal(rhs, P)) P = stickingByDelassus(first, rhs);
   return acceptSticking(P.data(), first.data(), rhs.data(), rhs.cwiseAbs().maxCoeff());
 }
 
@@ -510,6 +572,64 @@ bool IslandLcp::acceptSticking(const double* P, const Index* first, const double
       }
     }
   }
+  return true;
+}
+
+double IslandLcp::normalCoupling(int i, int j) const {
+  const ProblemContact& ci = *contacts_[i].entry;
+  const ProblemContact& cj = *contacts_[j].entry;
+  const int local_i[2] = {ci.local_a, ci.local_b};
+  const int local_j[2] = {cj.local_a, cj.local_b};
+  double sum = 0.0;
+  for (int si = 0; si < 2; ++si) {
+    if (local_i[si] < 0) continue;
+    for (int sj = 0; sj < 2; ++sj) {
+      if (local_j[sj] != local_i[si]) continue;
+      const ProblemBody& body = problem_.bodies()[local_i[si]];
+      if (!body.rigid()) return ci.normal.dot(problem_.delassusBlock(i, j) * cj.normal);
+      // The shared body's part of W_ij, +-(m^-1 I - [r_i]x I^-1 [r_j]x), between the normals
+      // (+ when both contacts push it from the same side, body a receiving -P and b +P).
+      const Eigen::Vector3d torque_i = contacts_[i].r(si).cross(ci.normal);
+      const Eigen::Vector3d torque_j = contacts_[j].r(sj).cross(cj.normal);
+      sum += (si == sj ? 1.0 : -1.0) * (body.inverse_mass * ci.normal.dot(cj.normal) +
+                                        torque_i.dot(body.inverse_inertia * torque_j));
+    }
+  }
+  return sum;
+}
+
+bool IslandLcp::stickingTridiagonal(const Eigen::VectorXd& rhs, Eigen::VectorXd& P) {
+  // Frictionless contacts each coupled only to the next in the problem's order (a row of bodies,
+  // each touching its neighbours): A is tridiagonal, A_ii = n_i^T W_ii n_i, A_i,i+1 = n_i^T
+  // W_i,i+1 n_(i+1), and its LDL^T without pivoting (A positive definite) costs O(n).
+  const Index n = static_cast<Index>(contacts_.size());
+  if (n < 3 || rhs.size() != n) return false;
+  for (const LcpContact& c : contacts_) {
+    if (c.frictional) return false;
+  }
+  const std::vector<std::pair<int, int>>& couplings = problem_.couplings();
+  for (const auto& [i, j] : couplings) {
+    if (j != i + 1) return false;
+  }
+  Eigen::VectorXd& d = workspace_.d;
+  Eigen::VectorXd& l = workspace_.l;  // l(i): L_i,i-1
+  d.resize(n);
+  l.setZero(n);
+  for (Index i = 0; i < n; ++i) {
+    const Eigen::Vector3d& normal = contacts_[i].entry->normal;
+    d(i) = normal.dot(contacts_[i].entry->delassus * normal);
+  }
+  for (const auto& [i, j] : couplings) l(j) = normalCoupling(i, j);  // A_ij for now
+  for (Index i = 1; i < n; ++i) {
+    const double a = l(i);
+    l(i) = a / d(i - 1);
+    d(i) -= l(i) * a;
+  }
+  if (!(d.minCoeff() > kRegularPivot * d.maxCoeff())) return false;  // the general path decides
+  P = rhs;
+  for (Index i = 1; i < n; ++i) P(i) -= l(i) * P(i - 1);
+  P.array() /= d.array();
+  for (Index i = n - 2; i >= 0; --i) P(i) -= l(i + 1) * P(i + 1);
   return true;
 }
 
@@ -631,8 +751,8 @@ SolveReport solveExact(ContactProblem& problem, const SolverOptions& options,
                        std::vector<ContactImpulse>& impulses) {
   SolveReport report;
   report.method = SolveMethod::kExact;
-  thread_local std::vector<LcpContact> storage;  // per-thread workspace: no allocation per solve
-  IslandLcp lcp(problem, storage);
+  thread_local ExactWorkspace workspace;  // no allocation per solve
+  IslandLcp lcp(problem, workspace);
   const bool all_sticking = lcp.solveAllSticking();  // checked against its targets already
   bool solved = all_sticking;
   while (!solved && lcp.solve(report.iterations, options.deadline)) {
