@@ -110,55 +110,71 @@ ProblemContact ContactProblem::rigidImpactContact(const RigidBody& a, const Rigi
   return out;
 }
 
+// The one impact builder: `body_at(i)` gives body i of the list (a RigidBody for the rigid list:
+// its asRigidBody() is then resolved at compile time). A contact between two free rigid bodies
+// takes the closed form (ContactSpace: lever arms, K from 3x3 blocks), any other the general entry.
+template <typename BodyAt>
+void ContactProblem::buildImpactOf(std::size_t body_count, const BodyAt& body_at,
+                                   const std::vector<ContactPoint>& contacts,
+                                   const std::vector<int>& island) {
+  clear(ProblemLevel::kVelocity);
+  contacts_.reserve(island.size());
+  if (local_of_.size() < body_count) local_of_.resize(body_count, -1);
+  for (const int c : island) {
+    const ContactPoint& point = contacts[c];
+    const auto& a = body_at(point.body_a);
+    const auto& b = body_at(point.body_b);
+    const RigidBody* rigid_a = a.asRigidBody();
+    const RigidBody* rigid_b = b.asRigidBody();
+    if (rigid_a != nullptr && rigid_b != nullptr) {
+      ProblemContact& entry = contacts_.emplace_back();
+      setRigidImpact(*rigid_a, *rigid_b, point, entry);
+      entry.source = c;
+      entry.local_a = addRigidBody(point.body_a, *rigid_a, local_of_);
+      entry.local_b = addRigidBody(point.body_b, *rigid_b, local_of_);
+    } else {
+      setTarget(addGeneralEntry(a, b, rigid_a, rigid_b, c, point, island.size()));
+    }
+  }
+  finish();
+}
+
 void ContactProblem::buildImpact(const std::vector<RigidBody>& bodies,
                                  const std::vector<ContactPoint>& contacts,
                                  const std::vector<int>& island) {
-  clear(ProblemLevel::kVelocity);
-  contacts_.reserve(island.size());
-  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
-  std::vector<int>& local_of = local_of_;
-  for (const int c : island) {
-    const ContactPoint& point = contacts[c];
-    const RigidBody& a = bodies[point.body_a];
-    const RigidBody& b = bodies[point.body_b];
-    ProblemContact& entry = contacts_.emplace_back();
-    setRigidImpact(a, b, point, entry);
-    entry.source = c;
-    entry.local_a = addRigidBody(point.body_a, a, local_of);
-    entry.local_b = addRigidBody(point.body_b, b, local_of);
-  }
-  finish();
+  buildImpactOf(
+      bodies.size(), [&](int i) -> const RigidBody& { return bodies[i]; }, contacts, island);
 }
 
 void ContactProblem::buildImpact(const std::vector<const BodyModel*>& bodies,
                                  const std::vector<ContactPoint>& contacts,
                                  const std::vector<int>& island) {
-  clear(ProblemLevel::kVelocity);
-  contacts_.reserve(island.size());
-  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
-  for (const int c : island) setTarget(addGeneralEntry(bodies, c, contacts[c], island.size()));
-  finish();
+  buildImpactOf(
+      bodies.size(), [&](int i) -> const BodyModel& { return *bodies[i]; }, contacts, island);
 }
 
-ProblemContact& ContactProblem::addGeneralEntry(const std::vector<const BodyModel*>& bodies, int c,
-                                                const ContactPoint& point,
+ProblemContact& ContactProblem::addGeneralEntry(const BodyModel& body_a, const BodyModel& body_b,
+                                                const RigidBody* rigid_a, const RigidBody* rigid_b,
+                                                int c, const ContactPoint& point,
                                                 std::size_t max_contacts) {
   const std::size_t row = contacts_.size();
   ProblemContact& entry = contacts_.emplace_back();
   setEntry(c, point, entry);
+  const BodyModel* side_body[2] = {&body_a, &body_b};
+  const RigidBody* side_rigid[2] = {rigid_a, rigid_b};
   const int index[2] = {point.body_a, point.body_b};
   const int part[2] = {point.part_a, point.part_b};
   int* local[2] = {&entry.local_a, &entry.local_b};
   Eigen::Vector3d* lever_arm[2] = {&entry.lever_arm_a, &entry.lever_arm_b};
   const bool resting = level_ == ProblemLevel::kAcceleration;
   for (int side = 0; side < 2; ++side) {
-    const BodyModel& body = *bodies[index[side]];
+    const BodyModel& body = *side_body[side];
     entry.free_velocity += kSideSign[side] * body.partPointVelocity(part[side], point.point);
     if (resting) {
       entry.free_acceleration +=
           kSideSign[side] * body.partPointFreeAcceleration(part[side], point.point);
     }
-    if (const RigidBody* rigid = body.asRigidBody()) {
+    if (const RigidBody* rigid = side_rigid[side]) {
       *lever_arm[side] = point.point - rigid->com;
       entry.delassus += rigidContactBlock(*rigid, *lever_arm[side]);
       *local[side] = addRigidBody(index[side], *rigid, local_of_);
@@ -185,49 +201,70 @@ ProblemContact& ContactProblem::addGeneralEntry(const std::vector<const BodyMode
   return entry;
 }
 
+// The one resting builder, as buildImpactOf(): `rigid_free_acceleration(i, body, r)` gives the free
+// acceleration [m/s^2] of the material point at lever arm r of the free rigid body i.
+template <typename BodyAt, typename RigidFreeAcceleration>
+void ContactProblem::buildRestingOf(std::size_t body_count, const BodyAt& body_at,
+                                    const RigidFreeAcceleration& rigid_free_acceleration,
+                                    const std::vector<ContactPoint>& contacts,
+                                    const std::vector<int>& island, double resting_velocity) {
+  clear(ProblemLevel::kAcceleration);
+  if (local_of_.size() < body_count) local_of_.resize(body_count, -1);
+  for (const int c : island) {
+    const ContactPoint& point = contacts[c];
+    const auto& a = body_at(point.body_a);
+    const auto& b = body_at(point.body_b);
+    const RigidBody* rigid_a = a.asRigidBody();
+    const RigidBody* rigid_b = b.asRigidBody();
+    if (rigid_a != nullptr && rigid_b != nullptr) {
+      const ContactSpace space(*rigid_a, *rigid_b, point.point);
+      const Eigen::Vector3d u = space.relativeVelocity(*rigid_a, *rigid_b);
+      if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
+      ProblemContact& entry = contacts_.emplace_back();
+      setEntry(c, point, entry);
+      setRestingFields(u, resting_velocity, entry);
+      entry.lever_arm_a = space.r_a;
+      entry.lever_arm_b = space.r_b;
+      entry.delassus = space.K;
+      entry.free_acceleration = rigid_free_acceleration(point.body_b, *rigid_b, space.r_b) -
+                                rigid_free_acceleration(point.body_a, *rigid_a, space.r_a);
+      entry.local_a = addRigidBody(point.body_a, *rigid_a, local_of_);
+      entry.local_b = addRigidBody(point.body_b, *rigid_b, local_of_);
+      continue;
+    }
+    const Eigen::Vector3d u = b.partPointVelocity(point.part_b, point.point) -
+                              a.partPointVelocity(point.part_a, point.point);
+    if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
+    setRestingFields(u, resting_velocity,
+                     addGeneralEntry(a, b, rigid_a, rigid_b, c, point, island.size()));
+  }
+  finish();
+}
+
 void ContactProblem::buildResting(const std::vector<BodyState>& states,
                                   const std::vector<RigidBody>& bodies,
                                   const std::vector<ContactPoint>& contacts,
                                   const std::vector<int>& island, double resting_velocity) {
-  clear(ProblemLevel::kAcceleration);
-  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
-  std::vector<int>& local_of = local_of_;
-  for (const int c : island) {
-    const ContactPoint& point = contacts[c];
-    RigidBody a = bodies[point.body_a];
-    RigidBody b = bodies[point.body_b];
-    const ContactSpace space(a, b, point.point);
-    const Eigen::Vector3d u = space.relativeVelocity(a, b);
-    if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
-    setFreeAcceleration(states[point.body_a], a);
-    setFreeAcceleration(states[point.body_b], b);
-    ProblemContact& entry = contacts_.emplace_back();
-    setEntry(c, point, entry);
-    setRestingFields(u, resting_velocity, entry);
-    entry.lever_arm_a = space.r_a;
-    entry.lever_arm_b = space.r_b;
-    entry.delassus = space.K;
-    entry.free_acceleration =
-        b.pointFreeAcceleration(space.r_b) - a.pointFreeAcceleration(space.r_a);
-    entry.local_a = addRigidBody(point.body_a, a, local_of);
-    entry.local_b = addRigidBody(point.body_b, b, local_of);
-  }
-  finish();
+  // The bodies' free accelerations from their states' wrenches, on copies.
+  const auto free_acceleration = [&](int i, const RigidBody& body, const Eigen::Vector3d& r) {
+    RigidBody accelerated = body;
+    setFreeAcceleration(states[i], accelerated);
+    return accelerated.pointFreeAcceleration(r);
+  };
+  buildRestingOf(
+      bodies.size(), [&](int i) -> const RigidBody& { return bodies[i]; }, free_acceleration,
+      contacts, island, resting_velocity);
 }
 
 void ContactProblem::buildResting(const std::vector<const BodyModel*>& bodies,
                                   const std::vector<ContactPoint>& contacts,
                                   const std::vector<int>& island, double resting_velocity) {
-  clear(ProblemLevel::kAcceleration);
-  if (local_of_.size() < bodies.size()) local_of_.resize(bodies.size(), -1);
-  for (const int c : island) {
-    const ContactPoint& point = contacts[c];
-    const Eigen::Vector3d u = bodies[point.body_b]->partPointVelocity(point.part_b, point.point) -
-                              bodies[point.body_a]->partPointVelocity(point.part_a, point.point);
-    if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
-    setRestingFields(u, resting_velocity, addGeneralEntry(bodies, c, point, island.size()));
-  }
-  finish();
+  const auto free_acceleration = [](int, const RigidBody& body, const Eigen::Vector3d& r) {
+    return body.pointFreeAcceleration(r);
+  };
+  buildRestingOf(
+      bodies.size(), [&](int i) -> const BodyModel& { return *bodies[i]; }, free_acceleration,
+      contacts, island, resting_velocity);
 }
 
 void ContactProblem::makePlastic() {
@@ -360,7 +397,14 @@ void ContactProblem::addVelocityChangesTo(std::vector<RigidBody>& bodies) const 
 
 void ContactProblem::addVelocityChangesTo(const std::vector<BodyModel*>& bodies) const {
   for (const ProblemBody& body : bodies_) {
-    bodies[body.index]->addVelocityChange(velocity_changes_.segment(body.offset, body.unknowns));
+    BodyModel& out = *bodies[body.index];
+    if (body.rigid()) {  // a free rigid body (asRigidBody() of this very, non-const, object)
+      RigidBody& rigid = const_cast<RigidBody&>(*out.asRigidBody());
+      rigid.linear_velocity += velocity_changes_.segment<3>(body.offset);
+      rigid.angular_velocity += velocity_changes_.segment<3>(body.offset + 3);
+    } else {
+      out.addVelocityChange(velocity_changes_.segment(body.offset, body.unknowns));
+    }
   }
 }
 

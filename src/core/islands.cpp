@@ -51,4 +51,10 @@ std::vector<Island> findIslands(const std::vector<BodyModel*>& bodies,
       bodies.size(), [&](int b) { return bodies[b]->velocityCount() > 0; }, contact_bodies);
 }
 
+std::vector<Island> findIslands(const std::vector<int>& unknowns,
+                                const std::vector<std::pair<int, int>>& contact_bodies) {
+  return islandsOf(
+      unknowns.size(), [&](int b) { return unknowns[b] > 0; }, contact_bodies);
+}
+
 }  // namespace collision_response::core

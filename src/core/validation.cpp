@@ -168,6 +168,60 @@ void validateCoefficients(double restitution, double static_friction, double dyn
   }
 }
 
+namespace {
+
+// The values every contact is checked for, whichever request it comes in (a Scene's Contact, a
+// ContactPoint): finite point within the length limit, finite non-zero normal of unit length within
+// kUnitTolerance, coefficients. `field()` gives "contacts[i]", built only to name an error.
+template <typename Field>
+void checkContactValues(const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                        double restitution, double static_friction, double dynamic_friction,
+                        const Field& field) {
+  if (!point.allFinite()) requireFinite(point, field(), ".point");
+  if (!normal.allFinite()) requireFinite(normal, field(), ".normal");
+  if (point.squaredNorm() > MagnitudeLimits::kLength * MagnitudeLimits::kLength) {
+    requireAtMost(point, MagnitudeLimits::kLength, "m", field(), ".point");
+  }
+  const double n_norm = normal.norm();
+  if (n_norm == 0.0) throw InvalidInput(field() + ".normal", "is a zero vector");
+  if (std::abs(n_norm - 1.0) > kUnitTolerance) {
+    throw InvalidInput(field() + ".normal", "is not a unit vector (norm " + describe(n_norm) + ")");
+  }
+  // The common case without building the field's name; validateCoefficients() names the error.
+  if (!(restitution >= 0.0 && restitution <= 1.0 && static_friction >= 0.0 &&
+        std::isfinite(static_friction) && dynamic_friction >= 0.0 &&
+        dynamic_friction <= static_friction)) {
+    validateCoefficients(restitution, static_friction, dynamic_friction, field());
+  }
+}
+
+}  // namespace
+
+void validateContactPoints(const std::vector<BodyModel*>& bodies,
+                           const std::vector<ContactPoint>& contacts) {
+  const int count = static_cast<int>(bodies.size());
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const ContactPoint& contact = contacts[c];
+    const auto field = [c] { return indexed("contacts", c); };
+    if (contact.body_a < 0 || contact.body_a >= count || bodies[contact.body_a] == nullptr) {
+      throw InvalidInput(field() + ".body_a", "no body " + std::to_string(contact.body_a));
+    }
+    if (contact.body_b < 0 || contact.body_b >= count || bodies[contact.body_b] == nullptr) {
+      throw InvalidInput(field() + ".body_b", "no body " + std::to_string(contact.body_b));
+    }
+    // Two parts of one body (two links of a robot) may touch; one part cannot touch itself.
+    if (contact.body_a == contact.body_b &&
+        (contact.part_a == contact.part_b || bodies[contact.body_a]->asRigidBody() != nullptr)) {
+      throw InvalidInput(field() + ".body_b",
+                         contact.part_a == contact.part_b && contact.part_a >= 0
+                             ? "a contact of a part with itself"
+                             : "a contact of a body with itself");
+    }
+    checkContactValues(contact.point, contact.normal, contact.restitution, contact.static_friction,
+                       contact.dynamic_friction, field);
+  }
+}
+
 void checkSize(std::size_t body_count, std::size_t contact_count, const RequestLimits& limits) {
   if (body_count > limits.max_bodies) {
     throw InvalidInput("bodies", std::to_string(body_count) + " bodies exceed the limit of " +
@@ -281,16 +335,9 @@ void SceneValidator::checkContacts(const Scene& scene) {
       throw InvalidInput(
           field, "both bodies ('" + contact.body_a + "', '" + contact.body_b + "') are immovable");
     }
-    requireFinite(contact.point, field, ".point");
-    requireFinite(contact.normal, field, ".normal");
-    requireAtMost(contact.point, MagnitudeLimits::kLength, "m", field, ".point");
-    const double n_norm = contact.normal.norm();
-    if (n_norm == 0.0) throw InvalidInput(field + ".normal", "is a zero vector");
-    if (std::abs(n_norm - 1.0) > kUnitTolerance) {
-      throw InvalidInput(field + ".normal", "is not a unit vector (norm " + describe(n_norm) + ")");
-    }
-    validateCoefficients(contact.restitution, contact.static_friction, contact.dynamic_friction,
-                         field);
+    checkContactValues(contact.point, contact.normal, contact.restitution, contact.static_friction,
+                       contact.dynamic_friction,
+                       [&field]() -> const std::string& { return field; });
     if (a < n) checkLeverArm(scene.bodies[a], a, smallest_moments_[a], contact.point, field);
     if (b < n) checkLeverArm(scene.bodies[b], b, smallest_moments_[b], contact.point, field);
     contact_bodies_.emplace_back(a, b);

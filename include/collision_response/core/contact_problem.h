@@ -53,8 +53,10 @@ struct ProblemBody {
 /// current relative motion, and several solvers can act one after another on one problem (the
 /// two-phase scheme). Nothing is written to the bodies until addVelocityChangesTo().
 ///
-/// Free rigid bodies take a closed-form path (lever arms, 3x3 blocks, fixed-size 3-vectors in a
-/// stacked vector of unknowns; no virtual call): the stacked Eigen::VectorXd of unknowns is one
+/// One builder per problem kind (buildImpact(), buildResting(); the overloads for a list of
+/// RigidBody are the same code). Free rigid bodies take a closed-form path inside it (lever arms,
+/// 3x3 blocks, fixed-size 3-vectors in a stacked vector of unknowns; no virtual call but the one
+/// asRigidBody() per side at build time): the stacked Eigen::VectorXd of unknowns is one
 /// allocation per problem, and every per-contact operation on a rigid side is fixed-size. General
 /// bodies (BodyModel) store J (3 x n) and M^-1 J^T (n x 3) per contact side, taken once.
 class ContactProblem {
@@ -68,25 +70,26 @@ class ContactProblem {
   ContactProblem() = default;
 
   /// The impact problem of the contacts listed in `island` (indices into `contacts`), between
-  /// free rigid bodies. Reuses this object's storage.
-  void buildImpact(const std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
-                   const std::vector<int>& island);
-  /// The same for general bodies (a body with asRigidBody() takes the rigid path).
+  /// general bodies (body_model.h). A contact between two free rigid bodies (asRigidBody()) takes
+  /// the closed form: lever arms, K from 3x3 blocks, no Jacobians stored. Reuses this object's
+  /// storage.
   void buildImpact(const std::vector<const BodyModel*>& bodies,
                    const std::vector<ContactPoint>& contacts, const std::vector<int>& island);
+  /// The same builder for a list of free rigid bodies (every contact on the closed form).
+  void buildImpact(const std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
+                   const std::vector<int>& island);
   /// The resting problem (ProblemLevel::kAcceleration) of the contacts of `island` with
-  /// |u_n| <= resting_velocity: free relative accelerations from the bodies' wrenches
-  /// (a = F / m, alpha = Iw^-1 (tau - w x Iw w)) and the centripetal terms, e = 0, the slip
-  /// direction of contacts already slipping faster than resting_velocity. Other contacts are left
-  /// out (ProblemContact::source says which are in).
-  void buildResting(const std::vector<BodyState>& states, const std::vector<RigidBody>& bodies,
+  /// |u_n| <= resting_velocity: free relative accelerations from each side's
+  /// BodyModel::partPointFreeAcceleration() (a rigid body's as set by setFreeAcceleration():
+  /// a = F / m, alpha = Iw^-1 (tau - w x Iw w), with the centripetal terms; a robot's from its
+  /// loads), e = 0, the slip direction of contacts already slipping faster than resting_velocity.
+  /// Other contacts are left out (ProblemContact::source says which are in).
+  void buildResting(const std::vector<const BodyModel*>& bodies,
                     const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
                     double resting_velocity);
-
-  /// The same for general bodies: a side's free acceleration is its
-  /// BodyModel::partPointFreeAcceleration() (a rigid body's is set by setFreeAcceleration(), a
-  /// robot's by its loads).
-  void buildResting(const std::vector<const BodyModel*>& bodies,
+  /// The same builder for a list of free rigid bodies whose free accelerations come from the
+  /// wrenches of `states` (the same order; the bodies are not changed).
+  void buildResting(const std::vector<BodyState>& states, const std::vector<RigidBody>& bodies,
                     const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
                     double resting_velocity);
 
@@ -188,11 +191,24 @@ class ContactProblem {
   int addRigidBody(int index, const RigidBody& body, std::vector<int>& local_of);
   int addGeneralBody(int index, const BodyModel& body, std::vector<int>& local_of);
   void finish();
-  // Appends the entry of contact c (`point`) between general bodies: frame, coefficients, u, K
-  // (with the cross terms when both sides are parts of one body), the sides' J and M^-1 J^T, and
-  // at kAcceleration the free acceleration. max_contacts: the island's size (general_sides_).
-  ProblemContact& addGeneralEntry(const std::vector<const BodyModel*>& bodies, int c,
-                                  const ContactPoint& point, std::size_t max_contacts);
+  // The one impact and the one resting builder behind each pair of overloads (body_at(i): body i
+  // of the list; contact_problem.cpp).
+  template <typename BodyAt>
+  void buildImpactOf(std::size_t body_count, const BodyAt& body_at,
+                     const std::vector<ContactPoint>& contacts, const std::vector<int>& island);
+  template <typename BodyAt, typename RigidFreeAcceleration>
+  void buildRestingOf(std::size_t body_count, const BodyAt& body_at,
+                      const RigidFreeAcceleration& rigid_free_acceleration,
+                      const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
+                      double resting_velocity);
+  // Appends the entry of contact c (`point`) between bodies a and b (rigid_a, rigid_b: their
+  // asRigidBody()), not both free rigid bodies:
+  // frame, coefficients, u, K (with the cross terms when both sides are parts of one body), the
+  // general sides' J and M^-1 J^T, and at kAcceleration the free acceleration. max_contacts: the
+  // island's size (general_sides_).
+  ProblemContact& addGeneralEntry(const BodyModel& a, const BodyModel& b, const RigidBody* rigid_a,
+                                  const RigidBody* rigid_b, int c, const ContactPoint& point,
+                                  std::size_t max_contacts);
   // motionChange() and addImpulse() when some body is general (any side kind).
   Eigen::Vector3d generalMotionChange(std::size_t i, const Eigen::VectorXd& velocity_changes) const;
   void generalAddImpulse(std::size_t i, const Eigen::Vector3d& impulse,

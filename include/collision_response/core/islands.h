@@ -19,5 +19,9 @@ std::vector<Island> findIslands(const std::vector<RigidBody>& bodies,
 /// The same for general bodies (body_model.h): movable are those with velocity unknowns.
 std::vector<Island> findIslands(const std::vector<BodyModel*>& bodies,
                                 const std::vector<std::pair<int, int>>& contact_bodies);
+/// The same for bodies given by their numbers of velocity unknowns (BodyModel::velocityCount(),
+/// 0: immovable), as the island pipeline (solve_islands.h) keeps them.
+std::vector<Island> findIslands(const std::vector<int>& unknowns,
+                                const std::vector<std::pair<int, int>>& contact_bodies);
 
 }  // namespace collision_response::core

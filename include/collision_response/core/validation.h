@@ -5,14 +5,19 @@
 #include <utility>
 #include <vector>
 
+#include "collision_response/core/body_model.h"
+#include "collision_response/core/contact_point.h"
 #include "collision_response/core/option_ranges.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
 
 namespace collision_response::core {
 
-/// Tolerance on |q| - 1 for orientations and on |n| - 1 for contact normals; within it the value is
-/// normalised, beyond it the request is rejected.
+/// Tolerance on |q| - 1 for orientations and on |n| - 1 for contact normals, the one unit-length
+/// tolerance of every request (a Scene's contacts and bodies, computeBodyResponse()'s
+/// ContactPoints): within it the value is normalised, beyond it the request is rejected. Loose
+/// enough for a normal or quaternion written with a few digits or sent as float32, tight enough
+/// that a wrong vector (a zero component lost, a sign error) is caught.
 constexpr double kUnitTolerance = 1e-3;
 
 /// Accepted magnitudes; beyond them a request is rejected, naming the field. Physical scenes stay
@@ -40,6 +45,17 @@ void requireInRange(double value, const OptionRange& range, const std::string& f
 /// Throws InvalidInput naming `field` + ".restitution", ".static_friction" or ".dynamic_friction".
 void validateCoefficients(double restitution, double static_friction, double dynamic_friction,
                           const std::string& field);
+
+/// The contacts of computeBodyResponse() (body indices into `bodies`): every index names a body
+/// (not nullptr), a contact of one body with itself only between two different parts of a body
+/// that is not a free rigid body (two links of a robot), and the values every contact is checked
+/// for, a Scene's too (SceneValidator::checkContacts(), the same code and texts): a finite point
+/// within MagnitudeLimits::kLength, a finite, non-zero normal of unit length within
+/// kUnitTolerance, coefficients as validateCoefficients(). Throws InvalidInput naming
+/// "contacts[i].<field>" (body_a, body_b, point, normal, restitution, static_friction,
+/// dynamic_friction) for the first offending contact.
+void validateContactPoints(const std::vector<BodyModel*>& bodies,
+                           const std::vector<ContactPoint>& contacts);
 
 /// Throws InvalidInput ("bodies" or "contacts") if a request of this size exceeds the limits;
 /// cheap, so a server can call it before converting anything.
