@@ -1,0 +1,52 @@
+// The identify program (docs/calibration.md, "Command line"):
+//
+//   identify --object OBJECT.yaml (--csv FILE_OR_DIR ... | --bag FILE.bag ...) [--object ...]
+//            --output materials.yaml [--plot fit.png] [--law newton|poisson|stronge]
+//            [--single-impact] [--folds K] [--threads N] [--friction one|two] [--fit-inertia]
+//            [--landings-per-recording N] [--loss-scale S] [--quiet]
+//
+// Each --object starts a group; the --csv / --bag after it are its recordings. Groups naming the
+// same pair of materials are fitted together; one ~materials entry per pair.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "collision_response/calibration/pose_track.h"
+
+namespace collision_response::calibration {
+
+struct IdentifyInput {
+  std::string object;             ///< the object file
+  std::vector<std::string> csv;   ///< CSV files or folders
+  std::vector<std::string> bags;  ///< rosbags
+};
+
+struct IdentifyArguments {
+  std::vector<IdentifyInput> inputs;
+  std::string output;  ///< materials YAML
+  std::string plot;    ///< PNG, "" for none (its data goes to the same name with .csv)
+  std::string law = "stronge";
+  bool single_impact = false;
+  int folds = 5;    ///< 0: no cross-validation
+  int threads = 0;  ///< 0: the machine's
+  bool split_friction = false;
+  bool fit_inertia = false;
+  int landings_per_recording = 1;
+  double loss_scale = 0.25;
+  bool quiet = false;  ///< no progress bar
+};
+
+/// Parses argv[1..]; throws std::runtime_error naming the flag.
+IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv);
+
+/// Reads the tracks of one rosbag (the ros library's reader, wired in by the program's main).
+using BagReader = std::function<std::vector<PoseTrack>(const std::string& bag)>;
+
+/// Runs the identification and writes the output (and the plot). Report lines go to `log`.
+/// Throws std::runtime_error naming the source on bad input; nothing is written then.
+void runIdentify(const IdentifyArguments& arguments, const BagReader& read_bag,
+                 std::function<void(const std::string&)> log);
+
+}  // namespace collision_response::calibration
