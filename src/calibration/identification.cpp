@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -9,6 +10,10 @@
 
 namespace collision_response::calibration {
 namespace {
+
+/// The automatic loss scale: the first stage's, and the least of the second's.
+constexpr double kFirstLossScale = 0.25;
+constexpr double kMinimumLossScale = 1e-4;
 
 /// The fitted parameters x and the coefficients they stand for: x = (e, mu[, r][, s]) with
 /// mu_s = mu, mu_d = r mu (r = 1 with one mu).
@@ -202,11 +207,11 @@ std::vector<LandingResidual> landingResiduals(const std::vector<ObjectLandings>&
 IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& objects,
                                           const IdentificationOptions& options,
                                           core::WorkerPool& pool) {
-  if (!(options.loss_scale > 0.0) || !(options.difference_step > 0.0) ||
+  if (!(options.loss_scale >= 0.0) || !(options.difference_step > 0.0) ||
       !(options.max_friction > 0.0) || options.max_iterations < 1)
     throw std::invalid_argument(
-        "identifyCoefficients: loss_scale, difference_step, max_friction and max_iterations "
-        "must be > 0");
+        "identifyCoefficients: loss_scale must be >= 0, difference_step, max_friction and "
+        "max_iterations > 0");
   std::vector<Case> cases;
   const auto keep = predictors(objects, options.prediction, cases);
   if (cases.empty()) throw std::invalid_argument("identifyCoefficients: no landing to fit");
@@ -234,12 +239,13 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
   LandingEvaluations evaluations(cases, p, bounds, options.difference_step, pool, x.data());
   ceres::Problem::Options problem_options;
   problem_options.evaluation_callback = &evaluations;
-  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;  // one, shared
   ceres::Problem problem(problem_options);
-  const double b = options.loss_scale * options.loss_scale;
+  const bool automatic = options.loss_scale == 0.0;
+  double scale = automatic ? kFirstLossScale : options.loss_scale;
+  ceres::LossFunctionWrapper loss(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
   for (std::size_t i = 0; i < cases.size(); ++i)
-    problem.AddResidualBlock(new LandingCost(evaluations, i, n),
-                             new ceres::CauchyLoss(options.loss_scale), x.data());
+    problem.AddResidualBlock(new LandingCost(evaluations, i, n), &loss, x.data());
   for (int j = 0; j < n; ++j) {
     problem.SetParameterLowerBound(x.data(), j, bounds.lower[j]);
     problem.SetParameterUpperBound(x.data(), j, bounds.upper[j]);
@@ -255,26 +261,43 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
   solver.callbacks.push_back(&progress);
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
+  int iterations = static_cast<int>(summary.iterations.size());
+  if (automatic) {
+    // The second stage: the scale from the first fit's landings (twice the median |r|; a
+    // landing that far off weighs half), then the fit again from the first one's optimum.
+    std::vector<LandingResidual> first =
+        landingResiduals(objects, p.coefficients(x.data()), options.prediction, pool);
+    std::vector<double> norms;
+    for (const auto& r : first) norms.push_back(r.norm());
+    std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
+    scale = std::max(kMinimumLossScale, 2.0 * norms[norms.size() / 2]);
+    loss.Reset(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
+    ceres::Solve(solver, &problem, &summary);
+    iterations += static_cast<int>(summary.iterations.size());
+  }
 
   IdentificationResult result;
   result.coefficients = p.coefficients(x.data());
   result.parameter_names = p.names();
   result.landings = static_cast<int>(cases.size());
-  result.iterations = static_cast<int>(summary.iterations.size());
+  result.iterations = iterations;
+  result.loss_scale = scale;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.summary = summary.BriefReport();
   result.residuals = landingResiduals(objects, result.coefficients, options.prediction, pool);
   std::tie(result.rms_linear, result.rms_angular) = rmsErrors(result.residuals);
 
-  // The residuals' scale: the Cauchy weights' weighted mean square per residual, over the
-  // degrees of freedom (the covariance below is that of unit-variance residuals).
-  double weighted = 0.0;
-  for (const auto& r : result.residuals) {
-    const double s = r.squaredNorm();
-    weighted += s / (1.0 + s / b);
-  }
-  const int dof = std::max(1, 6 * result.landings - n);
-  result.residual_sigma = std::sqrt(weighted / dof);
+  // The residuals' scale, robustly: the median of the landings' |r|^2 over the median of a
+  // chi-square with 6 degrees of freedom (5.348), i.e. the variance of one residual component if
+  // the bulk of the landings had independent Gaussian residuals. Landings far off (a chaotic
+  // sequence of corner impacts, a tracking glitch) neither set the scale nor, downweighted by the
+  // loss, carry much information (docs/calibration.md, "How sure").
+  std::vector<double> squares;
+  for (const auto& r : result.residuals) squares.push_back(r.squaredNorm());
+  std::nth_element(squares.begin(), squares.begin() + squares.size() / 2, squares.end());
+  const double dof_correction =
+      static_cast<double>(6 * result.landings) / std::max(1, 6 * result.landings - n);
+  result.residual_sigma = std::sqrt(squares[squares.size() / 2] / 5.348 * dof_correction);
 
   result.covariance = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::infinity());
   ceres::Covariance::Options covariance_options;

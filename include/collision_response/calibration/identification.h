@@ -31,13 +31,15 @@ struct IdentificationOptions {
   bool fit_inertia_scale = false;  ///< also fit s (inertia = s ObjectModel::inertia), s in [0.2, 5]
   Coefficients initial;            ///< the starting point (within the bounds)
   double max_friction = 2.0;       ///< the upper bound of mu_s (a search box, reported if reached)
-  /// The Cauchy loss's scale on each landing's residual norm: rho(s) = b log(1 + s / b), s = |r|^2,
-  /// b = loss_scale^2. Landings predicted worse than this (relative to their pre-impact speed)
-  /// weigh less and less.
-  double loss_scale = 0.25;
+  /// The Cauchy loss's scale c on each landing's residual norm: rho(s) = c^2 log(1 + s / c^2),
+  /// s = |r|^2: a landing predicted c off (relative to its pre-impact speed) weighs half, farther
+  /// ones less and less. 0 (the default): automatic, in two stages: a fit with c = 0.25, then
+  /// c = twice the median |r| of its landings and the fit again (so that the scale follows the
+  /// data's noise, whatever it is).
+  double loss_scale = 0.0;
   /// The step of the differences [-] (absolute in e, mu, r; relative in s): see docs/calibration.md
   /// why a large one (the prediction is piecewise smooth in the coefficients).
-  double difference_step = 0.01;
+  double difference_step = 0.03;
   int max_iterations = 50;
   /// Called after each solver iteration (from the calling thread) with its number.
   std::function<void(int iteration)> progress;
@@ -59,6 +61,7 @@ struct IdentificationResult {
   std::vector<std::string> parameter_names;    ///< the fitted parameters, in covariance order
   Eigen::MatrixXd covariance;                  ///< of the fitted parameters
   double residual_sigma = 0.0;  ///< the residuals' estimated standard deviation (covariance scale)
+  double loss_scale = 0.0;      ///< the Cauchy scale of the final fit
   std::vector<LandingResidual> residuals;      ///< per landing, objects' landings in order
   double rms_linear = 0.0, rms_angular = 0.0;  ///< over the landings (|r| of each 3-vector)
   int landings = 0;
