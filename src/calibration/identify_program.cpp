@@ -134,9 +134,10 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
     } else if (flag == "--loss-scale") {
       const std::string v = value();
       char* end = nullptr;
-      a.loss_scale = std::strtod(v.c_str(), &end);
+      a.loss_scale = v == "auto" ? 0.0 : std::strtod(v.c_str(), &end);
+      if (v == "auto") continue;
       if (end == v.c_str() || *end != '\0' || !(a.loss_scale > 0.0) || !std::isfinite(a.loss_scale))
-        throw std::runtime_error("--loss-scale: expected a number > 0, not '" + v + "'");
+        throw std::runtime_error("--loss-scale: auto or a number > 0, not '" + v + "'");
     } else if (flag == "--quiet") {
       a.quiet = true;
     } else {
@@ -244,8 +245,7 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
     entry.skipped.assign(pair.skipped.begin(), pair.skipped.end());
     entry.method = std::string(args.single_impact ? "one impact" : "episode") + ", " + args.law +
                    ", " + (args.split_friction ? "mu_s and mu_d" : "one mu") +
-                   (args.fit_inertia ? ", inertia scale" : "") + ", Cauchy loss scale " +
-                   std::to_string(args.loss_scale).substr(0, 5);
+                   (args.fit_inertia ? ", inertia scale" : "");
     std::string stage;
     options.progress = [&](int iteration) {
       bar.update((fits_done + std::min(1.0, iteration / 20.0)) / total_fits,
@@ -253,6 +253,10 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
     };
     stage = "fit";
     entry.fit = identifyCoefficients(pair.objects, options, pool);
+    char scale[64];
+    std::snprintf(scale, sizeof scale, ", Cauchy loss scale %.4f%s", entry.fit.loss_scale,
+                  args.loss_scale == 0.0 ? " (automatic)" : "");
+    entry.method += scale;
     ++fits_done;
     if (args.folds > 0) {
       entry.held_out = crossValidate(pair.objects, options, args.folds, pool, [&](int fold) {

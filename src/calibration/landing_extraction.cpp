@@ -64,6 +64,9 @@ std::vector<Extraction> extractLandings(const PoseTrack& raw, const detection::S
   for (int k = 0; k < track.size(); ++k)
     lowest[k] = lowestPointHeight(shape, track.position[k], track.orientation[k]);
   const double length = lengthScale(shape);
+  if (std::none_of(lowest.begin(), lowest.end(), [&](double h) { return h > options.clearance; }))
+    return stop(result, "the object is never in flight (never above the floor by the clearance)",
+                true);
 
   int flight_start = 0;  // where the flight before the next contact starts
   while (static_cast<int>(results.size()) < options.max_landings) {

@@ -3,7 +3,7 @@
 //   identify --object OBJECT.yaml (--csv FILE_OR_DIR ... | --bag FILE.bag ...) [--object ...]
 //            --output materials.yaml [--plot fit.png] [--law newton|poisson|stronge]
 //            [--single-impact] [--folds K] [--threads N] [--friction one|two] [--fit-inertia]
-//            [--landings-per-recording N] [--loss-scale S] [--quiet]
+//            [--landings-per-recording N] [--loss-scale auto|S] [--quiet]
 //
 // Each --object starts a group; the --csv / --bag after it are its recordings. Groups naming the
 // same pair of materials are fitted together; one ~materials entry per pair.
@@ -34,8 +34,8 @@ struct IdentifyArguments {
   bool split_friction = false;
   bool fit_inertia = false;
   int landings_per_recording = 1;
-  double loss_scale = 0.25;
-  bool quiet = false;  ///< no progress bar
+  double loss_scale = 0.0;  ///< 0: automatic (IdentificationOptions::loss_scale)
+  bool quiet = false;       ///< no progress bar
 };
 
 /// Parses argv[1..]; throws std::runtime_error naming the flag.

@@ -55,8 +55,8 @@ struct Landing {
 /// A landing, or why there is none ("" when ok).
 struct Extraction {
   bool ok = false;
-  /// The recording holds no landing at all (too few samples, or the object never comes within
-  /// the clearance of the floor after a flight): an error for the caller, not a skipped landing.
+  /// The recording holds no landing at all (too few samples, the object never in flight, or never
+  /// within the clearance of the floor): an error for the caller, not a skipped landing.
   bool no_landing = false;
   std::string reason;
   Landing landing;
