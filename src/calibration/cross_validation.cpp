@@ -7,8 +7,13 @@ namespace collision_response::calibration {
 
 CrossValidation crossValidate(const std::vector<ObjectLandings>& objects,
                               const IdentificationOptions& options, int folds,
-                              core::WorkerPool& pool,
-                              const std::function<void(int fold)>& progress) {
+                              core::WorkerPool& pool, const std::function<void(int fold)>& progress,
+                              const Coefficients* warm_start) {
+  IdentificationOptions fold_options = options;
+  if (warm_start != nullptr) {
+    fold_options.grid_start = false;
+    fold_options.initial = *warm_start;
+  }
   int total = 0;
   for (const auto& o : objects) total += static_cast<int>(o.landings.size());
   if (folds < 2 || folds > total)
@@ -35,7 +40,7 @@ CrossValidation crossValidate(const std::vector<ObjectLandings>& objects,
         ++k;
       }
     }
-    const IdentificationResult fit = identifyCoefficients(training, options, pool);
+    const IdentificationResult fit = identifyCoefficients(training, fold_options, pool);
     out.fitted.push_back(fit.coefficients);
     const auto residuals = landingResiduals(testing, fit.coefficients, options.prediction, pool);
     for (size_t i = 0; i < tested.size(); ++i) out.held_out[tested[i]] = residuals[i];

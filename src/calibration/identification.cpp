@@ -208,7 +208,7 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
                                           const IdentificationOptions& options,
                                           core::WorkerPool& pool) {
   if (!(options.loss_scale >= 0.0) || !(options.difference_step > 0.0) ||
-      !(options.max_friction > 0.0) || options.max_iterations < 1)
+      !(options.max_friction > 0.0) || options.max_iterations < 1 || options.starts < 1)
     throw std::invalid_argument(
         "identifyCoefficients: loss_scale must be >= 0, difference_step, max_friction and "
         "max_iterations > 0");
@@ -235,6 +235,45 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
       throw std::invalid_argument("identifyCoefficients: the initial " + p.names()[j] +
                                   " is outside [" + std::to_string(bounds.lower[j]) + ", " +
                                   std::to_string(bounds.upper[j]) + "]");
+  std::vector<std::vector<double>> starts;
+  if (options.grid_start) {
+    // The objective has several basins (the order of a landing's corner impacts changes with the
+    // coefficients): start from the best of a coarse grid over (e, mu), the other parameters at
+    // their initial values, under the first stage's loss.
+    const double c2 = (options.loss_scale == 0.0 ? kFirstLossScale : options.loss_scale) *
+                      (options.loss_scale == 0.0 ? kFirstLossScale : options.loss_scale);
+    auto cost = [&](const std::vector<double>& y) {
+      std::vector<double> s(cases.size(), 0.0);
+      pool.parallelFor(cases.size(), [&](std::size_t i) {
+        try {
+          const double r2 = cases[i]
+                                .predictor->residual(*cases[i].landing, p.coefficients(y.data()))
+                                .squaredNorm();
+          s[i] = std::isfinite(r2) ? c2 * std::log1p(r2 / c2) : INFINITY;
+        } catch (const std::exception&) {
+          s[i] = INFINITY;
+        }
+      });
+      double total = 0.0;
+      for (double v : s) total += v;
+      return total;
+    };
+    std::vector<std::pair<double, std::vector<double>>> grid{{cost(x), x}};
+    const std::vector<double> start = x;
+    for (double e : {0.1, 0.3, 0.5, 0.7, 0.9})
+      for (double mu : {0.1, 0.2, 0.35, 0.5, 0.8}) {
+        if (mu > options.max_friction) continue;
+        std::vector<double> y = start;
+        y[0] = e;
+        y[1] = mu;
+        grid.emplace_back(cost(y), y);
+      }
+    std::sort(grid.begin(), grid.end());
+    for (int k = 0; k < std::min<int>(options.starts, grid.size()); ++k)
+      starts.push_back(grid[k].second);
+  } else {
+    starts.push_back(x);
+  }
 
   LandingEvaluations evaluations(cases, p, bounds, options.difference_step, pool, x.data());
   ceres::Problem::Options problem_options;
@@ -260,8 +299,20 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
   Progress progress(options.progress);
   solver.callbacks.push_back(&progress);
   ceres::Solver::Summary summary;
-  ceres::Solve(solver, &problem, &summary);
-  int iterations = static_cast<int>(summary.iterations.size());
+  // The first stage from each start; the lowest final cost wins.
+  int iterations = 0;
+  double best_cost = INFINITY;
+  std::vector<double> best = starts.front();
+  for (const auto& start : starts) {
+    std::copy(start.begin(), start.end(), x.begin());
+    ceres::Solve(solver, &problem, &summary);
+    iterations += static_cast<int>(summary.iterations.size());
+    if (summary.final_cost < best_cost) {
+      best_cost = summary.final_cost;
+      best = x;
+    }
+  }
+  std::copy(best.begin(), best.end(), x.begin());
   if (automatic) {
     // The second stage: the scale from the first fit's landings (twice the median |r|; a
     // landing that far off weighs half), then the fit again from the first one's optimum.

@@ -259,10 +259,13 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
     entry.method += scale;
     ++fits_done;
     if (args.folds > 0) {
-      entry.held_out = crossValidate(pair.objects, options, args.folds, pool, [&](int fold) {
-        stage = "fold " + std::to_string(fold + 1) + "/" + std::to_string(args.folds);
-        if (fold > 0) ++fits_done;
-      });
+      entry.held_out = crossValidate(
+          pair.objects, options, args.folds, pool,
+          [&](int fold) {
+            stage = "fold " + std::to_string(fold + 1) + "/" + std::to_string(args.folds);
+            if (fold > 0) ++fits_done;
+          },
+          &entry.fit.coefficients);
       ++fits_done;
     }
     const auto& f = entry.fit;

@@ -19,9 +19,12 @@ struct CrossValidation {
 
 /// Landing k (counting the objects' landings in order) goes to fold k mod `folds`. folds in
 /// [2, number of landings], else std::invalid_argument. progress(fold) before each fold's fit.
+/// warm_start: each fold's fit starts there (the fit on all landings: folds differ little from
+/// it) instead of searching the grid (options.grid_start).
 CrossValidation crossValidate(const std::vector<ObjectLandings>& objects,
                               const IdentificationOptions& options, int folds,
                               core::WorkerPool& pool,
-                              const std::function<void(int fold)>& progress = {});
+                              const std::function<void(int fold)>& progress = {},
+                              const Coefficients* warm_start = nullptr);
 
 }  // namespace collision_response::calibration

@@ -41,6 +41,10 @@ struct IdentificationOptions {
   /// why a large one (the prediction is piecewise smooth in the coefficients).
   double difference_step = 0.03;
   int max_iterations = 50;
+  /// Start from the `starts` best of `initial` and a 5 x 5 grid over (e, mu) (the objective has
+  /// several basins), keeping the fit of lowest cost; false: from `initial` only.
+  bool grid_start = true;
+  int starts = 3;  ///< >= 1
   /// Called after each solver iteration (from the calling thread) with its number.
   std::function<void(int iteration)> progress;
 };
