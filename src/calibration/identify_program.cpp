@@ -153,8 +153,12 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
 }
 
 void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
-                 std::function<void(const std::string&)> log) {
+                 std::function<void(const std::string&)> report) {
   ProgressBar bar(!args.quiet);
+  const auto log = [&](const std::string& line) {
+    bar.finish();  // a report line never shares the bar's line
+    report(line);
+  };
   IdentificationOptions options;
   if (!core::fromString(args.law, options.prediction.law))
     throw std::runtime_error("--law: newton, poisson or stronge, not '" + args.law + "'");

@@ -43,17 +43,19 @@ TEST(CubeTosses, EvenTossesPredictOddOnesBetterThanTheAuthorsCoefficients) {
   core::WorkerPool pool(2);
   const IdentificationOptions options;  // the episode, Stronge's law, one mu, automatic loss
   const IdentificationResult fit = identifyCoefficients(even, options, pool);
-  const auto held_out = rmsErrors(landingResiduals(odd, fit.coefficients, options.prediction, pool));
+  const auto held_out =
+      rmsErrors(landingResiduals(odd, fit.coefficients, options.prediction, pool));
   Coefficients authors;
   authors.restitution = 0.125;
   authors.static_friction = authors.dynamic_friction = 0.18;
   const auto theirs = rmsErrors(landingResiduals(odd, authors, options.prediction, pool));
-  std::printf("%zu even landings: e %.4f [%.4f, %.4f], mu %.4f [%.4f, %.4f]; odd (%zu) RMS v %.3f "
-              "w %.3f; with e 0.125, mu 0.18: v %.3f w %.3f\n",
-              even[0].landings.size(), fit.estimates[0].value, fit.estimates[0].lower,
-              fit.estimates[0].upper, fit.estimates[1].value, fit.estimates[1].lower,
-              fit.estimates[1].upper, odd[0].landings.size(), held_out.first, held_out.second,
-              theirs.first, theirs.second);
+  std::printf(
+      "%zu even landings: e %.4f [%.4f, %.4f], mu %.4f [%.4f, %.4f]; odd (%zu) RMS v %.3f "
+      "w %.3f; with e 0.125, mu 0.18: v %.3f w %.3f\n",
+      even[0].landings.size(), fit.estimates[0].value, fit.estimates[0].lower,
+      fit.estimates[0].upper, fit.estimates[1].value, fit.estimates[1].lower,
+      fit.estimates[1].upper, odd[0].landings.size(), held_out.first, held_out.second, theirs.first,
+      theirs.second);
   // Better in the fit's objective (v and w together: the benchmark's); the authors' coefficients
   // happen to predict w alone about as well (their low e leaves the spin nearly unchanged).
   auto combined = [](std::pair<double, double> e) {
@@ -72,11 +74,11 @@ TEST(CubeTosses, EvenTossesPredictOddOnesBetterThanTheAuthorsCoefficients) {
   const IdentificationResult ls = identifyCoefficients(even, plain, pool);
   auto model = bench::makeEpisodeLanding(bench::TossedCube(), core::ImpactLaw::kStronge, false);
   const bench::FitResult reference = bench::fitLandingModel(*model, even[0].landings, {});
-  std::printf("least squares: e %.4f [%.4f, %.4f], mu %.4f [%.4f, %.4f]; benchmark's fit: e %.4f "
-              "mu %.4f\n",
-              ls.estimates[0].value, ls.estimates[0].lower, ls.estimates[0].upper,
-              ls.estimates[1].value, ls.estimates[1].lower, ls.estimates[1].upper,
-              reference.values[0], reference.values[1]);
+  std::printf(
+      "least squares: e %.4f [%.4f, %.4f], mu %.4f [%.4f, %.4f]; benchmark's fit: e %.4f "
+      "mu %.4f\n",
+      ls.estimates[0].value, ls.estimates[0].lower, ls.estimates[0].upper, ls.estimates[1].value,
+      ls.estimates[1].lower, ls.estimates[1].upper, reference.values[0], reference.values[1]);
   EXPECT_LE(ls.estimates[0].lower, reference.values[0]);
   EXPECT_GE(ls.estimates[0].upper, reference.values[0]);
   EXPECT_LE(ls.estimates[1].lower, reference.values[1]);
