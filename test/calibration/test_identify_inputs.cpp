@@ -219,4 +219,43 @@ TEST_F(IdentifyInputs, EndToEndOnSyntheticRecordings) {
   EXPECT_NE(s.find("# data: 12 recordings, "), std::string::npos) << s;
 }
 
+// Two object files naming different pairs of materials: one entry per pair, each fitted to its own
+// recordings (made with different coefficients).
+TEST_F(IdentifyInputs, OneEntryPerPairOfMaterials) {
+  std::mt19937 rng(31), noise(32);
+  const ObjectModel cube = syntheticCube();
+  IdentifyArguments a;
+  for (const auto& [pair, e] : {std::pair<std::string, double>{"rubber", 0.7}, {"wood", 0.3}}) {
+    fs::create_directories(dir_ / pair);
+    int files = 0;
+    while (files < 8) {
+      const PoseTrack truth = trueToss(rng, e, 0.3, core::ImpactLaw::kStronge);
+      if (truth.size() < 30 || !extractLandings(truth, cube.shape, 0.0).front().ok) continue;
+      write(pair + "/toss_" + std::to_string(files++) + ".csv",
+            csv(noisy(truth, noise, 3e-4, 3e-3)));
+    }
+    const std::string object = write(pair + ".yaml",
+                                     "shape: {type: box, size: [0.1048, 0.1048, 0.1048]}\n"
+                                     "mass: 0.37\nmaterial_a: " +
+                                         pair + "\nmaterial_b: floor\nfloor_height: 0\n");
+    a.inputs.push_back({object, {(dir_ / pair).string()}, {}});
+  }
+  a.output = output();
+  a.folds = 0;
+  a.threads = 2;
+  a.quiet = true;
+  runIdentify(a, BagReader(), [](const std::string&) {});
+  std::ifstream in(output());
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string s = text.str();
+  for (const auto& [pair, e] : {std::pair<std::string, double>{"rubber", 0.7}, {"wood", 0.3}}) {
+    const auto entry = s.find("  - {a: \"" + pair + "\", b: \"floor\", restitution: ");
+    ASSERT_NE(entry, std::string::npos) << s;
+    const YamlNode values =
+        parseYaml("x: " + s.substr(entry + 4, s.find('\n', entry) - entry - 4), "entry");
+    EXPECT_NEAR(std::stod(values.map[0].second.find("restitution")->scalar), e, 0.03) << pair;
+  }
+}
+
 }  // namespace
