@@ -25,6 +25,8 @@
 namespace collision_response::calibration {
 namespace {
 
+namespace fs = std::filesystem;
+
 int integer(const std::string& flag, const std::string& text, int lowest) {
   char* end = nullptr;
   const long value = std::strtol(text.c_str(), &end, 10);
@@ -301,11 +303,17 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
     const std::string data = std::filesystem::path(args.plot).replace_extension(".csv").string();
     writePlotData(data, pairs, entries);
     log("wrote " + data);
-    const std::string command = std::string("/usr/bin/python3 \"") + IDENTIFY_PLOT_SCRIPT +
-                                "\" \"" + data + "\" \"" + args.plot + "\"";
+    // The script beside the program when installed (catkin_install_python), else the source's.
+    std::error_code error;
+    const fs::path beside =
+        fs::read_symlink("/proc/self/exe", error).parent_path() / "plot_identification.py";
+    const std::string script =
+        !error && fs::exists(beside) ? beside.string() : std::string(IDENTIFY_PLOT_SCRIPT);
+    const std::string command =
+        "/usr/bin/python3 \"" + script + "\" \"" + data + "\" \"" + args.plot + "\"";
     const int status = std::system(command.c_str());
     if (status != 0)
-      log("no plot: " + std::string(IDENTIFY_PLOT_SCRIPT) +
+      log("no plot: " + script +
           " failed (matplotlib missing? apt-get install python3-matplotlib); its data is in " +
           data);
   }
