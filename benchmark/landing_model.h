@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "collision_response/calibration/motion_state.h"
+
 namespace collision_response::bench {
 
 /// The tossed cube (../data: side 0.1048 m, 0.37 kg; inertia not measured: uniform cube).
@@ -17,14 +19,9 @@ struct TossedCube {
   double inertia = 6.77e-4;    ///< about each axis through the centre [kg m^2] (uniform cube)
 };
 
-/// The cube's state. World frame: z up, the table is the plane z = 0 (the harness shifts each
-/// toss so), gravity (0, 0, -9.81) m/s^2.
-struct CubeState {
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< centre [m]
-  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< cube frame to world
-  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();        ///< of the centre [m/s]
-  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();       ///< world [rad/s]
-};
+/// The cube's state (calibration::MotionState). World frame: z up, the table is the plane z = 0
+/// (the harness shifts each toss so), gravity (0, 0, -9.81) m/s^2.
+using CubeState = calibration::MotionState;
 
 /// One fitted parameter of a model, with the box the fit searches.
 struct LandingParameter {

@@ -152,7 +152,7 @@ std::vector<std::string> checkExtraction(const ExtractionSummary& s, const Tosse
   if (kept < 250 || kept > 400)
     failures.push_back("kept " + std::to_string(kept) + " landings, expected 250..400");
   for (const Landing& l : s.landings) {
-    const std::string toss = "toss " + std::to_string(l.toss) + ": ";
+    const std::string toss = "toss " + std::to_string(l.recording) + ": ";
     if (l.pre.position_rms > 0.002)
       failures.push_back(toss + "pre-impact centre fit RMS " + std::to_string(l.pre.position_rms));
     if (cubeEnergy(l.after, cube, options.gravity_z) >
@@ -354,7 +354,8 @@ int main(int argc, char** argv) try {
 
   // The split: even toss index trains, odd is held out (fixed, the same for every model).
   std::vector<Landing> training, held_out;
-  for (const Landing& l : summary.landings) (l.toss % 2 == 0 ? training : held_out).push_back(l);
+  for (const Landing& l : summary.landings)
+    (l.recording % 2 == 0 ? training : held_out).push_back(l);
   std::printf("real_tosses: %zu training landings (even tosses), %zu held out (odd)\n",
               training.size(), held_out.size());
 

@@ -10,11 +10,11 @@ packages=(
   ros-core-dev ros-base-dev libroscpp-dev ros-message-generation rosbash
   libstd-msgs-dev libgeometry-msgs-dev libshape-msgs-dev python3-shape-msgs libsensor-msgs-dev python3-sensor-msgs libtf2-ros-dev python3-tf2-ros libtf2-eigen-dev libeigen3-dev libfcl-dev
   librostest-dev python3-rostest python3-rosservice python3-rostopic libgtest-dev
-  python3-std-msgs python3-geometry-msgs libbenchmark-dev zlib1g-dev
+  python3-std-msgs python3-geometry-msgs libbenchmark-dev zlib1g-dev libceres-dev
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools python3-nodelet pluginlib-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure libdiagnostic-updater-dev
   libdiagnostic-msgs-dev libvisualization-msgs-dev python3-visualization-msgs librosbag-dev
-  librosbag-storage-dev python3-rosbag python3-rospkg
+  librosbag-storage-dev python3-rosbag python3-rospkg python3-matplotlib
   python3-diagnostic-msgs tf2-tools python3-tf2-msgs libtf2-msgs-dev
   liburdf-dev libkdl-parser-dev liborocos-kdl-dev libresource-retriever-dev libgeometric-shapes-dev
   ros-robot-state-publisher joint-state-publisher

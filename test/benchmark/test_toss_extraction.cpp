@@ -119,19 +119,19 @@ TEST(TossExtraction, RealTossesAreSane) {
     ++kept;
     const Landing& l = x.landing;
     // Pre-impact fits at the tracking noise (sub-millimetre; 2 mm would be a wrong window).
-    EXPECT_LT(l.pre.position_rms, 0.002) << "toss " << l.toss;
-    EXPECT_LT(l.pre.rotation_rms * cube.half_width, 0.002) << "toss " << l.toss;
+    EXPECT_LT(l.pre.position_rms, 0.002) << "toss " << l.recording;
+    EXPECT_LT(l.pre.rotation_rms * cube.half_width, 0.002) << "toss " << l.recording;
     // A real landing does not gain energy (kinetic, uniform-cube inertia, plus potential).
     EXPECT_LE(cubeEnergy(l.after, cube, options.gravity_z),
               cubeEnergy(l.before, cube, options.gravity_z))
-        << "toss " << l.toss;
+        << "toss " << l.recording;
     // The table is within a centimetre of the tracking frame's z = 0 (the data's description).
-    EXPECT_LT(std::abs(l.table), 0.01) << "toss " << l.toss;
+    EXPECT_LT(std::abs(l.table), 0.01) << "toss " << l.recording;
     // The pre-impact state is above the table (its frame was above the clearance; the fit
     // smooths it by a fraction of a millimetre), falling; the post-landing one above the table.
     EXPECT_GT(lowestCornerHeight(l.before.position, l.before.orientation, cube.half_width),
               0.5 * options.clearance);
-    EXPECT_LT(l.before.linear_velocity.z(), 0.0) << "toss " << l.toss;
+    EXPECT_LT(l.before.linear_velocity.z(), 0.0) << "toss " << l.recording;
     EXPECT_GT(lowestCornerHeight(l.after.position, l.after.orientation, cube.half_width), 0.0);
   }
   // docs/benchmarks.md, "Real tosses": about half the tosses have a clear flight after landing.

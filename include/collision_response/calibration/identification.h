@@ -1,0 +1,93 @@
+// Identifying the coefficients that best predict recorded landings (docs/calibration.md,
+// "Identification" and "How sure"): robust nonlinear least squares with Ceres over the landings'
+// residuals (landing_prediction.h), bounded parameters, derivatives by differences, and the
+// covariance at the optimum.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "collision_response/calibration/landing_extraction.h"
+#include "collision_response/calibration/landing_prediction.h"
+#include "collision_response/calibration/object_model.h"
+#include "collision_response/core/worker_pool.h"
+
+namespace collision_response::calibration {
+
+/// The landings of one object (one object file): all objects given to one identification share
+/// the coefficients (one pair of materials).
+struct ObjectLandings {
+  ObjectModel object;
+  std::vector<Landing> landings;
+};
+
+struct IdentificationOptions {
+  PredictionOptions prediction;
+  /// Fit mu_s and mu_d (parametrised mu_s and r = mu_d / mu_s in [0, 1]); else one mu = mu_s =
+  /// mu_d.
+  bool split_friction = false;
+  bool fit_inertia_scale = false;  ///< also fit s (inertia = s ObjectModel::inertia), s in [0.2, 5]
+  Coefficients initial;            ///< the starting point (within the bounds)
+  double max_friction = 2.0;       ///< the upper bound of mu_s (a search box, reported if reached)
+  /// The Cauchy loss's scale c on each landing's residual norm: rho(s) = c^2 log(1 + s / c^2),
+  /// s = |r|^2: a landing predicted c off (relative to its pre-impact speed) weighs half, farther
+  /// ones less and less. 0 (the default): automatic, in two stages: a fit with c = 0.25, then
+  /// c = twice the median |r| of its landings and the fit again (so that the scale follows the
+  /// data's noise, whatever it is).
+  double loss_scale = 0.0;
+  /// The step of the differences [-] (absolute in e, mu, r; relative in s): see docs/calibration.md
+  /// why a large one (the prediction is piecewise smooth in the coefficients).
+  double difference_step = 0.03;
+  int max_iterations = 50;
+  /// Start from the `starts` best of `initial` and a 5 x 5 grid over (e, mu) (the objective has
+  /// several basins), keeping the fit of lowest cost; false: from `initial` only.
+  bool grid_start = true;
+  int starts = 3;  ///< >= 1
+  /// Called after each solver iteration (from the calling thread) with its number.
+  std::function<void(int iteration)> progress;
+};
+
+/// One coefficient's estimate: value, standard deviation and the 95 % interval value +- 1.96 sd
+/// (normal approximation), not cut at the bounds (lower may be < 0: the docs say how to read it).
+struct CoefficientEstimate {
+  std::string name;  ///< "restitution", "static_friction", "dynamic_friction", "inertia_scale"
+  double value = 0.0;
+  double std_dev = 0.0;  ///< infinite when the covariance is singular (not identifiable)
+  double lower = 0.0, upper = 0.0;
+  bool at_bound = false;  ///< the value lies on a bound of its parameter
+};
+
+struct IdentificationResult {
+  Coefficients coefficients;
+  std::vector<CoefficientEstimate> estimates;  ///< e, mu_s, mu_d (derived for one mu), [s]
+  std::vector<std::string> parameter_names;    ///< the fitted parameters, in covariance order
+  Eigen::MatrixXd covariance;                  ///< of the fitted parameters
+  double residual_sigma = 0.0;  ///< the residuals' estimated standard deviation (covariance scale)
+  double loss_scale = 0.0;      ///< the Cauchy scale of the final fit
+  std::vector<LandingResidual> residuals;      ///< per landing, objects' landings in order
+  double rms_linear = 0.0, rms_angular = 0.0;  ///< over the landings (|r| of each 3-vector)
+  int landings = 0;
+  int iterations = 0;
+  bool converged = false;
+  std::string summary;  ///< Ceres' one-line report
+};
+
+/// Fits the coefficients to every landing of `objects` (at least one landing; throws
+/// std::invalid_argument otherwise, or if options are out of range), evaluating the landings in
+/// parallel on `pool`.
+IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& objects,
+                                          const IdentificationOptions& options,
+                                          core::WorkerPool& pool);
+
+/// The residuals of every landing of `objects` under `coefficients` (objects' landings in order).
+std::vector<LandingResidual> landingResiduals(const std::vector<ObjectLandings>& objects,
+                                              const Coefficients& coefficients,
+                                              const PredictionOptions& options,
+                                              core::WorkerPool& pool);
+
+/// RMS over landings of |r.head(3)| (linear) and |r.tail(3)| (angular).
+std::pair<double, double> rmsErrors(const std::vector<LandingResidual>& residuals);
+
+}  // namespace collision_response::calibration

@@ -1,0 +1,68 @@
+// The identify program (docs/calibration.md, "Command line"):
+//
+//   identify --object OBJECT.yaml (--csv FILE_OR_DIR ... |
+//            --bag FILE.bag [--topic T | --frame F --world-frame W] ...) [--object ...]
+//            --output materials.yaml [--plot fit.png] [--law newton|poisson|stronge]
+//            [--single-impact] [--folds K] [--threads N] [--friction one|two] [--fit-inertia]
+//            [--landings-per-recording N] [--loss-scale auto|S] [--quiet]
+//
+// Each --object starts a group; the --csv / --bag after it are its recordings. Groups naming the
+// same pair of materials are fitted together; one ~materials entry per pair. A rosbag's poses are
+// read from tf (--frame, the object's frame, in --world-frame, z up) or from a PoseStamped topic
+// (--topic); the flags apply to the group's bags. A bag's track is cut where no pose came for
+// longer than kMaxRecordingGap (between tosses), each piece a recording.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "collision_response/calibration/pose_track.h"
+
+namespace collision_response::calibration {
+
+struct IdentifyInput {
+  std::string object;             ///< the object file
+  std::vector<std::string> csv;   ///< CSV files or folders
+  std::vector<std::string> bags;  ///< rosbags
+  std::string topic;              ///< bags: a geometry_msgs/PoseStamped topic; "": tf
+  std::string frame;              ///< bags on tf: the object's frame
+  std::string world_frame;        ///< bags: the fixed frame (z up)
+};
+
+/// A rosbag's track is cut into recordings where no pose came for longer than this [s].
+constexpr double kMaxRecordingGap = 0.25;
+
+/// The pieces of `track` between gaps in time longer than max_gap [s], in order, each with the
+/// track's source and its piece number ("bag:/tf world->cube #2"); pieces of fewer than 2 samples
+/// are dropped.
+std::vector<PoseTrack> splitAtGaps(const PoseTrack& track, double max_gap);
+
+struct IdentifyArguments {
+  std::vector<IdentifyInput> inputs;
+  std::string output;  ///< materials YAML
+  std::string plot;    ///< PNG, "" for none (its data goes to the same name with .csv)
+  std::string law = "stronge";
+  bool single_impact = false;
+  int folds = 5;    ///< 0: no cross-validation
+  int threads = 0;  ///< 0: the machine's
+  bool split_friction = false;
+  bool fit_inertia = false;
+  int landings_per_recording = 1;
+  double loss_scale = 0.0;  ///< 0: automatic (IdentificationOptions::loss_scale)
+  bool quiet = false;       ///< no progress bar
+};
+
+/// Parses argv[1..]; throws std::runtime_error naming the flag.
+IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv);
+
+/// Reads the poses of one rosbag as given by an input's topic / frame / world_frame (the ros
+/// library's reader, wired in by the program's main); throws naming the bag.
+using BagReader = std::function<PoseTrack(const std::string& bag, const IdentifyInput& input)>;
+
+/// Runs the identification and writes the output (and the plot). Report lines go to `log`.
+/// Throws std::runtime_error naming the source on bad input; nothing is written then.
+void runIdentify(const IdentifyArguments& arguments, const BagReader& read_bag,
+                 std::function<void(const std::string&)> log);
+
+}  // namespace collision_response::calibration

@@ -1,0 +1,41 @@
+// The recorded object and what it lands on, as calibration needs them (docs/calibration.md,
+// "The object file"): its shape (for the lowest point and the contacts), mass and inertia, the
+// pair of materials the coefficients are for, and the floor.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+
+#include "collision_response/detection/shapes.h"
+
+namespace collision_response::calibration {
+
+struct ObjectModel {
+  std::string source;  ///< where it was read from, for messages ("cube.yaml")
+  /// Box, sphere or cylinder (detection::Shape's dimensions conventions), centred on the tracked
+  /// frame, whose axes are the shape's (shape.pose is the identity). The tracked origin is the
+  /// centre of mass.
+  detection::Shape shape;
+  double mass = 0.0;                                  ///< [kg], > 0
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();  ///< about the origin, body axes [kg m^2]
+  std::string material_a;                             ///< the object's material
+  std::string material_b;                             ///< the floor's material
+  /// The floor's height in the recording's world frame [m] (z up); unset: the median lowest-point
+  /// height over each recording's last samples, where the object lies at rest.
+  std::optional<double> floor_height;
+};
+
+/// Height [m] of the shape's lowest point (world z) with its frame at (position, orientation).
+double lowestPointHeight(const detection::Shape& shape, const Eigen::Vector3d& position,
+                         const Eigen::Quaterniond& orientation);
+
+/// The length [m] that turns angular velocities into velocities in the scores and fit checks: half
+/// the box's largest side, the sphere's radius, the larger of the cylinder's radius and half
+/// length.
+double lengthScale(const detection::Shape& shape);
+
+/// Inertia [kg m^2] of the shape about its centre, body axes, for uniform density and mass [kg].
+Eigen::Matrix3d uniformInertia(const detection::Shape& shape, double mass);
+
+}  // namespace collision_response::calibration

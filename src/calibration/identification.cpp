@@ -1,0 +1,393 @@
+#include "collision_response/calibration/identification.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+namespace collision_response::calibration {
+namespace {
+
+/// The automatic loss scale: the first stage's, and the least of the second's.
+constexpr double kFirstLossScale = 0.25;
+constexpr double kMinimumLossScale = 1e-4;
+
+/// The fitted parameters x and the coefficients they stand for: x = (e, mu[, r][, s]) with
+/// mu_s = mu, mu_d = r mu (r = 1 with one mu).
+struct Parametrisation {
+  bool split = false, inertia = false;
+  int size() const { return 2 + split + inertia; }
+  Coefficients coefficients(const double* x) const {
+    Coefficients c;
+    c.restitution = x[0];
+    c.static_friction = x[1];
+    c.dynamic_friction = split ? x[2] * x[1] : x[1];
+    c.inertia_scale = inertia ? x[2 + split] : 1.0;
+    return c;
+  }
+  std::vector<double> start(const Coefficients& c) const {
+    std::vector<double> x{c.restitution, c.static_friction};
+    if (split) x.push_back(c.static_friction > 0.0 ? c.dynamic_friction / c.static_friction : 1.0);
+    if (inertia) x.push_back(c.inertia_scale);
+    return x;
+  }
+  std::vector<std::string> names() const {
+    std::vector<std::string> n{"restitution", split ? "static_friction" : "friction"};
+    if (split) n.push_back("friction_ratio");
+    if (inertia) n.push_back("inertia_scale");
+    return n;
+  }
+};
+
+struct Bounds {
+  std::vector<double> lower, upper;
+};
+
+/// One landing to predict: its object's predictor and the landing.
+struct Case {
+  const LandingPredictor* predictor;
+  const Landing* landing;
+};
+
+/// Each landing's residual and its Jacobian in x by differences (central inside the bounds,
+/// one-sided at them), all landings evaluated at once on the worker pool when Ceres moves to a new
+/// point (ceres::EvaluationCallback); the residual blocks read them.
+class LandingEvaluations final : public ceres::EvaluationCallback {
+ public:
+  LandingEvaluations(std::vector<Case> cases, const Parametrisation& p, const Bounds& bounds,
+                     double step, core::WorkerPool& pool, double* x)
+      : cases_(std::move(cases)), p_(p), bounds_(bounds), step_(step), pool_(pool), x_(x) {
+    residuals_.resize(cases_.size());
+    jacobians_.resize(cases_.size());
+    ok_.assign(cases_.size(), 0);
+  }
+
+  void PrepareForEvaluation(bool jacobians, bool new_point) override {
+    if (!new_point && (!jacobians || have_jacobians_)) return;
+    point_.assign(x_, x_ + p_.size());
+    have_jacobians_ = jacobians;
+    pool_.parallelFor(cases_.size(), [&](std::size_t i) {
+      ok_[i] = evaluate(i, point_.data(), residuals_[i], jacobians ? &jacobians_[i] : nullptr);
+    });
+  }
+
+  /// Residuals (and the Jacobian, row-major 6 x n) of landing i at x: from the cache when x is its
+  /// point, else computed here.
+  bool get(std::size_t i, const double* x, double* residuals, double* jacobian) const {
+    LandingResidual r;
+    Eigen::MatrixXd J;
+    bool ok;
+    const bool cached = point_.size() == static_cast<size_t>(p_.size()) &&
+                        std::equal(point_.begin(), point_.end(), x) &&
+                        (jacobian == nullptr || have_jacobians_);
+    if (cached) {
+      ok = ok_[i];
+      r = residuals_[i];
+      if (jacobian) J = jacobians_[i];
+    } else {
+      ok = evaluate(i, x, r, jacobian ? &J : nullptr);
+    }
+    if (!ok) return false;
+    for (int k = 0; k < 6; ++k) residuals[k] = r[k];
+    if (jacobian)
+      for (int k = 0; k < 6; ++k)
+        for (int j = 0; j < p_.size(); ++j) jacobian[k * p_.size() + j] = J(k, j);
+    return true;
+  }
+
+  bool evaluate(std::size_t i, const double* x, LandingResidual& r, Eigen::MatrixXd* J) const {
+    try {
+      const Case& c = cases_[i];
+      r = c.predictor->residual(*c.landing, p_.coefficients(x));
+      if (!r.allFinite()) return false;
+      if (J == nullptr) return true;
+      const int n = p_.size();
+      J->resize(6, n);
+      std::vector<double> y(x, x + n);
+      for (int j = 0; j < n; ++j) {
+        // Absolute steps in e, mu, r; relative in the inertia scale.
+        const double h = (p_.inertia && j == n - 1) ? step_ * x[j] : step_;
+        const double up = std::min(x[j] + h, bounds_.upper[j]);
+        const double down = std::max(x[j] - h, bounds_.lower[j]);
+        y[j] = up;
+        const LandingResidual r_up = c.predictor->residual(*c.landing, p_.coefficients(y.data()));
+        y[j] = down;
+        const LandingResidual r_down = c.predictor->residual(*c.landing, p_.coefficients(y.data()));
+        y[j] = x[j];
+        J->col(j) = (r_up - r_down) / (up - down);
+      }
+      return J->allFinite();
+    } catch (const std::exception&) {
+      return false;
+    }
+  }
+
+ private:
+  std::vector<Case> cases_;
+  Parametrisation p_;
+  Bounds bounds_;
+  double step_;
+  core::WorkerPool& pool_;
+  const double* x_;
+  std::vector<double> point_;
+  bool have_jacobians_ = false;
+  std::vector<LandingResidual> residuals_;
+  std::vector<Eigen::MatrixXd> jacobians_;
+  std::vector<char> ok_;
+};
+
+class LandingCost final : public ceres::CostFunction {
+ public:
+  LandingCost(const LandingEvaluations& evaluations, std::size_t index, int parameters)
+      : evaluations_(evaluations), index_(index) {
+    set_num_residuals(6);
+    mutable_parameter_block_sizes()->push_back(parameters);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    return evaluations_.get(index_, parameters[0], residuals, jacobians ? jacobians[0] : nullptr);
+  }
+
+ private:
+  const LandingEvaluations& evaluations_;
+  std::size_t index_;
+};
+
+class Progress final : public ceres::IterationCallback {
+ public:
+  explicit Progress(const std::function<void(int)>& f) : f_(f) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (f_) f_(s.iteration);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<void(int)>& f_;
+};
+
+std::vector<std::unique_ptr<LandingPredictor>> predictors(
+    const std::vector<ObjectLandings>& objects, const PredictionOptions& options,
+    std::vector<Case>& cases) {
+  std::vector<std::unique_ptr<LandingPredictor>> out;
+  for (const auto& o : objects) {
+    out.push_back(std::make_unique<LandingPredictor>(o.object, options));
+    for (const auto& l : o.landings) cases.push_back({out.back().get(), &l});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::pair<double, double> rmsErrors(const std::vector<LandingResidual>& residuals) {
+  double v = 0.0, w = 0.0;
+  for (const auto& r : residuals) {
+    v += r.head<3>().squaredNorm();
+    w += r.tail<3>().squaredNorm();
+  }
+  const double n = std::max<std::size_t>(1, residuals.size());
+  return {std::sqrt(v / n), std::sqrt(w / n)};
+}
+
+std::vector<LandingResidual> landingResiduals(const std::vector<ObjectLandings>& objects,
+                                              const Coefficients& coefficients,
+                                              const PredictionOptions& options,
+                                              core::WorkerPool& pool) {
+  std::vector<Case> cases;
+  const auto keep = predictors(objects, options, cases);
+  std::vector<LandingResidual> out(cases.size());
+  pool.parallelFor(cases.size(), [&](std::size_t i) {
+    out[i] = cases[i].predictor->residual(*cases[i].landing, coefficients);
+  });
+  return out;
+}
+
+IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& objects,
+                                          const IdentificationOptions& options,
+                                          core::WorkerPool& pool) {
+  if (!(options.loss_scale >= 0.0) || !(options.difference_step > 0.0) ||
+      !(options.max_friction > 0.0) || options.max_iterations < 1 || options.starts < 1)
+    throw std::invalid_argument(
+        "identifyCoefficients: loss_scale must be >= 0, difference_step, max_friction and "
+        "max_iterations > 0");
+  std::vector<Case> cases;
+  const auto keep = predictors(objects, options.prediction, cases);
+  if (cases.empty()) throw std::invalid_argument("identifyCoefficients: no landing to fit");
+
+  Parametrisation p{options.split_friction, options.fit_inertia_scale};
+  const int n = p.size();
+  Bounds bounds;
+  bounds.lower = {0.0, 0.0};
+  bounds.upper = {1.0, options.max_friction};
+  if (p.split) {
+    bounds.lower.push_back(0.0);
+    bounds.upper.push_back(1.0);
+  }
+  if (p.inertia) {
+    bounds.lower.push_back(0.2);
+    bounds.upper.push_back(5.0);
+  }
+  std::vector<double> x = p.start(options.initial);
+  for (int j = 0; j < n; ++j)
+    if (!(x[j] >= bounds.lower[j] && x[j] <= bounds.upper[j]))
+      throw std::invalid_argument("identifyCoefficients: the initial " + p.names()[j] +
+                                  " is outside [" + std::to_string(bounds.lower[j]) + ", " +
+                                  std::to_string(bounds.upper[j]) + "]");
+  std::vector<std::vector<double>> starts;
+  if (options.grid_start) {
+    // The objective has several basins (the order of a landing's corner impacts changes with the
+    // coefficients): start from the best of a coarse grid over (e, mu), the other parameters at
+    // their initial values, under the first stage's loss.
+    const double c2 = (options.loss_scale == 0.0 ? kFirstLossScale : options.loss_scale) *
+                      (options.loss_scale == 0.0 ? kFirstLossScale : options.loss_scale);
+    auto cost = [&](const std::vector<double>& y) {
+      std::vector<double> s(cases.size(), 0.0);
+      pool.parallelFor(cases.size(), [&](std::size_t i) {
+        try {
+          const double r2 = cases[i]
+                                .predictor->residual(*cases[i].landing, p.coefficients(y.data()))
+                                .squaredNorm();
+          s[i] = std::isfinite(r2) ? c2 * std::log1p(r2 / c2) : INFINITY;
+        } catch (const std::exception&) {
+          s[i] = INFINITY;
+        }
+      });
+      double total = 0.0;
+      for (double v : s) total += v;
+      return total;
+    };
+    std::vector<std::pair<double, std::vector<double>>> grid{{cost(x), x}};
+    const std::vector<double> start = x;
+    for (double e : {0.1, 0.3, 0.5, 0.7, 0.9})
+      for (double mu : {0.1, 0.2, 0.35, 0.5, 0.8}) {
+        if (mu > options.max_friction) continue;
+        std::vector<double> y = start;
+        y[0] = e;
+        y[1] = mu;
+        grid.emplace_back(cost(y), y);
+      }
+    std::sort(grid.begin(), grid.end());
+    for (int k = 0; k < std::min<int>(options.starts, grid.size()); ++k)
+      starts.push_back(grid[k].second);
+  } else {
+    starts.push_back(x);
+  }
+
+  LandingEvaluations evaluations(cases, p, bounds, options.difference_step, pool, x.data());
+  ceres::Problem::Options problem_options;
+  problem_options.evaluation_callback = &evaluations;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;  // one, shared
+  ceres::Problem problem(problem_options);
+  const bool automatic = options.loss_scale == 0.0;
+  double scale = automatic ? kFirstLossScale : options.loss_scale;
+  ceres::LossFunctionWrapper loss(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
+  for (std::size_t i = 0; i < cases.size(); ++i)
+    problem.AddResidualBlock(new LandingCost(evaluations, i, n), &loss, x.data());
+  for (int j = 0; j < n; ++j) {
+    problem.SetParameterLowerBound(x.data(), j, bounds.lower[j]);
+    problem.SetParameterUpperBound(x.data(), j, bounds.upper[j]);
+  }
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = 1;  // the landings run on the worker pool instead
+  solver.logging_type = ceres::SILENT;
+  solver.function_tolerance = 1e-7;
+  solver.parameter_tolerance = 1e-6;
+  Progress progress(options.progress);
+  solver.callbacks.push_back(&progress);
+  ceres::Solver::Summary summary;
+  // The first stage from each start; the lowest final cost wins.
+  int iterations = 0;
+  double best_cost = INFINITY;
+  std::vector<double> best = starts.front();
+  for (const auto& start : starts) {
+    std::copy(start.begin(), start.end(), x.begin());
+    ceres::Solve(solver, &problem, &summary);
+    iterations += static_cast<int>(summary.iterations.size());
+    if (summary.final_cost < best_cost) {
+      best_cost = summary.final_cost;
+      best = x;
+    }
+  }
+  std::copy(best.begin(), best.end(), x.begin());
+  if (automatic) {
+    // The second stage: the scale from the first fit's landings (twice the median |r|; a
+    // landing that far off weighs half), then the fit again from the first one's optimum.
+    std::vector<LandingResidual> first =
+        landingResiduals(objects, p.coefficients(x.data()), options.prediction, pool);
+    std::vector<double> norms;
+    for (const auto& r : first) norms.push_back(r.norm());
+    std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
+    scale = std::max(kMinimumLossScale, 2.0 * norms[norms.size() / 2]);
+    loss.Reset(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
+    ceres::Solve(solver, &problem, &summary);
+    iterations += static_cast<int>(summary.iterations.size());
+  }
+
+  IdentificationResult result;
+  result.coefficients = p.coefficients(x.data());
+  result.parameter_names = p.names();
+  result.landings = static_cast<int>(cases.size());
+  result.iterations = iterations;
+  result.loss_scale = scale;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.summary = summary.BriefReport();
+  result.residuals = landingResiduals(objects, result.coefficients, options.prediction, pool);
+  std::tie(result.rms_linear, result.rms_angular) = rmsErrors(result.residuals);
+
+  // The residuals' scale, robustly: the median of the landings' |r|^2 over the median of a
+  // chi-square with 6 degrees of freedom (5.348), i.e. the variance of one residual component if
+  // the bulk of the landings had independent Gaussian residuals. Landings far off (a chaotic
+  // sequence of corner impacts, a tracking glitch) neither set the scale nor, downweighted by the
+  // loss, carry much information (docs/calibration.md, "How sure").
+  std::vector<double> squares;
+  for (const auto& r : result.residuals) squares.push_back(r.squaredNorm());
+  std::nth_element(squares.begin(), squares.begin() + squares.size() / 2, squares.end());
+  const double dof_correction =
+      static_cast<double>(6 * result.landings) / std::max(1, 6 * result.landings - n);
+  result.residual_sigma = std::sqrt(squares[squares.size() / 2] / 5.348 * dof_correction);
+
+  result.covariance = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::infinity());
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = ceres::DENSE_SVD;
+  covariance_options.null_space_rank = 0;
+  covariance_options.num_threads = 1;
+  ceres::Covariance covariance(covariance_options);
+  std::vector<std::pair<const double*, const double*>> blocks{{x.data(), x.data()}};
+  if (covariance.Compute(blocks, &problem)) {
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(n, n);
+    if (covariance.GetCovarianceBlock(x.data(), x.data(), c.data()))
+      result.covariance = result.residual_sigma * result.residual_sigma * c;
+  }
+
+  // The coefficients' estimates: mu_d = r mu_s by the delta method.
+  auto estimate = [&](const std::string& name, double value, double variance, bool at_bound) {
+    CoefficientEstimate e;
+    e.name = name;
+    e.value = value;
+    e.std_dev = std::sqrt(std::max(0.0, variance));
+    if (!std::isfinite(variance)) e.std_dev = std::numeric_limits<double>::infinity();
+    e.lower = value - 1.96 * e.std_dev;
+    e.upper = value + 1.96 * e.std_dev;
+    e.at_bound = at_bound;
+    result.estimates.push_back(e);
+  };
+  auto onBound = [&](int j) { return x[j] <= bounds.lower[j] || x[j] >= bounds.upper[j]; };
+  const Eigen::MatrixXd& C = result.covariance;
+  estimate("restitution", x[0], C(0, 0), onBound(0));
+  estimate("static_friction", x[1], C(1, 1), onBound(1));
+  if (p.split) {
+    Eigen::Vector2d g(x[2], x[1]);  // d(r mu)/d(mu, r)
+    estimate("dynamic_friction", x[1] * x[2], g.dot(C.block<2, 2>(1, 1) * g),
+             onBound(1) || onBound(2));
+  } else {
+    estimate("dynamic_friction", x[1], C(1, 1), onBound(1));
+  }
+  if (p.inertia) estimate("inertia_scale", x[n - 1], C(n - 1, n - 1), onBound(n - 1));
+  return result;
+}
+
+}  // namespace collision_response::calibration

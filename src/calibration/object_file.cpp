@@ -1,0 +1,125 @@
+#include "collision_response/calibration/object_file.h"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "collision_response/calibration/simple_yaml.h"
+
+namespace collision_response::calibration {
+namespace {
+
+struct Reader {
+  std::string source;
+  [[noreturn]] void fail(const std::string& field, const std::string& what) const {
+    throw std::runtime_error(source + ": " + field + ": " + what);
+  }
+  double number(const YamlNode& node, const std::string& field) const {
+    if (node.kind != YamlNode::Kind::kScalar) fail(field, "must be a number");
+    char* end = nullptr;
+    const double value = std::strtod(node.scalar.c_str(), &end);
+    if (end == node.scalar.c_str() || *end != '\0')
+      fail(field, "must be a number, not '" + node.scalar + "'");
+    if (!std::isfinite(value)) fail(field, "must be finite");
+    return value;
+  }
+  double positive(const YamlNode& node, const std::string& field) const {
+    const double value = number(node, field);
+    if (!(value > 0.0)) fail(field, "must be > 0");
+    return value;
+  }
+  const YamlNode& member(const YamlNode& map, const std::string& key,
+                         const std::string& field) const {
+    const YamlNode* node = map.find(key);
+    if (node == nullptr) fail(field, "is missing");
+    return *node;
+  }
+  std::string text(const YamlNode& node, const std::string& field) const {
+    if (node.kind != YamlNode::Kind::kScalar || node.scalar.empty())
+      fail(field, "must be a non-empty name");
+    return node.scalar;
+  }
+  void onlyKeys(const YamlNode& map, const std::string& field,
+                std::initializer_list<const char*> keys) const {
+    for (const auto& [k, v] : map.map) {
+      bool known = false;
+      for (const char* key : keys) known |= k == key;
+      if (!known) fail(field.empty() ? k : field + "." + k, "unknown key");
+    }
+  }
+};
+
+}  // namespace
+
+ObjectModel parseObjectModel(const std::string& text, const std::string& source) {
+  const Reader r{source};
+  const YamlNode root = parseYaml(text, source);
+  r.onlyKeys(root, "", {"shape", "mass", "inertia", "material_a", "material_b", "floor_height"});
+  ObjectModel object;
+  object.source = source;
+  const YamlNode& shape = r.member(root, "shape", "shape");
+  if (shape.kind != YamlNode::Kind::kMapping) r.fail("shape", "must be a mapping {type: ...}");
+  const std::string type = r.text(r.member(shape, "type", "shape.type"), "shape.type");
+  if (type == "box") {
+    r.onlyKeys(shape, "shape", {"type", "size"});
+    const YamlNode& size = r.member(shape, "size", "shape.size");
+    if (size.kind != YamlNode::Kind::kSequence || size.items.size() != 3)
+      r.fail("shape.size", "must be [x, y, z]");
+    object.shape.type = detection::Shape::Type::kBox;
+    for (int i = 0; i < 3; ++i)
+      object.shape.dimensions.push_back(
+          r.positive(size.items[i], "shape.size[" + std::to_string(i) + "]"));
+  } else if (type == "sphere") {
+    r.onlyKeys(shape, "shape", {"type", "radius"});
+    object.shape.type = detection::Shape::Type::kSphere;
+    object.shape.dimensions = {
+        r.positive(r.member(shape, "radius", "shape.radius"), "shape.radius")};
+  } else if (type == "cylinder") {
+    r.onlyKeys(shape, "shape", {"type", "radius", "length"});
+    object.shape.type = detection::Shape::Type::kCylinder;
+    object.shape.dimensions = {
+        r.positive(r.member(shape, "length", "shape.length"), "shape.length"),
+        r.positive(r.member(shape, "radius", "shape.radius"), "shape.radius")};
+  } else {
+    r.fail("shape.type", "must be box, sphere or cylinder (not '" + type + "')");
+  }
+  object.mass = r.positive(r.member(root, "mass", "mass"), "mass");
+  if (const YamlNode* inertia = root.find("inertia")) {
+    if (inertia->kind != YamlNode::Kind::kSequence ||
+        (inertia->items.size() != 3 && inertia->items.size() != 9))
+      r.fail("inertia", "must be [ixx, iyy, izz] or 9 numbers (row-major)");
+    if (inertia->items.size() == 3) {
+      for (int i = 0; i < 3; ++i)
+        object.inertia(i, i) = r.positive(inertia->items[i], "inertia[" + std::to_string(i) + "]");
+    } else {
+      for (int i = 0; i < 9; ++i)
+        object.inertia(i / 3, i % 3) =
+            r.number(inertia->items[i], "inertia[" + std::to_string(i) + "]");
+    }
+    if (!object.inertia.isApprox(object.inertia.transpose(), 1e-9))
+      r.fail("inertia", "must be symmetric");
+    if (!(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(object.inertia).eigenvalues().minCoeff() >
+          0.0))
+      r.fail("inertia", "must be positive definite");
+  } else {
+    object.inertia = uniformInertia(object.shape, object.mass);
+  }
+  object.material_a = r.text(r.member(root, "material_a", "material_a"), "material_a");
+  object.material_b = r.text(r.member(root, "material_b", "material_b"), "material_b");
+  if (const YamlNode* floor = root.find("floor_height"))
+    object.floor_height = r.number(*floor, "floor_height");
+  return object;
+}
+
+ObjectModel loadObjectModel(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot read");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseObjectModel(text.str(), path);
+}
+
+}  // namespace collision_response::calibration

@@ -1,0 +1,261 @@
+// The identify program's inputs (identify_program.h): the two CSV layouts, the object file, and bad
+// input (a recording without a landing, a non-finite sample, an object file whose shape does not
+// match the recording, a malformed object file): an error naming the source, and no output file.
+// Also one small run end to end on synthetic recordings (synthetic_recordings.h) whose output is a
+// ~materials list with the true coefficients within its intervals.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "collision_response/calibration/csv_tracks.h"
+#include "collision_response/calibration/identify_program.h"
+#include "collision_response/calibration/landing_extraction.h"
+#include "collision_response/calibration/object_file.h"
+#include "collision_response/calibration/simple_yaml.h"
+#include "synthetic_recordings.h"
+
+using namespace collision_response;
+using namespace collision_response::calibration;
+using namespace collision_response::calibration::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+class IdentifyInputs : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("identify_inputs_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string write(const std::string& name, const std::string& text) {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path) << text;
+    return path;
+  }
+  static std::string csv(const PoseTrack& track) {
+    std::ostringstream out;
+    out.precision(10);
+    out << "t,x,y,z,qw,qx,qy,qz\n";
+    for (int k = 0; k < track.size(); ++k) {
+      const auto& p = track.position[k];
+      const auto& q = track.orientation[k];
+      out << track.time[k] << "," << p.x() << "," << p.y() << "," << p.z() << "," << q.w() << ","
+          << q.x() << "," << q.y() << "," << q.z() << "\n";
+    }
+    return out.str();
+  }
+  std::string cubeFile(double size, bool floor) {
+    return write("cube.yaml", "shape: {type: box, size: [" + std::to_string(size) + ", " +
+                                  std::to_string(size) + ", " + std::to_string(size) +
+                                  "]}  # the tossed cube\nmass: 0.37\nmaterial_a: cube\n"
+                                  "material_b: floor\n" +
+                                  (floor ? "floor_height: 0.0\n" : ""));
+  }
+  /// Runs identify; returns the error message ("" if none).
+  std::string run(const std::string& object, const std::vector<std::string>& csv) {
+    IdentifyArguments a;
+    a.inputs.push_back({object, csv, {}});
+    a.output = output();
+    a.folds = 0;
+    a.threads = 2;
+    a.quiet = true;
+    try {
+      runIdentify(a, BagReader(), [](const std::string&) {});
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  }
+  std::string output() const { return (dir_ / "materials.yaml").string(); }
+  fs::path dir_;
+};
+
+/// A cube lying flat on the floor for `n` samples at 148 Hz: no landing.
+PoseTrack restingCube(int n) {
+  PoseTrack track;
+  for (int k = 0; k < n; ++k) {
+    track.time.push_back(k / kSampleRate);
+    track.position.emplace_back(0.1, 0.2, 0.0524);
+    track.orientation.push_back(Eigen::Quaterniond::Identity());
+  }
+  return track;
+}
+
+TEST_F(IdentifyInputs, ReadsBothCsvLayouts) {
+  const std::string one =
+      write("toss_012.csv", "t,x,y,z,qw,qx,qy,qz\n0,1,2,3,2,0,0,0\n0.5,1,2,4,1,0,0,0\n");
+  const std::string many = write("tosses.csv",
+                                 "toss,t,x,y,z,qw,qx,qy,qz\n4,0,1,2,3,1,0,0,0\n4,1,1,2,3,1,0,0,0\n"
+                                 "9,0,5,6,7,0,1,0,0\n");
+  auto a = readCsvTracks(one);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].number, 12);
+  EXPECT_EQ(a[0].track.size(), 2);
+  EXPECT_DOUBLE_EQ(a[0].track.position[1].z(), 4.0);
+  EXPECT_DOUBLE_EQ(a[0].track.orientation[0].w(), 1.0);  // normalised
+  auto b = readCsvTracks(many);
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_EQ(b[0].number, 4);
+  EXPECT_EQ(b[1].number, 9);
+  EXPECT_EQ(b[1].track.source, many + " toss 9");
+  auto c = readCsvTracks(dir_.string());  // both files, in name order
+  EXPECT_EQ(c.size(), 3u);
+}
+
+TEST_F(IdentifyInputs, NonFiniteSampleNamesFileLineAndColumn) {
+  const std::string path =
+      write("bad.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,1,1,0,0,0\n0.1,0,0,1,1,nan,0,0\n");
+  const std::string error = run(cubeFile(0.1048, true), {path});
+  EXPECT_NE(error.find(path + ":3"), std::string::npos) << error;
+  EXPECT_NE(error.find("qx"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(output()));
+}
+
+TEST_F(IdentifyInputs, MalformedRowNamesFileAndLine) {
+  const std::string path = write("bad.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,1,1,0,0\n");
+  const std::string error = run(cubeFile(0.1048, true), {path});
+  EXPECT_NE(error.find(path + ":2"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(output()));
+}
+
+TEST_F(IdentifyInputs, RecordingWithoutLandingIsAnError) {
+  const std::string path = write("resting.csv", csv(restingCube(40)));
+  const std::string error = run(cubeFile(0.1048, true), {path});
+  EXPECT_NE(error.find(path), std::string::npos) << error;
+  EXPECT_NE(error.find("no landing"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(output()));
+}
+
+TEST_F(IdentifyInputs, ObjectBelowTheFloorAtRestIsAShapeMismatch) {
+  // The recording is of the 0.1048 m cube lying on the floor z = 0; the object file says 0.13 m:
+  // at rest its lowest point would be 12.8 mm below the floor.
+  std::mt19937 rng(5);
+  const std::string path = write("toss.csv", csv(restingCube(40)));
+  const std::string error = run(cubeFile(0.13, true), {path});
+  EXPECT_NE(error.find(path), std::string::npos) << error;
+  EXPECT_NE(error.find("below the floor"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(output()));
+}
+
+TEST_F(IdentifyInputs, MalformedObjectFileNamesTheField) {
+  const std::string toss = write("toss.csv", csv(restingCube(40)));
+  auto error = run(write("a.yaml",
+                         "shape: {type: box, size: [1, 1]}\nmass: 1\nmaterial_a: x\n"
+                         "material_b: y\n"),
+                   {toss});
+  EXPECT_NE(error.find("a.yaml: shape.size"), std::string::npos) << error;
+  error = run(write("b.yaml",
+                    "shape: {type: sphere, radius: 0.1}\nmaterial_a: x\n"
+                    "material_b: y\n"),
+              {toss});
+  EXPECT_NE(error.find("b.yaml: mass: is missing"), std::string::npos) << error;
+  error = run(write("c.yaml",
+                    "shape: {type: sphere, radius: 0.1}\nmass: -1\nmaterial_a: x\n"
+                    "material_b: y\n"),
+              {toss});
+  EXPECT_NE(error.find("c.yaml: mass: must be > 0"), std::string::npos) << error;
+  error = run(write("d.yaml",
+                    "shape: {type: cone, radius: 0.1}\nmass: 1\nmaterial_a: x\n"
+                    "material_b: y\nfriction: 3\n"),
+              {toss});
+  EXPECT_NE(error.find("d.yaml: friction: unknown key"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(output()));
+}
+
+TEST(ObjectFile, InertiaFromTheShapeOrGiven) {
+  // Closed forms: a uniform cylinder about its axis m r^2 / 2, across m (3 r^2 + L^2) / 12.
+  const ObjectModel c = parseObjectModel(
+      "shape:\n  type: cylinder\n  radius: 0.05\n  length: 0.2\nmass: 2\nmaterial_a: can\n"
+      "material_b: table\n",
+      "can.yaml");
+  EXPECT_NEAR(c.inertia(2, 2), 0.5 * 2 * 0.05 * 0.05, 1e-15);
+  EXPECT_NEAR(c.inertia(0, 0), 2 * (3 * 0.05 * 0.05 + 0.04) / 12, 1e-15);
+  EXPECT_FALSE(c.floor_height.has_value());
+  const ObjectModel b = parseObjectModel(
+      "shape: {type: box, size: [0.1, 0.2, 0.3]}\nmass: 1\ninertia: [1, 2, 3]\nmaterial_a: 'a b'\n"
+      "material_b: t\nfloor_height: 0.75\n",
+      "b.yaml");
+  EXPECT_EQ(b.inertia.diagonal(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(b.material_a, "a b");
+  EXPECT_DOUBLE_EQ(*b.floor_height, 0.75);
+  // The lowest point of the box tilted 90 degrees about x: half its z side becomes half its y side.
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()));
+  EXPECT_NEAR(lowestPointHeight(b.shape, Eigen::Vector3d(0, 0, 1), q), 1.0 - 0.1, 1e-12);
+}
+
+TEST_F(IdentifyInputs, EndToEndOnSyntheticRecordings) {
+  std::mt19937 rng(21), noise(22);
+  std::vector<std::string> files;
+  const ObjectModel cube = syntheticCube();
+  while (files.size() < 12) {
+    const PoseTrack truth = trueToss(rng, 0.45, 0.3, core::ImpactLaw::kStronge);
+    if (truth.size() < 30 || !extractLandings(truth, cube.shape, 0.0).front().ok) continue;
+    files.push_back(write("toss_" + std::to_string(files.size()) + ".csv",
+                          csv(noisy(truth, noise, 3e-4, 3e-3))));
+  }
+  ASSERT_EQ(run(cubeFile(0.1048, true), {dir_.string()}), "");
+  std::ifstream in(output());
+  std::stringstream text;
+  text << in.rdbuf();
+  // The list is a block sequence ("- {...}"), which simple_yaml does not read: check the lines.
+  const std::string s = text.str();
+  EXPECT_NE(s.find("\nmaterials:\n"), std::string::npos) << s;
+  const auto entry = s.find("  - {a: \"cube\", b: \"floor\", restitution: ");
+  ASSERT_NE(entry, std::string::npos) << s;
+  const YamlNode values =
+      parseYaml("x: " + s.substr(entry + 4, s.find('\n', entry) - entry - 4), "entry");
+  const YamlNode& m = values.map[0].second;
+  EXPECT_NEAR(std::stod(m.find("restitution")->scalar), 0.45, 0.02);
+  EXPECT_NEAR(std::stod(m.find("static_friction")->scalar), 0.3, 0.02);
+  EXPECT_EQ(m.find("static_friction")->scalar, m.find("dynamic_friction")->scalar);
+  EXPECT_NE(s.find("# data: 12 recordings, "), std::string::npos) << s;
+}
+
+// Two object files naming different pairs of materials: one entry per pair, each fitted to its own
+// recordings (made with different coefficients).
+TEST_F(IdentifyInputs, OneEntryPerPairOfMaterials) {
+  std::mt19937 rng(31), noise(32);
+  const ObjectModel cube = syntheticCube();
+  IdentifyArguments a;
+  for (const auto& [pair, e] : {std::pair<std::string, double>{"rubber", 0.7}, {"wood", 0.3}}) {
+    fs::create_directories(dir_ / pair);
+    int files = 0;
+    while (files < 8) {
+      const PoseTrack truth = trueToss(rng, e, 0.3, core::ImpactLaw::kStronge);
+      if (truth.size() < 30 || !extractLandings(truth, cube.shape, 0.0).front().ok) continue;
+      write(pair + "/toss_" + std::to_string(files++) + ".csv",
+            csv(noisy(truth, noise, 3e-4, 3e-3)));
+    }
+    const std::string object = write(pair + ".yaml",
+                                     "shape: {type: box, size: [0.1048, 0.1048, 0.1048]}\n"
+                                     "mass: 0.37\nmaterial_a: " +
+                                         pair + "\nmaterial_b: floor\nfloor_height: 0\n");
+    a.inputs.push_back({object, {(dir_ / pair).string()}, {}});
+  }
+  a.output = output();
+  a.folds = 0;
+  a.threads = 2;
+  a.quiet = true;
+  runIdentify(a, BagReader(), [](const std::string&) {});
+  std::ifstream in(output());
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string s = text.str();
+  for (const auto& [pair, e] : {std::pair<std::string, double>{"rubber", 0.7}, {"wood", 0.3}}) {
+    const auto entry = s.find("  - {a: \"" + pair + "\", b: \"floor\", restitution: ");
+    ASSERT_NE(entry, std::string::npos) << s;
+    const YamlNode values =
+        parseYaml("x: " + s.substr(entry + 4, s.find('\n', entry) - entry - 4), "entry");
+    EXPECT_NEAR(std::stod(values.map[0].second.find("restitution")->scalar), e, 0.03) << pair;
+  }
+}
+
+}  // namespace
