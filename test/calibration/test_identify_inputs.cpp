@@ -259,3 +259,30 @@ TEST_F(IdentifyInputs, OneEntryPerPairOfMaterials) {
 }
 
 }  // namespace
+
+// A bag's one track holds many tosses separated by untracked time: cut at gaps over the limit,
+// each piece a recording with its own samples in order; pieces of one sample dropped.
+TEST(SplitAtGaps, CutsOnlyAtGapsLongerThanTheLimit) {
+  PoseTrack track;
+  track.source = "b.bag:/tf world->cube";
+  // 0, 0.01, 0.02 | gap 0.5 | 0.52, 0.53 | gap 0.3 | 0.83 (alone) | gap 1.0 | 1.83, 1.84, 1.85
+  // and a gap of exactly the limit (0.25) inside the last piece, which does not cut.
+  const std::vector<double> times = {0.0, 0.01, 0.02, 0.52, 0.53, 0.83, 1.83, 1.84, 1.85, 2.10};
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    track.time.push_back(times[i]);
+    track.position.emplace_back(double(i), 0.0, 0.0);
+    track.orientation.push_back(Eigen::Quaterniond::Identity());
+  }
+  const std::vector<PoseTrack> pieces = splitAtGaps(track, 0.25);
+  ASSERT_EQ(pieces.size(), 3u);
+  const std::vector<std::vector<double>> expected = {
+      {0.0, 0.01, 0.02}, {0.52, 0.53}, {1.83, 1.84, 1.85, 2.10}};
+  const std::vector<double> first_x = {0.0, 3.0, 6.0};
+  for (std::size_t p = 0; p < pieces.size(); ++p) {
+    EXPECT_EQ(pieces[p].time, expected[p]) << p;
+    ASSERT_EQ(pieces[p].position.size(), expected[p].size()) << p;
+    ASSERT_EQ(pieces[p].orientation.size(), expected[p].size()) << p;
+    EXPECT_EQ(pieces[p].position.front().x(), first_x[p]) << p;
+    EXPECT_EQ(pieces[p].source, track.source + " #" + std::to_string(p));
+  }
+}
