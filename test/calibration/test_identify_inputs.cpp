@@ -265,9 +265,10 @@ TEST_F(IdentifyInputs, OneEntryPerPairOfMaterials) {
 TEST(SplitAtGaps, CutsOnlyAtGapsLongerThanTheLimit) {
   PoseTrack track;
   track.source = "b.bag:/tf world->cube";
-  // 0, 0.01, 0.02 | gap 0.5 | 0.52, 0.53 | gap 0.3 | 0.83 (alone) | gap 1.0 | 1.83, 1.84, 1.85
-  // and a gap of exactly the limit (0.25) inside the last piece, which does not cut.
-  const std::vector<double> times = {0.0, 0.01, 0.02, 0.52, 0.53, 0.83, 1.83, 1.84, 1.85, 2.10};
+  // 0, 0.01, 0.02 | gap 0.5 | 0.52, 0.53 | gap 0.3 | 0.83 (alone) | gap 0.67 | 1.5, 1.625, 1.75
+  // and a gap of exactly the limit (0.25, exact in binary) inside the last piece, which does not
+  // cut.
+  const std::vector<double> times = {0.0, 0.01, 0.02, 0.52, 0.53, 0.83, 1.5, 1.625, 1.75, 2.0};
   for (std::size_t i = 0; i < times.size(); ++i) {
     track.time.push_back(times[i]);
     track.position.emplace_back(double(i), 0.0, 0.0);
@@ -276,7 +277,7 @@ TEST(SplitAtGaps, CutsOnlyAtGapsLongerThanTheLimit) {
   const std::vector<PoseTrack> pieces = splitAtGaps(track, 0.25);
   ASSERT_EQ(pieces.size(), 3u);
   const std::vector<std::vector<double>> expected = {
-      {0.0, 0.01, 0.02}, {0.52, 0.53}, {1.83, 1.84, 1.85, 2.10}};
+      {0.0, 0.01, 0.02}, {0.52, 0.53}, {1.5, 1.625, 1.75, 2.0}};
   const std::vector<double> first_x = {0.0, 3.0, 6.0};
   for (std::size_t p = 0; p < pieces.size(); ++p) {
     EXPECT_EQ(pieces[p].time, expected[p]) << p;
