@@ -18,7 +18,7 @@ std::string cause(std::size_t c, const std::vector<double>& effective_masses,
     for (const int contact : island.contacts) {
       if (contact != static_cast<int>(c)) continue;
       if (!island.converged) return "the " + island.methodName() + " solve did not converge";
-      if (island.method == SolveMethod::kSequential || options.law == ImpactLaw::kSeedOnePass) {
+      if (island.method == SolvedBy::kSequential || options.law == ImpactLaw::kSeedOnePass) {
         return "the seed_one_pass law resolves its contacts one at a time, and a later "
                "contact's impulse can make an earlier one approach again";
       }

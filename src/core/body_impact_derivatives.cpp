@@ -100,8 +100,8 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
   // kExactSolverMaxContacts, and not as resting contacts, whose answer is forces).
   const bool exact_islands =
       std::all_of(out.result.islands.begin(), out.result.islands.end(), [](const SolveReport& r) {
-        return r.method == SolveMethod::kNone || r.method == SolveMethod::kClosedForm ||
-               r.method == SolveMethod::kExact;
+        return r.method == SolvedBy::kNone || r.method == SolvedBy::kClosedForm ||
+               r.method == SolvedBy::kExact;
       });
   const bool analytic = options.law == ImpactLaw::kNewton && frictionless && exact_islands;
   std::vector<Index> fd_columns;  // columns taken by central differences

@@ -750,7 +750,7 @@ double violation(const LcpContact& c, const Eigen::Vector3d& u, bool all_stickin
 SolveReport solveExact(ContactProblem& problem, const SolverOptions& options,
                        std::vector<ContactImpulse>& impulses) {
   SolveReport report;
-  report.method = SolveMethod::kExact;
+  report.method = SolvedBy::kExact;
   thread_local ExactWorkspace workspace;  // no allocation per solve
   IslandLcp lcp(problem, workspace);
   const bool all_sticking = lcp.solveAllSticking();  // checked against its targets already

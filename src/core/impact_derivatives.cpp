@@ -781,9 +781,9 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
              "derivative is that of the answer given, not of a solution");
       }
     }
-    const bool impact = report.method != SolveMethod::kNone &&
-                        report.method != SolveMethod::kRestingClosedForm &&
-                        report.method != SolveMethod::kRestingIterative;
+    const bool impact = report.method != SolvedBy::kNone &&
+                        report.method != SolvedBy::kRestingClosedForm &&
+                        report.method != SolvedBy::kRestingIterative;
     if (!impact) {
       // No impulse; a contact touching at u_n = 0 would start an impact if made to approach.
       double speed = 0.0;
@@ -800,13 +800,13 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
       continue;
     }
     const bool newton = options.law == ImpactLaw::kNewton;
-    if (newton && report.method == SolveMethod::kClosedForm && report.contacts.size() == 1) {
+    if (newton && report.method == SolvedBy::kClosedForm && report.contacts.size() == 1) {
       const int c = report.contacts[0];
       if (singleContact(scene, c, contact_bodies[c], before, body_column, velocity_count, out)) {
         continue;
       }
       out.contacts[c] = ContactDerivativeMode{};
-    } else if (newton && report.method == SolveMethod::kExact) {
+    } else if (newton && report.method == SolvedBy::kExact) {
       const IslandSystem s =
           buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
       MatrixXd dP_dv, dP_dtheta;

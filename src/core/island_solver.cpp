@@ -35,13 +35,13 @@ SolveReport solveContactByContact(ContactProblem& problem, const SolverOptions& 
       ImpulseSpaceDetail detail;
       impulses[i] =
           integrateSingleContact(problem, i, options.law, options.integration_tolerance, &detail);
-      report.method = SolveMethod::kImpulseSpace;
+      report.method = SolvedBy::kImpulseSpace;
       report.iterations = detail.steps + detail.segments;
       report.residual = detail.error_estimate;
       report.impulse_space = detail;
     } else {
       impulses[i] = solveSingleContact(problem, i, options.law);
-      report.method = problem.size() == 1 ? SolveMethod::kClosedForm : SolveMethod::kSequential;
+      report.method = problem.size() == 1 ? SolvedBy::kClosedForm : SolvedBy::kSequential;
       report.iterations = problem.size();
     }
     problem.applyImpulse(i, impulses[i].total(problem.contact(i).normal));
@@ -58,7 +58,7 @@ SolveReport solveNewton(SolverMethod method, ContactProblem& problem, const Solv
     // No complementarity solution (a jammed island; the exact solver applied nothing): under the
     // automatic choice the iterative solver gives its best effort, reported as not converged.
     report = solveIterative(problem, options, impulses);
-    report.method = SolveMethod::kExactThenIterative;
+    report.method = SolvedBy::kExactThenIterative;
   }
   return report;
 }
@@ -239,8 +239,8 @@ SolveReport solveTwoPhase(SolverMethod method, ContactProblem& problem,
   const SolveReport third = scheme.cleanUp();
   scheme.writeImpulses(impulses);
   SolveReport report;
-  report.method = method == SolverMethod::kExact ? SolveMethod::kTwoPhaseExact
-                                                 : SolveMethod::kTwoPhaseIterative;
+  report.method =
+      method == SolverMethod::kExact ? SolvedBy::kTwoPhaseExact : SolvedBy::kTwoPhaseIterative;
   report.iterations = first.iterations + friction.iterations + third.iterations;
   report.residual = std::max({first.residual, friction.residual, third.residual});
   report.converged = first.converged && friction.converged && third.converged;

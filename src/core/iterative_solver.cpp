@@ -170,7 +170,7 @@ SolveReport solveIterative(ContactProblem& problem, const SolverOptions& options
   const double reference = largestMotion(problem);        // the scale of a slip
 
   SolveReport report;
-  report.method = SolveMethod::kIterative;
+  report.method = SolvedBy::kIterative;
   report.converged = false;
   std::size_t& sweeps = report.iterations;
   for (sweeps = 1; sweeps <= options.max_iterations; ++sweeps) {

@@ -18,7 +18,7 @@ constexpr double kStickTolerance = 1e-9;
 // with e = 0, or sliding along an existing slip with F = f_n (n - mu_d s) and a'_n = 0.
 SolveReport restingClosedForm(ContactProblem& problem, ContactImpulse& force) {
   SolveReport report;
-  report.method = SolveMethod::kRestingClosedForm;
+  report.method = SolvedBy::kRestingClosedForm;
   report.iterations = 1;
   const ProblemContact& c = problem.contact(0);
   const Eigen::Vector3d acceleration = problem.relativeMotion(0);
@@ -130,7 +130,7 @@ SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& opt
     } else {
       report = stick;
     }
-    report.method = SolveMethod::kRestingIterative;
+    report.method = SolvedBy::kRestingIterative;
   }
   for (std::size_t i = 0; i < problem.size(); ++i) {
     const ProblemContact& c = problem.contact(i);

@@ -665,7 +665,7 @@ SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverO
   }
   impulses.assign(problem.size(), ContactImpulse{});
   SolveReport report;
-  report.method = SolveMethod::kSimultaneousImpulseSpace;
+  report.method = SolvedBy::kSimultaneousImpulseSpace;
   ImpulseSpaceDetail detail;
   if (problem.size() == 1) {
     impulses[0] =

@@ -2,31 +2,31 @@
 
 namespace collision_response::core {
 
-const char* toString(SolveMethod method) {
+const char* toString(SolvedBy method) {
   switch (method) {
-    case SolveMethod::kNone:
+    case SolvedBy::kNone:
       return "none";
-    case SolveMethod::kClosedForm:
+    case SolvedBy::kClosedForm:
       return "closed_form";
-    case SolveMethod::kImpulseSpace:
+    case SolvedBy::kImpulseSpace:
       return "impulse_space";
-    case SolveMethod::kSequential:
+    case SolvedBy::kSequential:
       return "sequential";
-    case SolveMethod::kExact:
+    case SolvedBy::kExact:
       return "exact";
-    case SolveMethod::kIterative:
+    case SolvedBy::kIterative:
       return "iterative";
-    case SolveMethod::kExactThenIterative:
+    case SolvedBy::kExactThenIterative:
       return "exact_then_iterative";
-    case SolveMethod::kTwoPhaseExact:
+    case SolvedBy::kTwoPhaseExact:
       return "two_phase_exact";
-    case SolveMethod::kTwoPhaseIterative:
+    case SolvedBy::kTwoPhaseIterative:
       return "two_phase_iterative";
-    case SolveMethod::kRestingClosedForm:
+    case SolvedBy::kRestingClosedForm:
       return "resting_closed_form";
-    case SolveMethod::kRestingIterative:
+    case SolvedBy::kRestingIterative:
       return "resting_iterative";
-    case SolveMethod::kSimultaneousImpulseSpace:
+    case SolvedBy::kSimultaneousImpulseSpace:
       return "simultaneous_impulse_space";
   }
   return "unknown";

@@ -236,7 +236,7 @@ TEST(ImpactDerivatives, NewtonSeveralContactsMatchCentralDifferences) {
     const cr::Scene scene = randomScene(random, contacts, trial % 2 == 1, 0.9, mu_s, mu_d);
     const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
     const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
-    if (d.result.islands.size() != 1 || d.result.islands[0].method != cr::SolveMethod::kExact) {
+    if (d.result.islands.size() != 1 || d.result.islands[0].method != cr::SolvedBy::kExact) {
       continue;
     }
     ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);

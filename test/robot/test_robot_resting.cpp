@@ -61,7 +61,7 @@ TEST(RobotResting, PendulumOnASupportCarriesTheWeightByTheLever) {
         const cr::BodyResponse out = cr::computeBodyResponse({&support, &rod}, {contact});
         const cr::ContactImpulse& c = out.impulses[0];
         ASSERT_EQ(out.islands.size(), 1u);
-        EXPECT_EQ(out.islands[0].method, cr::SolveMethod::kRestingClosedForm);
+        EXPECT_EQ(out.islands[0].method, cr::SolvedBy::kRestingClosedForm);
         EXPECT_TRUE(c.resting);
         EXPECT_EQ(c.normal_impulse, 0.0);
         const double want = std::max(0.0, (kG - tau) / d);
@@ -345,7 +345,7 @@ TEST(RobotRestingBand, LockedFloatingArmOnAnInclinedTableSticksInTheBand) {
       SCOPED_TRACE("theta " + std::to_string(theta_deg) + " deg, phi " + std::to_string(phi));
       ASSERT_EQ(out.islands.size(), 1u);
       ASSERT_TRUE(out.islands[0].converged);
-      EXPECT_EQ(out.islands[0].method, cr::SolveMethod::kRestingIterative);
+      EXPECT_EQ(out.islands[0].method, cr::SolvedBy::kRestingIterative);
       Vector3d total = Vector3d::Zero(), moment = Vector3d::Zero();
       for (std::size_t i = 0; i < contacts.size(); ++i) {
         const cr::ContactImpulse& c = out.impulses[i];

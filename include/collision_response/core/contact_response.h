@@ -19,7 +19,7 @@ struct ContactResponse {
   /// impulse along n moves the contact (both sides immovable along n: locked joints, a fixed base).
   std::vector<double> effective_masses;
   /// How each island of coupled contacts was solved: its contacts (SolveReport::contacts, indices
-  /// into the contacts), the method (SolveMethod::kNone if nothing approaches and nothing rests,
+  /// into the contacts), the method (SolvedBy::kNone if nothing approaches and nothing rests,
   /// or nothing can move; resting islands kRestingClosedForm / kRestingIterative), iterations,
   /// residual, convergence.
   std::vector<SolveReport> islands;

@@ -7,9 +7,10 @@
 
 namespace collision_response::core {
 
-/// How an island (or one solver call) was solved. toString() gives the names of the response's
+/// How an island (or one solver call) was solved: the report's answer, not the option that asks
+/// for a solver (SolverMethod, solver_options.h). toString() gives the names of the response's
 /// IslandReport.method.
-enum class SolveMethod {
+enum class SolvedBy {
   kNone,                ///< "none": nothing approaching and nothing resting
   kClosedForm,          ///< "closed_form": one contact, Newton (or one-pass) closed form
   kImpulseSpace,        ///< "impulse_space": one contact, Poisson / Stronge integrated
@@ -26,7 +27,11 @@ enum class SolveMethod {
   kSimultaneousImpulseSpace,
 };
 
-const char* toString(SolveMethod method);
+/// The former name of SolvedBy (until 2026-11), kept for code written against it.
+using SolveMethod [[deprecated("renamed SolvedBy: the report's method, not SolverMethod")]] =
+    SolvedBy;
+
+const char* toString(SolvedBy method);
 
 /// Detail of an impulse-space integration (integrateSingleContact()).
 struct ImpulseSpaceDetail {
@@ -46,7 +51,7 @@ struct ImpulseSpaceDetail {
 
 /// What one solve did, for every solver and for each island of computeResponse().
 struct SolveReport {
-  SolveMethod method = SolveMethod::kNone;
+  SolvedBy method = SolvedBy::kNone;
   /// The contacts solved: indices into the caller's contact list (Scene::contacts for
   /// computeResponse()).
   std::vector<int> contacts;

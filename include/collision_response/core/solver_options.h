@@ -33,7 +33,8 @@ enum class ImpactLaw {
   kStronge,
 };
 
-/// How a group of coupled contacts (an island) is solved.
+/// How a group of coupled contacts (an island) is to be solved: the option (what was used is the
+/// report's SolvedBy, solve_report.h).
 enum class SolverMethod {
   /// Per island: one contact in closed form (Newton) or by impulse-space integration (Poisson,
   /// Stronge); up to kExactSolverMaxContacts (12) contacts the exact solver, falling back to the
