@@ -79,8 +79,7 @@ CollisionResult computeValidatedResponse(const Scene& scene,
                                          const SolverOptions& options) {
   Workspace& workspace = threadWorkspace();
   std::vector<RigidBody>& bodies = workspace.bodies;
-  bodies.clear();
-  for (const BodyState& state : scene.bodies) bodies.push_back(makeRigidBody(state));
+  makeRigidBodies(scene.bodies, bodies);
   workspace.models.clear();
   for (RigidBody& body : bodies) workspace.models.push_back(&body);
 
@@ -95,9 +94,8 @@ CollisionResult computeValidatedResponse(const Scene& scene,
 
   CollisionResult result;
   // Resting contacts read each body's free acceleration under its wrench.
-  solveIslands(workspace.models, contacts, options, result, [&] {
-    for (std::size_t i = 0; i < bodies.size(); ++i) setFreeAcceleration(scene.bodies[i], bodies[i]);
-  });
+  solveIslands(workspace.models, contacts, options, result,
+               [&] { setFreeAccelerations(scene.bodies, bodies); });
 
   // Post-impact states.
   result.bodies = scene.bodies;

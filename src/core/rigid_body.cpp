@@ -33,6 +33,16 @@ void setFreeAcceleration(const BodyState& state, RigidBody& body) {
   body.angular_acceleration = body.inverse_inertia * (state.torque - w.cross(Iw_w));
 }
 
+void makeRigidBodies(const std::vector<BodyState>& states, std::vector<RigidBody>& bodies) {
+  bodies.clear();
+  bodies.reserve(states.size());
+  for (const BodyState& state : states) bodies.push_back(makeRigidBody(state));
+}
+
+void setFreeAccelerations(const std::vector<BodyState>& states, std::vector<RigidBody>& bodies) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) setFreeAcceleration(states[i], bodies[i]);
+}
+
 Eigen::VectorXd RigidBody::velocity() const {
   Eigen::VectorXd v(velocityCount());
   if (movable()) v << linear_velocity, angular_velocity;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <sstream>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "collision_response/core/errors.h"
@@ -327,21 +328,47 @@ void SceneValidator::checkContacts(const Scene& scene) {
     };
     const int a = find(contact.body_a, "body_a");
     const int b = find(contact.body_b, "body_b");
-    if (a == b)
-      throw InvalidInput(field + ".body_b",
-                         "is the same body as body_a ('" + contact.body_a + "')");
-    const int n = static_cast<int>(body_count_);
-    if (a < n && b < n && scene.bodies[a].immovable() && scene.bodies[b].immovable()) {
-      throw InvalidInput(
-          field, "both bodies ('" + contact.body_a + "', '" + contact.body_b + "') are immovable");
-    }
-    checkContactValues(contact.point, contact.normal, contact.restitution, contact.static_friction,
-                       contact.dynamic_friction,
-                       [&field]() -> const std::string& { return field; });
-    if (a < n) checkLeverArm(scene.bodies[a], a, smallest_moments_[a], contact.point, field);
-    if (b < n) checkLeverArm(scene.bodies[b], b, smallest_moments_[b], contact.point, field);
-    contact_bodies_.emplace_back(a, b);
+    checkContact(scene, i, field, a, b);
   }
+}
+
+void SceneValidator::checkContacts(const Scene& scene,
+                                   const std::vector<std::pair<int, int>>& bodies) {
+  checkSize(scene.bodies.size(), scene.contacts.size(), limits_);
+  const std::size_t first = contact_bodies_.size();
+  if (bodies.size() != scene.contacts.size() - first) {
+    throw std::invalid_argument("SceneValidator::checkContacts: " + std::to_string(bodies.size()) +
+                                " body pairs for " + std::to_string(scene.contacts.size() - first) +
+                                " contacts");
+  }
+  contact_bodies_.reserve(scene.contacts.size());
+  const int known = static_cast<int>(index_of_.size());
+  for (std::size_t i = first; i < scene.contacts.size(); ++i) {
+    const std::string field = indexed("contacts", i);
+    const auto [a, b] = bodies[i - first];
+    if (a < 0 || a >= known)
+      throw InvalidInput(field + ".body_a", "names no body (index " + std::to_string(a) + ")");
+    if (b < 0 || b >= known)
+      throw InvalidInput(field + ".body_b", "names no body (index " + std::to_string(b) + ")");
+    checkContact(scene, i, field, a, b);
+  }
+}
+
+void SceneValidator::checkContact(const Scene& scene, std::size_t i, const std::string& field,
+                                  int a, int b) {
+  const Contact& contact = scene.contacts[i];
+  if (a == b)
+    throw InvalidInput(field + ".body_b", "is the same body as body_a ('" + contact.body_a + "')");
+  const int n = static_cast<int>(body_count_);
+  if (a < n && b < n && scene.bodies[a].immovable() && scene.bodies[b].immovable()) {
+    throw InvalidInput(
+        field, "both bodies ('" + contact.body_a + "', '" + contact.body_b + "') are immovable");
+  }
+  checkContactValues(contact.point, contact.normal, contact.restitution, contact.static_friction,
+                     contact.dynamic_friction, [&field]() -> const std::string& { return field; });
+  if (a < n) checkLeverArm(scene.bodies[a], a, smallest_moments_[a], contact.point, field);
+  if (b < n) checkLeverArm(scene.bodies[b], b, smallest_moments_[b], contact.point, field);
+  contact_bodies_.emplace_back(a, b);
 }
 
 std::vector<std::pair<int, int>> validate(const Scene& scene, const SolverOptions& options,

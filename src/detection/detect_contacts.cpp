@@ -41,6 +41,7 @@ DetectedContacts detectContacts(ContactDetector& detector,
       detector.detect(bodies, input.geometry, input.options, input.collision_groups);
   out.contacts.reserve(found.size());
   out.depths.reserve(found.size());
+  out.bodies.reserve(found.size());
   static const std::string kNone;
   for (const DetectedContact& d : found) {
     const std::string& material_a = input.materials.empty() ? kNone : input.materials[d.body_a];
@@ -56,6 +57,7 @@ DetectedContacts detectContacts(ContactDetector& detector,
     c.dynamic_friction = m.dynamic_friction;
     out.contacts.push_back(std::move(c));
     out.depths.push_back(d.depth);
+    out.bodies.emplace_back(d.body_a, d.body_b);
   }
   return out;
 }

@@ -303,7 +303,8 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
       response.detected_contacts.push_back(toMsg(contact));
     response.detected_depths = detected.depths;
     scene.contacts.insert(scene.contacts.end(), detected.contacts.begin(), detected.contacts.end());
-    validator.checkContacts(scene);
+    // Their bodies by index, as detection paired them: no id is looked up.
+    validator.checkContacts(scene, detected.bodies);
   }
   const auto start = std::chrono::steady_clock::now();
   core::CollisionResult result;
@@ -404,7 +405,9 @@ void CollisionResponseServer::detectWithLinks(const ComputeResponse::Request& re
     response.detected_contacts.push_back(toMsg(contact));
   response.detected_depths = detected.depths;
   scene.contacts.insert(scene.contacts.end(), detected.contacts.begin(), detected.contacts.end());
-  validator.checkContacts(scene);
+  // Their bodies by index, as detection paired them (a link: its robot and link from here on).
+  validator.checkContacts(
+      scene, detectedContactBodies(detected.bodies, static_cast<int>(scene.bodies.size()), links));
 }
 
 void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& request,
@@ -413,7 +416,9 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
                                               const std::vector<core::ContactPoint>& points,
                                               const core::SolverOptions& options) {
   const int rigid_count = static_cast<int>(scene.bodies.size());
-  std::vector<core::RigidBody> rigid = rigidModels(scene.bodies);
+  std::vector<core::RigidBody> rigid;
+  core::makeRigidBodies(scene.bodies, rigid);
+  core::setFreeAccelerations(scene.bodies, rigid);  // their wrenches, for resting contacts
   const std::vector<core::BodyModel*> models = bodyModels(rigid, robots);
   double energy_before = 0.0;
   for (const core::BodyState& body : scene.bodies) energy_before += core::kineticEnergy(body);

@@ -8,6 +8,7 @@
 #include "collision_response/core/contact_safety.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/robot/joint_safety.h"
+#include "collision_response/robot/link_bodies.h"
 #include "collision_response/ros/message_conversion.h"
 #include "collision_response/ros/robot_conversion.h"
 
@@ -191,21 +192,16 @@ bool anyRobotGeometry(const std::vector<RequestRobot>& robots) {
 
 LinkBodies linkBodies(const std::vector<RequestRobot>& robots) {
   LinkBodies links;
+  int link_id = 0;  // the link's index in robotLinkIds(robots).ids
   for (std::size_t r = 0; r < robots.size(); ++r) {
     const robot::ArticulatedBody& model = *robots[r].model;
-    for (int link = 0; link < model.linkCount(); ++link) {
+    for (int link = 0; link < model.linkCount(); ++link, ++link_id) {
       const detection::BodyGeometry& geometry = robots[r].served->linkGeometry()[link];
       if (geometry.shapes.empty()) continue;
-      core::BodyState body;
-      body.id = robots[r].served->linkIds()[link];
-      body.mass = 1.0;
-      body.inertia = Eigen::Matrix3d::Identity();
-      const Eigen::Isometry3d pose = model.linkPose(link);
-      body.position = pose.translation();
-      body.orientation = Eigen::Quaterniond(pose.linear());
-      links.bodies.push_back(std::move(body));
+      links.bodies.push_back(robot::linkBody(model, link, robots[r].served->linkIds()[link]));
       links.geometry.push_back(&geometry);
       links.groups.push_back(static_cast<int>(r));
+      links.link_ids.push_back(link_id);
       links.shapes += geometry.shapes.size();
       for (const detection::Shape& shape : geometry.shapes) {
         links.vertices += shape.vertices.size();
@@ -216,14 +212,15 @@ LinkBodies linkBodies(const std::vector<RequestRobot>& robots) {
   return links;
 }
 
-std::vector<core::RigidBody> rigidModels(const std::vector<core::BodyState>& bodies) {
-  std::vector<core::RigidBody> rigid;
-  rigid.reserve(bodies.size());
-  for (const core::BodyState& body : bodies) {
-    rigid.push_back(core::makeRigidBody(body));
-    core::setFreeAcceleration(body, rigid.back());  // their wrenches, for resting contacts
-  }
-  return rigid;
+std::vector<std::pair<int, int>> detectedContactBodies(
+    const std::vector<std::pair<int, int>>& detected, int rigid_count, const LinkBodies& links) {
+  const auto index = [&](int body) {
+    return body < rigid_count ? body : rigid_count + links.link_ids[body - rigid_count];
+  };
+  std::vector<std::pair<int, int>> bodies;
+  bodies.reserve(detected.size());
+  for (const auto& [a, b] : detected) bodies.emplace_back(index(a), index(b));
+  return bodies;
 }
 
 std::vector<core::BodyModel*> bodyModels(std::vector<core::RigidBody>& rigid,

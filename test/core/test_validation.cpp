@@ -5,7 +5,9 @@
 #include <Eigen/Geometry>
 #include <functional>
 #include <limits>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
@@ -354,6 +356,46 @@ TEST(Validation, ContactBetweenTwoImmovableBodiesIsRejected) {
   EXPECT_NE(what.find("immovable"), std::string::npos) << what;
 }
 
+// Contacts whose bodies are given by index (detected contacts: SceneValidator::checkContacts()
+// with body pairs) are recorded as given, not looked up by id, and get the same checks as contacts
+// named by id: the same field for a bad value, a body paired with itself, two immovable bodies.
+TEST(Validation, ContactsWithBodyIndicesAreRecordedAndCheckedAsThoseNamedById) {
+  cr::Scene s = validScene();
+  const std::vector<cr::Contact> later = s.contacts;
+  s.contacts.clear();
+  {
+    cr::SceneValidator validator(s, {}, {});
+    validator.checkContacts(s);  // none yet
+    s.contacts = later;
+    s.contacts[1].body_a = s.contacts[1].body_b = "a name no body has";  // not read
+    validator.checkContacts(s, {{0, 1}, {1, 2}});
+    ASSERT_EQ(validator.contactBodies().size(), 2u);
+    EXPECT_EQ(validator.contactBodies()[0], std::make_pair(0, 1));
+    EXPECT_EQ(validator.contactBodies()[1], std::make_pair(1, 2));
+  }
+  const auto field_of = [](const cr::Scene& scene, std::vector<std::pair<int, int>> bodies) {
+    cr::Scene empty = scene;
+    empty.contacts.clear();
+    cr::SceneValidator validator(empty, {}, {});
+    try {
+      validator.checkContacts(scene, bodies);
+    } catch (const cr::InvalidInput& e) {
+      return e.field();
+    }
+    return std::string("(accepted)");
+  };
+  s = validScene();
+  EXPECT_EQ(field_of(s, {{0, 1}, {1, 3}}), "contacts[1].body_b");  // no body 3
+  EXPECT_EQ(field_of(s, {{-1, 1}, {1, 2}}), "contacts[0].body_a");
+  EXPECT_EQ(field_of(s, {{0, 1}, {1, 1}}), "contacts[1].body_b");  // itself
+  s.contacts[0].normal = Vector3d(0, 2, 0);
+  EXPECT_EQ(field_of(s, {{0, 1}, {1, 2}}), "contacts[0].normal");
+  s = validScene();
+  s.bodies[2].mass = 0.0;
+  EXPECT_EQ(field_of(s, {{0, 1}, {0, 2}}), "contacts[1]");     // both immovable
+  EXPECT_THROW(field_of(s, {{0, 1}}), std::invalid_argument);  // one pair per contact
+}
+
 // --- Limits and options. ------------------------------------------------------------------------
 TEST(Validation, TooManyBodiesIsRejected) {
   const cr::Scene s = validScene();  // 3 bodies
@@ -466,8 +508,7 @@ TEST(InvalidInput, PathSegmentsPrefixAndRename) {
   const cr::InvalidInput in_batch = error.prefixed("scenes[3]");
   EXPECT_STREQ(in_batch.what(), "scenes[3].bodies[1].inertia.m: is negative (-1 kg)");
   EXPECT_EQ(in_batch.path().size(), 4u);
-  const cr::InvalidInput renamed =
-      cr::InvalidInput("contacts[5].normal", "is a zero vector").withFirstSegment(
-          "detected_contacts[2]");
+  const cr::InvalidInput renamed = cr::InvalidInput("contacts[5].normal", "is a zero vector")
+                                       .withFirstSegment("detected_contacts[2]");
   EXPECT_STREQ(renamed.what(), "detected_contacts[2].normal: is a zero vector");
 }

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
@@ -100,6 +102,29 @@ TEST(DetectedContacts, TwoSpheresHeadOn) {
   grouped.collision_groups = {3, 3};
   detection::ContactDetector detector;
   EXPECT_TRUE(detection::detectContacts(detector, {left, right}, grouped, {}).contacts.empty());
+}
+
+// Each detected contact carries the indices of its two bodies in the bodies given (what a caller
+// keeps instead of looking the ids up): three balls in a row touch their neighbours only, so the
+// pairs are (0, 1) and (1, 2), and each index names the body whose id the contact names.
+TEST(DetectedContacts, ContactsCarryTheirBodiesIndices) {
+  const detection::Shape ball = primitive(detection::Shape::Type::kSphere, {0.1});
+  const std::vector<cr::BodyState> bodies = {
+      sphere("west", 1.0, 0.1, {-0.2, 0, 0}, {1.0, 0, 0}),
+      sphere("middle", 1.0, 0.1, {0, 0, 0}, Vector3d::Zero()),
+      sphere("east", 1.0, 0.1, {0.2, 0, 0}, {-1.0, 0, 0})};
+  detection::ContactDetector detector;
+  const detection::DetectedContacts found =
+      detection::detectContacts(detector, bodies, shapesOf({{ball}, {ball}, {ball}}, 0.5), {});
+  ASSERT_EQ(found.contacts.size(), 2u);
+  ASSERT_EQ(found.bodies.size(), 2u);
+  std::vector<std::pair<int, int>> pairs = found.bodies;
+  std::sort(pairs.begin(), pairs.end());
+  EXPECT_EQ(pairs, (std::vector<std::pair<int, int>>{{0, 1}, {1, 2}}));
+  for (std::size_t k = 0; k < found.contacts.size(); ++k) {
+    EXPECT_EQ(bodies[found.bodies[k].first].id, found.contacts[k].body_a);
+    EXPECT_EQ(bodies[found.bodies[k].second].id, found.contacts[k].body_b);
+  }
 }
 
 TEST(DetectedContacts, BoxLandingFlatKeepsNoSpin) {

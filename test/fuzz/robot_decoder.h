@@ -683,12 +683,9 @@ inline RobotOutcome runRobotInput(const std::uint8_t* data, std::size_t size,
 
     validator.checkContacts(scene);
     const int rigid_count = static_cast<int>(scene.bodies.size());
-    std::vector<core::RigidBody> rigid;
-    rigid.reserve(scene.bodies.size());
-    for (const core::BodyState& body : scene.bodies) {
-      rigid.push_back(core::makeRigidBody(body));
-      core::setFreeAcceleration(body, rigid.back());
-    }
+    std::vector<core::RigidBody> rigid;  // as the node builds them
+    core::makeRigidBodies(scene.bodies, rigid);
+    core::setFreeAccelerations(scene.bodies, rigid);
     std::vector<core::BodyModel*> models;
     for (core::RigidBody& body : rigid) models.push_back(&body);
     models.push_back(&robot);

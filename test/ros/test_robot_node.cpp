@@ -815,6 +815,68 @@ TEST_F(RobotNodeTest, FingerPadsOnATableFromTheUrdfGeometry) {
   EXPECT_GT(speed, 0.0);
 }
 
+// Detected contacts keep the (robot, link) detection paired them on; contacts given in the request
+// name links by "<robot>/<link>". The two paths must agree: the finger pads' detected contacts,
+// given back as the request's own contacts (detection off), get the same impulses, the same joint
+// velocities and the same table velocity.
+TEST_F(RobotNodeTest, DetectedLinkContactsAnswerAsTheSameContactsGivenByName) {
+  const std::vector<double> q = {0.3, 0.2, -0.4, 0.3, 0.5, -0.3, 0.7, 0.015, 0.02};
+  cr::robot::ArticulatedBody arm = referenceArm();
+  arm.setState(vector(q), Eigen::VectorXd::Zero(arm.jointCount()));
+  Eigen::Isometry3d finger_wanted = Eigen::Isometry3d::Identity();
+  finger_wanted.translation() = Eigen::Vector3d(0.4, -0.1, 0.05 - 1e-4);
+  finger_wanted.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Isometry3d base =
+      finger_wanted * arm.linkPose(arm.linkIndex("left_finger")).inverse();
+  cr::ComputeResponse detected;
+  detected.request.header.frame_id = "world";
+  cr::BodyState table;
+  table.id = "table";
+  table.inertia.m = 20.0;
+  table.inertia.ixx = table.inertia.iyy = 20.0 * (1.0 + 0.01) / 12.0;
+  table.inertia.izz = 20.0 * 2.0 / 12.0;
+  table.pose = pose(0.4, -0.1, -0.05);
+  table.twist.linear.z = 0.5;
+  shape_msgs::SolidPrimitive top;
+  top.type = shape_msgs::SolidPrimitive::BOX;
+  top.dimensions = {1.0, 1.0, 0.1};
+  table.primitives = {top};
+  table.primitive_poses = {pose(0, 0, 0)};
+  detected.request.bodies = {table};
+  detected.request.detection.mode = cr::DetectionOptions::MODE_ALWAYS;
+  detected.request.detection.restitution = 0.3;
+  detected.request.detection.static_friction = 0.4;
+  detected.request.detection.dynamic_friction = 0.3;
+  detected.request.robots = {armAtRest(q)};
+  const Eigen::Quaterniond base_rotation(base.linear());
+  detected.request.robots[0].base_pose =
+      pose(base.translation().x(), base.translation().y(), base.translation().z(), base_rotation);
+  const auto by_detection = call(detected);
+  ASSERT_TRUE(by_detection.success) << by_detection.message;
+  ASSERT_EQ(by_detection.detected_contacts.size(), 8u);
+
+  cr::ComputeResponse given = detected;
+  given.request.detection.mode = cr::DetectionOptions::MODE_NEVER;
+  given.request.contacts = by_detection.detected_contacts;
+  const auto by_name = call(given);
+  ASSERT_TRUE(by_name.success) << by_name.message;
+  ASSERT_EQ(by_name.impulses.size(), by_detection.impulses.size());
+  double total = 0.0;  // [N s] the pads' push on the table
+  for (std::size_t k = 0; k < by_name.impulses.size(); ++k) {
+    EXPECT_NEAR(by_name.impulses[k].normal_impulse, by_detection.impulses[k].normal_impulse, 1e-12)
+        << k;
+    total += by_name.impulses[k].normal_impulse;
+  }
+  EXPECT_GT(total, 0.0);
+  EXPECT_NEAR(by_name.bodies[0].twist.linear.z, by_detection.bodies[0].twist.linear.z, 1e-12);
+  ASSERT_EQ(by_name.robots.size(), 1u);
+  ASSERT_EQ(by_detection.robots.size(), 1u);
+  const auto& v_name = by_name.robots[0].joint_state.velocity;
+  const auto& v_detected = by_detection.robots[0].joint_state.velocity;
+  ASSERT_EQ(v_name.size(), v_detected.size());
+  for (std::size_t j = 0; j < v_name.size(); ++j) EXPECT_NEAR(v_name[j], v_detected[j], 1e-12) << j;
+}
+
 TEST_F(RobotNodeTest, BatchScenesCarryRobots) {
   const cr::robot::ArticulatedBody arm = publishedArm();
   const cr::ComputeResponse single = strikeRequest(strikeOf(arm));

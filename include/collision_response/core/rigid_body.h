@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "collision_response/core/body_model.h"
 #include "collision_response/core/body_state.h"
@@ -69,6 +70,15 @@ RigidBody makeRigidBody(const BodyState& state);
 /// Sets body.linear_acceleration and angular_acceleration from the state's wrench (resting
 /// contacts): a = F / m, alpha = Iw^-1 (tau - w x Iw w); zero for an immovable body.
 void setFreeAcceleration(const BodyState& state, RigidBody& body);
+
+/// The solver's view of each of `states`, in order, into `bodies` (cleared first; its storage is
+/// reused): makeRigidBody() of each, velocities only. The one place a request's rigid bodies are
+/// built, for computeResponse() and for requests with robots alike.
+void makeRigidBodies(const std::vector<BodyState>& states, std::vector<RigidBody>& bodies);
+
+/// setFreeAcceleration() of each body from its state (`bodies` built from `states` by
+/// makeRigidBodies(), same order): the free accelerations resting contacts read.
+void setFreeAccelerations(const std::vector<BodyState>& states, std::vector<RigidBody>& bodies);
 
 /// [r]x, the matrix with [r]x y = r x y (inline: K of every rigid contact is built from it).
 inline Eigen::Matrix3d skew(const Eigen::Vector3d& r) {

@@ -81,6 +81,13 @@ class SceneValidator {
   /// given to the constructor, unchanged) and records their body indices. Throws InvalidInput
   /// naming "contacts[i]..." (i: the index in scene.contacts), or "contacts" past the size limit.
   void checkContacts(const Scene& scene);
+  /// The same for contacts whose bodies are known by index, not looked up by id (contacts found by
+  /// detection, which knows the bodies it paired): `bodies[k]` are the indices of body_a and body_b
+  /// of the k-th contact not checked yet, numbered as contactBodies() numbers them (scene.bodies,
+  /// then the other body ids); the contacts' id strings are only read for the messages. Throws
+  /// InvalidInput as checkContacts() does (an index naming no body: "contacts[i].body_a" / "_b"),
+  /// std::invalid_argument if `bodies` does not have one pair per such contact.
+  void checkContacts(const Scene& scene, const std::vector<std::pair<int, int>>& bodies);
   /// Ids that contacts may name besides scene.bodies: the parts of bodies that are not free rigid
   /// bodies (a robot's links, "<robot>/<link>", docs/robots.md). contactBodies() numbers them
   /// scene.bodies.size() + k, k their index here. They count as movable, and their lever arms are
@@ -92,6 +99,9 @@ class SceneValidator {
   const std::vector<std::pair<int, int>>& contactBodies() const { return contact_bodies_; }
 
  private:
+  // Checks scene.contacts[i] (`field` its name) with body indices a and b and records them.
+  void checkContact(const Scene& scene, std::size_t i, const std::string& field, int a, int b);
+
   RequestLimits limits_;
   std::unordered_map<std::string, int> index_of_;
   std::vector<double> smallest_moments_;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "collision_response/core/body_state.h"
@@ -29,6 +30,10 @@ struct DetectionInput {
 struct DetectedContacts {
   std::vector<core::Contact> contacts;  ///< scene frame; normal from body_a towards body_b
   std::vector<double> depths;  ///< [m], one per contact: > 0 penetrating, 0 touching, < 0 apart
+  /// One per contact: the indices of its body_a and body_b in the bodies given to
+  /// detectContacts() (body_a < body_b), so that a caller keeps them instead of looking the ids up
+  /// (core::SceneValidator::checkContacts() with body indices).
+  std::vector<std::pair<int, int>> bodies;
 };
 
 /// Finds the contacts between `bodies` (already validated: validate()) from their geometry with

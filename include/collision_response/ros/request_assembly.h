@@ -106,21 +106,25 @@ bool anyRobotGeometry(const std::vector<RequestRobot>& robots);
 struct LinkBodies {
   std::vector<core::BodyState> bodies;  ///< id "<robot>/<link>", pose linkPose(link), 1 kg
   std::vector<const detection::BodyGeometry*> geometry;  ///< link frame, the served robot's
-  std::vector<int> groups;  ///< the robot's index in the request's robots
+  std::vector<int> groups;    ///< the robot's index in the request's robots
+  std::vector<int> link_ids;  ///< the link's index in robotLinkIds(robots).ids
   std::size_t shapes = 0, vertices = 0, triangles = 0;  ///< totals, for the request limits
 };
 
-/// The links with collision geometry of the placed robots (placeRobots()) as bodies of detection.
-/// Mass 1 kg and unit inertia (detection pairs no two immovable bodies); detection reads only
-/// poses and shapes.
+/// The links with collision geometry of the placed robots (placeRobots()) as bodies of detection
+/// (robot::linkBody(): at the link's pose, a stand-in mass; detection reads only poses and shapes).
 LinkBodies linkBodies(const std::vector<RequestRobot>& robots);
 
-/// The rigid bodies of `scene` as body models, in order, each with its free acceleration (the
-/// wrenches of resting contacts).
-std::vector<core::RigidBody> rigidModels(const std::vector<core::BodyState>& bodies);
+/// The body indices of detected contacts (detection::DetectedContacts::bodies, indices into the
+/// scene's `rigid_count` bodies followed by links.bodies) in the numbering of
+/// core::SceneValidator::contactBodies() with the robots' link ids added (robotLinkIds()): a rigid
+/// body keeps its index, link body k becomes rigid_count + links.link_ids[k]. No id is looked up.
+std::vector<std::pair<int, int>> detectedContactBodies(
+    const std::vector<std::pair<int, int>>& detected, int rigid_count, const LinkBodies& links);
 
-/// The body models of a request: the rigid bodies (models 0 .. rigid.size() - 1), then one per
-/// placed robot. The pointers are into `rigid` and `robots`.
+/// The body models of a request: the rigid bodies (models 0 .. rigid.size() - 1, built by
+/// core::makeRigidBodies() with their free accelerations), then one per placed robot. The pointers
+/// are into `rigid` and `robots`.
 std::vector<core::BodyModel*> bodyModels(std::vector<core::RigidBody>& rigid,
                                          std::vector<RequestRobot>& robots);
 
