@@ -83,6 +83,7 @@ ComputeResponse::Request singleRequest(Scene& scene, const std_msgs::Header& bat
   single.options = scene.options;
   single.detection = scene.detection;
   single.robots = std::move(scene.robots);
+  single.uncertainties = std::move(scene.uncertainties);
   return single;
 }
 
@@ -104,6 +105,7 @@ void moveAnswer(ComputeResponse::Response& answer, SceneResult& result) {
   result.approach_speeds = std::move(answer.approach_speeds);
   result.transferred_energies = std::move(answer.transferred_energies);
   result.derivatives = std::move(answer.derivatives);
+  result.outcome_distribution = std::move(answer.outcome_distribution);
 }
 
 }  // namespace
@@ -223,7 +225,7 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
   // Markers only when someone looks: the hot path does not pay for them.
   const bool draw = markers_.getNumSubscribers() > 0;
   std::vector<ContactLinkFrame> link_frames;
-  solve(request, response, draw ? &link_frames : nullptr);
+  solve(request, response, &batch_pool_, draw ? &link_frames : nullptr);
   recordCalls(1, 1, response.success ? 0 : 1, response.solve_time, response.solve_time);
   if (!response.success) return true;
   CollisionResponse published;
@@ -244,7 +246,7 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
 
 std::optional<core::InvalidInput> CollisionResponseServer::solve(
     ComputeResponse::Request& request, ComputeResponse::Response& response,
-    std::vector<ContactLinkFrame>* link_frames) {
+    core::WorkerPool* sampling_pool, std::vector<ContactLinkFrame>* link_frames) {
   std::optional<core::InvalidInput> field_error;
   response.success = false;
   const auto begin = std::chrono::steady_clock::now();  // a timeout reports the time to it
@@ -271,7 +273,8 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
       response.success = true;
       return field_error;
     }
-    solveRigid(request, response, scene, validator, options, defaults_now.contact_tolerance);
+    solveRigid(request, response, scene, validator, options, defaults_now.contact_tolerance,
+               sampling_pool);
     response.success = true;
   } catch (const core::InvalidInput& e) {
     field_error = inRequestTerms(e, request.contacts.size());
@@ -294,7 +297,8 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
                                          ComputeResponse::Response& response, core::Scene& scene,
                                          core::SceneValidator& validator,
                                          const core::SolverOptions& options,
-                                         double contact_tolerance) {
+                                         double contact_tolerance,
+                                         core::WorkerPool* sampling_pool) {
   validator.checkContacts(scene);
   if (wantsDetection(request)) {
     const detection::DetectedContacts detected = detect(request, scene, options, contact_tolerance);
@@ -338,13 +342,14 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
       continue;
     response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   }
-  solveUncertainty(request, response, scene, options);
+  solveUncertainty(request, response, scene, options, sampling_pool);
 }
 
 void CollisionResponseServer::solveUncertainty(const ComputeResponse::Request& request,
                                                ComputeResponse::Response& response,
                                                const core::Scene& scene,
-                                               const core::SolverOptions& options) {
+                                               const core::SolverOptions& options,
+                                               core::WorkerPool* sampling_pool) {
   const core::UncertaintyOptions uncertainty = uncertaintyOptions(request.options);
   if (uncertainty.method == core::UncertaintyMethod::kNone) {
     if (!request.uncertainties.empty())
@@ -353,7 +358,7 @@ void CollisionResponseServer::solveUncertainty(const ComputeResponse::Request& r
     return;
   }
   if (request.uncertainties.empty()) {
-    // Nothing is uncertain (a batch's scenes carry no uncertainties): no distribution.
+    // Nothing is uncertain: no distribution.
     response.warnings.push_back(
         "options.uncertainty: no uncertainties given: no distribution computed");
     return;
@@ -361,7 +366,7 @@ void CollisionResponseServer::solveUncertainty(const ComputeResponse::Request& r
   const auto start = std::chrono::steady_clock::now();
   const core::OutcomeDistribution outcome =
       core::computeOutcomeDistribution(scene, fromMsg(request.uncertainties), options, uncertainty,
-                                       &batch_pool_, parameters_.limits);
+                                       sampling_pool, parameters_.limits);
   response.solve_time +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   response.outcome_distribution = toMsg(outcome);
@@ -479,7 +484,9 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
   batch_pool_.parallelFor(request.scenes.size(), [&](std::size_t i) {
     ComputeResponse::Request single = singleRequest(request.scenes[i], request.header);
     ComputeResponse::Response answer;
-    const std::optional<core::InvalidInput> field_error = solve(single, answer);
+    // A scene's samples run on this thread (sampling_pool nullptr): the batch already occupies
+    // the pool, and a worker waiting in a nested parallelFor would help no other scene.
+    const std::optional<core::InvalidInput> field_error = solve(single, answer, nullptr);
     SceneResult& result = response.results[i];
     result.success = answer.success;
     if (!answer.success) {
