@@ -19,6 +19,7 @@
 #include "collision_response/core/validation.h"
 #include "collision_response/ros/message_conversion.h"
 #include "collision_response/ros/robot_conversion.h"
+#include "collision_response/ros/robot_uncertainty.h"
 #include "collision_response/ros/uncertainty_conversion.h"
 
 namespace collision_response {
@@ -106,6 +107,24 @@ void moveAnswer(ComputeResponse::Response& answer, SceneResult& result) {
   result.transferred_energies = std::move(answer.transferred_energies);
   result.derivatives = std::move(answer.derivatives);
   result.outcome_distribution = std::move(answer.outcome_distribution);
+}
+
+// True if the request asks for an outcome distribution (a method and uncertainties); a warning
+// when it gives only one of the two.
+bool wantsDistribution(const ComputeResponse::Request& request,
+                       const core::UncertaintyOptions& uncertainty,
+                       std::vector<std::string>& warnings) {
+  if (uncertainty.method == core::UncertaintyMethod::kNone) {
+    if (!request.uncertainties.empty())
+      warnings.push_back(
+          "uncertainties: given but options.uncertainty is none: no distribution computed");
+    return false;
+  }
+  if (request.uncertainties.empty()) {
+    warnings.push_back("options.uncertainty: no uncertainties given: no distribution computed");
+    return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -264,12 +283,7 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     // valid poses), the detected contacts after it.
     core::SceneValidator validator(scene, options, parameters_.limits);
     if (involvesRobots(request, robots_)) {
-      if (request.options.uncertainty != SolverOptions::UNCERTAINTY_NONE) {
-        throw core::InvalidInput("options.uncertainty",
-                                 "uncertain coefficients are propagated for rigid bodies only so "
-                                 "far: ask without robots, or set options.uncertainty to none");
-      }
-      solveWithRobots(request, response, scene, validator, options, link_frames);
+      solveWithRobots(request, response, scene, validator, options, sampling_pool, link_frames);
       response.success = true;
       return field_error;
     }
@@ -351,18 +365,7 @@ void CollisionResponseServer::solveUncertainty(const ComputeResponse::Request& r
                                                const core::SolverOptions& options,
                                                core::WorkerPool* sampling_pool) {
   const core::UncertaintyOptions uncertainty = uncertaintyOptions(request.options);
-  if (uncertainty.method == core::UncertaintyMethod::kNone) {
-    if (!request.uncertainties.empty())
-      response.warnings.push_back(
-          "uncertainties: given but options.uncertainty is none: no distribution computed");
-    return;
-  }
-  if (request.uncertainties.empty()) {
-    // Nothing is uncertain: no distribution.
-    response.warnings.push_back(
-        "options.uncertainty: no uncertainties given: no distribution computed");
-    return;
-  }
+  if (!wantsDistribution(request, uncertainty, response.warnings)) return;
   const auto start = std::chrono::steady_clock::now();
   const core::OutcomeDistribution outcome =
       core::computeOutcomeDistribution(scene, fromMsg(request.uncertainties), options, uncertainty,
@@ -378,6 +381,7 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
                                               ComputeResponse::Response& response,
                                               core::Scene& scene, core::SceneValidator& validator,
                                               const core::SolverOptions& options,
+                                              core::WorkerPool* sampling_pool,
                                               std::vector<ContactLinkFrame>* link_frames) {
   // The robots (those listed, then those only named by contacts), each at its state.
   std::vector<RequestRobot> robots = requestRobots(request, scene.bodies, robots_);
@@ -394,7 +398,7 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
   const std::vector<core::ContactPoint> points =
       placeContacts(scene.contacts, validator.contactBodies(), rigid_count, link_ids.robot_link);
   if (link_frames != nullptr) *link_frames = contactLinkFrames(points, robots, rigid_count);
-  solveBodyModels(request, response, scene, robots, points, options);
+  solveBodyModels(request, response, scene, robots, points, options, sampling_pool);
 }
 
 void CollisionResponseServer::detectWithLinks(const ComputeResponse::Request& request,
@@ -416,13 +420,27 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
                                               ComputeResponse::Response& response,
                                               core::Scene& scene, std::vector<RequestRobot>& robots,
                                               const std::vector<core::ContactPoint>& points,
-                                              const core::SolverOptions& options) {
+                                              const core::SolverOptions& options,
+                                              core::WorkerPool* sampling_pool) {
   const int rigid_count = static_cast<int>(scene.bodies.size());
   std::vector<core::RigidBody> rigid = rigidModels(scene.bodies);
   const std::vector<core::BodyModel*> models = bodyModels(rigid, robots);
   double energy_before = 0.0;
   for (const core::BodyState& body : scene.bodies) energy_before += core::kineticEnergy(body);
   for (const RequestRobot& robot : robots) energy_before += robot.energy_before;
+
+  // The outcome distribution first, on copies of the bodies at their pre-impact state.
+  double distribution_time = 0.0;
+  std::vector<core::Warning> distribution_warnings;
+  const core::UncertaintyOptions uncertainty = uncertaintyOptions(request.options);
+  if (wantsDistribution(request, uncertainty, response.warnings)) {
+    const auto begin = std::chrono::steady_clock::now();
+    response.outcome_distribution =
+        robotOutcomeDistribution(request.uncertainties, rigid, robots, points, options, uncertainty,
+                                 sampling_pool, distribution_warnings);
+    distribution_time =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  }
 
   const auto start = std::chrono::steady_clock::now();
   core::BodyResponse result;
@@ -436,7 +454,8 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
     result = core::computeBodyResponse(models, points, options);
   }
   response.solve_time =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() +
+      distribution_time;
 
   // The answer: rigid bodies, impulses, islands, effective masses, robots.
   double energy_after = 0.0;
@@ -456,6 +475,8 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   for (const core::SolveReport& island : result.islands) response.islands.push_back(toMsg(island));
   response.effective_masses = result.effective_masses;
   for (const core::Warning& warning : result.warnings)
+    response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
+  for (const core::Warning& warning : distribution_warnings)
     response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   response.robots = robotAnswers(robots, rigid_count, points, result.impulses, request.header);
   addSafetyOutputs(models, points, result.impulses, robots, response);

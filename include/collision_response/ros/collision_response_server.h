@@ -115,16 +115,17 @@ class CollisionResponseServer {
   /// `scene` holds the request's validated bodies and given contacts; `validator` has checked them.
   void solveWithRobots(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                        core::Scene& scene, core::SceneValidator& validator,
-                       const core::SolverOptions& options,
+                       const core::SolverOptions& options, core::WorkerPool* sampling_pool,
                        std::vector<ContactLinkFrame>* link_frames);
   /// The rigid bodies and the placed robots (placeRobots()) solved together by
   /// core::computeBodyResponse() on `points` (the contacts placed on the models); fills the
   /// answer's bodies, impulses, islands, effective masses, warnings, robots, energies [J] and
-  /// solve_time [s].
+  /// solve_time [s]; with options.uncertainty sampled and uncertainties, outcome_distribution
+  /// (robotOutcomeDistribution(), samples spread on `sampling_pool`; linear is refused).
   void solveBodyModels(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                        core::Scene& scene, std::vector<RequestRobot>& robots,
                        const std::vector<core::ContactPoint>& points,
-                       const core::SolverOptions& options);
+                       const core::SolverOptions& options, core::WorkerPool* sampling_pool);
   /// Detection for a request with robots: contacts from the bodies' shapes and the robots' links,
   /// added to the answer's detected contacts and to scene.contacts, then checked by `validator`.
   void detectWithLinks(const ComputeResponse::Request& request, ComputeResponse::Response& response,
