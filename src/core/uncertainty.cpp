@@ -9,7 +9,9 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
+#include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/halton_sequence.h"
@@ -333,6 +335,67 @@ double quantile(std::vector<double>& sorted, double p) {
   return sorted[low] + (h - static_cast<double>(low)) * (sorted[high] - sorted[low]);
 }
 
+// The coefficients of sample i: per uncertain contact (prepared.contacts order) e, mu_s, mu_d; a
+// mu_d over mu_s is capped there and flagged in `capped` (one entry per uncertain contact).
+std::array<double, 3> drawCoefficients(const UncertainContact& uncertain,
+                                       const HaltonSequence& sequence, std::size_t i,
+                                       unsigned char& capped) {
+  std::array<double, 3> drawn;
+  for (int which = 0; which < 3; ++which) {
+    const int dimension = uncertain.dimension[which];
+    drawn[which] = dimension < 0
+                       ? uncertain.distributions[which].mean()
+                       : uncertain.distributions[which].quantile(sequence.coordinate(i, dimension));
+  }
+  if (drawn[kDynamicFriction] > drawn[kStaticFriction]) {
+    drawn[kDynamicFriction] = drawn[kStaticFriction];
+    capped = 1;
+  }
+  return drawn;
+}
+
+// Mean, covariance (N - 1), quantiles of `values` (one column per sample), the stick fractions
+// (`sticking`: sample-major, one entry per contact) and the capping warnings, into `outcome`.
+void summariseSamples(const Eigen::MatrixXd& values, const std::vector<unsigned char>& sticking,
+                      std::size_t contacts, const std::vector<unsigned char>& capped,
+                      const Prepared& prepared, OutcomeDistribution& outcome) {
+  const Eigen::Index m = values.rows();
+  const Eigen::Index n = values.cols();
+  const auto samples = static_cast<std::size_t>(n);
+  outcome.method = UncertaintyMethod::kSampled;
+  outcome.samples = samples;
+  outcome.mean = values.rowwise().mean();
+  const Eigen::MatrixXd centred = values.colwise() - outcome.mean;
+  outcome.covariance = n > 1 ? Eigen::MatrixXd(centred * centred.transpose() / double(n - 1))
+                             : Eigen::MatrixXd::Zero(m, m);
+  outcome.q05.resize(m);
+  outcome.q95.resize(m);
+  std::vector<double> row(samples);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    for (Eigen::Index i = 0; i < n; ++i) row[static_cast<std::size_t>(i)] = values(r, i);
+    std::sort(row.begin(), row.end());
+    outcome.q05(r) = quantile(row, 0.05);
+    outcome.q95(r) = quantile(row, 0.95);
+  }
+  outcome.stick_probability.assign(contacts, 0.0);
+  for (std::size_t i = 0; i < samples; ++i)
+    for (std::size_t c = 0; c < contacts; ++c)
+      outcome.stick_probability[c] += sticking[i * contacts + c];
+  for (double& p : outcome.stick_probability) p /= static_cast<double>(samples);
+  outcome.warnings = prepared.warnings;
+  for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < samples; ++i) count += capped[i * prepared.contacts.size() + u];
+    if (count == 0) continue;
+    outcome.warnings.push_back(
+        {"uncertainties[" + std::to_string(prepared.contacts[u].entry) + "].dynamic_friction",
+         "exceeded static_friction in " + std::to_string(count) + " of " + std::to_string(samples) +
+             " samples (" + percentText(static_cast<double>(count) / samples) +
+             "): those were solved with mu_d = mu_s",
+         Warning::Kind::kInput});
+  }
+}
+
 OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOptions& options,
                                         const UncertaintyOptions& uncertainty, WorkerPool* pool) {
   const auto start = std::chrono::steady_clock::now();
@@ -362,18 +425,8 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
         throw SolverTimeout("uncertainty sampling ran past options.time_budget");
       for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
         const UncertainContact& uncertain = prepared.contacts[u];
-        std::array<double, 3> drawn;
-        for (int which = 0; which < 3; ++which) {
-          const int dimension = uncertain.dimension[which];
-          drawn[which] =
-              dimension < 0
-                  ? uncertain.distributions[which].mean()
-                  : uncertain.distributions[which].quantile(sequence.coordinate(i, dimension));
-        }
-        if (drawn[kDynamicFriction] > drawn[kStaticFriction]) {
-          drawn[kDynamicFriction] = drawn[kStaticFriction];
-          capped[i * prepared.contacts.size() + u] = 1;
-        }
+        const std::array<double, 3> drawn =
+            drawCoefficients(uncertain, sequence, i, capped[i * prepared.contacts.size() + u]);
         Contact& contact = sample.contacts[uncertain.contact];
         for (int which = 0; which < 3; ++which) coefficient(contact, which) = drawn[which];
       }
@@ -393,41 +446,8 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
   }
 
   OutcomeDistribution outcome;
-  outcome.method = UncertaintyMethod::kSampled;
-  outcome.samples = uncertainty.samples;
+  summariseSamples(values, sticking, contacts, capped, prepared, outcome);
   outcome.labels = outcomeLabels(movable, contacts);
-  outcome.mean = values.rowwise().mean();
-  const Eigen::MatrixXd centred = values.colwise() - outcome.mean;
-  outcome.covariance = n > 1 ? Eigen::MatrixXd(centred * centred.transpose() / double(n - 1))
-                             : Eigen::MatrixXd::Zero(m, m);
-  outcome.q05.resize(m);
-  outcome.q95.resize(m);
-  std::vector<double> row(uncertainty.samples);
-  for (Eigen::Index r = 0; r < m; ++r) {
-    for (Eigen::Index i = 0; i < n; ++i) row[static_cast<std::size_t>(i)] = values(r, i);
-    std::sort(row.begin(), row.end());
-    outcome.q05(r) = quantile(row, 0.05);
-    outcome.q95(r) = quantile(row, 0.95);
-  }
-  outcome.stick_probability.assign(contacts, 0.0);
-  for (std::size_t i = 0; i < uncertainty.samples; ++i)
-    for (std::size_t c = 0; c < contacts; ++c)
-      outcome.stick_probability[c] += sticking[i * contacts + c];
-  for (double& p : outcome.stick_probability) p /= static_cast<double>(uncertainty.samples);
-  outcome.warnings = prepared.warnings;
-  for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
-    std::size_t count = 0;
-    for (std::size_t i = 0; i < uncertainty.samples; ++i)
-      count += capped[i * prepared.contacts.size() + u];
-    if (count == 0) continue;
-    outcome.warnings.push_back(
-        {"uncertainties[" + std::to_string(prepared.contacts[u].entry) + "].dynamic_friction",
-         "exceeded static_friction in " + std::to_string(count) + " of " +
-             std::to_string(uncertainty.samples) + " samples (" +
-             percentText(static_cast<double>(count) / uncertainty.samples) +
-             "): those were solved with mu_d = mu_s",
-         Warning::Kind::kInput});
-  }
   return outcome;
 }
 
@@ -450,6 +470,131 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
     return linearDistribution(prepared, options, limits);
   prepared.contact_bodies = validate(prepared.mean_scene, options, limits);
   return sampledDistribution(prepared, options, uncertainty, pool);
+}
+
+OutcomeDistribution computeBodyOutcomeDistribution(
+    const std::vector<std::vector<BodyModel*>>& copies, const std::vector<ContactPoint>& contacts,
+    const std::vector<ContactUncertainty>& uncertainties, const Eigen::VectorXd& velocity_limits,
+    const SolverOptions& options, const UncertaintyOptions& uncertainty, WorkerPool* pool) {
+  if (uncertainty.method == UncertaintyMethod::kNone)
+    throw InvalidInput("options.uncertainty", "no method: ask for linear or sampled");
+  if (uncertainty.method == UncertaintyMethod::kLinear)
+    throw InvalidInput("options.uncertainty",
+                       "the linear method is for rigid bodies alone: with robots, ask for sampled");
+  if (uncertainty.samples == 0 || uncertainty.samples > kMaxUncertaintySamples)
+    throw InvalidInput("options.uncertainty_samples",
+                       "must be in [1, " + std::to_string(kMaxUncertaintySamples) + "], got " +
+                           std::to_string(uncertainty.samples));
+  if (copies.empty()) throw std::invalid_argument("computeBodyOutcomeDistribution: no copies");
+  const std::size_t body_count = copies.front().size();
+  std::vector<int> offset(body_count, -1);
+  Eigen::Index velocity_count = 0;
+  for (std::size_t b = 0; b < body_count; ++b) {
+    const int count = copies.front()[b]->velocityCount();
+    if (count > 0) {
+      offset[b] = static_cast<int>(velocity_count);
+      velocity_count += count;
+    }
+  }
+  for (const std::vector<BodyModel*>& set : copies)
+    if (set.size() != body_count)
+      throw std::invalid_argument("computeBodyOutcomeDistribution: copies differ in size");
+  if (velocity_limits.size() != velocity_count)
+    throw std::invalid_argument("computeBodyOutcomeDistribution: one velocity limit per unknown");
+
+  // The coefficients through the rigid-body path's checks (only the contacts matter to them).
+  Scene coefficients;
+  coefficients.contacts.resize(contacts.size());
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    coefficients.contacts[c].restitution = contacts[c].restitution;
+    coefficients.contacts[c].static_friction = contacts[c].static_friction;
+    coefficients.contacts[c].dynamic_friction = contacts[c].dynamic_friction;
+  }
+  const Prepared prepared = prepare(coefficients, uncertainties);
+  const std::size_t dims = prepared.dimensions.size();
+  if (dims > HaltonSequence::kMaxDimensions)
+    throw InvalidInput("uncertainties", "the sampled method takes at most " +
+                                            std::to_string(HaltonSequence::kMaxDimensions) +
+                                            " uncertain coefficients (with a spread) per request");
+  const HaltonSequence sequence(dims, uncertainty.seed);
+  const auto start = std::chrono::steady_clock::now();
+  const std::size_t contact_count = contacts.size();
+  const auto n = static_cast<Eigen::Index>(uncertainty.samples);
+  const Eigen::Index m = velocity_count + 4 * static_cast<Eigen::Index>(contact_count);
+  Eigen::MatrixXd values(m, n);  // one column per sample
+  std::vector<unsigned char> sticking(uncertainty.samples * contact_count, 0);
+  std::vector<unsigned char> capped(uncertainty.samples * prepared.contacts.size(), 0);
+  const std::size_t parts = std::min(copies.size(), uncertainty.samples);
+  auto run = [&](std::size_t part) {
+    const std::vector<BodyModel*>& bodies = copies[part];
+    std::vector<Eigen::VectorXd> before;
+    before.reserve(body_count);
+    for (const BodyModel* body : bodies) before.push_back(body->velocity());
+    auto restore = [&] {
+      for (std::size_t b = 0; b < body_count; ++b)
+        if (offset[b] >= 0) bodies[b]->addVelocityChange(before[b] - bodies[b]->velocity());
+    };
+    std::vector<ContactPoint> sample = contacts;
+    for (std::size_t i = part; i < uncertainty.samples; i += parts) {
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
+          options.time_budget)
+        throw SolverTimeout("uncertainty sampling ran past options.time_budget");
+      for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
+        const UncertainContact& uncertain = prepared.contacts[u];
+        const std::array<double, 3> drawn =
+            drawCoefficients(uncertain, sequence, i, capped[i * prepared.contacts.size() + u]);
+        ContactPoint& contact = sample[uncertain.contact];
+        contact.restitution = drawn[kRestitution];
+        contact.static_friction = drawn[kStaticFriction];
+        contact.dynamic_friction = drawn[kDynamicFriction];
+      }
+      BodyResponse result;
+      try {
+        result = computeBodyResponse(bodies, sample, options);
+      } catch (...) {
+        restore();
+        throw;
+      }
+      const auto column = static_cast<Eigen::Index>(i);
+      for (std::size_t b = 0; b < body_count; ++b)
+        if (offset[b] >= 0)
+          values.block(offset[b], column, bodies[b]->velocityCount(), 1) = bodies[b]->velocity();
+      Eigen::Index r = velocity_count;
+      for (std::size_t c = 0; c < contact_count; ++c) {
+        const ContactImpulse& impulse = result.impulses[c];
+        values(r++, column) = impulse.normal_impulse;
+        values(r++, column) = impulse.friction_impulse.x();
+        values(r++, column) = impulse.friction_impulse.y();
+        values(r++, column) = impulse.friction_impulse.z();
+        sticking[i * contact_count + c] = impulse.sticking ? 1 : 0;
+      }
+      restore();
+    }
+  };
+  if (pool != nullptr) {
+    pool->parallelFor(parts, run);
+  } else {
+    for (std::size_t part = 0; part < parts; ++part) run(part);
+  }
+
+  OutcomeDistribution outcome;
+  summariseSamples(values, sticking, contact_count, capped, prepared, outcome);
+  for (Eigen::Index r = 0; r < velocity_count; ++r)
+    outcome.labels.push_back("velocities[" + std::to_string(r) + "]");
+  for (std::size_t c = 0; c < contact_count; ++c) {
+    const std::string impulse = "impulses[" + std::to_string(c) + "].";
+    outcome.labels.push_back(impulse + "normal_impulse");
+    for (const char* axis : {"x", "y", "z"})
+      outcome.labels.push_back(impulse + "friction_impulse." + axis);
+  }
+  outcome.limit_probability.assign(static_cast<std::size_t>(velocity_count), 0.0);
+  for (Eigen::Index r = 0; r < velocity_count; ++r) {
+    std::size_t over = 0;
+    for (Eigen::Index i = 0; i < n; ++i) over += std::abs(values(r, i)) > velocity_limits(r);
+    outcome.limit_probability[static_cast<std::size_t>(r)] =
+        static_cast<double>(over) / static_cast<double>(uncertainty.samples);
+  }
+  return outcome;
 }
 
 }  // namespace collision_response::core

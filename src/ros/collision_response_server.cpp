@@ -19,6 +19,7 @@
 #include "collision_response/core/validation.h"
 #include "collision_response/ros/message_conversion.h"
 #include "collision_response/ros/robot_conversion.h"
+#include "collision_response/ros/robot_uncertainty.h"
 #include "collision_response/ros/uncertainty_conversion.h"
 
 namespace collision_response {
@@ -83,6 +84,7 @@ ComputeResponse::Request singleRequest(Scene& scene, const std_msgs::Header& bat
   single.options = scene.options;
   single.detection = scene.detection;
   single.robots = std::move(scene.robots);
+  single.uncertainties = std::move(scene.uncertainties);
   return single;
 }
 
@@ -104,6 +106,25 @@ void moveAnswer(ComputeResponse::Response& answer, SceneResult& result) {
   result.approach_speeds = std::move(answer.approach_speeds);
   result.transferred_energies = std::move(answer.transferred_energies);
   result.derivatives = std::move(answer.derivatives);
+  result.outcome_distribution = std::move(answer.outcome_distribution);
+}
+
+// True if the request asks for an outcome distribution (a method and uncertainties); a warning
+// when it gives only one of the two.
+bool wantsDistribution(const ComputeResponse::Request& request,
+                       const core::UncertaintyOptions& uncertainty,
+                       std::vector<std::string>& warnings) {
+  if (uncertainty.method == core::UncertaintyMethod::kNone) {
+    if (!request.uncertainties.empty())
+      warnings.push_back(
+          "uncertainties: given but options.uncertainty is none: no distribution computed");
+    return false;
+  }
+  if (request.uncertainties.empty()) {
+    warnings.push_back("options.uncertainty: no uncertainties given: no distribution computed");
+    return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -223,7 +244,7 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
   // Markers only when someone looks: the hot path does not pay for them.
   const bool draw = markers_.getNumSubscribers() > 0;
   std::vector<ContactLinkFrame> link_frames;
-  solve(request, response, draw ? &link_frames : nullptr);
+  solve(request, response, &batch_pool_, draw ? &link_frames : nullptr);
   recordCalls(1, 1, response.success ? 0 : 1, response.solve_time, response.solve_time);
   if (!response.success) return true;
   CollisionResponse published;
@@ -244,7 +265,7 @@ bool CollisionResponseServer::compute(ComputeResponse::Request& request,
 
 std::optional<core::InvalidInput> CollisionResponseServer::solve(
     ComputeResponse::Request& request, ComputeResponse::Response& response,
-    std::vector<ContactLinkFrame>* link_frames) {
+    core::WorkerPool* sampling_pool, std::vector<ContactLinkFrame>* link_frames) {
   std::optional<core::InvalidInput> field_error;
   response.success = false;
   const auto begin = std::chrono::steady_clock::now();  // a timeout reports the time to it
@@ -262,16 +283,12 @@ std::optional<core::InvalidInput> CollisionResponseServer::solve(
     // valid poses), the detected contacts after it.
     core::SceneValidator validator(scene, options, parameters_.limits);
     if (involvesRobots(request, robots_)) {
-      if (request.options.uncertainty != SolverOptions::UNCERTAINTY_NONE) {
-        throw core::InvalidInput("options.uncertainty",
-                                 "uncertain coefficients are propagated for rigid bodies only so "
-                                 "far: ask without robots, or set options.uncertainty to none");
-      }
-      solveWithRobots(request, response, scene, validator, options, link_frames);
+      solveWithRobots(request, response, scene, validator, options, sampling_pool, link_frames);
       response.success = true;
       return field_error;
     }
-    solveRigid(request, response, scene, validator, options, defaults_now.contact_tolerance);
+    solveRigid(request, response, scene, validator, options, defaults_now.contact_tolerance,
+               sampling_pool);
     response.success = true;
   } catch (const core::InvalidInput& e) {
     field_error = inRequestTerms(e, request.contacts.size());
@@ -294,7 +311,8 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
                                          ComputeResponse::Response& response, core::Scene& scene,
                                          core::SceneValidator& validator,
                                          const core::SolverOptions& options,
-                                         double contact_tolerance) {
+                                         double contact_tolerance,
+                                         core::WorkerPool* sampling_pool) {
   validator.checkContacts(scene);
   if (wantsDetection(request)) {
     const detection::DetectedContacts detected = detect(request, scene, options, contact_tolerance);
@@ -339,30 +357,20 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
       continue;
     response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   }
-  solveUncertainty(request, response, scene, options);
+  solveUncertainty(request, response, scene, options, sampling_pool);
 }
 
 void CollisionResponseServer::solveUncertainty(const ComputeResponse::Request& request,
                                                ComputeResponse::Response& response,
                                                const core::Scene& scene,
-                                               const core::SolverOptions& options) {
+                                               const core::SolverOptions& options,
+                                               core::WorkerPool* sampling_pool) {
   const core::UncertaintyOptions uncertainty = uncertaintyOptions(request.options);
-  if (uncertainty.method == core::UncertaintyMethod::kNone) {
-    if (!request.uncertainties.empty())
-      response.warnings.push_back(
-          "uncertainties: given but options.uncertainty is none: no distribution computed");
-    return;
-  }
-  if (request.uncertainties.empty()) {
-    // Nothing is uncertain (a batch's scenes carry no uncertainties): no distribution.
-    response.warnings.push_back(
-        "options.uncertainty: no uncertainties given: no distribution computed");
-    return;
-  }
+  if (!wantsDistribution(request, uncertainty, response.warnings)) return;
   const auto start = std::chrono::steady_clock::now();
   const core::OutcomeDistribution outcome =
       core::computeOutcomeDistribution(scene, fromMsg(request.uncertainties), options, uncertainty,
-                                       &batch_pool_, parameters_.limits);
+                                       sampling_pool, parameters_.limits);
   response.solve_time +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   response.outcome_distribution = toMsg(outcome);
@@ -374,6 +382,7 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
                                               ComputeResponse::Response& response,
                                               core::Scene& scene, core::SceneValidator& validator,
                                               const core::SolverOptions& options,
+                                              core::WorkerPool* sampling_pool,
                                               std::vector<ContactLinkFrame>* link_frames) {
   // The robots (those listed, then those only named by contacts), each at its state.
   std::vector<RequestRobot> robots = requestRobots(request, scene.bodies, robots_);
@@ -390,7 +399,7 @@ void CollisionResponseServer::solveWithRobots(const ComputeResponse::Request& re
   const std::vector<core::ContactPoint> points =
       placeContacts(scene.contacts, validator.contactBodies(), rigid_count, link_ids.robot_link);
   if (link_frames != nullptr) *link_frames = contactLinkFrames(points, robots, rigid_count);
-  solveBodyModels(request, response, scene, robots, points, options);
+  solveBodyModels(request, response, scene, robots, points, options, sampling_pool);
 }
 
 void CollisionResponseServer::detectWithLinks(const ComputeResponse::Request& request,
@@ -414,7 +423,8 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
                                               ComputeResponse::Response& response,
                                               core::Scene& scene, std::vector<RequestRobot>& robots,
                                               const std::vector<core::ContactPoint>& points,
-                                              const core::SolverOptions& options) {
+                                              const core::SolverOptions& options,
+                                              core::WorkerPool* sampling_pool) {
   const int rigid_count = static_cast<int>(scene.bodies.size());
   std::vector<core::RigidBody> rigid;
   core::makeRigidBodies(scene.bodies, rigid);
@@ -423,6 +433,19 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   double energy_before = 0.0;
   for (const core::BodyState& body : scene.bodies) energy_before += core::kineticEnergy(body);
   for (const RequestRobot& robot : robots) energy_before += robot.energy_before;
+
+  // The outcome distribution first, on copies of the bodies at their pre-impact state.
+  double distribution_time = 0.0;
+  std::vector<core::Warning> distribution_warnings;
+  const core::UncertaintyOptions uncertainty = uncertaintyOptions(request.options);
+  if (wantsDistribution(request, uncertainty, response.warnings)) {
+    const auto begin = std::chrono::steady_clock::now();
+    response.outcome_distribution =
+        robotOutcomeDistribution(request.uncertainties, rigid, robots, points, options, uncertainty,
+                                 sampling_pool, distribution_warnings);
+    distribution_time =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  }
 
   const auto start = std::chrono::steady_clock::now();
   core::BodyResponse result;
@@ -436,7 +459,8 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
     result = core::computeBodyResponse(models, points, options);
   }
   response.solve_time =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() +
+      distribution_time;
 
   // The answer: rigid bodies, impulses, islands, effective masses, robots.
   double energy_after = 0.0;
@@ -456,6 +480,8 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   for (const core::SolveReport& island : result.islands) response.islands.push_back(toMsg(island));
   response.effective_masses = result.effective_masses;
   for (const core::Warning& warning : result.warnings)
+    response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
+  for (const core::Warning& warning : distribution_warnings)
     response.warnings.push_back(inRequestTerms(warning, request.contacts.size()));
   response.robots = robotAnswers(robots, rigid_count, points, result.impulses, request.header);
   addSafetyOutputs(models, points, result.impulses, robots, response);
@@ -484,7 +510,9 @@ bool CollisionResponseServer::computeBatch(ComputeBatch::Request& request,
   batch_pool_.parallelFor(request.scenes.size(), [&](std::size_t i) {
     ComputeResponse::Request single = singleRequest(request.scenes[i], request.header);
     ComputeResponse::Response answer;
-    const std::optional<core::InvalidInput> field_error = solve(single, answer);
+    // A scene's samples run on this thread (sampling_pool nullptr): the batch already occupies
+    // the pool, and a worker waiting in a nested parallelFor would help no other scene.
+    const std::optional<core::InvalidInput> field_error = solve(single, answer, nullptr);
     SceneResult& result = response.results[i];
     result.success = answer.success;
     if (!answer.success) {

@@ -288,12 +288,11 @@ void addSafetyOutputs(const std::vector<core::BodyModel*>& models,
   }
 }
 
-ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
-                        const std::vector<RequestRobot>& robots) {
+std::vector<std::string> velocityLabels(const std::vector<int>& velocity_offset, int rigid_count,
+                                        const std::vector<RequestRobot>& robots) {
   std::vector<std::string> velocities;
-  velocities.reserve(static_cast<std::size_t>(derivatives.velocity_count));
-  for (std::size_t b = 0; b < derivatives.velocity_offset.size(); ++b) {
-    if (derivatives.velocity_offset[b] < 0) continue;
+  for (std::size_t b = 0; b < velocity_offset.size(); ++b) {
+    if (velocity_offset[b] < 0) continue;
     const int index = static_cast<int>(b);
     if (index < rigid_count) {
       const std::string name = "bodies[" + std::to_string(index) + "].twist.";
@@ -313,6 +312,13 @@ ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigi
       }
     }
   }
+  return velocities;
+}
+
+ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
+                        const std::vector<RequestRobot>& robots) {
+  const std::vector<std::string> velocities =
+      velocityLabels(derivatives.velocity_offset, rigid_count, robots);
   ImpactDerivatives msg;
   msg.method = core::toString(derivatives.method);
   const Eigen::MatrixXd& jacobian = derivatives.jacobian;

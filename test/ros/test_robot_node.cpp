@@ -11,6 +11,7 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -435,6 +436,94 @@ TEST_F(RobotNodeTest, DerivativesWithRobotsThroughTheService) {
   EXPECT_EQ(frictional.derivatives.column_labels, d.column_labels);
   ASSERT_EQ(frictional.derivatives.contacts.size(), 1u);
   EXPECT_EQ(frictional.derivatives.contacts[0].method, "finite_difference");
+}
+
+// The fraction of e in [a, b] (t = (e - a) / (b - a) in [0, 1]) with |x0 + t (x1 - x0)| > limit.
+double exceedingFraction(double x0, double x1, double limit) {
+  const double d = x1 - x0;
+  auto measure = [&](double level, bool above) {
+    if (d == 0.0) return (above ? x0 > level : x0 < level) ? 1.0 : 0.0;
+    const double t = (level - x0) / d;
+    double lo = 0.0, hi = 1.0;
+    if (above == (d > 0.0))
+      lo = std::max(lo, t);
+    else
+      hi = std::min(hi, t);
+    return std::max(0.0, hi - lo);
+  };
+  return measure(limit, true) + measure(-limit, false);
+}
+
+// Frictionless, Newton's law, one contact: the joint velocities after are affine in e. With e
+// uniform on [a, b], the sampled distribution through the service against two deterministic
+// calls at e = a and e = b: mean (their average), variance (d^2 / 12), limit probabilities (the
+// exact fraction of [a, b] beyond each URDF limit).
+TEST_F(RobotNodeTest, SampledUncertaintyWithRobotsThroughTheService) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  cr::ComputeResponse srv = strikeRequest(strike, 8.0);  // heavy and fast: joints leave limits
+  srv.request.bodies[0].inertia.m = 20.0;
+  srv.request.bodies[0].inertia.ixx = srv.request.bodies[0].inertia.iyy =
+      srv.request.bodies[0].inertia.izz = 20.0 * 0.01 / 6.0;
+  srv.request.contacts[0].static_friction = srv.request.contacts[0].dynamic_friction = 0.0;
+  srv.request.options.law = cr::SolverOptions::LAW_NEWTON;
+  srv.request.robots = {armAtRest(kArmSwingPositions)};
+  srv.request.robots[0].joint_state.velocity = kArmSwingVelocities;
+  constexpr double a = 0.2, b = 0.8;
+  auto at = [&](double e) {
+    cr::ComputeResponse fixed = srv;
+    fixed.request.contacts[0].restitution = e;
+    const auto answer = call(fixed);
+    EXPECT_TRUE(answer.success) << answer.message;
+    return answer.robots.at(0).joint_state.velocity;
+  };
+  const std::vector<double> qa = at(a), qb = at(b);
+  ASSERT_EQ(qa.size(), kJoints.size());
+
+  srv.request.contacts[0].restitution = 0.5;
+  srv.request.options.uncertainty = cr::SolverOptions::UNCERTAINTY_SAMPLED;
+  srv.request.options.uncertainty_samples = 4096;
+  cr::ContactUncertainty u;
+  u.contact = 0;
+  u.restitution.type = cr::Distribution::TYPE_INTERVAL;
+  u.restitution.min = a;
+  u.restitution.max = b;
+  srv.request.uncertainties = {u};
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  const cr::OutcomeDistribution& d = response.outcome_distribution;
+  EXPECT_EQ(d.method, "sampled");
+  const std::size_t joints = kJoints.size();
+  const std::size_t n = 6 + joints + 4;  // the box's twist, the joints, one contact
+  ASSERT_EQ(d.labels.size(), n);
+  EXPECT_EQ(d.labels[0], "bodies[0].twist.linear.x");
+  EXPECT_EQ(d.labels[6 + 3], "robots[0].joint_state.velocity[3]");
+  EXPECT_EQ(d.labels[6 + joints], "impulses[0].normal_impulse");
+  ASSERT_EQ(d.mean.size(), n);
+  ASSERT_EQ(d.covariance.size(), n * n);
+  ASSERT_EQ(d.joint_limit_labels.size(), joints);  // every joint of the arm has a limit
+  ASSERT_EQ(d.joint_limit_probability.size(), joints);
+  double range = 0.0;
+  for (std::size_t j = 0; j < joints; ++j) range = std::max(range, std::abs(qb[j] - qa[j]));
+  bool some_crossing = false;
+  for (std::size_t j = 0; j < joints; ++j) {
+    SCOPED_TRACE(kJoints[j]);
+    const std::size_t r = 6 + j;
+    EXPECT_EQ(d.joint_limit_labels[j], d.labels[r]);
+    EXPECT_NEAR(d.mean[r], 0.5 * (qa[j] + qb[j]), 1e-3 * range);
+    const double dj = qb[j] - qa[j];
+    EXPECT_NEAR(d.covariance[r * n + r], dj * dj / 12.0, 2e-3 * range * range / 12.0);
+    const double exact = exceedingFraction(qa[j], qb[j], j < 7 ? 2.5 : 0.2);
+    EXPECT_NEAR(d.joint_limit_probability[j], exact, 2e-3);
+    some_crossing |= exact > 0.05 && exact < 0.95;
+  }
+  EXPECT_TRUE(some_crossing) << "no joint crosses its limit inside [a, b]: the check is weak";
+
+  srv.request.options.uncertainty = cr::SolverOptions::UNCERTAINTY_LINEAR;
+  const auto linear = call(srv);
+  EXPECT_FALSE(linear.success);
+  EXPECT_NE(linear.message.find("options.uncertainty"), std::string::npos) << linear.message;
+  EXPECT_TRUE(linear.outcome_distribution.mean.empty());
 }
 
 TEST_F(RobotNodeTest, BadRobotInputIsNamed) {

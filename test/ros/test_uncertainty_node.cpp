@@ -2,6 +2,7 @@
 // (options.uncertainty, request.uncertainties, response.outcome_distribution; docs/uncertainty.md).
 // The reference is the stick condition of a sphere landing on its pole, in closed form: with
 // K_n = 1/m and K_t = 7 / (2 m), Newton's law sticks iff mu_s >= 2 u_t / (7 (1 + e) u_n).
+#include <collision_response/ComputeBatch.h>
 #include <collision_response/ComputeResponse.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -129,6 +130,96 @@ TEST_F(UncertaintyNodeTest, BadInputIsRejectedNamingTheField) {
   srv.request.uncertainties[0].contact = 3;
   rejected(srv, "uncertainties[0].contact");
   EXPECT_TRUE(call(landingSphere(sampled, 0.05)).success) << "node stopped serving";
+}
+
+// Two spheres colliding head-on along x, frictionless: left (1 kg, +2 m/s), right (3 kg, -1 m/s),
+// restitution e. Newton's law in closed form: the normal impulse is (1 + e) m_red w with the
+// reduced mass m_red = 0.75 kg and the closing speed w = 3 m/s, so
+//   v_left(e) = 2 - 2.25 (1 + e),  v_right(e) = -1 + 0.75 (1 + e),  P(e) = 2.25 (1 + e):
+// affine in e, whose mean, variance and quantiles carry over exactly.
+cr::Scene headOnSpheres(double e) {
+  cr::Scene scene;
+  cr::BodyState left = sphere("left", 1.0, 0.1, pose(0, 0, 0));
+  left.twist.linear.x = 2.0;
+  cr::BodyState right = sphere("right", 3.0, 0.1, pose(0.2, 0, 0));
+  right.twist.linear.x = -1.0;
+  scene.bodies = {left, right};
+  scene.contacts = {contact("left", "right", 0.1, 0, 0, 1, 0, 0, e)};
+  scene.options.law = cr::SolverOptions::LAW_NEWTON;
+  return scene;
+}
+
+TEST(UncertaintyBatchTest, BatchSceneCarriesTheDistributionOfAnUncertainRestitution) {
+  ros::NodeHandle node;
+  ASSERT_TRUE(ros::service::waitForService("/collision_response/compute_batch", ros::Duration(20)));
+  constexpr double a = 0.3, b = 0.7;  // e uniform on [a, b]
+  cr::ComputeBatch srv;
+  srv.request.header.frame_id = "world";
+  cr::Scene uncertain = headOnSpheres(0.5 * (a + b));
+  uncertain.options.uncertainty = cr::SolverOptions::UNCERTAINTY_SAMPLED;
+  uncertain.options.uncertainty_samples = 4096;
+  cr::ContactUncertainty u;
+  u.contact = 0;
+  u.restitution = interval(a, b);
+  uncertain.uncertainties = {u};
+  const double e_plain = 0.8;
+  srv.request.scenes = {uncertain, headOnSpheres(e_plain)};
+  ASSERT_TRUE(ros::service::call("/collision_response/compute_batch", srv));
+  ASSERT_TRUE(srv.response.success) << srv.response.message;
+  ASSERT_EQ(srv.response.results.size(), 2u);
+
+  const cr::SceneResult& first = srv.response.results[0];
+  ASSERT_TRUE(first.success) << first.message;
+  for (const std::string& w : first.warnings)
+    EXPECT_EQ(w.find("uncertaint"), std::string::npos) << w;
+  const cr::OutcomeDistribution& d = first.outcome_distribution;
+  EXPECT_EQ(d.method, "sampled");
+  EXPECT_EQ(d.samples, 4096u);
+  const std::size_t n = 16;  // two movable bodies' twists, then one contact's 4 impulse values
+  ASSERT_EQ(d.labels.size(), n);
+  ASSERT_EQ(d.labels[0], "bodies[0].twist.linear.x");
+  ASSERT_EQ(d.labels[6], "bodies[1].twist.linear.x");
+  ASSERT_EQ(d.labels[12], "impulses[0].normal_impulse");
+  ASSERT_EQ(d.mean.size(), n);
+  ASSERT_EQ(d.covariance.size(), n * n);
+  ASSERT_EQ(d.q05.size(), n);
+  ASSERT_EQ(d.q95.size(), n);
+
+  // Slopes of the three affine quantities in e, and their values at e.
+  const double slope[3] = {-2.25, 0.75, 2.25};
+  auto value = [&](int k, double e) {
+    const double at0[3] = {2.0 - 2.25, -1.0 + 0.75, 2.25};
+    return at0[k] + slope[k] * e;
+  };
+  const std::size_t row[3] = {0, 6, 12};
+  const double mean_e = 0.5 * (a + b), var_e = (b - a) * (b - a) / 12.0;
+  const double e05 = a + 0.05 * (b - a), e95 = a + 0.95 * (b - a);
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(d.labels[row[k]]);
+    EXPECT_NEAR(d.mean[row[k]], value(k, mean_e), 1e-3);
+    for (int l = 0; l < 3; ++l)
+      EXPECT_NEAR(d.covariance[row[k] * n + row[l]], slope[k] * slope[l] * var_e, 1e-3 * 0.09);
+    // A decreasing quantity's 5 % quantile is its value at e's 95 % quantile.
+    EXPECT_NEAR(d.q05[row[k]], value(k, slope[k] > 0 ? e05 : e95), 2e-3);
+    EXPECT_NEAR(d.q95[row[k]], value(k, slope[k] > 0 ? e95 : e05), 2e-3);
+  }
+  // Nothing else moves: y, z and the spins stay zero in every sample.
+  for (std::size_t i : {1u, 2u, 3u, 4u, 5u, 7u, 13u, 14u, 15u}) {
+    EXPECT_NEAR(d.mean[i], 0.0, 1e-9) << d.labels[i];
+    EXPECT_NEAR(d.covariance[i * n + i], 0.0, 1e-12) << d.labels[i];
+  }
+  // The answer itself is the prediction at the contact's own restitution (the mean).
+  ASSERT_EQ(first.bodies.size(), 2u);
+  EXPECT_NEAR(first.bodies[0].twist.linear.x, value(0, mean_e), 1e-9);
+
+  // The scene without uncertainties: its prediction, no distribution.
+  const cr::SceneResult& second = srv.response.results[1];
+  ASSERT_TRUE(second.success) << second.message;
+  EXPECT_TRUE(second.outcome_distribution.method.empty());
+  EXPECT_TRUE(second.outcome_distribution.mean.empty());
+  ASSERT_EQ(second.bodies.size(), 2u);
+  EXPECT_NEAR(second.bodies[0].twist.linear.x, value(0, e_plain), 1e-9);
+  EXPECT_NEAR(second.bodies[1].twist.linear.x, value(1, e_plain), 1e-9);
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "collision_response/core/body_model.h"
+#include "collision_response/core/contact_point.h"
 #include "collision_response/core/contact_uncertainty.h"
 #include "collision_response/core/outcome_distribution.h"
 #include "collision_response/core/scene.h"
@@ -47,5 +49,32 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
                                                const UncertaintyOptions& uncertainty = {},
                                                WorkerPool* pool = nullptr,
                                                const RequestLimits& limits = {});
+
+/// The sampled distribution of the impact of general bodies (body_model.h: robots and free rigid
+/// bodies, as computeBodyResponse() solves them) when the contacts' coefficients follow
+/// `uncertainties` (uncertainties[k].contact indexes `contacts`; docs/uncertainty.md, "Robots").
+///
+/// `copies[k]` is a full set of the bodies (copies[k][b] the k-th copy of body b), every set at the
+/// same pre-impact velocities; each set is used by one task at a time, so the samples are split
+/// into copies.size() parts spread over `pool` (nullptr: one after the other on the calling
+/// thread). Every sample (points of the scrambled Halton sequence through the coefficients'
+/// quantile functions, as computeOutcomeDistribution()) is solved by computeBodyResponse() with
+/// `options`, and its copy set back to the pre-impact velocities; the copies end as they began.
+///
+/// Quantities, as the rows of BodyImpactDerivatives: every body's velocity unknowns
+/// (BodyModel::velocity()) body after body, labelled "velocities[r]"; then per contact
+/// "impulses[c].normal_impulse", "impulses[c].friction_impulse.x/y/z" [N s, world] (the caller
+/// names the velocities). `velocity_limits`: one per velocity unknown (+infinity: none);
+/// OutcomeDistribution::limit_probability[r] is the fraction of samples with |v_r| > limit_r.
+///
+/// Only kSampled: kLinear throws InvalidInput("options.uncertainty"). Throws as
+/// computeOutcomeDistribution() for the uncertainties, options.uncertainty_samples and the time
+/// budget; std::invalid_argument when copies is empty, the sets differ in size or
+/// velocity_limits has the wrong length.
+OutcomeDistribution computeBodyOutcomeDistribution(
+    const std::vector<std::vector<BodyModel*>>& copies, const std::vector<ContactPoint>& contacts,
+    const std::vector<ContactUncertainty>& uncertainties, const Eigen::VectorXd& velocity_limits,
+    const SolverOptions& options = {}, const UncertaintyOptions& uncertainty = {},
+    WorkerPool* pool = nullptr);
 
 }  // namespace collision_response::core

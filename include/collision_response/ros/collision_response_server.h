@@ -85,9 +85,11 @@ class CollisionResponseServer {
   /// Returns the error of a request rejected for one of its values (named as in the request), so
   /// that a batch can name it in the batch.
   /// `link_frames` (if not null) receives, per contact on a robot's link, that link's frame for
-  /// the markers (response_markers.h).
+  /// the markers (response_markers.h). `sampling_pool` spreads options.uncertainty's samples
+  /// (nullptr: on the calling thread, as a batch's scenes do).
   std::optional<core::InvalidInput> solve(ComputeResponse::Request& request,
                                           ComputeResponse::Response& response,
+                                          core::WorkerPool* sampling_pool,
                                           std::vector<ContactLinkFrame>* link_frames = nullptr);
   /// One episode: fills `result` (success false with a message on bad input); publishes nothing.
   /// An empty request.header.frame_id is set to ~default_frame (with a warning). Returns the error
@@ -99,28 +101,31 @@ class CollisionResponseServer {
   /// detected (wantsDetection(), within `contact_tolerance` [m]) and checked, then
   /// core::computeValidatedResponse(); fills the answer (request frame) but not its success.
   // The outcome distribution of options.uncertainty (linear or sampled) over the request's
-  // uncertainties, on the batch pool; a warning if uncertainties come without a method.
+  // uncertainties, samples spread on `sampling_pool` (nullptr: this thread); a warning if
+  // uncertainties come without a method.
   void solveUncertainty(const ComputeResponse::Request& request,
                         ComputeResponse::Response& response, const core::Scene& scene,
-                        const core::SolverOptions& options);
+                        const core::SolverOptions& options, core::WorkerPool* sampling_pool);
   void solveRigid(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                   core::Scene& scene, core::SceneValidator& validator,
-                  const core::SolverOptions& options, double contact_tolerance);
+                  const core::SolverOptions& options, double contact_tolerance,
+                  core::WorkerPool* sampling_pool);
   /// The part of solve() for requests with robots (request.robots, or contacts naming
   /// "<robot>/<link>"): rigid bodies and robots as general body models (core::computeBodyResponse).
   /// `scene` holds the request's validated bodies and given contacts; `validator` has checked them.
   void solveWithRobots(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                        core::Scene& scene, core::SceneValidator& validator,
-                       const core::SolverOptions& options,
+                       const core::SolverOptions& options, core::WorkerPool* sampling_pool,
                        std::vector<ContactLinkFrame>* link_frames);
   /// The rigid bodies and the placed robots (placeRobots()) solved together by
   /// core::computeBodyResponse() on `points` (the contacts placed on the models); fills the
   /// answer's bodies, impulses, islands, effective masses, warnings, robots, energies [J] and
-  /// solve_time [s].
+  /// solve_time [s]; with options.uncertainty sampled and uncertainties, outcome_distribution
+  /// (robotOutcomeDistribution(), samples spread on `sampling_pool`; linear is refused).
   void solveBodyModels(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                        core::Scene& scene, std::vector<RequestRobot>& robots,
                        const std::vector<core::ContactPoint>& points,
-                       const core::SolverOptions& options);
+                       const core::SolverOptions& options, core::WorkerPool* sampling_pool);
   /// Detection for a request with robots: contacts from the bodies' shapes and the robots' links,
   /// added to the answer's detected contacts and to scene.contacts, then checked by `validator`.
   void detectWithLinks(const ComputeResponse::Request& request, ComputeResponse::Response& response,

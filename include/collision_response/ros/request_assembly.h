@@ -155,6 +155,13 @@ void addSafetyOutputs(const std::vector<core::BodyModel*>& models,
                       const std::vector<core::ContactImpulse>& impulses,
                       const std::vector<RequestRobot>& robots, ComputeResponse::Response& response);
 
+/// The labels of the velocity unknowns of a request's body models (bodyModels(): rigid bodies
+/// 0 .. rigid_count - 1, then the robots), body b's from velocity_offset[b] (-1: none):
+/// "bodies[i].twist.linear.x" .. "angular.z", a floating robot's "robots[r].base_twist.linear.x"
+/// .. "angular.z", then "robots[r].joint_state.velocity[j]" per free joint j.
+std::vector<std::string> velocityLabels(const std::vector<int>& velocity_offset, int rigid_count,
+                                        const std::vector<RequestRobot>& robots);
+
 /// The Jacobians of a request with robots as the response's `derivatives` (ImpactDerivatives.msg):
 /// rows and columns labelled by the fields they are read from, the rigid bodies' twists
 /// "bodies[i].twist.linear.x" .. (the models before `rigid_count`, those with unknowns), each
