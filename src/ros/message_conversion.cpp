@@ -250,19 +250,21 @@ IslandReport toMsg(const core::SolveReport& report) {
   return msg;
 }
 
-ImpactDerivatives toMsg(const core::ImpactDerivatives& derivatives) {
+ImpactDerivatives derivativesMsg(core::DerivativeMethod method, const Eigen::MatrixXd& jacobian,
+                                 std::vector<std::string> row_labels,
+                                 std::vector<std::string> column_labels,
+                                 const std::vector<core::ContactDerivativeMode>& contacts) {
   ImpactDerivatives msg;
-  msg.method = core::toString(derivatives.method);
-  const Eigen::MatrixXd& jacobian = derivatives.jacobian;
+  msg.method = core::toString(method);
   msg.rows = static_cast<uint32_t>(jacobian.rows());
   msg.columns = static_cast<uint32_t>(jacobian.cols());
-  msg.row_labels = derivatives.rowLabels();
-  msg.column_labels = derivatives.columnLabels();
+  msg.row_labels = std::move(row_labels);
+  msg.column_labels = std::move(column_labels);
   msg.jacobian.reserve(static_cast<std::size_t>(jacobian.size()));
   for (Eigen::Index r = 0; r < jacobian.rows(); ++r)
     for (Eigen::Index k = 0; k < jacobian.cols(); ++k) msg.jacobian.push_back(jacobian(r, k));
-  msg.contacts.reserve(derivatives.contacts.size());
-  for (const core::ContactDerivativeMode& contact : derivatives.contacts) {
+  msg.contacts.reserve(contacts.size());
+  for (const core::ContactDerivativeMode& contact : contacts) {
     ContactDerivative entry;
     entry.mode = core::toString(contact.mode);
     entry.method = core::toString(contact.method);
@@ -271,6 +273,11 @@ ImpactDerivatives toMsg(const core::ImpactDerivatives& derivatives) {
     msg.contacts.push_back(std::move(entry));
   }
   return msg;
+}
+
+ImpactDerivatives toMsg(const core::ImpactDerivatives& derivatives) {
+  return derivativesMsg(derivatives.method, derivatives.jacobian, derivatives.rowLabels(),
+                        derivatives.columnLabels(), derivatives.contacts);
 }
 
 core::SolverOptions fromMsg(const SolverOptions& msg, const core::SolverOptions& defaults) {

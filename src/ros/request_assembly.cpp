@@ -317,36 +317,18 @@ std::vector<std::string> velocityLabels(const std::vector<int>& velocity_offset,
 
 ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
                         const std::vector<RequestRobot>& robots) {
-  const std::vector<std::string> velocities =
-      velocityLabels(derivatives.velocity_offset, rigid_count, robots);
-  ImpactDerivatives msg;
-  msg.method = core::toString(derivatives.method);
-  const Eigen::MatrixXd& jacobian = derivatives.jacobian;
-  msg.rows = static_cast<uint32_t>(jacobian.rows());
-  msg.columns = static_cast<uint32_t>(jacobian.cols());
-  msg.row_labels = velocities;
-  msg.column_labels = velocities;
+  std::vector<std::string> rows = velocityLabels(derivatives.velocity_offset, rigid_count, robots);
+  std::vector<std::string> columns = rows;
   for (std::size_t c = 0; c < derivatives.contact_count; ++c) {
     const std::string impulse = "impulses[" + std::to_string(c) + "].";
-    msg.row_labels.push_back(impulse + "normal_impulse");
-    for (const char* axis : {"x", "y", "z"})
-      msg.row_labels.push_back(impulse + "friction_impulse." + axis);
+    rows.push_back(impulse + "normal_impulse");
+    for (const char* axis : {"x", "y", "z"}) rows.push_back(impulse + "friction_impulse." + axis);
     const std::string contact = "contacts[" + std::to_string(c) + "].";
     for (const char* field : {"restitution", "static_friction", "dynamic_friction"})
-      msg.column_labels.push_back(contact + field);
+      columns.push_back(contact + field);
   }
-  msg.jacobian.reserve(static_cast<std::size_t>(jacobian.size()));
-  for (Eigen::Index r = 0; r < jacobian.rows(); ++r)
-    for (Eigen::Index k = 0; k < jacobian.cols(); ++k) msg.jacobian.push_back(jacobian(r, k));
-  for (const core::ContactDerivativeMode& contact : derivatives.contacts) {
-    ContactDerivative entry;
-    entry.mode = core::toString(contact.mode);
-    entry.method = core::toString(contact.method);
-    entry.at_switch = contact.at_switch;
-    entry.switch_detail = contact.switch_detail;
-    msg.contacts.push_back(std::move(entry));
-  }
-  return msg;
+  return derivativesMsg(derivatives.method, derivatives.jacobian, std::move(rows),
+                        std::move(columns), derivatives.contacts);
 }
 
 }  // namespace collision_response

@@ -63,6 +63,13 @@ IslandReport toMsg(const core::SolveReport& report);
 /// entries, each contact's mode. Frames and units are the library's (the request frame).
 ImpactDerivatives toMsg(const core::ImpactDerivatives& derivatives);
 
+/// ImpactDerivatives.msg from a Jacobian and its labels (rows x columns, written row-major) and
+/// each contact's mode: the one conversion of both the rigid-body and the robots' derivatives.
+ImpactDerivatives derivativesMsg(core::DerivativeMethod method, const Eigen::MatrixXd& jacobian,
+                                 std::vector<std::string> row_labels,
+                                 std::vector<std::string> column_labels,
+                                 const std::vector<core::ContactDerivativeMode>& contacts);
+
 /// Options of a request; zero fields take the value of `defaults`. Throws core::InvalidInput
 /// ("options.law", "options.solver") for an unknown enumeration value.
 core::SolverOptions fromMsg(const SolverOptions& msg, const core::SolverOptions& defaults);
