@@ -7,6 +7,7 @@
 #include <string>
 
 #include "collision_response/core/errors.h"
+#include "collision_response/core/validation.h"
 
 namespace collision_response::core {
 namespace {
@@ -19,17 +20,30 @@ using Eigen::VectorXd;
 // ~ 1e-16 / step).
 constexpr double kStep = 1e-6;
 
+// (A null body, which computeBodyResponse() refuses when a contact names it, has no velocity.)
 std::vector<VectorXd> velocities(const std::vector<BodyModel*>& bodies) {
   std::vector<VectorXd> out;
   out.reserve(bodies.size());
-  for (const BodyModel* body : bodies) out.push_back(body->velocity());
+  for (const BodyModel* body : bodies) out.push_back(body ? body->velocity() : VectorXd());
   return out;
 }
 
 void setVelocities(const std::vector<BodyModel*>& bodies, const std::vector<VectorXd>& v) {
   for (std::size_t b = 0; b < bodies.size(); ++b) {
-    if (bodies[b]->velocityCount() > 0) bodies[b]->addVelocityChange(v[b] - bodies[b]->velocity());
+    if (bodies[b] != nullptr && bodies[b]->velocityCount() > 0)
+      bodies[b]->addVelocityChange(v[b] - bodies[b]->velocity());
   }
+}
+
+// The contacts as the solver sees them: a normal accepted within kUnitTolerance of unit length is
+// normalised (computeBodyResponse() does the same), so that the analytic rows use the same n.
+std::vector<ContactPoint> normalized(const std::vector<ContactPoint>& given) {
+  std::vector<ContactPoint> contacts = given;
+  for (ContactPoint& contact : contacts) {
+    const double norm = contact.normal.norm();
+    if (norm != 1.0 && std::abs(norm - 1.0) <= kUnitTolerance) contact.normal /= norm;
+  }
+  return contacts;
 }
 
 // The outputs (rows of the layout) of one solve from the velocities `before`.
@@ -68,8 +82,9 @@ ImpactMode modeOf(const ContactImpulse& impulse) {
 }  // namespace
 
 BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>& bodies,
-                                                   const std::vector<ContactPoint>& contacts,
+                                                   const std::vector<ContactPoint>& given,
                                                    const SolverOptions& options) {
+  const std::vector<ContactPoint> contacts = normalized(given);
   BodyImpactDerivatives out;
   out.velocity_offset.assign(bodies.size(), -1);
   for (std::size_t b = 0; b < bodies.size(); ++b) {

@@ -396,6 +396,39 @@ void summariseSamples(const Eigen::MatrixXd& values, const std::vector<unsigned 
   }
 }
 
+// One sample's options: what is left of the call's time budget (options.time_budget from
+// `start`), so that the whole sampled call is bounded by it, not each sample; SolverTimeout when
+// nothing is left.
+SolverOptions remainingBudget(const SolverOptions& options,
+                              std::chrono::steady_clock::time_point start) {
+  SolverOptions sample = options;
+  sample.time_budget =
+      options.time_budget -
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!(sample.time_budget > 0.0))
+    throw SolverTimeout("uncertainty sampling ran past options.time_budget");
+  return sample;
+}
+
+// The outcome's rows (6 per movable body or its velocity unknowns, 4 per contact) and the sampled
+// values (rows x samples) an answer may hold: a request over them is refused before anything is
+// allocated (the covariance alone is rows^2 doubles).
+void checkOutcomeSize(Eigen::Index rows, std::size_t samples) {
+  if (rows > kMaxOutcomeRows)
+    throw InvalidInput("uncertainties",
+                       "the outcome would have " + std::to_string(rows) +
+                           " rows (its bodies' velocity unknowns and 4 per contact), over the "
+                           "cap of " +
+                           std::to_string(kMaxOutcomeRows) +
+                           ": ask for the distribution of a smaller scene");
+  if (static_cast<double>(rows) * static_cast<double>(samples) >
+      static_cast<double>(kMaxSampledValues))
+    throw InvalidInput("options.uncertainty_samples",
+                       std::to_string(samples) + " samples of " + std::to_string(rows) +
+                           " outcome rows exceed the cap of " + std::to_string(kMaxSampledValues) +
+                           " sampled values: ask for fewer samples");
+}
+
 OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOptions& options,
                                         const UncertaintyOptions& uncertainty, WorkerPool* pool) {
   const auto start = std::chrono::steady_clock::now();
@@ -411,6 +444,7 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
   const auto n = static_cast<Eigen::Index>(uncertainty.samples);
   const Eigen::Index m =
       6 * static_cast<Eigen::Index>(movable.size()) + 4 * static_cast<Eigen::Index>(contacts);
+  checkOutcomeSize(m, uncertainty.samples);
   Eigen::MatrixXd values(m, n);  // one column per sample
   std::vector<unsigned char> sticking(uncertainty.samples * contacts, 0);
   std::vector<unsigned char> capped(uncertainty.samples * prepared.contacts.size(), 0);
@@ -420,9 +454,7 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
     Scene sample = scene;
     const std::size_t end = std::min(uncertainty.samples, (chunk + 1) * kChunk);
     for (std::size_t i = chunk * kChunk; i < end; ++i) {
-      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
-          options.time_budget)
-        throw SolverTimeout("uncertainty sampling ran past options.time_budget");
+      const SolverOptions sample_options = remainingBudget(options, start);
       for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
         const UncertainContact& uncertain = prepared.contacts[u];
         const std::array<double, 3> drawn =
@@ -431,7 +463,7 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
         for (int which = 0; which < 3; ++which) coefficient(contact, which) = drawn[which];
       }
       const CollisionResult result =
-          computeValidatedResponse(sample, prepared.contact_bodies, options);
+          computeValidatedResponse(sample, prepared.contact_bodies, sample_options);
       fillOutcome(result, movable, [&](Eigen::Index r) -> double& {
         return values(r, static_cast<Eigen::Index>(i));
       });
@@ -466,8 +498,12 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
                        "must be in [1, " + std::to_string(kMaxUncertaintySamples) + "], got " +
                            std::to_string(uncertainty.samples));
   Prepared prepared = prepare(scene, uncertainties);
-  if (uncertainty.method == UncertaintyMethod::kLinear)
+  if (uncertainty.method == UncertaintyMethod::kLinear) {
+    checkOutcomeSize(6 * static_cast<Eigen::Index>(movableBodies(prepared.mean_scene).size()) +
+                         4 * static_cast<Eigen::Index>(prepared.mean_scene.contacts.size()),
+                     1);
     return linearDistribution(prepared, options, limits);
+  }
   prepared.contact_bodies = validate(prepared.mean_scene, options, limits);
   return sampledDistribution(prepared, options, uncertainty, pool);
 }
@@ -521,6 +557,7 @@ OutcomeDistribution computeBodyOutcomeDistribution(
   const std::size_t contact_count = contacts.size();
   const auto n = static_cast<Eigen::Index>(uncertainty.samples);
   const Eigen::Index m = velocity_count + 4 * static_cast<Eigen::Index>(contact_count);
+  checkOutcomeSize(m, uncertainty.samples);
   Eigen::MatrixXd values(m, n);  // one column per sample
   std::vector<unsigned char> sticking(uncertainty.samples * contact_count, 0);
   std::vector<unsigned char> capped(uncertainty.samples * prepared.contacts.size(), 0);
@@ -536,9 +573,7 @@ OutcomeDistribution computeBodyOutcomeDistribution(
     };
     std::vector<ContactPoint> sample = contacts;
     for (std::size_t i = part; i < uncertainty.samples; i += parts) {
-      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
-          options.time_budget)
-        throw SolverTimeout("uncertainty sampling ran past options.time_budget");
+      const SolverOptions sample_options = remainingBudget(options, start);
       for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
         const UncertainContact& uncertain = prepared.contacts[u];
         const std::array<double, 3> drawn =
@@ -550,7 +585,7 @@ OutcomeDistribution computeBodyOutcomeDistribution(
       }
       BodyResponse result;
       try {
-        result = computeBodyResponse(bodies, sample, options);
+        result = computeBodyResponse(bodies, sample, sample_options);
       } catch (...) {
         restore();
         throw;

@@ -389,6 +389,38 @@ TEST(Uncertainty, BadInputNamesTheField) {
   EXPECT_EQ(field(u, none), "options.uncertainty");
 }
 
+// An answer too large to hold is refused before anything is solved: rows x samples over the cap
+// (101 contacts: 6 + 4 x 101 = 410 rows, x 100,000 samples > 2^25), and more than 2048 rows
+// (513 contacts: 2058 rows) for either method.
+TEST(Uncertainty, OversizedOutcomeIsRefusedNamingTheField) {
+  auto boxWithContacts = [](int count) {
+    core::Scene scene = slidingBox();
+    const core::Contact first = scene.contacts[0];
+    scene.contacts.clear();
+    for (int c = 0; c < count; ++c) {
+      core::Contact contact = first;
+      contact.point = {0.1 + 0.001 * c, -0.05, 0.0};
+      scene.contacts.push_back(contact);
+    }
+    return scene;
+  };
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::interval(0.3, 0.7);
+  const core::Scene many = boxWithContacts(101);
+  EXPECT_EQ(errorField([&] {
+              core::computeOutcomeDistribution(many, {u}, newton(),
+                                               sampled(core::kMaxUncertaintySamples));
+            }),
+            "options.uncertainty_samples");
+  const core::Scene too_many = boxWithContacts(513);
+  EXPECT_EQ(
+      errorField([&] { core::computeOutcomeDistribution(too_many, {u}, newton(), sampled(10)); }),
+      "uncertainties");
+  EXPECT_EQ(
+      errorField([&] { core::computeOutcomeDistribution(too_many, {u}, newton(), linear()); }),
+      "uncertainties");
+}
+
 // The truncated normal's moments and quantiles against a quadrature of the density written here:
 // N(0.9, 0.1) conditioned on [0, 1].
 TEST(CoefficientDistribution, TruncatedNormalMomentsMatchQuadrature) {

@@ -165,6 +165,16 @@ TEST(RobotDerivatives, FrictionlessArmAgainstAWallIsTheClosedForm) {
     SCOPED_TRACE("trial " + std::to_string(trial));
     EXPECT_LE(relativeError(d.velocitiesByVelocities(), want), 1e-10);
     EXPECT_LE(relativeError(d.velocitiesByCoefficients().col(0), want_e), 1e-10);
+    // The normal impulse's row: P = -(1 + e) u_n / w, so dP/de = -u_n / w.
+    EXPECT_NEAR(d.jacobian(N, N), -u_n / w, 1e-10 * std::abs(u_n / w));
+
+    // A normal 0.08 % longer than unit is accepted (validation's tolerance) and solved as the unit
+    // normal: the derivatives too (unnormalised, dP/de would be 0.08 % smaller).
+    Scene longer = s;
+    longer.contacts[0].normal *= 1.0008;
+    const cr::BodyImpactDerivatives dl = longer.derivatives(withLaw(cr::ImpactLaw::kNewton));
+    EXPECT_NEAR(dl.jacobian(N, N), -u_n / w, 1e-10 * std::abs(u_n / w));
+    EXPECT_LE(relativeError(dl.velocitiesByVelocities(), want), 1e-10);
   }
 }
 

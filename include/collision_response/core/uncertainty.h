@@ -16,6 +16,11 @@ namespace collision_response::core {
 
 /// Largest sample count of UncertaintyOptions::samples.
 constexpr std::size_t kMaxUncertaintySamples = 100000;
+/// Largest outcome (rows: 6 per movable body or its velocity unknowns, 4 per contact): the
+/// covariance alone is rows^2 doubles (32 MB at the cap).
+constexpr long kMaxOutcomeRows = 2048;
+/// Largest rows x samples a sampled distribution keeps (8 bytes each: 256 MB at the cap).
+constexpr long kMaxSampledValues = 1L << 25;
 
 struct UncertaintyOptions {
   UncertaintyMethod method = UncertaintyMethod::kLinear;
@@ -41,8 +46,10 @@ struct UncertaintyOptions {
 /// Throws InvalidInput naming the field: the scene (as validate()), "uncertainties[k].contact"
 /// (out of range or repeated), "uncertainties[k].restitution.std_dev" ... (CheckedDistribution),
 /// "uncertainties[k].dynamic_friction.mean" when the mean of mu_d exceeds that of mu_s,
-/// "options.uncertainty" (kNone), "options.uncertainty_samples" (0 or over the cap). SolverTimeout
-/// when the whole call runs past options.time_budget.
+/// "options.uncertainty" (kNone), "options.uncertainty_samples" (0 or over the cap, or rows x
+/// samples over kMaxSampledValues), "uncertainties" (an outcome of more than kMaxOutcomeRows rows).
+/// SolverTimeout when the whole call runs past options.time_budget (kSampled: each sample gets what
+/// is left of it).
 OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
                                                const std::vector<ContactUncertainty>& uncertainties,
                                                const SolverOptions& options = {},
