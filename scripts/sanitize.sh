@@ -57,6 +57,8 @@ export CR_PROPERTY_SCENES=${CR_PROPERTY_SCENES:-20000}
 # each instead of 150 and 200 (the reference costs most of the normal build's 45 s CPU there).
 export CR_REFERENCE_CASES=${CR_REFERENCE_CASES:-50}
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:abort_on_error=0:check_initialization_order=1:detect_stack_use_after_return=1:quarantine_size_mb=1:log_path=$logs/asan"
+# Third-party reports only (test/sanitizer/asan.supp: Debian's nodelet manager at exit).
+ASAN_OPTIONS="$ASAN_OPTIONS:suppressions=$root/test/sanitizer/asan.supp"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$logs/ubsan"
 supp="$root/test/sanitizer/lsan.supp"
 export LSAN_OPTIONS="print_suppressions=1"
