@@ -755,11 +755,10 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
   out.contacts.resize(scene.contacts.size());
 
   std::vector<RigidBody> before;
-  before.reserve(scene.bodies.size());
+  makeRigidBodies(scene.bodies, before);
   std::vector<Index> body_column(scene.bodies.size(), -1);
   for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
-    before.push_back(makeRigidBody(scene.bodies[b]));
-    if (before.back().movable()) {
+    if (before[b].movable()) {
       body_column[b] = out.velocityCount();
       out.movable_bodies.push_back(static_cast<int>(b));
     }
