@@ -506,9 +506,13 @@ bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eig
   bool stopped = false;
   const double slip0 = pr.u0_t.value().norm();
   if (slip0 <= kStickSpeed * pr.V) {
-    cx.flag(
-        "no slip before the impact: the tangential velocity columns are those of sticking "
-        "from the start (a slip may slide instead: one-sided)");
+    // A small slip stops at once where dynamic friction can stop it in every direction
+    // (|K_tt^-1 K_tn| < mu_d): the map is smooth across u_t = 0. Otherwise it may slide on.
+    if (!((pr.A_inv * pr.b).norm() < pr.mu_d.v)) {
+      cx.flag(
+          "no slip before the impact: the tangential velocity columns are those of sticking "
+          "from the start (a slip may slide instead: one-sided)");
+    }
   }
   if (slip0 > kStickSpeed * pr.V && centralStop(cx)) cx.sticking = true;
   for (std::size_t segments = 0; !st.done && ok;) {

@@ -434,6 +434,30 @@ TEST(ImpactDerivatives, FrictionlessSingleContactClosedFormsForEveryLaw) {
 
 // ---- Poisson, Stronge, one contact: the analytic sensitivity ----------------------------------
 
+// Every column against plain central differences (step 1e-5 of the input's scale) with the
+// contact's mode kept on both sides, the solve's step counts let change: for maps that are smooth
+// where the prediction changes its path (closed form on one side, integration on the other).
+void comparePlain(const cr::Scene& scene, const cr::SolverOptions& options,
+                  const cr::ImpactDerivatives& d, const std::string& what) {
+  const Outputs base = predict(scene, options);
+  for (int col = 0; col < d.jacobian.cols(); ++col) {
+    const double h = stepOf(scene, col, 1e-5);
+    cr::Scene plus = scene, minus = scene;
+    input(plus, col) += h;
+    input(minus, col) -= h;
+    const Outputs p = predict(plus, options), m = predict(minus, options);
+    ASSERT_EQ(p.modes[0], base.modes[0]) << what;
+    ASSERT_EQ(m.modes[0], base.modes[0]) << what;
+    const VectorXd reference = (p.values - m.values) / (2.0 * h);
+    const double scale = std::max(reference.cwiseAbs().maxCoeff(), floorOf(scene, options, col));
+    for (int row = 0; row < d.jacobian.rows(); ++row) {
+      EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-6 * scale)
+          << what << " " << cr::toString(options.law) << ": d " << d.rowLabels()[row] << " / d "
+          << d.columnLabels()[col];
+    }
+  }
+}
+
 // One body against the ground or two bodies, one contact, under each impulse-space law: sticking
 // during the impact (large mu), sliding throughout (small mu), and reversing (the slip stops and
 // resumes the other way: small mu off-centre), with mu_s >= mu_d. Every column against the
@@ -523,24 +547,27 @@ TEST(ImpactDerivatives, ImpulseSpaceCentralAndPlanarContactsMatchCentralDifferen
     // Across the plane the prediction leaves its closed form for the integration of a turning
     // slip (its step count changes, which compareWithDifferences() avoids): the map is smooth
     // there, so plain central differences (the contact's mode kept) are the reference.
-    const Outputs base = predict(planar, withLaw(law));
-    for (int col = 0; col < d.jacobian.cols(); ++col) {
-      const double h = stepOf(planar, col, 1e-5);
-      cr::Scene plus = planar, minus = planar;
-      input(plus, col) += h;
-      input(minus, col) -= h;
-      const Outputs p = predict(plus, withLaw(law)), m = predict(minus, withLaw(law));
-      ASSERT_EQ(p.modes[0], base.modes[0]);
-      ASSERT_EQ(m.modes[0], base.modes[0]);
-      const VectorXd reference = (p.values - m.values) / (2.0 * h);
-      const double scale =
-          std::max(reference.cwiseAbs().maxCoeff(), floorOf(planar, withLaw(law), col));
-      for (int row = 0; row < d.jacobian.rows(); ++row) {
-        EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-6 * scale)
-            << "planar " << cr::toString(law) << ": d " << d.rowLabels()[row] << " / d "
-            << d.columnLabels()[col];
-      }
+    comparePlain(planar, withLaw(law), d, "planar");
+
+    // No slip before the impact, mu_d above the sticking rate |K_tt^-1 K_tn|: a small slip either
+    // way stops at once, so the map is smooth across u_t = 0 and the derivative two-sided (not
+    // flagged); the tangential columns are those of sticking from the start.
+    cr::Scene at_rest = planar;
+    {
+      // The linear velocity adds to u directly: less the slip, u_t = 0.
+      const OneBody m = oneBody(at_rest.bodies[1], at_rest.contacts[0].point);
+      Eigen::Matrix<double, 6, 1> v;
+      v << at_rest.bodies[1].linear_velocity, at_rest.bodies[1].angular_velocity;
+      const Vector3d u = m.J * v;
+      at_rest.bodies[1].linear_velocity -= u - u.z() * Vector3d::UnitZ();
     }
+    at_rest.contacts[0].static_friction = 3.0;
+    at_rest.contacts[0].dynamic_friction = 2.5;
+    d = cr::computeImpactDerivatives(at_rest, withLaw(law));
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    EXPECT_EQ(d.contacts[0].mode, cr::ImpactMode::kSticking);
+    EXPECT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    comparePlain(at_rest, withLaw(law), d, "no slip before");
   }
 }
 
