@@ -498,7 +498,7 @@ bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eig
   pr.V = u.norm();
   pr.V_n = -u_n;
   pr.J = pr.V_n / (pr.c + std::max(mu_s, mu_d) * pr.b.norm());
-  pr.tol = std::clamp(0.1 * tolerance, 1e-14, 1e-11);
+  pr.tol = std::clamp(tolerance, 1e-14, 1e-10);
 
   Context cx{pr, State{}, mode};
   State& st = cx.st;
