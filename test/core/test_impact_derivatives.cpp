@@ -428,6 +428,27 @@ TEST(ImpactDerivatives, FrictionlessSingleContactClosedFormsForEveryLaw) {
                 tol * (effective * J).cwiseAbs().maxCoeff());
       EXPECT_NEAR(d.impulsesByCoefficients()(0, 0), -effective * u_n, tol * effective * -u_n);
       EXPECT_TRUE(d.contacts[0].at_switch);  // the friction columns are one-sided
+      if (law != cr::ImpactLaw::kNewton) {
+        // The mu_d column, for friction raised from 0 (mu_s = mu_d raised together; mu_s alone
+        // does nothing to a slip that never stops): the second-order one-sided difference of the
+        // solver. Friction acts along the turning frictionless slip: the integrated sensitivity.
+        const int col = static_cast<int>(d.velocityCount()) + 2;
+        const double h = 1e-5;
+        const auto at = [&](double mu) {
+          cr::Scene s = scene;
+          s.contacts[0].static_friction = mu;
+          s.contacts[0].dynamic_friction = mu;
+          return predict(s, withLaw(law)).values;
+        };
+        const VectorXd reference = (-3.0 * at(0.0) + 4.0 * at(h) - at(2.0 * h)) / (2.0 * h);
+        const double scale = reference.cwiseAbs().maxCoeff();
+        ASSERT_GT(scale, 0.0);
+        for (int row = 0; row < d.jacobian.rows(); ++row) {
+          EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-6 * scale)
+              << cr::toString(law) << " trial " << trial << ": d " << d.rowLabels()[row]
+              << " / d mu_d at 0";
+        }
+      }
     }
   }
 }
