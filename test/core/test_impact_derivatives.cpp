@@ -661,6 +661,48 @@ TEST(ImpactDerivatives, ImpulseSpaceStickSlipSwitchIsFlaggedAndOneSided) {
   EXPECT_GE(checked, 2);
 }
 
+// e = 0 under Poisson and Stronge: the impact ends at maximum compression, the restitution column
+// is flagged one-sided and matches the solver's second-order forward difference in e; the other
+// columns the central differences.
+TEST(ImpactDerivatives, ImpulseSpaceAtZeroRestitutionTheColumnIsForIncreasingE) {
+  RandomSource random(2619);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int checked = 0;
+    for (int trial = 0; trial < 20 && checked < 4; ++trial) {
+      const double mu_s = random.uniform(0.05, 1.5), mu_d = random.uniform(0.4, 1.0) * mu_s;
+      const cr::Scene scene = randomScene(random, 1, trial % 2 == 1, 0.0, mu_s, mu_d);
+      ASSERT_EQ(scene.contacts[0].restitution, 0.0);
+      const cr::SolverOptions options = withLaw(law);
+      const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+      ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+      if (d.contacts[0].mode == cr::ImpactMode::kNoImpulse) continue;
+      EXPECT_NE(d.contacts[0].switch_detail.find("e = 0"), std::string::npos)
+          << d.contacts[0].switch_detail;
+      // Skip contacts at another switch as well.
+      if (d.contacts[0].switch_detail.find(';') != std::string::npos) continue;
+      compareWithDifferences(
+          scene, options, d, 1e-5, 1e-6,
+          std::string(cr::toString(law)) + " e = 0, trial " + std::to_string(trial));
+      const int col = static_cast<int>(d.velocityCount());
+      const double h = 1e-5;
+      const auto at = [&](double e) {
+        cr::Scene s = scene;
+        s.contacts[0].restitution = e;
+        return predict(s, options).values;
+      };
+      const VectorXd reference = (-3.0 * at(0.0) + 4.0 * at(h) - at(2.0 * h)) / (2.0 * h);
+      const double scale = reference.cwiseAbs().maxCoeff();
+      for (int row = 0; row < d.jacobian.rows(); ++row) {
+        EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-5 * scale)
+            << cr::toString(law) << " trial " << trial << ": d " << d.rowLabels()[row]
+            << " / d e at 0";
+      }
+      ++checked;
+    }
+    EXPECT_EQ(checked, 4) << cr::toString(law);
+  }
+}
+
 // ---- Labels, bodies without impact, bad input --------------------------------------------------
 
 TEST(ImpactDerivatives, LabelsAreTheRequestAndResponseFieldNames) {
