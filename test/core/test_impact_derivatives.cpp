@@ -15,8 +15,12 @@
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/contact_space.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/impulse_space_derivatives.h"
+#include "collision_response/core/impulse_space_integrator.h"
+#include "collision_response/core/problem_contact.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
 
@@ -700,6 +704,54 @@ TEST(ImpactDerivatives, ImpulseSpaceAtZeroRestitutionTheColumnIsForIncreasingE) 
       ++checked;
     }
     EXPECT_EQ(checked, 4) << cr::toString(law);
+  }
+}
+
+// differentiateImpulseSpace() on random symmetric positive definite K (not built from rigid
+// bodies: any body pair's contact), random approaching u and coefficients: the impulse it carries
+// is integrateSingleContact()'s (to 1e-8 of the impulse, both at tolerance 1e-12), and dP/du
+// matches central differences of integrateSingleContact() (at 1e-14) to 1e-6.
+TEST(ImpactDerivatives, ImpulseSpaceSensitivityOnGeneralContactsMatchesTheIntegrator) {
+  RandomSource random(2620);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int checked = 0;
+    for (int trial = 0; trial < 40 && checked < 15; ++trial) {
+      const Matrix3d R = random.rotation().toRotationMatrix();
+      const Vector3d eigen = random.vec(0.1, 2.0).cwiseAbs() + Vector3d::Constant(0.05);
+      cr::ProblemContact c;
+      c.delassus = R * eigen.asDiagonal() * R.transpose();
+      c.normal = random.vec(-1.0, 1.0).normalized();
+      cr::tangentBasis(c.normal, c.tangent1, c.tangent2);
+      c.restitution = random.uniform(0.1, 0.9);
+      c.static_friction = random.uniform(0.05, 1.5);
+      c.dynamic_friction = random.uniform(0.4, 1.0) * c.static_friction;
+      const Vector3d u = random.vec(-1.0, 1.0) - 1.5 * c.normal;
+      Matrix3d dP_du, dP_dc;
+      cr::ContactDerivativeMode mode;
+      Vector3d P;
+      ASSERT_TRUE(cr::differentiateImpulseSpace(c.normal, c.delassus, u, c.restitution,
+                                                c.static_friction, c.dynamic_friction, law, 1e-12,
+                                                dP_du, dP_dc, mode, &P));
+      if (mode.at_switch || mode.mode == cr::ImpactMode::kNoImpulse) continue;
+      const auto impulse = [&](const Vector3d& v, double tolerance) {
+        const cr::ContactImpulse i = cr::integrateSingleContact(c, v, law, tolerance);
+        return Vector3d(i.total(c.normal));
+      };
+      const Vector3d want = impulse(u, 1e-12);
+      EXPECT_LE((P - want).norm(), 1e-8 * want.norm()) << cr::toString(law) << " trial " << trial;
+      Matrix3d reference;
+      const double h = 1e-5;
+      for (int k = 0; k < 3; ++k) {
+        const Vector3d step = h * Vector3d::Unit(k);
+        reference.col(k) = (impulse(u + step, 1e-14) - impulse(u - step, 1e-14)) / (2.0 * h);
+      }
+      EXPECT_LE((dP_du - reference).cwiseAbs().maxCoeff(), 1e-6 * reference.cwiseAbs().maxCoeff())
+          << cr::toString(law) << " trial " << trial << " (" << cr::toString(mode.mode) << ")\n"
+          << dP_du << "\n\n"
+          << reference;
+      ++checked;
+    }
+    EXPECT_GE(checked, 15) << cr::toString(law);
   }
 }
 
