@@ -1,24 +1,38 @@
-// Cost of the derivatives of the impact map (impact_derivatives.h) against the prediction's own
-// (Google Benchmark), Newton law, analytic paths:
+// Cost of the derivatives of the impact map (impact_derivatives.h, body_impact_derivatives.h)
+// against the prediction's own (Google Benchmark):
 //   devel/lib/collision_response/bench_derivatives          (Release build)
-// Each pair times computeResponse() and computeImpactDerivatives() (which includes one
-// prediction) on the same scene: one off-centre frictional contact that slides, the same that
-// sticks, and a cube landing on 4 contacts (exact solver). The instruction counts of one call of
-// each, for the benchmark report:
+// Each pair times the prediction (computeResponse(), computeBodyResponse()) and the derivatives
+// (computeImpactDerivatives(), computeBodyImpactDerivatives(), which include one prediction) on
+// the same scene. Rigid bodies, Newton law, analytic paths: one off-centre frictional contact that
+// slides, the same that sticks, and a cube landing on 4 contacts (exact solver). The shipped arm
+// (urdf/arm7.urdf) striking a box with its hand at one frictional contact (robot_scene.h, as
+// bench_robot), Stronge (analytic: the integration's sensitivity) and Newton (frictional: finite
+// differences): the derivatives with respect to the joint velocities, the box's twist and the
+// contact's e, mu_s, mu_d. The instruction counts of one call of each, for the benchmark report:
 //   valgrind --tool=callgrind --toggle-collect='*predictOnce*' bench_derivatives --callgrind SCENE
 //   valgrind --tool=callgrind --toggle-collect='*differentiateOnce*' bench_derivatives --callgrind
 //   SCENE
-// with SCENE one of sliding, sticking, cube4.
+// with SCENE one of sliding, sticking, cube4, arm_stronge, arm_newton (the arm's functions are
+// predictArmOnce and differentiateArmOnce).
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
+#include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
+#include "collision_response/core/body_impact_derivatives.h"
+#include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/urdf_loader.h"
+#include "robot_scene.h"
 
 namespace core = collision_response::core;
+namespace rb = collision_response::robot;
 
 namespace {
 
@@ -117,8 +131,77 @@ void BM_Derivatives_Cube4(benchmark::State& s) {
   differentiate(s, cube4(0.5));
 }
 
+// The arm striking the box (bench_robot's scene): the arm and the box set to their pre-impact
+// state for each call, as a request would.
+struct ArmScene {
+  collision_response::bench::ArmBoxScene scene;
+  rb::ArticulatedBody arm = rb::robotFromUrdfFile(ROBOT_URDF_DIR "/arm7.urdf");
+  core::RigidBody box;
+  std::vector<core::ContactPoint> contacts;
+  ArmScene() {
+    arm.setState(scene.q, scene.qdot);
+    const int hand = arm.linkIndex("hand");
+    const Eigen::Vector3d p = arm.linkPose(hand).translation();
+    core::ContactPoint contact(0, 1, p, scene.normal, scene.restitution, scene.static_friction,
+                               scene.dynamic_friction);
+    contact.part_a = hand;
+    contacts = {contact};
+    box.inverse_mass = 1.0 / scene.box_mass;
+    box.inverse_inertia = scene.boxInertia().cwiseInverse().asDiagonal();
+    box.com = p + scene.box_offset * scene.normal;
+  }
+  void reset() {
+    arm.setState(scene.q, scene.qdot);
+    box.linear_velocity = scene.box_velocity;
+    box.angular_velocity.setZero();
+  }
+};
+
+core::SolverOptions armOptions(bool newton) {
+  core::SolverOptions options;
+  options.law = newton ? core::ImpactLaw::kNewton : core::ImpactLaw::kStronge;
+  return options;
+}
+
+[[gnu::noinline]] core::BodyResponse predictArmOnce(ArmScene& s,
+                                                    const core::SolverOptions& options) {
+  s.reset();
+  return core::computeBodyResponse({&s.arm, &s.box}, s.contacts, options);
+}
+
+[[gnu::noinline]] core::BodyImpactDerivatives differentiateArmOnce(
+    ArmScene& s, const core::SolverOptions& options) {
+  s.reset();
+  return core::computeBodyImpactDerivatives({&s.arm, &s.box}, s.contacts, options);
+}
+
+void BM_Predict_ArmStronge(benchmark::State& state) {
+  ArmScene s;
+  const core::SolverOptions options = armOptions(false);
+  for (auto _ : state) benchmark::DoNotOptimize(predictArmOnce(s, options));
+}
+void BM_Derivatives_ArmStronge(benchmark::State& state) {
+  ArmScene s;
+  const core::SolverOptions options = armOptions(false);
+  for (auto _ : state) benchmark::DoNotOptimize(differentiateArmOnce(s, options));
+}
+void BM_Predict_ArmNewton(benchmark::State& state) {
+  ArmScene s;
+  const core::SolverOptions options = armOptions(true);
+  for (auto _ : state) benchmark::DoNotOptimize(predictArmOnce(s, options));
+}
+void BM_Derivatives_ArmNewton(benchmark::State& state) {
+  ArmScene s;
+  const core::SolverOptions options = armOptions(true);
+  for (auto _ : state) benchmark::DoNotOptimize(differentiateArmOnce(s, options));
+}
+
 }  // namespace
 
+BENCHMARK(BM_Predict_ArmStronge);
+BENCHMARK(BM_Derivatives_ArmStronge);
+BENCHMARK(BM_Predict_ArmNewton);
+BENCHMARK(BM_Derivatives_ArmNewton);
 BENCHMARK(BM_Predict_SingleSliding);
 BENCHMARK(BM_Derivatives_SingleSliding);
 BENCHMARK(BM_Predict_SingleSticking);
@@ -131,6 +214,17 @@ BENCHMARK(BM_Derivatives_Cube4);
 int main(int argc, char** argv) {
   if (argc > 2 && std::strcmp(argv[1], "--callgrind") == 0) {
     const std::string which = argv[2];
+    if (which == "arm_stronge" || which == "arm_newton") {
+      ArmScene s;
+      const core::SolverOptions options = armOptions(which == "arm_newton");
+      const core::BodyImpactDerivatives first = differentiateArmOnce(s, options);
+      std::printf("method %s, contact mode %s%s\n", core::toString(first.method),
+                  core::toString(first.contacts[0].mode),
+                  first.contacts[0].at_switch ? " (at a switch)" : "");
+      benchmark::DoNotOptimize(predictArmOnce(s, options));
+      benchmark::DoNotOptimize(differentiateArmOnce(s, options));
+      return 0;
+    }
     const core::Scene scene = which == "sliding"    ? singleContact(0.2)
                               : which == "sticking" ? singleContact(2.0)
                                                     : cube4(0.5);

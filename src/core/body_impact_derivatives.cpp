@@ -5,8 +5,10 @@
 #include <chrono>
 #include <cmath>
 #include <string>
+#include <tuple>
 
 #include "collision_response/core/errors.h"
+#include "collision_response/core/impulse_space_derivatives.h"
 #include "collision_response/core/validation.h"
 
 namespace collision_response::core {
@@ -118,6 +120,58 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
         return r.method == SolvedBy::kNone || r.method == SolvedBy::kClosedForm ||
                r.method == SolvedBy::kExact;
       });
+  // One contact under an impulse-space law, integrated to its end: its impulse is a function of
+  // its 3x3 W = J M^-1 J^T and u = J v (+ the part of bodies without unknowns), so
+  // dv'/dv = I + M^-1 J^T (dP/du) J and dv'/dtheta = M^-1 J^T dP/dtheta, dP from the sensitivity
+  // of the integration (impulse_space_derivatives.h).
+  bool single_impulse_space = false;
+  if ((options.law == ImpactLaw::kPoisson || options.law == ImpactLaw::kStronge) && C == 1 &&
+      out.result.islands.size() == 1) {
+    const SolveReport& report = out.result.islands[0];
+    const bool integrated = (report.method == SolvedBy::kImpulseSpace ||
+                             report.method == SolvedBy::kSimultaneousImpulseSpace) &&
+                            report.converged &&
+                            !(report.impulse_space && report.impulse_space->fallback);
+    if (integrated) {
+      const ContactPoint& contact = contacts[0];
+      Eigen::Matrix<double, 3, Eigen::Dynamic> J = Eigen::MatrixXd::Zero(3, N);
+      Eigen::Matrix<double, Eigen::Dynamic, 3> MinvJt = Eigen::MatrixXd::Zero(N, 3);
+      Eigen::Vector3d u = Eigen::Vector3d::Zero();
+      for (const auto& [body, part, sign] : {std::tuple{contact.body_a, contact.part_a, -1.0},
+                                             std::tuple{contact.body_b, contact.part_b, 1.0}}) {
+        const int offset = out.velocity_offset[body];
+        if (offset < 0) {
+          u += sign * bodies[body]->partPointVelocity(part, contact.point);
+          continue;
+        }
+        const int n = bodies[body]->velocityCount();
+        const Eigen::Matrix<double, 3, Eigen::Dynamic> Jb =
+            bodies[body]->partPointJacobian(part, contact.point);
+        J.middleCols(offset, n) += sign * Jb;
+        u += sign * (Jb * before[body]);
+        MinvJt.middleRows(offset, n) +=
+            sign * bodies[body]->partInverseMassJacobianTranspose(part, contact.point);
+      }
+      const Eigen::Matrix3d W = J * MinvJt;
+      Eigen::Matrix3d dP_du, dP_dtheta;
+      ContactDerivativeMode mode;
+      if (differentiateImpulseSpace(contact.normal, W, u, contact.restitution,
+                                    contact.static_friction, contact.dynamic_friction, options.law,
+                                    options.integration_tolerance, dP_du, dP_dtheta, mode)) {
+        Eigen::Matrix<double, 4, 3> impulse_of_P;  // (normal_impulse, friction_impulse) of P
+        impulse_of_P.row(0) = contact.normal.transpose();
+        impulse_of_P.bottomRows<3>() =
+            Eigen::Matrix3d::Identity() - contact.normal * contact.normal.transpose();
+        const MatrixXd dP_dv = dP_du * J;
+        out.jacobian.topLeftCorner(N, N) += MinvJt * dP_dv;
+        out.jacobian.block(0, N, N, 3) = MinvJt * dP_dtheta;
+        out.jacobian.block(N, 0, 4, N) = impulse_of_P * dP_dv;
+        out.jacobian.block<4, 3>(N, N) = impulse_of_P * dP_dtheta;
+        out.contacts[0] = mode;
+        single_impulse_space = true;
+      }
+    }
+  }
   const bool analytic = options.law == ImpactLaw::kNewton && frictionless && exact_islands;
   std::vector<Index> fd_columns;  // columns taken by central differences
   if (analytic) {
@@ -178,7 +232,7 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
             "differenced";
       }
     }
-  } else {
+  } else if (!single_impulse_space) {
     out.method = DerivativeMethod::kFiniteDifference;
     for (Index k = 0; k < N + 3 * C; ++k) fd_columns.push_back(k);
     for (ContactDerivativeMode& mode : out.contacts)

@@ -9,6 +9,7 @@
 #include "collision_response/core/constants.h"
 #include "collision_response/core/contact_space.h"
 #include "collision_response/core/exact_solver.h"
+#include "collision_response/core/impulse_space_derivatives.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/validation.h"
 
@@ -248,13 +249,15 @@ bool closedFormNewton(const Contact& contact, const Vector3d& n, const Matrix3d&
   return true;
 }
 
-// One contact between free rigid bodies under the closed form, in fixed-size blocks (the cheap
+// One contact between free rigid bodies, alone in its island, in fixed-size blocks (the cheap
 // path of a single-contact prediction): side s (a: -1, b: +1) of a movable body has
 // J_s = [I3, -[r_s]x] and M_s^-1 J_s^T = [I3 / m_s; Iw_s^-1 [r_s]x], K = sum_s J_s M_s^-1 J_s^T,
-// u = sum_s sign_s J_s v_s, dv_s' = sign_s M_s^-1 J_s^T dP. False if K is singular.
+// u = sum_s sign_s J_s v_s, dv_s' = sign_s M_s^-1 J_s^T dP; dP/du and dP/d(e, mu_s, mu_d) from
+// Newton's closed form or the impulse-space sensitivity (impulse_space_derivatives.h), by
+// options.law. False if K is singular (or the sensitivity cannot be had).
 bool singleContact(const Scene& scene, int c, std::pair<int, int> sides,
                    const std::vector<RigidBody>& before, const std::vector<Index>& body_column,
-                   Index velocity_count, ImpactDerivatives& out) {
+                   Index velocity_count, const SolverOptions& options, ImpactDerivatives& out) {
   const Contact& contact = scene.contacts[c];
   const Vector3d n = contact.normal.normalized();
   struct Side {
@@ -282,7 +285,13 @@ bool singleContact(const Scene& scene, int c, std::pair<int, int> sides,
     K.noalias() += s.J * s.MinvJt;
   }
   Matrix3d dP_du, dP_dtheta;
-  if (!closedFormNewton(contact, n, K, u, dP_du, dP_dtheta, out.contacts[c])) return false;
+  if (options.law == ImpactLaw::kNewton) {
+    if (!closedFormNewton(contact, n, K, u, dP_du, dP_dtheta, out.contacts[c])) return false;
+  } else if (!differentiateImpulseSpace(
+                 n, K, u, contact.restitution, contact.static_friction, contact.dynamic_friction,
+                 options.law, options.integration_tolerance, dP_du, dP_dtheta, out.contacts[c])) {
+    return false;
+  }
   Eigen::Matrix<double, 4, 3> impulse_of_P;  // (normal_impulse, friction_impulse) = this * P
   impulse_of_P.row(0) = n.transpose();
   impulse_of_P.bottomRows<3>() = Matrix3d::Identity() - n * n.transpose();
@@ -799,9 +808,18 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
       continue;
     }
     const bool newton = options.law == ImpactLaw::kNewton;
-    if (newton && report.method == SolvedBy::kClosedForm && report.contacts.size() == 1) {
+    // One contact integrated in impulse space (Poisson, Stronge), to the end (no fallback).
+    const bool impulse_space =
+        (options.law == ImpactLaw::kPoisson || options.law == ImpactLaw::kStronge) &&
+        report.contacts.size() == 1 &&
+        (report.method == SolvedBy::kImpulseSpace ||
+         report.method == SolvedBy::kSimultaneousImpulseSpace) &&
+        report.converged && !(report.impulse_space && report.impulse_space->fallback);
+    if ((newton && report.method == SolvedBy::kClosedForm && report.contacts.size() == 1) ||
+        impulse_space) {
       const int c = report.contacts[0];
-      if (singleContact(scene, c, contact_bodies[c], before, body_column, velocity_count, out)) {
+      if (singleContact(scene, c, contact_bodies[c], before, body_column, velocity_count, options,
+                        out)) {
         continue;
       }
       out.contacts[c] = ContactDerivativeMode{};

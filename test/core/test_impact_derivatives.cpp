@@ -15,8 +15,12 @@
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/contact_space.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/impulse_space_derivatives.h"
+#include "collision_response/core/impulse_space_integrator.h"
+#include "collision_response/core/problem_contact.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
 
@@ -259,9 +263,9 @@ TEST(ImpactDerivatives, NewtonSeveralContactsMatchCentralDifferences) {
   EXPECT_GE(none, 3);
 }
 
-// ---- Poisson, Stronge: finite differences, reported as such ----------------------------------
+// ---- Poisson, Stronge: analytic for one contact, finite differences for several --------------
 
-TEST(ImpactDerivatives, ImpulseSpaceLawsAreFiniteDifferencesThatMatchTheTestsOwn) {
+TEST(ImpactDerivatives, ImpulseSpaceLawsMatchTheTestsOwnDifferences) {
   RandomSource random(2613);
   for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
     int cases = 0, compared = 0, columns = 0;
@@ -272,9 +276,13 @@ TEST(ImpactDerivatives, ImpulseSpaceLawsAreFiniteDifferencesThatMatchTheTestsOwn
       const cr::Scene scene = randomScene(random, contacts, trial % 2 == 1, 0.9, mu_s, mu_d);
       const cr::SolverOptions options = withLaw(law);
       const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
-      EXPECT_EQ(d.method, cr::DerivativeMethod::kFiniteDifference);
-      for (const auto& c : d.contacts) {
-        EXPECT_EQ(c.method, cr::DerivativeMethod::kFiniteDifference);
+      // One contact: the sensitivity of its integration; several: the library's differences.
+      const cr::DerivativeMethod method = d.result.islands.size() == 1 && contacts == 1
+                                              ? cr::DerivativeMethod::kAnalytic
+                                              : cr::DerivativeMethod::kFiniteDifference;
+      if (d.result.islands.size() == 1) {
+        EXPECT_EQ(d.method, method);
+        for (const auto& c : d.contacts) EXPECT_EQ(c.method, method);
       }
       if (anySwitch(d)) continue;
       // The library differences with a step of 1e-7, this test with 4e-7.
@@ -406,8 +414,10 @@ TEST(ImpactDerivatives, FrictionlessSingleContactClosedFormsForEveryLaw) {
           MatrixXd::Identity(12, 12) - (1.0 + e) * effective * M_inv * J.transpose() * J;
       const VectorXd expected_de = -effective * u_n * (M_inv * J.transpose());
       const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, withLaw(law));
-      // Newton is analytic; the impulse-space laws are differenced (step 1e-5): 1e-7 of O(1).
-      const double tol = law == cr::ImpactLaw::kNewton ? 1e-10 : 1e-6;
+      // Newton in closed form; the impulse-space laws by their sensitivity, whose phases are
+      // closed forms here (frictionless: u_n linear in the impulse), to round-off.
+      const double tol = 1e-10;
+      EXPECT_EQ(d.method, cr::DerivativeMethod::kAnalytic) << cr::toString(law);
       const MatrixXd dv = d.velocitiesByVelocities();
       EXPECT_LT((dv - expected_dv).cwiseAbs().maxCoeff(), tol * expected_dv.cwiseAbs().maxCoeff())
           << cr::toString(law) << " trial " << trial << "\n"
@@ -422,7 +432,326 @@ TEST(ImpactDerivatives, FrictionlessSingleContactClosedFormsForEveryLaw) {
                 tol * (effective * J).cwiseAbs().maxCoeff());
       EXPECT_NEAR(d.impulsesByCoefficients()(0, 0), -effective * u_n, tol * effective * -u_n);
       EXPECT_TRUE(d.contacts[0].at_switch);  // the friction columns are one-sided
+      if (law != cr::ImpactLaw::kNewton) {
+        // The mu_d column, for friction raised from 0 (mu_s = mu_d raised together; mu_s alone
+        // does nothing to a slip that never stops): the second-order one-sided difference of the
+        // solver. Friction acts along the turning frictionless slip: the integrated sensitivity.
+        const int col = static_cast<int>(d.velocityCount()) + 2;
+        const double h = 1e-5;
+        const auto at = [&](double mu) {
+          cr::Scene s = scene;
+          s.contacts[0].static_friction = mu;
+          s.contacts[0].dynamic_friction = mu;
+          return predict(s, withLaw(law)).values;
+        };
+        const VectorXd reference = (-3.0 * at(0.0) + 4.0 * at(h) - at(2.0 * h)) / (2.0 * h);
+        const double scale = reference.cwiseAbs().maxCoeff();
+        ASSERT_GT(scale, 0.0);
+        for (int row = 0; row < d.jacobian.rows(); ++row) {
+          EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-6 * scale)
+              << cr::toString(law) << " trial " << trial << ": d " << d.rowLabels()[row]
+              << " / d mu_d at 0";
+        }
+      }
     }
+  }
+}
+
+// ---- Poisson, Stronge, one contact: the analytic sensitivity ----------------------------------
+
+// Every column against plain central differences (step 1e-5 of the input's scale) with the
+// contact's mode kept on both sides, the solve's step counts let change: for maps that are smooth
+// where the prediction changes its path (closed form on one side, integration on the other).
+void comparePlain(const cr::Scene& scene, const cr::SolverOptions& options,
+                  const cr::ImpactDerivatives& d, const std::string& what) {
+  const Outputs base = predict(scene, options);
+  for (int col = 0; col < d.jacobian.cols(); ++col) {
+    const double h = stepOf(scene, col, 1e-5);
+    cr::Scene plus = scene, minus = scene;
+    input(plus, col) += h;
+    input(minus, col) -= h;
+    const Outputs p = predict(plus, options), m = predict(minus, options);
+    ASSERT_EQ(p.modes[0], base.modes[0]) << what;
+    ASSERT_EQ(m.modes[0], base.modes[0]) << what;
+    const VectorXd reference = (p.values - m.values) / (2.0 * h);
+    const double scale = std::max(reference.cwiseAbs().maxCoeff(), floorOf(scene, options, col));
+    for (int row = 0; row < d.jacobian.rows(); ++row) {
+      EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-6 * scale)
+          << what << " " << cr::toString(options.law) << ": d " << d.rowLabels()[row] << " / d "
+          << d.columnLabels()[col];
+    }
+  }
+}
+
+// One body against the ground or two bodies, one contact, under each impulse-space law: sticking
+// during the impact (large mu), sliding throughout (small mu), and reversing (the slip stops and
+// resumes the other way: small mu off-centre), with mu_s >= mu_d. Every column against the
+// test's central differences of computeResponse() (integration tolerance 1e-14, so the solve's
+// own error is 1e-9 of a difference quotient), to 1e-6 of the column.
+TEST(ImpactDerivatives, ImpulseSpaceSingleContactIsAnalyticAndMatchesCentralDifferences) {
+  RandomSource random(2617);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int stuck = 0, slid = 0, reversed = 0, compared = 0, columns = 0, cases = 0;
+    for (int trial = 0; trial < 200 && (stuck < 8 || slid < 8 || reversed < 3); ++trial) {
+      const bool two_bodies = trial % 3 == 2;
+      const double mu_s = trial % 4 == 0   ? random.uniform(0.8, 2.5)
+                          : trial % 4 == 1 ? random.uniform(0.05, 0.3)
+                                           : random.uniform(0.05, 1.2);
+      const double mu_d = random.uniform(0.4, 1.0) * mu_s;
+      const cr::Scene scene = randomScene(random, 1, two_bodies, 0.9, mu_s, mu_d);
+      const cr::SolverOptions options = withLaw(law);
+      const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+      ASSERT_EQ(d.result.islands.size(), 1u);
+      ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic) << "trial " << trial;
+      ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
+      if (anySwitch(d) || d.contacts[0].mode == cr::ImpactMode::kNoImpulse) continue;
+      // The slip after the impact against the one before (one body on the ground: u = J v).
+      bool reverses = false;
+      if (!two_bodies) {
+        const cr::Contact& c = scene.contacts[0];
+        const Vector3d n = c.normal.normalized();
+        const OneBody m = oneBody(scene.bodies[1], c.point);
+        Eigen::Matrix<double, 6, 1> v, v_after;
+        v << scene.bodies[1].linear_velocity, scene.bodies[1].angular_velocity;
+        v_after << d.result.bodies[1].linear_velocity, d.result.bodies[1].angular_velocity;
+        const Vector3d u = m.J * v, u_after = m.J * v_after;
+        const Vector3d slip = u - u.dot(n) * n, slip_after = u_after - u_after.dot(n) * n;
+        reverses = d.contacts[0].mode == cr::ImpactMode::kSliding && slip.dot(slip_after) < 0.0;
+      }
+      const bool sticks = d.contacts[0].mode == cr::ImpactMode::kSticking;
+      stuck += sticks;
+      reversed += reverses;
+      slid += !sticks && !reverses;
+      compared += compareWithDifferences(
+          scene, options, d, 1e-5, 1e-6,
+          std::string(cr::toString(law)) + ", trial " + std::to_string(trial));
+      columns += static_cast<int>(d.jacobian.cols());
+      ++cases;
+    }
+    std::printf("%s, one contact: %d sticking, %d sliding, %d reversing; %d of %d columns\n",
+                cr::toString(law), stuck, slid, reversed, compared, columns);
+    EXPECT_GE(stuck, 8) << cr::toString(law);
+    EXPECT_GE(slid, 8) << cr::toString(law);
+    EXPECT_GE(reversed, 3) << cr::toString(law);
+    EXPECT_GE(compared, columns * 3 / 4) << cr::toString(law);
+  }
+}
+
+// A central contact (the normal through the centre of mass of a sphere: K_tn = 0) under each
+// impulse-space law, sticking once the slip has stopped: the integrator's closed-form stop; and a
+// planar slip (the slip and K_tn in one plane, the slip's direction constant) whose derivatives
+// across the plane must come from the rotating slip. Both against central differences.
+TEST(ImpactDerivatives, ImpulseSpaceCentralAndPlanarContactsMatchCentralDifferences) {
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    cr::Scene central;
+    central.bodies = {ground(), sphere("s", 2.0, 0.1, Vector3d(0, 0, 0.1),
+                                       Vector3d(0.3, -0.2, -1.5), Vector3d(1.0, 2.0, -0.5))};
+    central.contacts = {contact("ground", "s", Vector3d::Zero(), Vector3d::UnitZ(), 0.6, 0.9, 0.7)};
+    cr::ImpactDerivatives d = cr::computeImpactDerivatives(central, withLaw(law));
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    EXPECT_EQ(d.contacts[0].mode, cr::ImpactMode::kSticking);
+    EXPECT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    EXPECT_EQ(compareWithDifferences(central, withLaw(law), d, 1e-5, 1e-6, "central"), 9);
+
+    // A box struck off-centre in its x-z plane, moving along x: the slip stays along x.
+    cr::Scene planar;
+    cr::BodyState box;
+    box.id = "box";
+    box.mass = 1.2;
+    box.inertia = Vector3d(0.02, 0.05, 0.04).asDiagonal();
+    box.position = {0.15, 0.0, 0.1};
+    box.linear_velocity = {0.8, 0.0, -1.2};
+    box.angular_velocity = {0.0, 0.5, 0.0};
+    planar.bodies = {ground(), box};
+    planar.contacts = {
+        contact("ground", "box", Vector3d::Zero(), Vector3d::UnitZ(), 0.5, 0.3, 0.2)};
+    d = cr::computeImpactDerivatives(planar, withLaw(law));
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    EXPECT_EQ(d.contacts[0].mode, cr::ImpactMode::kSliding);
+    EXPECT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    // Across the plane the prediction leaves its closed form for the integration of a turning
+    // slip (its step count changes, which compareWithDifferences() avoids): the map is smooth
+    // there, so plain central differences (the contact's mode kept) are the reference.
+    comparePlain(planar, withLaw(law), d, "planar");
+
+    // No slip before the impact, mu_d above the sticking rate |K_tt^-1 K_tn|: a small slip either
+    // way stops at once, so the map is smooth across u_t = 0 and the derivative two-sided (not
+    // flagged); the tangential columns are those of sticking from the start.
+    cr::Scene at_rest = planar;
+    {
+      // The linear velocity adds to u directly: less the slip, u_t = 0.
+      const OneBody m = oneBody(at_rest.bodies[1], at_rest.contacts[0].point);
+      Eigen::Matrix<double, 6, 1> v;
+      v << at_rest.bodies[1].linear_velocity, at_rest.bodies[1].angular_velocity;
+      const Vector3d u = m.J * v;
+      at_rest.bodies[1].linear_velocity -= u - u.z() * Vector3d::UnitZ();
+    }
+    at_rest.contacts[0].static_friction = 3.0;
+    at_rest.contacts[0].dynamic_friction = 2.5;
+    d = cr::computeImpactDerivatives(at_rest, withLaw(law));
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    EXPECT_EQ(d.contacts[0].mode, cr::ImpactMode::kSticking);
+    EXPECT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    comparePlain(at_rest, withLaw(law), d, "no slip before");
+  }
+}
+
+// Stronge, a box struck off-centre in its x-z plane with a small slip along x that the coupling
+// K_tn slows to a stop (sigma' = s.K_tn - mu_d s^T K_tt s < 0), mu_s set 1e-12 above the sticking
+// rate |K_tt^-1 K_tn| (the contact then sticks, and would slip back with mu_s a little lower),
+// mu_d = mu_s / 2: the contact is flagged at the stick/slip switch, sticking side, and every
+// column matches the one-sided difference taken on the side that keeps the modes.
+TEST(ImpactDerivatives, ImpulseSpaceStickSlipSwitchIsFlaggedAndOneSided) {
+  int checked = 0;
+  for (int trial = 0; trial < 3; ++trial) {
+    cr::BodyState box;
+    box.id = "box";
+    box.mass = 1.2;
+    box.inertia = Vector3d(0.02, 0.05, 0.04).asDiagonal();
+    box.position = {0.1 + 0.05 * trial, 0.0, 0.1};
+    box.linear_velocity = {0.0, 0.0, -1.2};
+    cr::Scene scene;
+    scene.bodies = {ground(), box};
+    scene.contacts = {contact("ground", "box", Vector3d::Zero(), Vector3d::UnitZ(), 0.5, 1.0, 0.5)};
+    cr::Contact& c = scene.contacts[0];
+    const Vector3d n = c.normal.normalized();
+    const OneBody m = oneBody(scene.bodies[1], c.point);
+    const Matrix3d K = m.J * m.M_inv * m.J.transpose();
+    const Vector3d t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+    Eigen::Matrix2d A;
+    A << t1.dot(K * t1), t1.dot(K * t2), t2.dot(K * t1), t2.dot(K * t2);
+    const Eigen::Vector2d b(t1.dot(K * n), t2.dot(K * n));
+    const double tau = (A.inverse() * b).norm();
+    c.static_friction = tau * (1.0 + 1e-12);
+    c.dynamic_friction = 0.5 * c.static_friction;
+    // The slip along x against K_tn's x part (world x: K's (0, 2) entry), 0.1 m/s.
+    scene.bodies[1].linear_velocity.x() = K(0, 2) > 0.0 ? -0.1 : 0.1;
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kStronge);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
+    std::printf("trial %d: %s [%s]\n", trial, cr::toString(d.contacts[0].mode),
+                d.contacts[0].switch_detail.c_str());
+    if (d.contacts[0].mode != cr::ImpactMode::kSticking) continue;  // the slip did not stop
+    EXPECT_TRUE(d.contacts[0].at_switch) << "trial " << trial;
+    EXPECT_NE(d.contacts[0].switch_detail.find("stick/slip after the stop"), std::string::npos)
+        << d.contacts[0].switch_detail;
+    EXPECT_NE(d.contacts[0].switch_detail.find("sticking side"), std::string::npos);
+    const Outputs base = predict(scene, options);
+    int sided = 0;
+    for (int col = 0; col < d.jacobian.cols(); ++col) {
+      const double h = stepOf(scene, col, 1e-5);
+      for (const double sign : {1.0, -1.0}) {
+        cr::Scene near = scene, far = scene;
+        input(near, col) += sign * h;
+        input(far, col) += 2.0 * sign * h;
+        const Outputs p1 = predict(near, options), p2 = predict(far, options);
+        if (p1.modes != base.modes || p2.modes != base.modes) continue;
+        const VectorXd reference =
+            sign * (-3.0 * base.values + 4.0 * p1.values - p2.values) / (2.0 * h);
+        const double scale =
+            std::max(reference.cwiseAbs().maxCoeff(), floorOf(scene, options, col));
+        for (int row = 0; row < d.jacobian.rows(); ++row) {
+          EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-5 * scale)
+              << "trial " << trial << ": d " << d.rowLabels()[row] << " / d "
+              << d.columnLabels()[col] << " (side " << sign << ")";
+        }
+        ++sided;
+        break;
+      }
+    }
+    EXPECT_GE(sided, 6);  // across the plane both sides leave the closed form: not compared
+    ++checked;
+  }
+  EXPECT_GE(checked, 2);
+}
+
+// e = 0 under Poisson and Stronge: the impact ends at maximum compression, the restitution column
+// is flagged one-sided and matches the solver's second-order forward difference in e; the other
+// columns the central differences.
+TEST(ImpactDerivatives, ImpulseSpaceAtZeroRestitutionTheColumnIsForIncreasingE) {
+  RandomSource random(2619);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int checked = 0;
+    for (int trial = 0; trial < 20 && checked < 4; ++trial) {
+      const double mu_s = random.uniform(0.05, 1.5), mu_d = random.uniform(0.4, 1.0) * mu_s;
+      const cr::Scene scene = randomScene(random, 1, trial % 2 == 1, 0.0, mu_s, mu_d);
+      ASSERT_EQ(scene.contacts[0].restitution, 0.0);
+      const cr::SolverOptions options = withLaw(law);
+      const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+      ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+      if (d.contacts[0].mode == cr::ImpactMode::kNoImpulse) continue;
+      EXPECT_NE(d.contacts[0].switch_detail.find("e = 0"), std::string::npos)
+          << d.contacts[0].switch_detail;
+      // Skip contacts at another switch as well.
+      if (d.contacts[0].switch_detail.find(';') != std::string::npos) continue;
+      compareWithDifferences(
+          scene, options, d, 1e-5, 1e-6,
+          std::string(cr::toString(law)) + " e = 0, trial " + std::to_string(trial));
+      const int col = static_cast<int>(d.velocityCount());
+      const double h = 1e-5;
+      const auto at = [&](double e) {
+        cr::Scene s = scene;
+        s.contacts[0].restitution = e;
+        return predict(s, options).values;
+      };
+      const VectorXd reference = (-3.0 * at(0.0) + 4.0 * at(h) - at(2.0 * h)) / (2.0 * h);
+      const double scale = reference.cwiseAbs().maxCoeff();
+      for (int row = 0; row < d.jacobian.rows(); ++row) {
+        EXPECT_NEAR(d.jacobian(row, col), reference(row), 1e-5 * scale)
+            << cr::toString(law) << " trial " << trial << ": d " << d.rowLabels()[row]
+            << " / d e at 0";
+      }
+      ++checked;
+    }
+    EXPECT_EQ(checked, 4) << cr::toString(law);
+  }
+}
+
+// differentiateImpulseSpace() on random symmetric positive definite K (not built from rigid
+// bodies: any body pair's contact), random approaching u and coefficients: the impulse it carries
+// is integrateSingleContact()'s (to 1e-8 of the impulse, both at tolerance 1e-12), and dP/du
+// matches central differences of integrateSingleContact() (at 1e-14) to 1e-6.
+TEST(ImpactDerivatives, ImpulseSpaceSensitivityOnGeneralContactsMatchesTheIntegrator) {
+  RandomSource random(2620);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int checked = 0;
+    for (int trial = 0; trial < 40 && checked < 15; ++trial) {
+      const Matrix3d R = random.rotation().toRotationMatrix();
+      const Vector3d eigen = random.vec(0.1, 2.0).cwiseAbs() + Vector3d::Constant(0.05);
+      cr::ProblemContact c;
+      c.delassus = R * eigen.asDiagonal() * R.transpose();
+      c.normal = random.vec(-1.0, 1.0).normalized();
+      cr::tangentBasis(c.normal, c.tangent1, c.tangent2);
+      c.restitution = random.uniform(0.1, 0.9);
+      c.static_friction = random.uniform(0.05, 1.5);
+      c.dynamic_friction = random.uniform(0.4, 1.0) * c.static_friction;
+      const Vector3d u = random.vec(-1.0, 1.0) - 1.5 * c.normal;
+      Matrix3d dP_du, dP_dc;
+      cr::ContactDerivativeMode mode;
+      Vector3d P;
+      ASSERT_TRUE(cr::differentiateImpulseSpace(c.normal, c.delassus, u, c.restitution,
+                                                c.static_friction, c.dynamic_friction, law, 1e-12,
+                                                dP_du, dP_dc, mode, &P));
+      if (mode.at_switch || mode.mode == cr::ImpactMode::kNoImpulse) continue;
+      const auto impulse = [&](const Vector3d& v, double tolerance) {
+        const cr::ContactImpulse i = cr::integrateSingleContact(c, v, law, tolerance);
+        return Vector3d(i.total(c.normal));
+      };
+      const Vector3d want = impulse(u, 1e-12);
+      EXPECT_LE((P - want).norm(), 1e-8 * want.norm()) << cr::toString(law) << " trial " << trial;
+      Matrix3d reference;
+      const double h = 1e-5;
+      for (int k = 0; k < 3; ++k) {
+        const Vector3d step = h * Vector3d::Unit(k);
+        reference.col(k) = (impulse(u + step, 1e-14) - impulse(u - step, 1e-14)) / (2.0 * h);
+      }
+      EXPECT_LE((dP_du - reference).cwiseAbs().maxCoeff(), 1e-6 * reference.cwiseAbs().maxCoeff())
+          << cr::toString(law) << " trial " << trial << " (" << cr::toString(mode.mode) << ")\n"
+          << dP_du << "\n\n"
+          << reference;
+      ++checked;
+    }
+    EXPECT_GE(checked, 15) << cr::toString(law);
   }
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <string>
 #include <vector>
@@ -180,8 +181,8 @@ TEST(RobotDerivatives, FrictionlessArmAgainstAWallIsTheClosedForm) {
 
 // Every block against the test's central differences of the solver at random states: the arm
 // struck by a free sphere at two points (Newton frictionless: the analytic active-set formula,
-// two contacts through the exact solver), and with friction under Newton and Stronge (the library's
-// differences): to 1e-6 relative.
+// two contacts through the exact solver), with friction under Newton (the library's differences)
+// and under Stronge (the integration's sensitivity): to 1e-6 relative.
 TEST(RobotDerivatives, EveryBlockMatchesCentralDifferencesOfTheSolver) {
   std::mt19937 rng(26);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -195,7 +196,7 @@ TEST(RobotDerivatives, EveryBlockMatchesCentralDifferencesOfTheSolver) {
       {cr::ImpactLaw::kNewton, 0.0, 0.0, 1, cr::DerivativeMethod::kAnalytic},
       {cr::ImpactLaw::kNewton, 0.0, 0.0, 2, cr::DerivativeMethod::kAnalytic},
       {cr::ImpactLaw::kNewton, 0.6, 0.4, 1, cr::DerivativeMethod::kFiniteDifference},
-      {cr::ImpactLaw::kStronge, 0.6, 0.4, 1, cr::DerivativeMethod::kFiniteDifference}};
+      {cr::ImpactLaw::kStronge, 0.6, 0.4, 1, cr::DerivativeMethod::kAnalytic}};
   int checked = 0;
   for (const Case& test : cases) {
     for (int trial = 0; trial < 4; ++trial) {
@@ -234,4 +235,62 @@ TEST(RobotDerivatives, EveryBlockMatchesCentralDifferencesOfTheSolver) {
     }
   }
   EXPECT_GE(checked, 10);
+}
+
+// The arm's one frictional contact under the impulse-space laws (the sensitivity of the
+// integration through the contact's 3x3 W = J M^-1 J^T): the hand struck by a free sphere, and
+// the hand against an immovable wall, at random states and coefficients (mu_s >= mu_d), every
+// column (joint velocities, the sphere's twist, e, mu_s, mu_d) against the test's central
+// differences of computeBodyResponse() (integration tolerance 1e-14), to 1e-6 relative. States
+// whose contact is at a reported switch are skipped; both sticking and sliding outcomes occur.
+TEST(RobotDerivatives, ImpulseSpaceOneContactIsAnalyticAndMatchesCentralDifferences) {
+  std::mt19937 rng(2617);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), mu(0.05, 1.5), ratio(0.4, 0.95),
+      restitution(0.1, 0.9);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    cr::SolverOptions options = withLaw(law);
+    options.integration_tolerance = 1e-14;
+    int checked = 0, sticking = 0, sliding = 0;
+    for (int trial = 0; trial < 40 && checked < 8; ++trial) {
+      Scene s{randomArm(rng)};
+      const int link = s.arm.linkIndex("hand");
+      const Vector3d p = s.arm.linkPose(link) * Vector3d(0.02, -0.01, 0.04);
+      const double mu_s = mu(rng), mu_d = ratio(rng) * mu_s;
+      if (trial % 2 == 0) {
+        // The hand against a wall (body 1 without unknowns) it moves towards.
+        s.with_ball = false;
+        const Vector3d v = s.arm.partPointVelocity(link, p);
+        Vector3d n = (v + 0.8 * v.norm() * Vector3d(unit(rng), unit(rng), unit(rng))).normalized();
+        if (n.dot(v) <= 0.2 * v.norm()) continue;
+        cr::ContactPoint contact(0, 1, p, n, restitution(rng), mu_s, mu_d);  // arm -> wall
+        contact.part_a = link;
+        s.contacts = {contact};
+      } else {
+        const Vector3d n = Vector3d(unit(rng), unit(rng), unit(rng)).normalized();  // ball -> arm
+        s.ball = sphere(1.5, 0.05, p - 0.05 * n,
+                        (n.dot(s.arm.partPointVelocity(link, p)) + 2.0) * n +
+                            0.8 * Vector3d(unit(rng), unit(rng), unit(rng)));
+        cr::ContactPoint contact(1, 0, p, n, restitution(rng), mu_s, mu_d);
+        contact.part_b = link;
+        s.contacts = {contact};
+      }
+      const cr::BodyImpactDerivatives d = s.derivatives(options);
+      ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+      ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
+      if (d.contacts[0].at_switch || !(d.result.impulses[0].normal_impulse > 1e-3)) continue;
+      const int N = static_cast<int>(d.velocity_count);
+      const MatrixXd want = s.differences(options, N + 3, 1e-5);
+      SCOPED_TRACE(std::string(cr::toString(law)) + " trial " + std::to_string(trial) + " " +
+                   cr::toString(d.contacts[0].mode));
+      EXPECT_LE(relativeError(d.jacobian, want), 1e-6);
+      sticking += d.contacts[0].mode == cr::ImpactMode::kSticking;
+      sliding += d.contacts[0].mode == cr::ImpactMode::kSliding;
+      ++checked;
+    }
+    std::printf("%s: %d states (%d sticking, %d sliding)\n", cr::toString(law), checked, sticking,
+                sliding);
+    EXPECT_GE(checked, 8);
+    EXPECT_GE(sticking, 1);
+    EXPECT_GE(sliding, 1);
+  }
 }

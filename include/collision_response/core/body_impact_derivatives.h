@@ -48,7 +48,11 @@ struct BodyImpactDerivatives {
 /// active set A (the contacts with an impulse), W_AA P_A = -(1 + e_A) u_A along the normals, so
 /// dP_A / dv = -W_AA^+ (1 + e_A) J_A and dP_A / de_i = -W_AA^+ 1_i u_i (least-norm for redundant
 /// contacts), the friction columns by one-sided differences (friction raised from 0, flagged).
-/// Everything else (friction, Poisson, Stronge, the iterative solver) by central differences of
+/// Analytic too: one contact under Poisson or Stronge (integrated to its end), from its 3x3
+/// W = J M^-1 J^T and u = J v by differentiateImpulseSpace(): dv'/dv = I + M^-1 J^T (dP/du) J,
+/// dv'/dtheta = M^-1 J^T dP/dtheta, with that function's mode and switch flags.
+/// Everything else (friction under Newton, several contacts under Poisson or Stronge, the
+/// iterative solver) by central differences of
 /// computeBodyResponse() itself (one-sided where a coefficient sits at its bound), reported per
 /// contact as kFiniteDifference; the differences are not mode-checked (a column across a
 /// stick/slip switch mixes both sides). options.time_budget bounds the whole call (the prediction

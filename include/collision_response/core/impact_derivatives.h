@@ -12,12 +12,13 @@ namespace collision_response::core {
 
 /// How a block of derivatives was obtained (docs/physics.md, "Derivatives of the impact map").
 enum class DerivativeMethod {
-  /// Differentiated in closed form: Newton's single-contact formulas, or the linear equations of
-  /// the exact solver's final active set (implicit differentiation).
+  /// Differentiated in closed form: Newton's single-contact formulas, the linear equations of
+  /// the exact solver's final active set (implicit differentiation), or the forward sensitivity
+  /// of the impulse-space integration of one contact (impulse_space_derivatives.h).
   kAnalytic,
   /// Central differences of the solver itself within the contacts' modes (one-sided, second order,
   /// on the side that keeps the modes where a central difference would cross a switch): the
-  /// impulse-space laws (Poisson, Stronge), the iterative solver, the one-pass law.
+  /// impulse-space laws at several contacts, the iterative solver, the one-pass law.
   kFiniteDifference,
 };
 
@@ -102,12 +103,13 @@ struct ImpactDerivatives {
 /// computeResponse() does and differentiates it. Analytic for the Newton law when each impacting
 /// island is solved in closed form (one contact under SolverMethod::kAuto) or by the exact solver
 /// (its final active set; redundant contacts sliding with friction excepted, whose impulses are
-/// not unique); finite differences of the solver otherwise (reported per contact and in `method`;
-/// 2 to 4 further solves per input column; options.time_budget bounds the whole call, prediction
-/// and differences together: past it, SolverTimeout). Resting islands
-/// and islands where nothing approaches get no impulse: their bodies' derivatives are the identity
-/// (a contact touching at u_n = 0 is flagged at a switch). The prediction in `result` is the one
-/// computeResponse() gives.
+/// not unique), and for Poisson and Stronge at an island of one contact integrated to its end
+/// (differentiateImpulseSpace(): regular K_tt, no fallback); finite differences of the solver
+/// otherwise (reported per contact and in `method`; 2 to 4 further solves per input column;
+/// options.time_budget bounds the whole call, prediction and differences together: past it,
+/// SolverTimeout). Resting islands and islands where nothing approaches get no impulse: their
+/// bodies' derivatives are the identity (a contact touching at u_n = 0 is flagged at a switch). The
+/// prediction in `result` is the one computeResponse() gives.
 ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptions& options = {},
                                            const RequestLimits& limits = {});
 

@@ -1,0 +1,38 @@
+#pragma once
+
+#include <Eigen/Core>
+
+#include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/solver_options.h"
+
+namespace collision_response::core {
+
+/// Analytic derivatives of the impulse of one isolated contact under the impulse-space laws
+/// (integrateSingleContact(), kPoisson or kStronge; docs/physics.md, "Derivatives of the impact
+/// map", "The impulse-space laws, one contact"), by a forward sensitivity carried through the same
+/// phases: the closed-form segments (constant rates: sticking, slip resumed after a stop,
+/// frictionless slip, the central stop) differentiated exactly, a rotating slip integrated with its
+/// sensitivities (Dormand-Prince 5(4) in xi, dp/dxi = |u_t|, on the same state), and each event
+/// (maximum compression, the end of the impact, the slip's stop) moving with the inputs by
+/// dxi_event = -(dg/dy . dy + dg/dtheta) / (dg/dxi).
+///
+/// Inputs: the contact's normal n (unit, from a towards b), K its contact-space inverse mass
+/// matrix [1/kg] (symmetric positive semi-definite; K_nn = 0 gives no impulse and zero
+/// derivatives, a singular tangential block K_tt is refused), u its relative velocity before the
+/// impact [m/s, world], e, mu_s, mu_d its coefficients, the law, and the integration's relative
+/// tolerance (SolverOptions::integration_tolerance; the turning slip's sensitivity is integrated
+/// to it, clamped to [1e-14, 1e-10]).
+/// Outputs: dP_du (3x3, world: d P / d u, P = P_n n + P_t [N s] the impulse +P on b and -P on a)
+/// [N s / (m/s) = kg] and dP_dcoefficients (3x3: columns d P / d e, d mu_s, d mu_d [N s]);
+/// `mode` the contact's mode (sticking at the end of the impact, sliding, no impulse), method
+/// kAnalytic, and the switches near which the derivative is one-sided (flagged, with which side).
+/// `impulse`, if given, receives the impulse P the derivatives belong to [N s, world].
+/// Returns false (nothing usable: differentiate otherwise) for a singular K or K_tt, a law other
+/// than kPoisson and kStronge, or an integration that exceeds its step budget.
+bool differentiateImpulseSpace(const Eigen::Vector3d& n, const Eigen::Matrix3d& K,
+                               const Eigen::Vector3d& u, double e, double mu_s, double mu_d,
+                               ImpactLaw law, double tolerance, Eigen::Matrix3d& dP_du,
+                               Eigen::Matrix3d& dP_dcoefficients, ContactDerivativeMode& mode,
+                               Eigen::Vector3d* impulse = nullptr);
+
+}  // namespace collision_response::core

@@ -1,0 +1,596 @@
+// Forward sensitivity of Routh's method for one contact (impulse_space_integrator.cpp; symbols
+// there and in docs/physics.md, "Derivatives of the impact map", "The impulse-space laws").
+//
+// Every quantity carries its value and its gradient with respect to the six inputs
+// theta = (u0_t1, u0_t2, u0_n, e, mu_s, mu_d) (forward mode: the gradient of each operation from
+// those of its operands). The phases are the integrator's, decided on the values:
+//   - closed-form segments with constant rates dP_t/dp = r (sticking, slip resumed after a stop,
+//     frictionless slip along a fixed line, the central stop): the closed forms themselves, so
+//     the gradients are exact, events included (the distance to each event is a closed form of
+//     the state and theta);
+//   - a sliding slip: integrated in xi (dp/dxi = |u_t|, the integrator's variable) by
+//     Dormand-Prince 5(4) on the values and gradients together (the sensitivity equations
+//     discretised by the same steps), to a tighter tolerance than the prediction's. An event
+//     (maximum compression u_n = 0, the end p = p_end or W = W_end) is located on the values and
+//     then reached by one Newton step y* = y - g(y) / (dg/dxi) f(y) carried out on values and
+//     gradients: its gradient is the event-time sensitivity dxi* = -(dg/dy . dy + dg/dtheta) /
+//     (dg/dxi). The slip's stop is an attracting equilibrium in xi: the integration runs until
+//     the slip is below 1e-13 of |u0|, where the state and its gradients have converged;
+//   - after a stop the state is put on the sticking manifold u_t = 0, P_t = -A^-1 (u0_t + b p):
+//     its gradient then includes the slip that is left (the residual the stop leaves is second
+//     order in the value, first order in the gradient).
+#include "collision_response/core/impulse_space_derivatives.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "collision_response/core/contact_space.h"
+#include "collision_response/core/friction_disk.h"
+#include "collision_response/core/least_norm.h"
+
+namespace collision_response::core {
+namespace {
+
+using Vec2 = Eigen::Vector2d;
+using Mat2 = Eigen::Matrix2d;
+using Grad = Eigen::Matrix<double, 6, 1>;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Inputs (gradient entries).
+constexpr int kUt1 = 0, kUt2 = 1, kUn = 2, kE = 3, kMuS = 4, kMuD = 5;
+// The integrator's thresholds (impulse_space_integrator.cpp).
+constexpr double kStickSpeed = 1e-14;
+constexpr double kParallel = 1e-12;
+constexpr std::size_t kMaxSegments = 16;
+// The sensitivity integration: a slip below this fraction of |u0| has stopped (the remaining
+// piece, about that slip over the slip's deceleration, is left to the sticking manifold).
+constexpr double kStop = 1e-13;
+constexpr std::size_t kMaxSteps = 20000;
+// Distance (relative) below which the slip's stop and an event count as simultaneous (a switch).
+constexpr double kNear = 1e-8;
+
+// A value with its gradient with respect to theta.
+struct D {
+  double v = 0.0;
+  Grad d = Grad::Zero();
+  D() = default;
+  D(double value) : v(value) {}  // NOLINT: constants mix freely
+  D(double value, const Grad& grad) : v(value), d(grad) {}
+  static D input(double value, int k) {
+    D out(value);
+    out.d[k] = 1.0;
+    return out;
+  }
+};
+inline D operator+(const D& a, const D& b) {
+  return {a.v + b.v, a.d + b.d};
+}
+inline D operator-(const D& a, const D& b) {
+  return {a.v - b.v, a.d - b.d};
+}
+inline D operator-(const D& a) {
+  return {-a.v, -a.d};
+}
+inline D operator*(const D& a, const D& b) {
+  return {a.v * b.v, b.v * a.d + a.v * b.d};
+}
+inline D operator*(double a, const D& b) {
+  return {a * b.v, a * b.d};
+}
+inline D operator/(const D& a, const D& b) {
+  const double q = a.v / b.v;
+  return {q, (a.d - q * b.d) / b.v};
+}
+inline D sqrt(const D& a) {
+  const double s = std::sqrt(a.v);
+  return {s, (0.5 / s) * a.d};
+}
+
+struct D2 {
+  D x, y;
+  Vec2 value() const { return {x.v, y.v}; }
+};
+inline D2 operator+(const D2& a, const D2& b) {
+  return {a.x + b.x, a.y + b.y};
+}
+inline D2 operator-(const D2& a, const D2& b) {
+  return {a.x - b.x, a.y - b.y};
+}
+inline D2 operator*(const D& k, const D2& a) {
+  return {k * a.x, k * a.y};
+}
+inline D2 operator*(const D2& a, const D& k) {
+  return {k * a.x, k * a.y};
+}
+inline D2 operator*(const Mat2& M, const D2& a) {
+  return {M(0, 0) * a.x + M(0, 1) * a.y, M(1, 0) * a.x + M(1, 1) * a.y};
+}
+inline D2 constant(const Vec2& v) {
+  return {D(v.x()), D(v.y())};
+}
+inline D dot(const Vec2& a, const D2& b) {
+  return a.x() * b.x + a.y() * b.y;
+}
+inline D dot(const D2& a, const D2& b) {
+  return a.x * b.x + a.y * b.y;
+}
+
+// The integrated state (p, P_t1, P_t2, W).
+struct Y4 {
+  D y[4];
+};
+inline Y4 operator+(const Y4& a, const Y4& b) {
+  return {{a.y[0] + b.y[0], a.y[1] + b.y[1], a.y[2] + b.y[2], a.y[3] + b.y[3]}};
+}
+inline Y4 operator*(double h, const Y4& a) {
+  return {{h * a.y[0], h * a.y[1], h * a.y[2], h * a.y[3]}};
+}
+
+struct Problem {
+  Mat2 A, A_inv;
+  Vec2 b;
+  double c;
+  D2 u0_t;
+  D u0_n, e, mu_s, mu_d;
+  bool stronge;
+  double J, V, V_n, tol;
+
+  D2 slip(const D& p, const D2& P_t) const { return u0_t + A * P_t + p * constant(b); }
+  D normal(const D& p, const D2& P_t) const { return u0_n + dot(b, P_t) + c * p; }
+};
+
+struct State {
+  D p;
+  D2 P_t;
+  D W;
+  bool restitution = false, done = false;
+  D p_c, W_c, p_end, W_end;
+};
+
+struct Context {
+  const Problem& pr;
+  State st;
+  ContactDerivativeMode& mode;
+  bool sticking = false;
+  void flag(const std::string& detail) {
+    if (mode.switch_detail.find(detail) != std::string::npos) return;
+    mode.at_switch = true;
+    if (!mode.switch_detail.empty()) mode.switch_detail += "; ";
+    mode.switch_detail += detail;
+  }
+};
+
+// Maximum compression reached along the rate dP_t/dp = `rate`: the law's end condition. At e = 0
+// the impact ends there; for increasing e it would go on along the same rate, by dx/de = p_c
+// (Poisson) or sqrt(-2 W_c / h) (Stronge: W - W_c = h x^2 / 2 = -e^2 W_c), h = du_n/dp: the
+// one-sided e column.
+void beginRestitution(Context& cx, const D2& rate) {
+  const Problem& pr = cx.pr;
+  State& st = cx.st;
+  st.restitution = true;
+  st.p_c = st.p;
+  st.W_c = st.W;
+  st.p_end = (1.0 + pr.e) * st.p_c;
+  st.W_end = (1.0 - pr.e * pr.e) * st.W_c;
+  st.done = pr.stronge ? st.W.v >= st.W_end.v : st.p.v >= st.p_end.v;
+  if (st.done && pr.e.v == 0.0) {
+    const double h = pr.c + pr.b.dot(rate.value());
+    const double dx_de = pr.stronge ? (h > 0.0 ? std::sqrt(-2.0 * st.W_c.v / h) : 0.0) : st.p_c.v;
+    st.p.d[kE] += dx_de;
+    st.P_t.x.d[kE] += rate.x.v * dx_de;
+    st.P_t.y.d[kE] += rate.y.v * dx_de;
+    cx.flag("e = 0: the restitution column is one-sided (increasing e)");
+  }
+}
+
+// Smallest x >= 0 with D = u_n x + h x^2 / 2, or kInf (the integrator's strongeDistance()).
+D strongeDistance(const D& Dw, const D& u_n, const D& h) {
+  if (Dw.v <= 0.0) return D(0.0);
+  const D disc = u_n * u_n + 2.0 * (h * Dw);
+  if (disc.v < 0.0) return D(kInf);
+  if (u_n.v >= 0.0) {
+    const D den = u_n + sqrt(disc);
+    return den.v > 0.0 ? 2.0 * Dw / den : D(kInf);
+  }
+  return h.v > 0.0 ? (sqrt(disc) - u_n) / h : D(kInf);
+}
+
+// Constant rates dP_t/dp = r for at most x_max in p, through the events on the way (the
+// integrator's advanceLinear()). False on a jam.
+bool advanceLinear(Context& cx, const D2& r, D x_max) {
+  const Problem& pr = cx.pr;
+  State& st = cx.st;
+  const D h = pr.c + dot(pr.b, r);
+  while (!st.done) {
+    const D u_n = pr.normal(st.p, st.P_t);
+    D x;
+    if (!st.restitution) {
+      x = u_n.v >= 0.0 ? D(0.0) : (h.v > 0.0 ? -u_n / h : D(kInf));
+    } else if (pr.stronge) {
+      x = strongeDistance(st.W_end - st.W, u_n, h);
+    } else {
+      x = st.p_end.v - st.p.v > 0.0 ? st.p_end - st.p : D(0.0);
+    }
+    const bool event = x.v <= x_max.v && x.v < kInf;
+    if (!event) {
+      if (x_max.v == kInf) return false;
+      x = x_max;
+    }
+    st.p = st.p + x;
+    st.P_t = st.P_t + r * x;
+    st.W = st.W + (u_n + 0.5 * (h * x)) * x;
+    if (!event) return true;
+    x_max = x_max - x;
+    if (!st.restitution) {
+      beginRestitution(cx, r);
+    } else {
+      if (!pr.stronge) st.p = st.p_end;
+      st.done = true;
+    }
+  }
+  return true;
+}
+
+// Slip direction on leaving stick, (lambda I + mu_d A) s = b, |s| = 1 (friction_disk.h's
+// slipDirection()), with its gradient: d/dmu_d by implicit differentiation,
+// ds = -M^-1 (dlambda s + A s), dlambda = -(s.M^-1 A s) / (s.M^-1 s), M = lambda I + mu_d A.
+D2 resumeDirection(const Problem& pr) {
+  const Vec2 s = slipDirection(pr.mu_d.v * pr.A, pr.b);
+  const double lambda = s.dot(pr.b - pr.mu_d.v * (pr.A * s));
+  const Mat2 M_inv = (lambda * Mat2::Identity() + pr.mu_d.v * pr.A).inverse();
+  const double dlambda = -s.dot(M_inv * (pr.A * s)) / s.dot(M_inv * s);
+  const Vec2 ds = -M_inv * (dlambda * s + pr.A * s);
+  D2 out{D(s.x()), D(s.y())};
+  out.x.d[kMuD] = ds.x();
+  out.y.d[kMuD] = ds.y();
+  return out;
+}
+
+// The slip has stopped (or never started): onto the sticking manifold u_t = 0, then stick while
+// the sticking rate tau = -A^-1 b lies in the static cone, else slip resumes (the integrator's
+// stickOrResume()).
+bool stickOrResume(Context& cx) {
+  const Problem& pr = cx.pr;
+  State& st = cx.st;
+  st.P_t = pr.A_inv * (D2{D(0.0), D(0.0)} - pr.u0_t - st.p * constant(pr.b));
+  const Vec2 tau = -(pr.A_inv * pr.b);
+  const double limit = std::max(pr.mu_s.v, pr.mu_d.v);
+  const double tau_norm = tau.norm();
+  if (tau_norm <= limit) {
+    cx.sticking = true;
+    if (tau_norm >= (1.0 - kSwitchTolerance) * limit) {
+      cx.flag("stick/slip after the stop: |K_tt^-1 K_tn| = mu_s; sticking side");
+    }
+    return advanceLinear(cx, constant(tau), D(kInf));
+  }
+  if (tau_norm <= (1.0 + kSwitchTolerance) * limit) {
+    cx.flag("stick/slip after the stop: |K_tt^-1 K_tn| = mu_s; slipping side");
+  }
+  return advanceLinear(cx, (-pr.mu_d) * resumeDirection(pr), D(kInf));
+}
+
+// The integrator's centralStop(): K_tn = 0 and a slip that surely stops within the impact.
+bool centralStop(Context& cx) {
+  const Problem& pr = cx.pr;
+  State& st = cx.st;
+  const double trace = pr.A.trace();
+  if (!(pr.b.norm() <= 1e-12 * (trace + pr.c)) || !(pr.mu_d.v > 0.0)) return false;
+  const double lambda_min = symmetricEigenvalues(pr.A)(0);
+  if (!(lambda_min > kSingularRelative * trace)) return false;
+  const D p_c = -pr.u0_n / D(pr.c);
+  const D p_end = (1.0 + pr.e) * p_c;
+  if (!(pr.u0_t.value().norm() <= pr.mu_d.v * lambda_min * p_end.v)) return false;
+  st.p_c = p_c;
+  st.W_c = 0.5 * (pr.u0_n * p_c);
+  st.p = p_end;
+  st.P_t = pr.A_inv * (D2{D(0.0), D(0.0)} - pr.u0_t);
+  st.W = (1.0 - pr.e * pr.e) * st.W_c;
+  st.restitution = true;
+  st.done = true;
+  return true;
+}
+
+// d(p, P_t, W)/dxi while sliding, dp/dxi = sigma.
+inline Y4 slipField(const Problem& pr, const Y4& y) {
+  const D2 P_t{y.y[1], y.y[2]};
+  const D2 u_t = pr.slip(y.y[0], P_t);
+  const D u_n = pr.normal(y.y[0], P_t);
+  const D sigma = sqrt(u_t.x * u_t.x + u_t.y * u_t.y);
+  return {{sigma, -(pr.mu_d * u_t.x), -(pr.mu_d * u_t.y), sigma * u_n}};
+}
+
+// Dormand-Prince 5(4) tableau (as the integrator's).
+constexpr double a21 = 1.0 / 5;
+constexpr double a31 = 3.0 / 40, a32 = 9.0 / 40;
+constexpr double a41 = 44.0 / 45, a42 = -56.0 / 15, a43 = 32.0 / 9;
+constexpr double a51 = 19372.0 / 6561, a52 = -25360.0 / 2187, a53 = 64448.0 / 6561,
+                 a54 = -212.0 / 729;
+constexpr double a61 = 9017.0 / 3168, a62 = -355.0 / 33, a63 = 46732.0 / 5247, a64 = 49.0 / 176,
+                 a65 = -5103.0 / 18656;
+constexpr double b1 = 35.0 / 384, b3 = 500.0 / 1113, b4 = 125.0 / 192, b5 = -2187.0 / 6784,
+                 b6 = 11.0 / 84;
+constexpr double e1 = 71.0 / 57600, e3 = -71.0 / 16695, e4 = 71.0 / 1920, e5 = -17253.0 / 339200,
+                 e6 = 22.0 / 525, e7 = -1.0 / 40;
+
+// One step of size h on values and gradients; returns the error estimate of the values (max
+// norm, scaled by J and V_n J) over the tolerance.
+double dopriStep(const Problem& pr, const Y4& y, const Y4& f, double h, Y4& y1, Y4& f1) {
+  const Y4& k1 = f;
+  const Y4 k2 = slipField(pr, y + (h * a21) * k1);
+  const Y4 k3 = slipField(pr, y + (h * a31) * k1 + (h * a32) * k2);
+  const Y4 k4 = slipField(pr, y + (h * a41) * k1 + (h * a42) * k2 + (h * a43) * k3);
+  const Y4 k5 =
+      slipField(pr, y + (h * a51) * k1 + (h * a52) * k2 + (h * a53) * k3 + (h * a54) * k4);
+  const Y4 k6 = slipField(
+      pr, y + (h * a61) * k1 + (h * a62) * k2 + (h * a63) * k3 + (h * a64) * k4 + (h * a65) * k5);
+  y1 = y + (h * b1) * k1 + (h * b3) * k3 + (h * b4) * k4 + (h * b5) * k5 + (h * b6) * k6;
+  f1 = slipField(pr, y1);
+  double err = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    const double ei = h * (e1 * k1.y[i].v + e3 * k3.y[i].v + e4 * k4.y[i].v + e5 * k5.y[i].v +
+                           e6 * k6.y[i].v + e7 * f1.y[i].v);
+    err = std::max(err, std::abs(ei) / (i < 3 ? pr.J : pr.J * pr.V_n));
+  }
+  return err / pr.tol;
+}
+
+// The current phase's event value g (u_n, then p - p_end or W - W_end) and its rate dg/dxi.
+D eventValue(const Problem& pr, const State& st, const Y4& y) {
+  if (!st.restitution) return pr.normal(y.y[0], D2{y.y[1], y.y[2]});
+  return pr.stronge ? y.y[3] - st.W_end : y.y[0] - st.p_end;
+}
+D eventRate(const Problem& pr, const State& st, const Y4& f) {
+  if (!st.restitution) return pr.c * f.y[0] + pr.b.x() * f.y[1] + pr.b.y() * f.y[2];
+  return pr.stronge ? f.y[3] : f.y[0];
+}
+
+// Root in (0, 1] of the cubic Hermite interpolant of an event value over a step (values only).
+double hermiteRoot(double e0, double d0, double e1, double d1) {
+  double lo = 0.0, hi = 1.0, t = e0 / (e0 - e1);
+  for (int i = 0; i < 50; ++i) {
+    const double t2 = t * t, t3 = t2 * t;
+    const double v = (2 * t3 - 3 * t2 + 1) * e0 + (t3 - 2 * t2 + t) * d0 + (3 * t2 - 2 * t3) * e1 +
+                     (t3 - t2) * d1;
+    const double dv =
+        (6 * t2 - 6 * t) * (e0 - e1) + (3 * t2 - 4 * t + 1) * d0 + (3 * t2 - 2 * t) * d1;
+    if (v < 0.0)
+      lo = t;
+    else
+      hi = t;
+    double next = dv != 0.0 ? t - v / dv : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - t) <= 1e-15) return next;
+    t = next;
+  }
+  return t;
+}
+
+void setState(State& st, const Y4& y) {
+  st.p = y.y[0];
+  st.P_t = D2{y.y[1], y.y[2]};
+  st.W = y.y[3];
+}
+
+// A sliding slip, integrated with its sensitivities until the impact ends or the slip stops
+// (`stopped`). False if the step budget runs out.
+bool integrateSlip(Context& cx, bool& stopped) {
+  const Problem& pr = cx.pr;
+  State& st = cx.st;
+  const double rate = pr.b.norm() + pr.mu_d.v * pr.A.norm();
+  const double h_max = rate > 0.0 ? 2.0 / rate : kInf;
+  Y4 y{{st.p, st.P_t.x, st.P_t.y, st.W}};
+  Y4 f = slipField(pr, y);
+  double h = std::min(h_max, 0.05 * pr.J / std::max(f.y[0].v, kStickSpeed * pr.V));
+  for (std::size_t steps = 0;;) {
+    if (pr.mu_d.v > 0.0 && f.y[0].v <= kStop * pr.V) {
+      setState(st, y);
+      stopped = true;
+      return true;
+    }
+    if (++steps > kMaxSteps) return false;
+    h = std::min(h, h_max);
+    Y4 y1, f1;
+    const double err = dopriStep(pr, y, f, h, y1, f1);
+    if (!(err <= 1.0)) {
+      h *= std::isfinite(err) ? std::max(0.2, 0.9 * std::pow(err, -0.2)) : 0.2;
+      continue;
+    }
+    const D g1 = eventValue(pr, st, y1);
+    if (g1.v >= 0.0) {
+      const double g0 = eventValue(pr, st, y).v;
+      const double theta =
+          g0 < 0.0 ? hermiteRoot(g0, h * eventRate(pr, st, f).v, g1.v, h * eventRate(pr, st, f1).v)
+                   : 0.0;
+      if (theta > 0.0) {
+        dopriStep(pr, y, f, theta * h, y1, f1);
+      } else {
+        y1 = y;
+        f1 = f;
+      }
+      // The event's own sensitivity: one Newton step on g along the flow, gradients included.
+      for (int polish = 0; polish < 2; ++polish) {
+        const D slope = eventRate(pr, st, f1);
+        if (!(slope.v > 0.0)) break;
+        const D step = eventValue(pr, st, y1) / slope;
+        for (int i = 0; i < 4; ++i) y1.y[i] = y1.y[i] - step * f1.y[i];
+        f1 = slipField(pr, y1);
+      }
+      setState(st, y1);
+      if (f1.y[0].v <= kNear * pr.V) {
+        cx.flag(
+            "the slip stops where a phase ends (maximum compression or the end of the "
+            "impact): sliding side");
+      }
+      if (!st.restitution) {
+        // dP_t/dp = (dP_t/dxi) / sigma = -mu_d s (the rate e = 0 would go on along).
+        D2 r{D(0.0), D(0.0)};
+        if (f1.y[0].v > 0.0) r = D2{f1.y[1] / f1.y[0], f1.y[2] / f1.y[0]};
+        beginRestitution(cx, r);
+      } else {
+        if (pr.stronge)
+          st.W = st.W_end;
+        else
+          st.p = st.p_end;
+        st.done = true;
+      }
+      if (st.done) return true;
+      y = Y4{{st.p, st.P_t.x, st.P_t.y, st.W}};
+      f = slipField(pr, y);
+      continue;
+    }
+    y = y1;
+    f = f1;
+    h *= std::min(5.0, 0.9 * std::pow(std::max(err, 1e-10), -0.2));
+  }
+}
+
+// One run of the sensitivity. linear_frictionless: a slip without dynamic friction is taken as
+// the closed form it is (u_t linear in p, exact gradients) rather than integrated; the
+// integration is needed for the mu_d column only (friction raised from 0 acts along the turning
+// frictionless slip).
+bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eigen::Vector3d& u,
+                   double e, double mu_s, double mu_d, ImpactLaw law, double tolerance,
+                   bool linear_frictionless, Eigen::Matrix3d& dP_du,
+                   Eigen::Matrix3d& dP_dcoefficients, ContactDerivativeMode& mode,
+                   Eigen::Vector3d* impulse) {
+  dP_du.setZero();
+  dP_dcoefficients.setZero();
+  if (impulse) impulse->setZero();
+  mode = ContactDerivativeMode{};
+  mode.method = DerivativeMethod::kAnalytic;
+  if (law != ImpactLaw::kPoisson && law != ImpactLaw::kStronge) return false;
+  const double u_n = u.dot(n);
+  if (std::abs(u_n) <= kSwitchTolerance * u.norm()) {
+    mode.at_switch = true;
+    mode.switch_detail = u_n < 0.0 ? "u_n = 0: the contact barely approaches; approaching side"
+                                   : "u_n = 0: touching; no-impulse side";
+  }
+  if (!(u_n < 0.0)) {
+    mode.mode = ImpactMode::kNoImpulse;
+    return true;
+  }
+  const double K_nn = n.dot(K * n);
+  if (!(K_nn > kSingularRelative * K.trace())) {
+    mode.mode = ImpactMode::kNoImpulse;  // nothing moves the contact along n
+    return true;
+  }
+  Eigen::Vector3d t1, t2;
+  tangentBasis(n, t1, t2);
+  Eigen::Matrix3d B;
+  B << t1, t2, n;
+  const Eigen::Matrix3d Kc = B.transpose() * K * B;
+  Problem pr;
+  pr.A = Kc.topLeftCorner<2, 2>();
+  pr.b = Kc.topRightCorner<2, 1>();
+  pr.c = Kc(2, 2);
+  const double trace = pr.A.trace();
+  if (!(pr.A.determinant() > kSingularRelative * trace * trace)) return false;
+  pr.A_inv = pr.A.inverse();
+  pr.u0_t = D2{D::input(t1.dot(u), kUt1), D::input(t2.dot(u), kUt2)};
+  pr.u0_n = D::input(u_n, kUn);
+  pr.e = D::input(e, kE);
+  pr.mu_s = D::input(mu_s, kMuS);
+  pr.mu_d = D::input(mu_d, kMuD);
+  pr.stronge = law == ImpactLaw::kStronge;
+  pr.V = u.norm();
+  pr.V_n = -u_n;
+  pr.J = pr.V_n / (pr.c + std::max(mu_s, mu_d) * pr.b.norm());
+  pr.tol = std::clamp(tolerance, 1e-14, 1e-10);
+
+  Context cx{pr, State{}, mode};
+  State& st = cx.st;
+  bool ok = true;
+  bool stopped = false;
+  const double slip0 = pr.u0_t.value().norm();
+  if (slip0 <= kStickSpeed * pr.V) {
+    // A small slip stops at once where dynamic friction can stop it in every direction
+    // (|K_tt^-1 K_tn| < mu_d): the map is smooth across u_t = 0. Otherwise it may slide on.
+    if (!((pr.A_inv * pr.b).norm() < pr.mu_d.v)) {
+      cx.flag(
+          "no slip before the impact: the tangential velocity columns are those of sticking "
+          "from the start (a slip may slide instead: one-sided)");
+    }
+  }
+  if (slip0 > kStickSpeed * pr.V && centralStop(cx)) cx.sticking = true;
+  for (std::size_t segments = 0; !st.done && ok;) {
+    if (++segments > kMaxSegments) {
+      ok = false;
+      break;
+    }
+    const D2 u_t = pr.slip(st.p, st.P_t);
+    const Vec2 u_t_value = u_t.value();
+    const double sigma = u_t_value.norm();
+    if (stopped || sigma <= kStickSpeed * pr.V) {
+      ok = stickOrResume(cx);
+      break;
+    }
+    const Vec2 s = u_t_value / sigma;
+    const Vec2 g = pr.b - pr.mu_d.v * (pr.A * s);
+    const bool parallel = std::abs(s.x() * g.y() - s.y() * g.x()) <=
+                          kParallel * (pr.b.norm() + pr.mu_d.v * pr.A.norm());
+    if (pr.mu_d.v == 0.0 && (parallel || linear_frictionless)) {
+      // Frictionless slip along a fixed line: u_t linear in p; it may pass through 0.
+      const double sigma_rate = s.dot(g);
+      D x_stop(kInf);
+      if (parallel && sigma_rate < 0.0) {
+        x_stop = dot(u_t, u_t) / -dot(pr.b, u_t);  // sigma / -(s.b)
+        cx.flag("frictionless slip through zero slip along a line: one-sided");
+      }
+      ok = advanceLinear(cx, D2{D(0.0), D(0.0)}, x_stop);
+      stopped = true;
+    } else {
+      ok = integrateSlip(cx, stopped);
+      if (ok && stopped) {
+        // A stop next to an event: the order of the two is a switch.
+        const D u_n_now = pr.normal(st.p, st.P_t);
+        const bool near_compression = !st.restitution && -u_n_now.v <= kNear * pr.V_n;
+        const bool near_end =
+            st.restitution && (pr.stronge ? st.W_end.v - st.W.v <= kNear * pr.V_n * pr.J
+                                          : st.p_end.v - st.p.v <= kNear * pr.J);
+        if (near_compression || near_end) {
+          cx.flag("the slip stops where a phase ends: stopping side");
+        }
+      }
+    }
+  }
+  if (!ok) return false;
+  if (mu_d == 0.0) cx.flag("mu_d = 0: the dynamic friction column is one-sided (increasing)");
+
+  Eigen::Matrix<double, 3, 6> dP =
+      n * st.p.d.transpose() + t1 * st.P_t.x.d.transpose() + t2 * st.P_t.y.d.transpose();
+  dP_du = dP.leftCols<3>() * B.transpose();
+  dP_dcoefficients = dP.rightCols<3>();
+  if (impulse) *impulse = st.p.v * n + st.P_t.x.v * t1 + st.P_t.y.v * t2;
+  const bool frictionless = mu_s == 0.0 && mu_d == 0.0;
+  mode.mode = cx.sticking && !frictionless ? ImpactMode::kSticking : ImpactMode::kSliding;
+  return true;
+}
+
+}  // namespace
+
+bool differentiateImpulseSpace(const Eigen::Vector3d& n, const Eigen::Matrix3d& K,
+                               const Eigen::Vector3d& u, double e, double mu_s, double mu_d,
+                               ImpactLaw law, double tolerance, Eigen::Matrix3d& dP_du,
+                               Eigen::Matrix3d& dP_dcoefficients, ContactDerivativeMode& mode,
+                               Eigen::Vector3d* impulse) {
+  if (!differentiate(n, K, u, e, mu_s, mu_d, law, tolerance, mu_d == 0.0, dP_du, dP_dcoefficients,
+                     mode, impulse)) {
+    return false;
+  }
+  if (mu_d == 0.0 && mode.mode != ImpactMode::kNoImpulse) {
+    // The mu_d column (for increasing mu_d) through the integration of the frictionless slip.
+    Eigen::Matrix3d du, dc;
+    ContactDerivativeMode integrated;
+    if (!differentiate(n, K, u, e, mu_s, mu_d, law, tolerance, false, du, dc, integrated,
+                       nullptr)) {
+      return false;
+    }
+    dP_dcoefficients.col(2) = dc.col(2);
+  }
+  return true;
+}
+
+}  // namespace collision_response::core
