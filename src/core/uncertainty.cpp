@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -71,9 +72,21 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
   Prepared prepared;
   prepared.mean_scene = scene;
   std::vector<bool> named(scene.contacts.size(), false);
+  prepared.contacts.reserve(uncertainties.size());
+  prepared.dimensions.reserve(3 * uncertainties.size());
+  prepared.variances.reserve(3 * uncertainties.size());
+  // Field names built with one allocation each (the linear method's cost is a few of them).
+  auto join = [](const std::string& a, const char* b, const char* c = "") {
+    std::string out;
+    out.reserve(a.size() + std::strlen(b) + std::strlen(c));
+    out += a;
+    out += b;
+    out += c;
+    return out;
+  };
   for (std::size_t k = 0; k < uncertainties.size(); ++k) {
     const ContactUncertainty& entry = uncertainties[k];
-    const std::string field = "uncertainties[" + std::to_string(k) + "]";
+    const std::string field = join("uncertainties[", std::to_string(k).c_str(), "]");
     if (entry.contact >= scene.contacts.size())
       throw InvalidInput(field + ".contact", "no contact " + std::to_string(entry.contact) +
                                                  " (the request has " +
@@ -100,7 +113,7 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
       }
       std::optional<Warning> warning;
       CheckedDistribution distribution(**given[which], 0.0, uppers[which],
-                                       field + "." + kCoefficientNames[which], &warning);
+                                       join(field, ".", kCoefficientNames[which]), &warning);
       if (warning) prepared.warnings.push_back(*warning);
       return distribution;
     };
@@ -265,8 +278,20 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
 
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
                                        const RequestLimits& limits) {
+  // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
+  // probability of a sliding contact reads it), are computed.
+  const std::vector<std::pair<int, int>> contact_bodies =
+      validate(prepared.mean_scene, options, limits);
+  DerivativeColumns columns;
+  columns.velocities = false;
+  columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
+  for (std::size_t c = 0; c < prepared.mean_scene.contacts.size(); ++c)
+    columns.coefficients[3 * c + kDynamicFriction] = true;
+  for (const auto& [index, which] : prepared.dimensions)
+    columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
+        true;
   const ImpactDerivatives derivatives =
-      computeImpactDerivatives(prepared.mean_scene, options, limits);
+      computeValidatedImpactDerivatives(prepared.mean_scene, contact_bodies, options, columns);
   OutcomeDistribution outcome;
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = derivatives.velocityCount() + derivatives.impulseCount();
@@ -276,16 +301,21 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
               [&](Eigen::Index r) -> double& { return outcome.mean(r); });
   const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   std::vector<int> column_of_dimension(prepared.dimensions.size());
-  Eigen::MatrixXd scaled(m, dims);  // J columns times the standard deviations
+  // J columns times the standard deviations; a coefficient the outcome does not depend on (a
+  // sticking contact's friction: a zero column) adds nothing to the covariance and is left out.
+  Eigen::MatrixXd scaled(m, dims);
+  Eigen::Index used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     const auto& [index, which] = prepared.dimensions[j];
     column_of_dimension[j] =
         static_cast<int>(derivatives.velocityCount() +
                          3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
-    scaled.col(j) =
-        derivatives.jacobian.col(column_of_dimension[j]) * std::sqrt(prepared.variances[j]);
+    const auto column = derivatives.jacobian.col(column_of_dimension[j]);
+    if (column.isZero(0.0)) continue;
+    scaled.col(used++) = column * std::sqrt(prepared.variances[j]);
   }
-  outcome.covariance = scaled * scaled.transpose();
+  // Small (rows x a few): the coefficient-wise product, not the blocked one.
+  outcome.covariance = scaled.leftCols(used).lazyProduct(scaled.leftCols(used).transpose());
   const Eigen::VectorXd spread = outcome.covariance.diagonal().cwiseSqrt();
   outcome.q05 = outcome.mean - kZ95 * spread;
   outcome.q95 = outcome.mean + kZ95 * spread;
