@@ -443,6 +443,7 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking,
   bool frictional_sliding = false;   // F_P then depends on the inputs (pyramid, mu)
   bool every_row_sticking = true;    // F_P = W
   std::vector<Index> sticking_rows;  // first rows of the sticking contacts
+  sticking_rows.reserve(static_cast<std::size_t>(m));
   for (Index i = 0; i < m; ++i) {
     const Contact& contact = scene.contacts[s.contacts[i]];
     ContactDerivativeMode& mode = modes[s.contacts[i]];
@@ -579,6 +580,7 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking,
   const Index L = s.J.cols();
   const Index V = columns.velocities ? L : 0;
   std::vector<Index> theta_columns;  // island coefficient columns solved
+  theta_columns.reserve(static_cast<std::size_t>(3 * m));
   for (Index k = 0; k < 3 * m; ++k) {
     if (wantedCoefficient(columns, 3 * static_cast<Index>(s.contacts[k / 3]) + k % 3) &&
         !F_theta.col(k).isZero(0.0)) {

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -187,10 +188,16 @@ std::vector<std::string> outcomeLabels(const std::vector<int>& movable, std::siz
   return layout.rowLabels();
 }
 
+// "12.3 %": three significant digits, as printf's %.3g (std::to_chars: no locale, no format
+// parsing; a few of these are in every linear answer).
 std::string percentText(double fraction) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g %%", 100.0 * fraction);
-  return text;
+  char text[40];
+  const std::to_chars_result end =
+      std::to_chars(text, text + sizeof text - 2, 100.0 * fraction, std::chars_format::general, 3);
+  char* last = end.ptr;
+  *last++ = ' ';
+  *last++ = '%';
+  return std::string(text, last);
 }
 
 // The probability that contact c sticks, from the linearised margin of its mode at the means
