@@ -118,7 +118,9 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
       if (warning) prepared.warnings.push_back(*warning);
       return distribution;
     };
-    UncertainContact uncertain{entry.contact, k, {checked(0), checked(1), checked(2)}, {}};
+    // (The dimensions spelled out: an empty {} would value-initialise them to 0, dimension 0.)
+    UncertainContact uncertain{
+        entry.contact, k, {checked(0), checked(1), checked(2)}, {-1, -1, -1}};
     for (int which = 0; which < 3; ++which) {
       coefficient(contact, which) = uncertain.distributions[which].mean();
       if (uncertain.distributions[which].variance() > 0.0) {
@@ -140,6 +142,14 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
     prepared.contacts.push_back(std::move(uncertain));
   }
   return prepared;
+}
+
+// The field a mu_d > mu_s draw is reported under: dynamic_friction when it has a spread (it is
+// the one capped), else static_friction (only mu_s varies: its low draws fall below mu_d).
+std::string overlapField(const UncertainContact& contact) {
+  return "uncertainties[" + std::to_string(contact.entry) + "]." +
+         (contact.dimension[kDynamicFriction] >= 0 ? kCoefficientNames[kDynamicFriction]
+                                                   : kCoefficientNames[kStaticFriction]);
 }
 
 // P(mu_d > mu_s) from the normal approximation of mu_s - mu_d (same means and variances): cheap
@@ -336,8 +346,9 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     const double overlap = approximateOverlapProbability(uncertain);
     if (overlap > kTruncationWarningMass) {
       outcome.warnings.push_back(
-          {"uncertainties[" + std::to_string(uncertain.entry) + "].dynamic_friction",
-           "exceeds static_friction with probability about " + percentText(overlap) +
+          {overlapField(uncertain),
+           "dynamic_friction exceeds static_friction with probability about " +
+               percentText(overlap) +
                " (normal approximation of mu_s - mu_d;"
                " such draws are solved with mu_d = mu_s by the sampled method; the linear "
                "method does not see the cap)",
@@ -424,12 +435,13 @@ void summariseSamples(const Eigen::MatrixXd& values, const std::vector<unsigned 
     std::size_t count = 0;
     for (std::size_t i = 0; i < samples; ++i) count += capped[i * prepared.contacts.size() + u];
     if (count == 0) continue;
-    outcome.warnings.push_back(
-        {"uncertainties[" + std::to_string(prepared.contacts[u].entry) + "].dynamic_friction",
-         "exceeded static_friction in " + std::to_string(count) + " of " + std::to_string(samples) +
-             " samples (" + percentText(static_cast<double>(count) / samples) +
-             "): those were solved with mu_d = mu_s",
-         Warning::Kind::kInput});
+    outcome.warnings.push_back({overlapField(prepared.contacts[u]),
+                                "dynamic_friction exceeded static_friction in " +
+                                    std::to_string(count) + " of " + std::to_string(samples) +
+                                    " samples (" +
+                                    percentText(static_cast<double>(count) / samples) +
+                                    "): those were solved with mu_d = mu_s",
+                                Warning::Kind::kInput});
   }
 }
 
