@@ -331,8 +331,17 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     if (column.isZero(0.0)) continue;
     scaled.col(used++) = column * std::sqrt(prepared.variances[j]);
   }
-  // Small (rows x a few): the coefficient-wise product, not the blocked one.
-  outcome.covariance = scaled.leftCols(used).lazyProduct(scaled.leftCols(used).transpose());
+  // Rows x a few columns: one triangle by plain loops, mirrored (cheaper than a product kernel's
+  // set-up at this size).
+  outcome.covariance.resize(m, m);
+  for (Eigen::Index c = 0; c < m; ++c) {
+    for (Eigen::Index r = c; r < m; ++r) {
+      double sum = 0.0;
+      for (Eigen::Index j = 0; j < used; ++j) sum += scaled(r, j) * scaled(c, j);
+      outcome.covariance(r, c) = sum;
+      outcome.covariance(c, r) = sum;
+    }
+  }
   const Eigen::VectorXd spread = outcome.covariance.diagonal().cwiseSqrt();
   outcome.q05 = outcome.mean - kZ95 * spread;
   outcome.q95 = outcome.mean + kZ95 * spread;
