@@ -659,3 +659,43 @@ TEST(ImpactDerivatives, ColumnSubsetsAreTheFullCallsColumns) {
 }
 
 }  // namespace
+
+namespace {
+
+// A stack: body a on the ground, body b on a, one contact each (6 contact equations, 12 body
+// unknowns: W regular). With large friction both stick, the exact solver's all-sticking answer,
+// whose derivative is W^-1 (its own Cholesky factor, not the body-space solve of a face): against
+// central differences.
+TEST(ImpactDerivatives, StickingStackOfTwoBodiesMatchesCentralDifferences) {
+  RandomSource random(2621);
+  int compared = 0, columns = 0, analytic = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    cr::Scene scene;
+    scene.bodies.push_back(ground());
+    scene.bodies.push_back(randomBody(random, "a", Vector3d(0, 0, 0.5)));
+    scene.bodies.push_back(randomBody(random, "b", Vector3d(0, 0, 1.5)));
+    scene.bodies[1].linear_velocity.z() -= 1.0;
+    scene.bodies[2].linear_velocity.z() -= 3.0;
+    const Vector3d n0 = (Vector3d::UnitZ() + random.vec(-0.2, 0.2)).normalized();
+    const Vector3d n1 = (Vector3d::UnitZ() + random.vec(-0.2, 0.2)).normalized();
+    scene.contacts.push_back(contact("ground", "a", Vector3d(0, 0, 0) + random.vec(-0.1, 0.1), n0,
+                                     random.uniform(0.0, 0.9), 5.0, 4.0));
+    scene.contacts.push_back(contact("a", "b", Vector3d(0, 0, 1) + random.vec(-0.1, 0.1), n1,
+                                     random.uniform(0.0, 0.9), 5.0, 4.0));
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    if (d.result.islands.size() != 1 || d.result.islands[0].method != cr::SolvedBy::kExact ||
+        countMode(d, cr::ImpactMode::kSticking) != 2 || anySwitch(d)) {
+      continue;
+    }
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    ++analytic;
+    compared += compareWithDifferences(scene, options, d, 1e-6, 1e-6,
+                                       "stack, trial " + std::to_string(trial));
+    columns += static_cast<int>(d.jacobian.cols());
+  }
+  EXPECT_GE(analytic, 6);
+  EXPECT_GE(compared, columns * 3 / 4) << compared << " of " << columns;
+}
+
+}  // namespace
