@@ -511,13 +511,26 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking,
       continue;
     }
     // The friction impulse in the pyramid's sector (d_k, d_k+1): P_t = b_k d_k + b_k+1 d_k+1.
-    const int k = sector(P_t), k1 = (k + 1) % kD;
-    const Vector3d d_k = pyramid.direction(k), d_k1 = pyramid.direction(k1);
-    Eigen::Matrix2d B;
-    B << d_k.dot(pyramid.t1), d_k1.dot(pyramid.t1), d_k.dot(pyramid.t2), d_k1.dot(pyramid.t2);
-    const Eigen::Vector2d beta =
-        B.inverse() * Eigen::Vector2d(P_t.dot(pyramid.t1), P_t.dot(pyramid.t2));
-    const double gauge = beta.sum();
+    // (Computed where it is read: the all-sticking answer's contacts do without it.)
+    struct FrictionSector {
+      int k, k1;
+      Vector3d d_k, d_k1;
+      Eigen::Vector2d beta;
+      double gauge;
+    };
+    auto frictionSector = [&]() {
+      FrictionSector f;
+      f.k = sector(P_t);
+      f.k1 = (f.k + 1) % kD;
+      f.d_k = pyramid.direction(f.k);
+      f.d_k1 = pyramid.direction(f.k1);
+      Eigen::Matrix2d B;
+      B << f.d_k.dot(pyramid.t1), f.d_k1.dot(pyramid.t1), f.d_k.dot(pyramid.t2),
+          f.d_k1.dot(pyramid.t2);
+      f.beta = B.inverse() * Eigen::Vector2d(P_t.dot(pyramid.t1), P_t.dot(pyramid.t2));
+      f.gauge = f.beta.sum();
+      return f;
+    };
     if (slip <= kSlipTolerance * u_reference) {
       mode.mode = ImpactMode::kSticking;
       sticking_rows.push_back(r);  // F_P's rows: W's, filled if F_P is decomposed
@@ -525,10 +538,13 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking,
       if (approaching) F_theta.block<3, 1>(r, r + kRestitution) = u_n * n;
       // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
       // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
+      auto on_pyramid_boundary = [&] {
+        const double gauge = frictionSector().gauge;
+        return gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
+               (mu_d < mu_s && std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n);
+      };
       if (all_sticking ? P_t.norm() >= (1.0 - kSwitchTolerance) * mu_s * P_n
-                       : gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
-                             (mu_d < mu_s &&
-                              std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n)) {
+                       : on_pyramid_boundary()) {
         flag(mode, all_sticking ? "stick/slide: |P_t| = mu_s P_n; sticking side"
                                 : "stick/slide: friction on its pyramid's boundary; sticking side");
       }
@@ -541,6 +557,11 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking,
       flag(mode, "stick/slide: the slip is at the solver's tolerance; sliding side");
     }
     normalRow();
+    const FrictionSector f = frictionSector();
+    const int k = f.k, k1 = f.k1;
+    const Vector3d &d_k = f.d_k, &d_k1 = f.d_k1;
+    const Eigen::Vector2d& beta = f.beta;
+    const double gauge = f.gauge;
     const double mu = mu_d;  // a contact that slides ends on the dynamic pyramid
     const double beta_min = std::min(beta(0), beta(1));
     if (beta_min <= kPyramidRoundOff * gauge) {
