@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 #include "collision_response/core/constants.h"
 #include "collision_response/core/contact_space.h"
@@ -47,8 +48,18 @@ struct IslandSystem {
   std::vector<int> bodies;    // scene indices of the movable bodies, local order
   MatrixXd J;                 // 3m x 6L: u = J v (+ the immovable bodies' part)
   MatrixXd MinvJt;            // 6L x 3m: M^-1 J^T
-  MatrixXd W;                 // 3m x 3m: J M^-1 J^T
+  // 3m x 3m: J M^-1 J^T, built on first use (the all-sticking solve of a face's redundant
+  // contacts does without it).
+  const MatrixXd& W() const {
+    // Coefficient-wise product: the island's matrices are small (3m, 6L of a few dozen), where
+    // the blocked product's set-up costs more than the product.
+    if (W_.size() == 0) W_ = J.lazyProduct(MinvJt);
+    return W_;
+  }
+  mutable MatrixXd W_;
   std::vector<Vector3d> normal, u, u_after, P;
+  std::vector<double> mass;       // per movable body, local order [kg]
+  std::vector<Matrix3d> inertia;  // world [kg m^2] (the inverse of RigidBody::inverse_inertia)
 };
 
 Eigen::Matrix<double, 3, 6> pointJacobian(const Vector3d& r) {
@@ -98,11 +109,12 @@ IslandSystem buildSystem(const std::vector<int>& contacts, const Scene& scene,
   }
   for (Index l = 0; l < L; ++l) {
     const RigidBody& body = before[s.bodies[l]];
+    s.mass.push_back(1.0 / body.inverse_mass);
+    s.inertia.push_back(body.inverse_inertia.inverse());
     const auto Jt = s.J.middleCols<6>(6 * l).transpose();
     s.MinvJt.middleRows<3>(6 * l) = body.inverse_mass * Jt.topRows<3>();
     s.MinvJt.middleRows<3>(6 * l + 3) = body.inverse_inertia * Jt.bottomRows<3>();
   }
-  s.W = s.J * s.MinvJt;
   for (const int b : s.bodies) local_of[b] = -1;
   return s;
 }
@@ -115,14 +127,19 @@ void flag(ContactDerivativeMode& mode, const std::string& detail) {
 
 // Writes an island's derivatives into the full Jacobian from dP/dv (3m x 6L, v the island's
 // movable bodies' twists) and dP/dtheta (3m x 3m, per contact e, mu_s, mu_d).
+// `velocities`: whether dP/dv was computed (else its columns are left alone).
 void scatter(const IslandSystem& s, const MatrixXd& dP_dv, const MatrixXd& dP_dtheta,
-             const std::vector<Index>& body_column, Index velocity_count, MatrixXd& jacobian) {
-  const MatrixXd dv_dv = s.MinvJt * dP_dv;
-  const MatrixXd dv_dtheta = s.MinvJt * dP_dtheta;
+             bool velocities, const std::vector<Index>& body_column, Index velocity_count,
+             MatrixXd& jacobian) {
   const Index m = static_cast<Index>(s.contacts.size()), L = static_cast<Index>(s.bodies.size());
+  const MatrixXd dv_dv = velocities ? MatrixXd(s.MinvJt.lazyProduct(dP_dv)) : MatrixXd();
+  MatrixXd dv_dtheta = MatrixXd::Zero(s.MinvJt.rows(), dP_dtheta.cols());
+  for (Index k = 0; k < dP_dtheta.cols(); ++k) {  // the columns not computed are 0
+    if (!dP_dtheta.col(k).isZero(0.0)) dv_dtheta.col(k).noalias() = s.MinvJt * dP_dtheta.col(k);
+  }
   for (Index l = 0; l < L; ++l) {
     const Index row = body_column[s.bodies[l]];
-    for (Index k = 0; k < L; ++k) {
+    for (Index k = 0; k < (velocities ? L : 0); ++k) {
       jacobian.block<6, 6>(row, body_column[s.bodies[k]]) += dv_dv.block<6, 6>(6 * l, 6 * k);
     }
     for (Index j = 0; j < m; ++j) {
@@ -139,7 +156,7 @@ void scatter(const IslandSystem& s, const MatrixXd& dP_dv, const MatrixXd& dP_dt
     out.row(0) = n.transpose();
     out.bottomRows<3>() = Matrix3d::Identity() - n * n.transpose();
     const Index row = impulse_rows + 4 * static_cast<Index>(s.contacts[i]);
-    for (Index l = 0; l < L; ++l) {
+    for (Index l = 0; l < (velocities ? L : 0); ++l) {
       jacobian.block<4, 6>(row, body_column[s.bodies[l]]) = out * dP_dv.block<3, 6>(3 * i, 6 * l);
     }
     for (Index j = 0; j < m; ++j) {
@@ -348,8 +365,81 @@ Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
 
 // Implicit differentiation of the exact solver's answer on island `s`: F(P, u, theta) = 0, one
 // row triple per contact for its mode, F_P dP = -(F_u du + F_theta dtheta).
-bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, MatrixXd& dP_dv,
-                 MatrixXd& dP_dtheta, std::vector<ContactDerivativeMode>& modes) {
+bool wantedCoefficient(const DerivativeColumns& columns, Index column) {
+  return columns.coefficients.empty() || columns.coefficients[static_cast<std::size_t>(column)];
+}
+
+// The all-sticking system F_P dP = -rhs with F_P = W = J M^-1 J^T (every contact's rows those of
+// a sticking contact), in the least-norm sense of the general path below without decomposing the
+// 3m x 3m W: with J of full column rank (more contact rows than body unknowns, a face on its
+// corners), W^+ = J G^-1 M G^-1 J^T, G = J^T J (6L x 6L); with W regular (3m <= 6L), W^-1. False
+// when the rank condition does not hold clearly (the caller then decomposes F_P).
+// Relative size of the smallest pivot of a Cholesky factor (squared) for the rank to count as
+// full: well above round-off, well below any physical mass ratio's effect on G or W.
+constexpr double kRegular = 1e-10;
+
+template <typename Llt>
+bool regular(const Llt& llt) {
+  if (llt.info() != Eigen::Success) return false;
+  const auto pivots = llt.matrixLLT().diagonal().cwiseAbs2().eval();
+  return pivots.minCoeff() > kRegular * pivots.maxCoeff();
+}
+
+// G^-1 b for every column b of `columns`, in place: column by column for a fixed size (inlined
+// kernels), at once otherwise.
+template <int N>
+void solveColumns(const Eigen::LLT<Eigen::Matrix<double, N, N>>& G,
+                  Eigen::Matrix<double, N, Eigen::Dynamic>& columns) {
+  if constexpr (N == Eigen::Dynamic) {
+    columns = G.solve(columns).eval();
+  } else {
+    for (Index k = 0; k < columns.cols(); ++k) {
+      const Eigen::Matrix<double, N, 1> b = columns.col(k);
+      columns.col(k) = G.solve(b);
+    }
+  }
+}
+
+// The body-space least-norm solve, G of size N x N (N = 6L; fixed for one body, the common case,
+// where Eigen's fixed-size kernels avoid the blocked ones' set-up).
+template <int N>
+bool solveStickingBodySpace(const IslandSystem& s, const MatrixXd& rhs, MatrixXd& solution) {
+  using Square = Eigen::Matrix<double, N, N>;
+  using Tall = Eigen::Matrix<double, N, Eigen::Dynamic>;
+  const Index L = s.J.cols();
+  const Eigen::LLT<Square> G(Square(s.J.transpose().lazyProduct(s.J)));
+  if (!regular(G)) return false;
+  // x = G^-1 J^T rhs (the bodies' velocity change, up to sign), then J G^-1 M x.
+  Tall x = s.J.transpose().lazyProduct(rhs);
+  solveColumns(G, x);
+  Tall Mx(L, x.cols());
+  for (Index l = 0; l < L / 6; ++l) {
+    const auto b = static_cast<std::size_t>(l);
+    Mx.template middleRows<3>(6 * l).noalias() = s.mass[b] * x.template middleRows<3>(6 * l);
+    Mx.template middleRows<3>(6 * l + 3).noalias() =
+        s.inertia[b] * x.template middleRows<3>(6 * l + 3);
+  }
+  if (!Mx.allFinite()) return false;  // a singular inertia: decomposed instead
+  solveColumns(G, Mx);
+  solution = s.J.lazyProduct(Mx);
+  return true;
+}
+
+bool solveSticking(const IslandSystem& s, const MatrixXd& rhs, MatrixXd& solution) {
+  const Index rows = s.J.rows(), L = s.J.cols();
+  if (rows > L) {
+    return L == 6 ? solveStickingBodySpace<6>(s, rhs, solution)
+                  : solveStickingBodySpace<Eigen::Dynamic>(s, rhs, solution);
+  }
+  const Eigen::LLT<MatrixXd> W(s.W());
+  if (!regular(W)) return false;
+  solution = W.solve(rhs);
+  return true;
+}
+
+bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking,
+                 const DerivativeColumns& columns, MatrixXd& dP_dv, MatrixXd& dP_dtheta,
+                 std::vector<ContactDerivativeMode>& modes) {
   const Index m = static_cast<Index>(s.contacts.size());
   MatrixXd F_P = MatrixXd::Zero(3 * m, 3 * m), F_u = MatrixXd::Zero(3 * m, 3 * m),
            F_theta = MatrixXd::Zero(3 * m, 3 * m);
@@ -359,7 +449,10 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, M
     P_scale = std::max(P_scale, s.P[i].norm());
   }
   const double facet = 1.0 + std::cos(2.0 * kPi / kD);
-  bool frictional_sliding = false;  // F_P then depends on the inputs (pyramid, mu)
+  bool frictional_sliding = false;   // F_P then depends on the inputs (pyramid, mu)
+  bool every_row_sticking = true;    // F_P = W
+  std::vector<Index> sticking_rows;  // first rows of the sticking contacts
+  sticking_rows.reserve(static_cast<std::size_t>(m));
   for (Index i = 0; i < m; ++i) {
     const Contact& contact = scene.contacts[s.contacts[i]];
     ContactDerivativeMode& mode = modes[s.contacts[i]];
@@ -388,12 +481,13 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, M
     E.row(1) = E2.transpose();
     // The normal row of an active contact: n^T u' - target = 0.
     auto normalRow = [&]() {
-      F_P.block(r, 0, 1, 3 * m) = n.transpose() * s.W.middleRows<3>(r);
+      F_P.block(r, 0, 1, 3 * m) = n.transpose() * s.W().middleRows<3>(r);
       F_u.block<1, 3>(r, r) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
       if (approaching) F_theta(r, r + kRestitution) = u_n;
     };
     if (!(P_n > kPyramidRoundOff * P_scale) && P_t.norm() <= kPyramidRoundOff * P_scale) {
       mode.mode = ImpactMode::kNoImpulse;
+      every_row_sticking = false;
       F_P.block<3, 3>(r, r).setIdentity();
       if (u_after.dot(n) - target <= kSwitchTolerance * u_reference) {
         flag(mode, "u'_n at its target with P_n = 0: separating/active; no-impulse side");
@@ -409,6 +503,7 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, M
     };
     if (contact.frictionless()) {
       mode.mode = ImpactMode::kSliding;
+      every_row_sticking = false;
       normalRow();
       F_P.block<2, 3>(r + 1, r) = E;  // P_t = 0
       // Friction from mu = 0 up: along the pyramid edge most opposed to the slip.
@@ -425,24 +520,40 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, M
       continue;
     }
     // The friction impulse in the pyramid's sector (d_k, d_k+1): P_t = b_k d_k + b_k+1 d_k+1.
-    const int k = sector(P_t), k1 = (k + 1) % kD;
-    const Vector3d d_k = pyramid.direction(k), d_k1 = pyramid.direction(k1);
-    Eigen::Matrix2d B;
-    B << d_k.dot(pyramid.t1), d_k1.dot(pyramid.t1), d_k.dot(pyramid.t2), d_k1.dot(pyramid.t2);
-    const Eigen::Vector2d beta =
-        B.inverse() * Eigen::Vector2d(P_t.dot(pyramid.t1), P_t.dot(pyramid.t2));
-    const double gauge = beta.sum();
+    // (Computed where it is read: the all-sticking answer's contacts do without it.)
+    struct FrictionSector {
+      int k, k1;
+      Vector3d d_k, d_k1;
+      Eigen::Vector2d beta;
+      double gauge;
+    };
+    auto frictionSector = [&]() {
+      FrictionSector f;
+      f.k = sector(P_t);
+      f.k1 = (f.k + 1) % kD;
+      f.d_k = pyramid.direction(f.k);
+      f.d_k1 = pyramid.direction(f.k1);
+      Eigen::Matrix2d B;
+      B << f.d_k.dot(pyramid.t1), f.d_k1.dot(pyramid.t1), f.d_k.dot(pyramid.t2),
+          f.d_k1.dot(pyramid.t2);
+      f.beta = B.inverse() * Eigen::Vector2d(P_t.dot(pyramid.t1), P_t.dot(pyramid.t2));
+      f.gauge = f.beta.sum();
+      return f;
+    };
     if (slip <= kSlipTolerance * u_reference) {
       mode.mode = ImpactMode::kSticking;
-      F_P.block(r, 0, 3, 3 * m) = s.W.middleRows<3>(r);
+      sticking_rows.push_back(r);  // F_P's rows: W's, filled if F_P is decomposed
       F_u.block<3, 3>(r, r) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
       if (approaching) F_theta.block<3, 1>(r, r + kRestitution) = u_n * n;
       // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
       // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
+      auto on_pyramid_boundary = [&] {
+        const double gauge = frictionSector().gauge;
+        return gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
+               (mu_d < mu_s && std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n);
+      };
       if (all_sticking ? P_t.norm() >= (1.0 - kSwitchTolerance) * mu_s * P_n
-                       : gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
-                             (mu_d < mu_s &&
-                              std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n)) {
+                       : on_pyramid_boundary()) {
         flag(mode, all_sticking ? "stick/slide: |P_t| = mu_s P_n; sticking side"
                                 : "stick/slide: friction on its pyramid's boundary; sticking side");
       }
@@ -450,10 +561,16 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, M
     }
     mode.mode = ImpactMode::kSliding;
     frictional_sliding = true;
+    every_row_sticking = false;
     if (slip <= 10.0 * kSlipTolerance * u_reference) {
       flag(mode, "stick/slide: the slip is at the solver's tolerance; sliding side");
     }
     normalRow();
+    const FrictionSector f = frictionSector();
+    const int k = f.k, k1 = f.k1;
+    const Vector3d &d_k = f.d_k, &d_k1 = f.d_k1;
+    const Eigen::Vector2d& beta = f.beta;
+    const double gauge = f.gauge;
     const double mu = mu_d;  // a contact that slides ends on the dynamic pyramid
     const double beta_min = std::min(beta(0), beta(1));
     if (beta_min <= kPyramidRoundOff * gauge) {
@@ -478,38 +595,63 @@ bool exactNewton(const IslandSystem& s, const Scene& scene, bool all_sticking, M
       const Vector3d g = d_k - d_k1;
       const Vector3d c = (d_k + d_k1) / facet;
       const Matrix3d D_k = pyramid.derivative(k, n), D_k1 = pyramid.derivative(k1, n);
-      F_P.block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W.middleRows<3>(r);
+      F_P.block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W().middleRows<3>(r);
       F_u.block<1, 3>(r + 1, r) = g.transpose() + u_after.transpose() * (D_k - D_k1);
       F_P.block<1, 3>(r + 2, r) = c.transpose() - mu * n.transpose();
       F_u.block<1, 3>(r + 2, r) = P.transpose() * (D_k + D_k1) / facet;
       F_theta(r + 2, r + kDynamic) = -P_n;
     }
   }
-  // One decomposition for both right-hand sides, F_u J (F_u is block diagonal) and F_theta. Where
-  // redundant contacts make F_P singular (a face on 4 points), the least-norm change, as the
-  // solver's least-norm impulses (the velocities' derivatives are the same for every solution).
+  // One decomposition for both right-hand sides, F_u J (F_u is block diagonal) and F_theta, of
+  // the columns asked for; a coefficient column whose F_theta column is 0 has a 0 derivative (a
+  // sticking contact's friction coefficients) and is not solved. Where redundant contacts make
+  // F_P singular (a face on 4 points), the least-norm change, as the solver's least-norm impulses
+  // (the velocities' derivatives are the same for every solution).
   const Index L = s.J.cols();
-  MatrixXd rhs(3 * m, L + 3 * m);
-  for (Index i = 0; i < m; ++i) {
-    rhs.block(3 * i, 0, 3, L).noalias() = F_u.block<3, 3>(3 * i, 3 * i) * s.J.middleRows<3>(3 * i);
-  }
-  rhs.rightCols(3 * m) = F_theta;
-  const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
-  if (cod.rank() < 3 * m && frictional_sliding) {
-    // Redundant contacts sliding with friction (a face sliding on 4 points): how the normal
-    // impulse is shared is not fixed by the equations, and through friction neither are the
-    // twists; the solver's choice depends on its own unknowns, and the least-norm change of these
-    // equations (whose F_P moves with the pyramid and mu) is not its derivative.
-    for (const int c : s.contacts) {
-      flag(modes[c],
-           "redundant contacts sliding with friction: the impulses are not unique, the "
-           "solver's choice is differenced");
+  const Index V = columns.velocities ? L : 0;
+  std::vector<Index> theta_columns;  // island coefficient columns solved
+  theta_columns.reserve(static_cast<std::size_t>(3 * m));
+  for (Index k = 0; k < 3 * m; ++k) {
+    if (wantedCoefficient(columns, 3 * static_cast<Index>(s.contacts[k / 3]) + k % 3) &&
+        !F_theta.col(k).isZero(0.0)) {
+      theta_columns.push_back(k);
     }
-    return false;
   }
-  const MatrixXd solution = cod.solve(rhs);
-  dP_dv = -solution.leftCols(L);
-  dP_dtheta = -solution.rightCols(3 * m);
+  const Index T = static_cast<Index>(theta_columns.size());
+  dP_dv.setZero(3 * m, L);
+  dP_dtheta.setZero(3 * m, 3 * m);
+  if (V + T == 0) return true;
+  MatrixXd rhs(3 * m, V + T);
+  if (V > 0) {
+    for (Index i = 0; i < m; ++i) {
+      rhs.block(3 * i, 0, 3, L).noalias() =
+          F_u.block<3, 3>(3 * i, 3 * i) * s.J.middleRows<3>(3 * i);
+    }
+  }
+  for (Index t = 0; t < T; ++t)
+    rhs.col(V + t) = F_theta.col(theta_columns[static_cast<std::size_t>(t)]);
+  MatrixXd solution;
+  if (!every_row_sticking || !solveSticking(s, rhs, solution)) {
+    for (const Index r : sticking_rows) F_P.block(r, 0, 3, 3 * m) = s.W().middleRows<3>(r);
+    const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
+    if (cod.rank() < 3 * m && frictional_sliding) {
+      // Redundant contacts sliding with friction (a face sliding on 4 points): how the normal
+      // impulse is shared is not fixed by the equations, and through friction neither are the
+      // twists; the solver's choice depends on its own unknowns, and the least-norm change of
+      // these equations (whose F_P moves with the pyramid and mu) is not its derivative.
+      for (const int c : s.contacts) {
+        flag(modes[c],
+             "redundant contacts sliding with friction: the impulses are not unique, the "
+             "solver's choice is differenced");
+      }
+      return false;
+    }
+    solution = cod.solve(rhs);
+  }
+  if (V > 0) dP_dv = -solution.leftCols(L);
+  for (Index t = 0; t < T; ++t) {
+    dP_dtheta.col(theta_columns[static_cast<std::size_t>(t)]) = -solution.col(V + t);
+  }
   return true;
 }
 
@@ -557,7 +699,7 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
                        const SolverOptions& options, std::chrono::steady_clock::time_point end,
                        const CollisionResult& base_result, const std::vector<std::size_t>& islands,
                        const std::vector<Index>& body_column, Index velocity_count,
-                       ImpactDerivatives& out) {
+                       const DerivativeColumns& columns, ImpactDerivatives& out) {
   const Evaluation base = evaluate(base_result, body_column, velocity_count);
   for (const std::size_t island : islands) {
     const SolveReport& report = base_result.islands[island];
@@ -673,7 +815,7 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
       }
       for (const Index row : rows) out.jacobian(row, col) = derivative(row);
     };
-    for (const int b : bodies) {
+    for (const int b : columns.velocities ? bodies : std::vector<int>{}) {
       BodyState& state = perturbed.bodies[b];
       const std::string name = "bodies[" + std::to_string(b) + "].twist.";
       const char* axes[] = {"x", "y", "z"};
@@ -688,12 +830,20 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
       Contact& contact = perturbed.contacts[c];
       const Index col = velocity_count + 3 * c;
       const std::string name = "contacts[" + std::to_string(c) + "].";
-      column(col + kRestitution, contact.restitution, 0.0, 1.0, 1.0, name + "restitution");
+      const Index first = 3 * static_cast<Index>(c);
+      if (wantedCoefficient(columns, first + kRestitution)) {
+        column(col + kRestitution, contact.restitution, 0.0, 1.0, 1.0, name + "restitution");
+      }
       // Each coefficient on its own, mu_d <= mu_s aside: the solvers read them separately (the
       // static one for the stick test, the dynamic one for slip), so the map extends across it.
-      column(col + kStatic, contact.static_friction, 0.0, INFINITY, 1.0, name + "static_friction");
-      column(col + kDynamic, contact.dynamic_friction, 0.0, INFINITY, 1.0,
-             name + "dynamic_friction");
+      if (wantedCoefficient(columns, first + kStatic)) {
+        column(col + kStatic, contact.static_friction, 0.0, INFINITY, 1.0,
+               name + "static_friction");
+      }
+      if (wantedCoefficient(columns, first + kDynamic)) {
+        column(col + kDynamic, contact.dynamic_friction, 0.0, INFINITY, 1.0,
+               name + "dynamic_friction");
+      }
     }
   }
 }
@@ -716,19 +866,59 @@ const char* toString(ImpactMode mode) {
   return "unknown";
 }
 
+namespace {
+// Label "prefix[index].part" built in a buffer and allocated once: the labels are built per call
+// of the linear uncertainty, where their allocations are a visible part of the cost.
+class LabelWriter {
+ public:
+  void start(const char* prefix, std::size_t index) {
+    length_ = 0;
+    append(prefix);
+    char digits[24];
+    int count = 0;
+    do {
+      digits[count++] = static_cast<char>('0' + index % 10);
+      index /= 10;
+    } while (index > 0);
+    buffer_[length_++] = '[';
+    while (count > 0) buffer_[length_++] = digits[--count];
+    buffer_[length_++] = ']';
+    buffer_[length_++] = '.';
+    stem_ = length_;
+  }
+  std::string label(const char* part, const char* axis = "") {
+    length_ = stem_;
+    append(part);
+    append(axis);
+    return std::string(buffer_, length_);
+  }
+
+ private:
+  void append(const char* text) {
+    while (*text != '\0' && length_ < sizeof buffer_) buffer_[length_++] = *text++;
+  }
+  char buffer_[96];
+  std::size_t length_ = 0;
+  std::size_t stem_ = 0;
+};
+}  // namespace
+
 std::vector<std::string> ImpactDerivatives::rowLabels() const {
   std::vector<std::string> labels;
   labels.reserve(static_cast<std::size_t>(jacobian.rows()));
+  LabelWriter writer;
   for (const int b : movable_bodies) {
-    const std::string name = "bodies[" + std::to_string(b) + "].twist.";
-    for (const char* part : {"linear.", "angular."}) {
-      for (const char* axis : {"x", "y", "z"}) labels.push_back(name + part + axis);
+    writer.start("bodies", static_cast<std::size_t>(b));
+    for (const char* part : {"twist.linear.", "twist.angular."}) {
+      for (const char* axis : {"x", "y", "z"}) labels.push_back(writer.label(part, axis));
     }
   }
   for (std::size_t c = 0; c < contact_count; ++c) {
-    const std::string name = "impulses[" + std::to_string(c) + "].";
-    labels.push_back(name + "normal_impulse");
-    for (const char* axis : {"x", "y", "z"}) labels.push_back(name + "friction_impulse." + axis);
+    writer.start("impulses", c);
+    labels.push_back(writer.label("normal_impulse"));
+    for (const char* axis : {"x", "y", "z"}) {
+      labels.push_back(writer.label("friction_impulse.", axis));
+    }
   }
   return labels;
 }
@@ -753,7 +943,16 @@ std::vector<std::string> ImpactDerivatives::columnLabels() const {
 
 ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptions& options,
                                            const RequestLimits& limits) {
-  const std::vector<std::pair<int, int>> contact_bodies = validate(scene, options, limits);
+  return computeValidatedImpactDerivatives(scene, validate(scene, options, limits), options, {});
+}
+
+ImpactDerivatives computeValidatedImpactDerivatives(
+    const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
+    const SolverOptions& options, const DerivativeColumns& columns) {
+  if (!columns.coefficients.empty() && columns.coefficients.size() != 3 * scene.contacts.size()) {
+    throw std::invalid_argument(
+        "computeValidatedImpactDerivatives: one coefficient column flag per coefficient");
+  }
   // One time budget for the whole call: the prediction and every perturbed solve.
   const auto end = std::chrono::steady_clock::now() +
                    std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -776,7 +975,7 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
   out.jacobian.setZero(velocity_count + out.impulseCount(),
                        velocity_count + out.coefficientCount());
   // Bodies the impacts leave alone (and every body before its island is differentiated): v' = v.
-  out.jacobian.topLeftCorner(velocity_count, velocity_count).setIdentity();
+  if (columns.velocities) out.jacobian.topLeftCorner(velocity_count, velocity_count).setIdentity();
 
   std::vector<int> local_of(scene.bodies.size(), -1);
   std::vector<std::size_t> numerical;
@@ -829,8 +1028,8 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
       MatrixXd dP_dv, dP_dtheta;
       // The exact solver's answer came without a pivot (iterations 0) when every contact was
       // active and sticking inside its static cone (exact_solver.h).
-      if (exactNewton(s, scene, report.iterations == 0, dP_dv, dP_dtheta, out.contacts)) {
-        scatter(s, dP_dv, dP_dtheta, body_column, velocity_count, out.jacobian);
+      if (exactNewton(s, scene, report.iterations == 0, columns, dP_dv, dP_dtheta, out.contacts)) {
+        scatter(s, dP_dv, dP_dtheta, columns.velocities, body_column, velocity_count, out.jacobian);
         continue;
       }
     }
@@ -839,7 +1038,13 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
   if (!numerical.empty()) {
     out.method = DerivativeMethod::kFiniteDifference;
     finiteDifferences(scene, contact_bodies, options, end, out.result, numerical, body_column,
-                      velocity_count, out);
+                      velocity_count, columns, out);
+  }
+  // The closed forms fill every column: those not asked for are 0, as documented.
+  if (!columns.velocities) out.jacobian.leftCols(velocity_count).setZero();
+  for (std::size_t k = 0; k < columns.coefficients.size(); ++k) {
+    if (!columns.coefficients[k])
+      out.jacobian.col(velocity_count + static_cast<Index>(k)).setZero();
   }
   return out;
 }

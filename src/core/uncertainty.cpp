@@ -3,9 +3,11 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -71,9 +73,21 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
   Prepared prepared;
   prepared.mean_scene = scene;
   std::vector<bool> named(scene.contacts.size(), false);
+  prepared.contacts.reserve(uncertainties.size());
+  prepared.dimensions.reserve(3 * uncertainties.size());
+  prepared.variances.reserve(3 * uncertainties.size());
+  // Field names built with one allocation each (the linear method's cost is a few of them).
+  auto join = [](const std::string& a, const char* b, const char* c = "") {
+    std::string out;
+    out.reserve(a.size() + std::strlen(b) + std::strlen(c));
+    out += a;
+    out += b;
+    out += c;
+    return out;
+  };
   for (std::size_t k = 0; k < uncertainties.size(); ++k) {
     const ContactUncertainty& entry = uncertainties[k];
-    const std::string field = "uncertainties[" + std::to_string(k) + "]";
+    const std::string field = join("uncertainties[", std::to_string(k).c_str(), "]");
     if (entry.contact >= scene.contacts.size())
       throw InvalidInput(field + ".contact", "no contact " + std::to_string(entry.contact) +
                                                  " (the request has " +
@@ -100,11 +114,13 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
       }
       std::optional<Warning> warning;
       CheckedDistribution distribution(**given[which], 0.0, uppers[which],
-                                       field + "." + kCoefficientNames[which], &warning);
+                                       join(field, ".", kCoefficientNames[which]), &warning);
       if (warning) prepared.warnings.push_back(*warning);
       return distribution;
     };
-    UncertainContact uncertain{entry.contact, k, {checked(0), checked(1), checked(2)}, {}};
+    // (The dimensions spelled out: an empty {} would value-initialise them to 0, dimension 0.)
+    UncertainContact uncertain{
+        entry.contact, k, {checked(0), checked(1), checked(2)}, {-1, -1, -1}};
     for (int which = 0; which < 3; ++which) {
       coefficient(contact, which) = uncertain.distributions[which].mean();
       if (uncertain.distributions[which].variance() > 0.0) {
@@ -126,6 +142,14 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
     prepared.contacts.push_back(std::move(uncertain));
   }
   return prepared;
+}
+
+// The field a mu_d > mu_s draw is reported under: dynamic_friction when it has a spread (it is
+// the one capped), else static_friction (only mu_s varies: its low draws fall below mu_d).
+std::string overlapField(const UncertainContact& contact) {
+  return "uncertainties[" + std::to_string(contact.entry) + "]." +
+         (contact.dimension[kDynamicFriction] >= 0 ? kCoefficientNames[kDynamicFriction]
+                                                   : kCoefficientNames[kStaticFriction]);
 }
 
 // P(mu_d > mu_s) from the normal approximation of mu_s - mu_d (same means and variances): cheap
@@ -174,10 +198,16 @@ std::vector<std::string> outcomeLabels(const std::vector<int>& movable, std::siz
   return layout.rowLabels();
 }
 
+// "12.3 %": three significant digits, as printf's %.3g (std::to_chars: no locale, no format
+// parsing; a few of these are in every linear answer).
 std::string percentText(double fraction) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g %%", 100.0 * fraction);
-  return text;
+  char text[40];
+  const std::to_chars_result end =
+      std::to_chars(text, text + sizeof text - 2, 100.0 * fraction, std::chars_format::general, 3);
+  char* last = end.ptr;
+  *last++ = ' ';
+  *last++ = '%';
+  return std::string(text, last);
 }
 
 // The probability that contact c sticks, from the linearised margin of its mode at the means
@@ -265,8 +295,20 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
 
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
                                        const RequestLimits& limits) {
+  // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
+  // probability of a sliding contact reads it), are computed.
+  const std::vector<std::pair<int, int>> contact_bodies =
+      validate(prepared.mean_scene, options, limits);
+  DerivativeColumns columns;
+  columns.velocities = false;
+  columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
+  for (std::size_t c = 0; c < prepared.mean_scene.contacts.size(); ++c)
+    columns.coefficients[3 * c + kDynamicFriction] = true;
+  for (const auto& [index, which] : prepared.dimensions)
+    columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
+        true;
   const ImpactDerivatives derivatives =
-      computeImpactDerivatives(prepared.mean_scene, options, limits);
+      computeValidatedImpactDerivatives(prepared.mean_scene, contact_bodies, options, columns);
   OutcomeDistribution outcome;
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = derivatives.velocityCount() + derivatives.impulseCount();
@@ -276,16 +318,30 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
               [&](Eigen::Index r) -> double& { return outcome.mean(r); });
   const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   std::vector<int> column_of_dimension(prepared.dimensions.size());
-  Eigen::MatrixXd scaled(m, dims);  // J columns times the standard deviations
+  // J columns times the standard deviations; a coefficient the outcome does not depend on (a
+  // sticking contact's friction: a zero column) adds nothing to the covariance and is left out.
+  Eigen::MatrixXd scaled(m, dims);
+  Eigen::Index used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     const auto& [index, which] = prepared.dimensions[j];
     column_of_dimension[j] =
         static_cast<int>(derivatives.velocityCount() +
                          3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
-    scaled.col(j) =
-        derivatives.jacobian.col(column_of_dimension[j]) * std::sqrt(prepared.variances[j]);
+    const auto column = derivatives.jacobian.col(column_of_dimension[j]);
+    if (column.isZero(0.0)) continue;
+    scaled.col(used++) = column * std::sqrt(prepared.variances[j]);
   }
-  outcome.covariance = scaled * scaled.transpose();
+  // Rows x a few columns: one triangle by plain loops, mirrored (cheaper than a product kernel's
+  // set-up at this size).
+  outcome.covariance.resize(m, m);
+  for (Eigen::Index c = 0; c < m; ++c) {
+    for (Eigen::Index r = c; r < m; ++r) {
+      double sum = 0.0;
+      for (Eigen::Index j = 0; j < used; ++j) sum += scaled(r, j) * scaled(c, j);
+      outcome.covariance(r, c) = sum;
+      outcome.covariance(c, r) = sum;
+    }
+  }
   const Eigen::VectorXd spread = outcome.covariance.diagonal().cwiseSqrt();
   outcome.q05 = outcome.mean - kZ95 * spread;
   outcome.q95 = outcome.mean + kZ95 * spread;
@@ -299,8 +355,9 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     const double overlap = approximateOverlapProbability(uncertain);
     if (overlap > kTruncationWarningMass) {
       outcome.warnings.push_back(
-          {"uncertainties[" + std::to_string(uncertain.entry) + "].dynamic_friction",
-           "exceeds static_friction with probability about " + percentText(overlap) +
+          {overlapField(uncertain),
+           "dynamic_friction exceeds static_friction with probability about " +
+               percentText(overlap) +
                " (normal approximation of mu_s - mu_d;"
                " such draws are solved with mu_d = mu_s by the sampled method; the linear "
                "method does not see the cap)",
@@ -387,12 +444,13 @@ void summariseSamples(const Eigen::MatrixXd& values, const std::vector<unsigned 
     std::size_t count = 0;
     for (std::size_t i = 0; i < samples; ++i) count += capped[i * prepared.contacts.size() + u];
     if (count == 0) continue;
-    outcome.warnings.push_back(
-        {"uncertainties[" + std::to_string(prepared.contacts[u].entry) + "].dynamic_friction",
-         "exceeded static_friction in " + std::to_string(count) + " of " + std::to_string(samples) +
-             " samples (" + percentText(static_cast<double>(count) / samples) +
-             "): those were solved with mu_d = mu_s",
-         Warning::Kind::kInput});
+    outcome.warnings.push_back({overlapField(prepared.contacts[u]),
+                                "dynamic_friction exceeded static_friction in " +
+                                    std::to_string(count) + " of " + std::to_string(samples) +
+                                    " samples (" +
+                                    percentText(static_cast<double>(count) / samples) +
+                                    "): those were solved with mu_d = mu_s",
+                                Warning::Kind::kInput});
   }
 }
 
@@ -429,8 +487,26 @@ void checkOutcomeSize(Eigen::Index rows, std::size_t samples) {
                            " sampled values: ask for fewer samples");
 }
 
-OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOptions& options,
-                                        const UncertaintyOptions& uncertainty, WorkerPool* pool) {
+// The samples of a sampled distribution, as they are solved.
+struct SampleStore {
+  Eigen::MatrixXd values;               // one column per sample
+  std::vector<unsigned char> sticking;  // sample-major, one entry per contact
+  std::vector<unsigned char> capped;    // sample-major, one entry per uncertain contact
+};
+
+// The one sampling loop of the rigid-body and the general-body paths: the checks of the sample
+// count and size, the scrambled Halton points through the coefficients' quantile functions (mu_d
+// capped at mu_s and flagged), the time budget, the samples spread over `tasks` tasks on `pool`
+// (task t: a contiguous range of them). make_solver(t) gives task
+// t's solver (its own copy of the problem), called once per sample as solve(i, drawn, options,
+// store): drawn[u] = (e, mu_s, mu_d) of prepared.contacts[u], set on its copy, solved with
+// `options` (what is left of the budget), written into column i of store.values and the sample's
+// entries of store.sticking.
+template <class MakeSolver>
+SampleStore sampleAll(const Prepared& prepared, const SolverOptions& options,
+                      const UncertaintyOptions& uncertainty, Eigen::Index rows,
+                      std::size_t contacts, std::size_t tasks, WorkerPool* pool,
+                      MakeSolver&& make_solver) {
   const auto start = std::chrono::steady_clock::now();
   const std::size_t dims = prepared.dimensions.size();
   if (dims > HaltonSequence::kMaxDimensions)
@@ -438,47 +514,63 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
                                             std::to_string(HaltonSequence::kMaxDimensions) +
                                             " uncertain coefficients (with a spread) per request");
   const HaltonSequence sequence(dims, uncertainty.seed);
-  const Scene& scene = prepared.mean_scene;
-  const std::vector<int> movable = movableBodies(scene);
-  const std::size_t contacts = scene.contacts.size();
-  const auto n = static_cast<Eigen::Index>(uncertainty.samples);
-  const Eigen::Index m =
-      6 * static_cast<Eigen::Index>(movable.size()) + 4 * static_cast<Eigen::Index>(contacts);
-  checkOutcomeSize(m, uncertainty.samples);
-  Eigen::MatrixXd values(m, n);  // one column per sample
-  std::vector<unsigned char> sticking(uncertainty.samples * contacts, 0);
-  std::vector<unsigned char> capped(uncertainty.samples * prepared.contacts.size(), 0);
-  constexpr std::size_t kChunk = 32;
-  const std::size_t chunks = (uncertainty.samples + kChunk - 1) / kChunk;
-  auto run = [&](std::size_t chunk) {
-    Scene sample = scene;
-    const std::size_t end = std::min(uncertainty.samples, (chunk + 1) * kChunk);
-    for (std::size_t i = chunk * kChunk; i < end; ++i) {
+  const std::size_t samples = uncertainty.samples;
+  checkOutcomeSize(rows, samples);
+  const std::size_t uncertain = prepared.contacts.size();
+  SampleStore store;
+  store.values.resize(rows, static_cast<Eigen::Index>(samples));
+  store.sticking.assign(samples * contacts, 0);
+  store.capped.assign(samples * uncertain, 0);
+  tasks = std::max<std::size_t>(1, std::min(tasks, samples));
+  auto run = [&](std::size_t task) {
+    auto solve = make_solver(task);
+    std::vector<std::array<double, 3>> drawn(uncertain);
+    const std::size_t end = (task + 1) * samples / tasks;
+    for (std::size_t i = task * samples / tasks; i < end; ++i) {
       const SolverOptions sample_options = remainingBudget(options, start);
-      for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
-        const UncertainContact& uncertain = prepared.contacts[u];
-        const std::array<double, 3> drawn =
-            drawCoefficients(uncertain, sequence, i, capped[i * prepared.contacts.size() + u]);
-        Contact& contact = sample.contacts[uncertain.contact];
-        for (int which = 0; which < 3; ++which) coefficient(contact, which) = drawn[which];
-      }
-      const CollisionResult result =
-          computeValidatedResponse(sample, prepared.contact_bodies, sample_options);
-      fillOutcome(result, movable, [&](Eigen::Index r) -> double& {
-        return values(r, static_cast<Eigen::Index>(i));
-      });
-      for (std::size_t c = 0; c < contacts; ++c)
-        sticking[i * contacts + c] = result.impulses[c].sticking ? 1 : 0;
+      for (std::size_t u = 0; u < uncertain; ++u)
+        drawn[u] =
+            drawCoefficients(prepared.contacts[u], sequence, i, store.capped[i * uncertain + u]);
+      solve(i, drawn, sample_options, store);
     }
   };
   if (pool != nullptr) {
-    pool->parallelFor(chunks, run);
+    pool->parallelFor(tasks, run);
   } else {
-    for (std::size_t chunk = 0; chunk < chunks; ++chunk) run(chunk);
+    for (std::size_t task = 0; task < tasks; ++task) run(task);
   }
+  return store;
+}
 
+OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOptions& options,
+                                        const UncertaintyOptions& uncertainty, WorkerPool* pool) {
+  const Scene& scene = prepared.mean_scene;
+  const std::vector<int> movable = movableBodies(scene);
+  const std::size_t contacts = scene.contacts.size();
+  const Eigen::Index m =
+      6 * static_cast<Eigen::Index>(movable.size()) + 4 * static_cast<Eigen::Index>(contacts);
+  // A few tasks per thread (the samples' costs differ: some pivot, some do not), each with one
+  // copy of the scene whose coefficients it changes in place.
+  const std::size_t tasks = 4 * static_cast<std::size_t>(pool != nullptr ? pool->threads() : 1);
+  const SampleStore store =
+      sampleAll(prepared, options, uncertainty, m, contacts, tasks, pool, [&](std::size_t) {
+        return [&, sample = scene](std::size_t i, const std::vector<std::array<double, 3>>& drawn,
+                                   const SolverOptions& sample_options, SampleStore& out) mutable {
+          for (std::size_t u = 0; u < drawn.size(); ++u) {
+            Contact& contact = sample.contacts[prepared.contacts[u].contact];
+            for (int which = 0; which < 3; ++which) coefficient(contact, which) = drawn[u][which];
+          }
+          const CollisionResult result =
+              computeValidatedResponse(sample, prepared.contact_bodies, sample_options);
+          const auto column = static_cast<Eigen::Index>(i);
+          fillOutcome(result, movable,
+                      [&](Eigen::Index r) -> double& { return out.values(r, column); });
+          for (std::size_t c = 0; c < contacts; ++c)
+            out.sticking[i * contacts + c] = result.impulses[c].sticking ? 1 : 0;
+        };
+      });
   OutcomeDistribution outcome;
-  summariseSamples(values, sticking, contacts, capped, prepared, outcome);
+  summariseSamples(store.values, store.sticking, contacts, store.capped, prepared, outcome);
   outcome.labels = outcomeLabels(movable, contacts);
   return outcome;
 }
@@ -547,73 +639,57 @@ OutcomeDistribution computeBodyOutcomeDistribution(
     coefficients.contacts[c].dynamic_friction = contacts[c].dynamic_friction;
   }
   const Prepared prepared = prepare(coefficients, uncertainties);
-  const std::size_t dims = prepared.dimensions.size();
-  if (dims > HaltonSequence::kMaxDimensions)
-    throw InvalidInput("uncertainties", "the sampled method takes at most " +
-                                            std::to_string(HaltonSequence::kMaxDimensions) +
-                                            " uncertain coefficients (with a spread) per request");
-  const HaltonSequence sequence(dims, uncertainty.seed);
-  const auto start = std::chrono::steady_clock::now();
   const std::size_t contact_count = contacts.size();
-  const auto n = static_cast<Eigen::Index>(uncertainty.samples);
   const Eigen::Index m = velocity_count + 4 * static_cast<Eigen::Index>(contact_count);
-  checkOutcomeSize(m, uncertainty.samples);
-  Eigen::MatrixXd values(m, n);  // one column per sample
-  std::vector<unsigned char> sticking(uncertainty.samples * contact_count, 0);
-  std::vector<unsigned char> capped(uncertainty.samples * prepared.contacts.size(), 0);
-  const std::size_t parts = std::min(copies.size(), uncertainty.samples);
-  auto run = [&](std::size_t part) {
-    const std::vector<BodyModel*>& bodies = copies[part];
-    std::vector<Eigen::VectorXd> before;
-    before.reserve(body_count);
-    for (const BodyModel* body : bodies) before.push_back(body->velocity());
-    auto restore = [&] {
-      for (std::size_t b = 0; b < body_count; ++b)
-        if (offset[b] >= 0) bodies[b]->addVelocityChange(before[b] - bodies[b]->velocity());
-    };
-    std::vector<ContactPoint> sample = contacts;
-    for (std::size_t i = part; i < uncertainty.samples; i += parts) {
-      const SolverOptions sample_options = remainingBudget(options, start);
-      for (std::size_t u = 0; u < prepared.contacts.size(); ++u) {
-        const UncertainContact& uncertain = prepared.contacts[u];
-        const std::array<double, 3> drawn =
-            drawCoefficients(uncertain, sequence, i, capped[i * prepared.contacts.size() + u]);
-        ContactPoint& contact = sample[uncertain.contact];
-        contact.restitution = drawn[kRestitution];
-        contact.static_friction = drawn[kStaticFriction];
-        contact.dynamic_friction = drawn[kDynamicFriction];
-      }
-      BodyResponse result;
-      try {
-        result = computeBodyResponse(bodies, sample, sample_options);
-      } catch (...) {
-        restore();
-        throw;
-      }
-      const auto column = static_cast<Eigen::Index>(i);
-      for (std::size_t b = 0; b < body_count; ++b)
-        if (offset[b] >= 0)
-          values.block(offset[b], column, bodies[b]->velocityCount(), 1) = bodies[b]->velocity();
-      Eigen::Index r = velocity_count;
-      for (std::size_t c = 0; c < contact_count; ++c) {
-        const ContactImpulse& impulse = result.impulses[c];
-        values(r++, column) = impulse.normal_impulse;
-        values(r++, column) = impulse.friction_impulse.x();
-        values(r++, column) = impulse.friction_impulse.y();
-        values(r++, column) = impulse.friction_impulse.z();
-        sticking[i * contact_count + c] = impulse.sticking ? 1 : 0;
-      }
-      restore();
-    }
-  };
-  if (pool != nullptr) {
-    pool->parallelFor(parts, run);
-  } else {
-    for (std::size_t part = 0; part < parts; ++part) run(part);
-  }
+  // One task per set of copies (each set is used by one task at a time).
+  const SampleStore store = sampleAll(
+      prepared, options, uncertainty, m, contact_count, copies.size(), pool, [&](std::size_t part) {
+        const std::vector<BodyModel*>& bodies = copies[part];
+        std::vector<Eigen::VectorXd> before;
+        before.reserve(body_count);
+        for (const BodyModel* body : bodies) before.push_back(body->velocity());
+        return [&, before, sample = contacts](
+                   std::size_t i, const std::vector<std::array<double, 3>>& drawn,
+                   const SolverOptions& sample_options, SampleStore& out) mutable {
+          auto restore = [&] {
+            for (std::size_t b = 0; b < body_count; ++b)
+              if (offset[b] >= 0) bodies[b]->addVelocityChange(before[b] - bodies[b]->velocity());
+          };
+          for (std::size_t u = 0; u < drawn.size(); ++u) {
+            ContactPoint& contact = sample[prepared.contacts[u].contact];
+            contact.restitution = drawn[u][kRestitution];
+            contact.static_friction = drawn[u][kStaticFriction];
+            contact.dynamic_friction = drawn[u][kDynamicFriction];
+          }
+          BodyResponse result;
+          try {
+            result = computeBodyResponse(bodies, sample, sample_options);
+          } catch (...) {
+            restore();
+            throw;
+          }
+          const auto column = static_cast<Eigen::Index>(i);
+          for (std::size_t b = 0; b < body_count; ++b)
+            if (offset[b] >= 0)
+              out.values.block(offset[b], column, bodies[b]->velocityCount(), 1) =
+                  bodies[b]->velocity();
+          Eigen::Index r = velocity_count;
+          for (std::size_t c = 0; c < contact_count; ++c) {
+            const ContactImpulse& impulse = result.impulses[c];
+            out.values(r++, column) = impulse.normal_impulse;
+            out.values(r++, column) = impulse.friction_impulse.x();
+            out.values(r++, column) = impulse.friction_impulse.y();
+            out.values(r++, column) = impulse.friction_impulse.z();
+            out.sticking[i * contact_count + c] = impulse.sticking ? 1 : 0;
+          }
+          restore();
+        };
+      });
+  const Eigen::MatrixXd& values = store.values;
+  const auto n = static_cast<Eigen::Index>(uncertainty.samples);
 
   OutcomeDistribution outcome;
-  summariseSamples(values, sticking, contact_count, capped, prepared, outcome);
+  summariseSamples(values, store.sticking, contact_count, store.capped, prepared, outcome);
   for (Eigen::Index r = 0; r < velocity_count; ++r)
     outcome.labels.push_back("velocities[" + std::to_string(r) + "]");
   for (std::size_t c = 0; c < contact_count; ++c) {

@@ -23,6 +23,7 @@
 #include "collision_response/core/problem_contact.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
+#include "collision_response/core/validation.h"
 
 #include "scenes.h"
 
@@ -917,6 +918,112 @@ TEST(ImpactDerivatives, RedundantContactsOfAFaceLandingFlatMatchCentralDifferenc
   EXPECT_GE(sliding, 8);
   EXPECT_GE(analytic, 3);
   EXPECT_GE(differenced, 3);
+  EXPECT_GE(compared, columns * 3 / 4) << compared << " of " << columns;
+}
+
+}  // namespace
+
+namespace {
+
+// computeValidatedImpactDerivatives() with a subset of the columns (the linear uncertainty's
+// call): each column asked for is the full call's column (whose values the tests above check
+// against central differences), every other column is 0. Scenes of every path: several contacts
+// (exact solver, sticking and sliding), a face landing flat (redundant contacts: the body-space
+// all-sticking solve, or finite differences when it slides), one contact (closed form).
+TEST(ImpactDerivatives, ColumnSubsetsAreTheFullCallsColumns) {
+  RandomSource random(2619);
+  int checked = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    cr::Scene scene;
+    if (trial % 3 == 2) {
+      scene.bodies.push_back(ground());
+      cr::BodyState cube;
+      cube.id = "cube";
+      cube.mass = random.uniform(0.5, 3.0);
+      cube.inertia = boxInertia(cube.mass, Eigen::Vector3d(1, 1, 1));
+      cube.position = Eigen::Vector3d(0, 0, 0.5);
+      cube.linear_velocity = Eigen::Vector3d(random.uniform(-1, 1), random.uniform(-1, 1), -2.0);
+      cube.angular_velocity = random.vec(-0.3, 0.3);
+      scene.bodies.push_back(cube);
+      const double mu_s = trial % 2 == 0 ? 2.0 : 0.1;
+      for (const double x : {-0.5, 0.5}) {
+        for (const double y : {-0.5, 0.5}) {
+          scene.contacts.push_back(contact("ground", "cube", Eigen::Vector3d(x, y, 0),
+                                           Eigen::Vector3d::UnitZ(), 0.4, mu_s, 0.7 * mu_s));
+        }
+      }
+    } else {
+      const double mu_s = random.uniform(0.05, 1.5);
+      scene = randomScene(random, 1 + trial % 4, trial % 2 == 1, 0.9, mu_s,
+                          random.uniform(0.3, 1.0) * mu_s);
+    }
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives full = cr::computeImpactDerivatives(scene, options);
+    cr::DerivativeColumns columns;
+    columns.velocities = trial % 2 == 0;
+    for (std::size_t k = 0; k < 3 * scene.contacts.size(); ++k) {
+      columns.coefficients.push_back(random.uniform(0.0, 1.0) < 0.5);
+    }
+    const cr::ImpactDerivatives subset = cr::computeValidatedImpactDerivatives(
+        scene, cr::validate(scene, options, cr::RequestLimits{}), options, columns);
+    ASSERT_EQ(subset.jacobian.rows(), full.jacobian.rows());
+    ASSERT_EQ(subset.jacobian.cols(), full.jacobian.cols());
+    const Eigen::Index velocities = full.velocityCount();
+    for (Eigen::Index k = 0; k < full.jacobian.cols(); ++k) {
+      const bool wanted =
+          k < velocities ? columns.velocities
+                         : bool(columns.coefficients[static_cast<std::size_t>(k - velocities)]);
+      const VectorXd expected =
+          wanted ? VectorXd(full.jacobian.col(k)) : VectorXd(VectorXd::Zero(full.jacobian.rows()));
+      const double scale = std::max(1.0, full.jacobian.col(k).cwiseAbs().maxCoeff());
+      EXPECT_LE((subset.jacobian.col(k) - expected).cwiseAbs().maxCoeff(), 1e-9 * scale)
+          << "trial " << trial << ", column " << k << (wanted ? " (asked for)" : " (left out)");
+    }
+    for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
+      EXPECT_EQ(subset.contacts[c].mode, full.contacts[c].mode) << "trial " << trial;
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 24);
+}
+
+}  // namespace
+
+namespace {
+
+// A stack: body a on the ground, body b on a, one contact each (6 contact equations, 12 body
+// unknowns: W regular). With large friction both stick, the exact solver's all-sticking answer,
+// whose derivative is W^-1 (its own Cholesky factor, not the body-space solve of a face): against
+// central differences.
+TEST(ImpactDerivatives, StickingStackOfTwoBodiesMatchesCentralDifferences) {
+  RandomSource random(2621);
+  int compared = 0, columns = 0, analytic = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    cr::Scene scene;
+    scene.bodies.push_back(ground());
+    scene.bodies.push_back(randomBody(random, "a", Vector3d(0, 0, 0.5)));
+    scene.bodies.push_back(randomBody(random, "b", Vector3d(0, 0, 1.5)));
+    scene.bodies[1].linear_velocity.z() -= 1.0;
+    scene.bodies[2].linear_velocity.z() -= 3.0;
+    const Vector3d n0 = (Vector3d::UnitZ() + random.vec(-0.2, 0.2)).normalized();
+    const Vector3d n1 = (Vector3d::UnitZ() + random.vec(-0.2, 0.2)).normalized();
+    scene.contacts.push_back(contact("ground", "a", Vector3d(0, 0, 0) + random.vec(-0.1, 0.1), n0,
+                                     random.uniform(0.0, 0.9), 5.0, 4.0));
+    scene.contacts.push_back(contact("a", "b", Vector3d(0, 0, 1) + random.vec(-0.1, 0.1), n1,
+                                     random.uniform(0.0, 0.9), 5.0, 4.0));
+    const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+    const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+    if (d.result.islands.size() != 1 || d.result.islands[0].method != cr::SolvedBy::kExact ||
+        countMode(d, cr::ImpactMode::kSticking) != 2 || anySwitch(d)) {
+      continue;
+    }
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    ++analytic;
+    compared += compareWithDifferences(scene, options, d, 1e-6, 1e-6,
+                                       "stack, trial " + std::to_string(trial));
+    columns += static_cast<int>(d.jacobian.cols());
+  }
+  EXPECT_GE(analytic, 6);
   EXPECT_GE(compared, columns * 3 / 4) << compared << " of " << columns;
 }
 

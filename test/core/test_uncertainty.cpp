@@ -462,3 +462,58 @@ TEST(Uncertainty, SamplingStopsAtTheTimeBudget) {
                                                 sampled(core::kMaxUncertaintySamples)),
                core::SolverTimeout);
 }
+
+// A sample whose mu_d exceeds its mu_s is capped and reported under the coefficient that was
+// uncertain: here only mu_s ~ U[0.1, 0.3], mu_d the contact's own 0.16, so the draws below 0.16
+// are capped, a fraction (0.16 - 0.1) / (0.3 - 0.1) = 0.3 of them in closed form, and the warning
+// names static_friction (dynamic_friction was not given as uncertain).
+TEST(Uncertainty, CappingWarningNamesTheCoefficientThatWasUncertain) {
+  ContactUncertainty u;
+  u.contact = 0;
+  u.static_friction = CoefficientDistribution::interval(0.1, 0.3);
+  const core::Scene scene = slidingBox();
+  ASSERT_EQ(scene.contacts[0].dynamic_friction, 0.16);
+  const std::size_t n = 2000;
+  const core::OutcomeDistribution outcome =
+      core::computeOutcomeDistribution(scene, {u}, newton(), sampled(n));
+  EXPECT_FALSE(hasWarning(outcome, "uncertainties[0].dynamic_friction"));
+  const auto warning = std::find_if(
+      outcome.warnings.begin(), outcome.warnings.end(),
+      [](const core::Warning& w) { return w.field == "uncertainties[0].static_friction"; });
+  ASSERT_NE(warning, outcome.warnings.end());
+  // "... in <count> of <n> samples ...": the count of a low-discrepancy sequence in [0, 0.3).
+  const std::size_t at = warning->reason.find(" in ");
+  ASSERT_NE(at, std::string::npos) << warning->reason;
+  const double count = std::stod(warning->reason.substr(at + 4));
+  EXPECT_NEAR(count / static_cast<double>(n), 0.3, 0.01) << warning->reason;
+
+  // The linear method's warning (the normal approximation's probability) names it too.
+  const core::OutcomeDistribution approximate =
+      core::computeOutcomeDistribution(scene, {u}, newton(), linear());
+  EXPECT_TRUE(hasWarning(approximate, "uncertainties[0].static_friction"));
+  EXPECT_FALSE(hasWarning(approximate, "uncertainties[0].dynamic_friction"));
+
+  // Both uncertain: mu_d is the one capped, and named.
+  u.dynamic_friction = CoefficientDistribution::normal(0.16, 0.02);
+  const core::OutcomeDistribution both =
+      core::computeOutcomeDistribution(scene, {u}, newton(), sampled(n));
+  EXPECT_TRUE(hasWarning(both, "uncertainties[0].dynamic_friction"));
+  EXPECT_FALSE(hasWarning(both, "uncertainties[0].static_friction"));
+}
+
+// With mu_s fixed and e ~ N(m, s), the sphere sticks iff mu_s (1 + e) >= k, i.e. e >= t =
+// k / mu_s - 1: probability Phi((m - t) / s). Sticking at the mean, the margin mu_s P_n - |P_t| =
+// mu_s (1 + e) m u_n - 2 m u_t / 7 is linear in e, so the linear method gives it exactly; only e
+// is uncertain, so no gradient in mu_s may enter (a fixed mu_s has no sampling dimension).
+TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInE) {
+  const double m = 0.5, s = 0.05, threshold = 0.48;
+  const double mu_s = kStickK / (1.0 + threshold);
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::normal(m, s);
+  const double exact = 0.5 * std::erfc(-((m - threshold) / s) / std::sqrt(2.0));
+  const auto lin = core::computeOutcomeDistribution(sphere(m, mu_s, 0.01), {u}, newton(), linear());
+  EXPECT_NEAR(lin.stick_probability[0], exact, 1e-6);
+  const auto smp =
+      core::computeOutcomeDistribution(sphere(m, mu_s, 0.01), {u}, newton(), sampled(4096));
+  EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
+}

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
@@ -112,5 +113,21 @@ struct ImpactDerivatives {
 /// prediction in `result` is the one computeResponse() gives.
 ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptions& options = {},
                                            const RequestLimits& limits = {});
+
+/// Which input columns of ImpactDerivatives::jacobian to compute, for callers that need a few
+/// (the linear uncertainty: the uncertain coefficients). Columns left out are 0 in the answer
+/// (the velocity columns too: not the identity); the rows, the prediction and the modes are
+/// those of the full call.
+struct DerivativeColumns {
+  bool velocities = true;  ///< the pre-impact twists' columns
+  /// One entry per coefficient column (3 per contact: e, mu_s, mu_d), true: computed; empty: all.
+  std::vector<bool> coefficients;
+};
+
+/// computeImpactDerivatives() on a scene validate() has accepted (`contact_bodies` its answer),
+/// computing only the `columns` asked for (each one as the full call computes it).
+ImpactDerivatives computeValidatedImpactDerivatives(
+    const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
+    const SolverOptions& options, const DerivativeColumns& columns);
 
 }  // namespace collision_response::core
