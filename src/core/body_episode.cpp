@@ -338,6 +338,8 @@ void BodyEpisode::impact(bool plastic) {
   record.impulses = response.impulses;
   record.velocities_after.reserve(bodies_.size());
   for (BodyModel* model : models_) record.velocities_after.push_back(model->velocity());
+  record.states_after.resize(bodies_.size());
+  for (std::size_t i = 0; i < bodies_.size(); ++i) bodies_[i]->saveState(record.states_after[i]);
   const std::string prefix = "impacts[" + std::to_string(k) + "].";
   for (Warning& warning : response.warnings) {
     if (warning.kind == Warning::Kind::kSeparating) continue;
@@ -503,8 +505,11 @@ void BodyEpisode::warnOverlaps() {
     if (std::find(named.begin(), named.end(), pair) != named.end()) continue;
     named.push_back(pair);
     Warning warning;
-    warning.field = "parts[" + std::to_string(pair.second) + "]";
-    warning.reason = "starts overlapping parts[" + std::to_string(pair.first) + "] by " +
+    const EpisodePart& a = parts_[pair.first];
+    const EpisodePart& b = parts_[pair.second];
+    warning.field = "bodies[" + std::to_string(b.body) + "]";
+    warning.reason = "(part " + std::to_string(b.part) + ") starts overlapping bodies[" +
+                     std::to_string(a.body) + "] (part " + std::to_string(a.part) + ") by " +
                      std::to_string(-gap.gap) + " m or more, beyond the contact tolerance (" +
                      std::to_string(tolerance_) + " m): followed as touching";
     result_.warnings.push_back(std::move(warning));

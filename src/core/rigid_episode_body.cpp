@@ -81,6 +81,12 @@ bool RigidEpisodeBody::translate(const Eigen::Vector3d& shift) {
   return true;
 }
 
+BodyState RigidEpisodeBody::stateFrom(const BodyState& body, const Eigen::VectorXd& saved) {
+  RigidEpisodeBody copy(body);
+  copy.restoreState(saved);
+  return copy.state_;
+}
+
 double RigidEpisodeBody::kineticEnergy() const {
   return core::kineticEnergy(state_);
 }

@@ -30,6 +30,10 @@ struct BodyEpisodeImpact {
   /// movable rigid body [m/s, rad/s], world; a robot's free joints' velocities [rad/s | m/s] in
   /// its unknowns' order; empty for a body without unknowns).
   std::vector<Eigen::VectorXd> velocities_after;
+  /// Each body's whole state right after the impact, as EpisodeBody::saveState() gives it (a
+  /// rigid body's RigidEpisodeBody::stateFrom() reads; a robot's joint positions then velocities,
+  /// joint order, every joint).
+  std::vector<Eigen::VectorXd> states_after;
 };
 
 struct BodyEpisodeResult {
@@ -41,8 +45,8 @@ struct BodyEpisodeResult {
   /// normal_force [N], friction_force [N], sticking), same order.
   std::vector<ContactPoint> resting_contacts;
   std::vector<ContactImpulse> resting;
-  /// Of each impact "impacts[k]." (a contact left approaching); "parts[g]" for geometry body g
-  /// starting deeper than the tolerance in another.
+  /// Of each impact "impacts[k]." (a contact left approaching); "bodies[i]" for a body whose part
+  /// starts deeper than the tolerance in another body.
   std::vector<Warning> warnings;
   int steps = 0;  ///< advancement steps taken (and undone), for diagnostics
 };

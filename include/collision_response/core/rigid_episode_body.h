@@ -20,6 +20,9 @@ class RigidEpisodeBody final : public EpisodeBody {
   explicit RigidEpisodeBody(const BodyState& state);
 
   const BodyState& state() const { return state_; }
+  /// `body` with the pose and velocities of a saveState() of a RigidEpisodeBody (13 numbers:
+  /// position, orientation quaternion x y z w, linear and angular velocity).
+  static BodyState stateFrom(const BodyState& body, const Eigen::VectorXd& saved);
 
   int partCount() const override { return 1; }
   BodyState partGeometry(int part) const override;
