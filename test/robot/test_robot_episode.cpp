@@ -285,6 +285,32 @@ TEST(RobotEpisode, ArmStrikesBoxNoContactMissedNoEnergyGained) {
   EXPECT_LT(energy1, energy0);  // the impacts dissipate
 }
 
+// A box sliding on the table while the arm is still on its way (the episode cannot end in
+// sustained contact: the arm may reach the box before the horizon): held on the table by its
+// resting forces, it slides to rest under dynamic friction, v^2 / (2 mu_d g) away after v / (mu_d g)
+// (closed form), without sinking into the table or leaving it.
+TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
+  using collision_response::testing::armBoxScene;
+  auto s = armBoxScene(kArm7, /*lift=*/0.35);
+  const double v = 0.3, mu_d = 0.4, g = 9.81;
+  cr::BodyState box = s.box->state();
+  const Vector3d start = box.position;
+  box.linear_velocity = Vector3d(v, 0.0, 0.0);
+  *s.box = cr::RigidEpisodeBody(box);
+  s.bodies[1] = s.box.get();
+  s.options.horizon = 0.12;
+  const cr::BodyEpisodeResult r =
+      cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
+  const cr::BodyState& end = s.box->state();
+  EXPECT_NEAR(end.position.x() - start.x(), v * v / (2.0 * mu_d * g), 1e-6);
+  EXPECT_NEAR(end.position.y(), start.y(), 1e-9);
+  EXPECT_NEAR(end.position.z(), start.z(), 1e-9);
+  EXPECT_LT(end.linear_velocity.norm(), 1e-9);
+  EXPECT_LT(end.angular_velocity.norm(), 1e-9);
+  EXPECT_LT(r.end_time, s.options.horizon + 1e-12);
+}
+
 TEST(RobotEpisode, RefusesFloatingBaseAndBadParts) {
   rb::ArticulatedBody floating =
       rb::robotFromUrdfFile(kDir + "/pendulum.urdf", rb::BaseType::kFloating);
