@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -287,8 +288,8 @@ TEST(RobotEpisode, ArmStrikesBoxNoContactMissedNoEnergyGained) {
 
 // A box sliding on the table while the arm is still on its way (the episode cannot end in
 // sustained contact: the arm may reach the box before the horizon): held on the table by its
-// resting forces, it slides to rest under dynamic friction, v^2 / (2 mu_d g) away after v / (mu_d g)
-// (closed form), without sinking into the table or leaving it.
+// resting forces, it slides to rest under dynamic friction, v^2 / (2 mu_d g) away after v / (mu_d
+// g) (closed form), without sinking into the table or leaving it.
 TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
   using collision_response::testing::armBoxScene;
   auto s = armBoxScene(kArm7, /*lift=*/0.35);
@@ -299,8 +300,7 @@ TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
   *s.box = cr::RigidEpisodeBody(box);
   s.bodies[1] = s.box.get();
   s.options.horizon = 0.12;
-  const cr::BodyEpisodeResult r =
-      cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
   EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
   const cr::BodyState& end = s.box->state();
   EXPECT_NEAR(end.position.x() - start.x(), v * v / (2.0 * mu_d * g), 1e-6);
@@ -309,6 +309,70 @@ TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
   EXPECT_LT(end.linear_velocity.norm(), 1e-9);
   EXPECT_LT(end.angular_velocity.norm(), 1e-9);
   EXPECT_LT(r.end_time, s.options.horizon + 1e-12);
+}
+
+// A random suite of strikes (joint2's lift and speed, the other joints' speeds, the box's place,
+// Newton or Stronge): every episode ends within its horizon with finite states and impacts in
+// order, the box stays on the table, no contact is passed through before the first impact along a
+// reference path of 50 us steps, and under Stronge the mechanical energy (the arm's kinetic
+// energy, gravity compensated, and the box's kinetic and potential energy) is not gained.
+TEST(RobotEpisode, RandomStrikesMissNoContactAndGainNoEnergy) {
+  using collision_response::testing::armBoxScene;
+  std::mt19937 rng(24u);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int trial = 0; trial < 12; ++trial) {
+    SCOPED_TRACE(trial);
+    const double lift = 0.01 + 0.08 * unit(rng), speed = 0.5 + 1.5 * unit(rng);
+    auto s = armBoxScene(kArm7, lift, speed);
+    auto reference = armBoxScene(kArm7, lift, speed);
+    rb::ArticulatedBody arm = s.arm->robot();
+    VectorXd qdot = arm.jointVelocities();
+    for (const char* joint : {"joint1", "joint3", "joint5", "joint7"})
+      qdot(arm.jointIndex(joint)) = 0.4 * (unit(rng) - 0.5);
+    arm.setState(arm.jointPositions(), qdot);
+    *s.arm = rb::RobotEpisodeBody(arm);
+    *reference.arm = rb::RobotEpisodeBody(arm);
+    cr::BodyState box = s.box->state();
+    box.position += Vector3d(0.04 * (unit(rng) - 0.5), 0.04 * (unit(rng) - 0.5), 0.0);
+    *s.box = cr::RigidEpisodeBody(box);
+    *reference.box = cr::RigidEpisodeBody(box);
+    const bool stronge = trial % 2 == 1;
+    s.options.solver.law = stronge ? cr::ImpactLaw::kStronge : cr::ImpactLaw::kNewton;
+    const auto energy = [](const auto& scene) {
+      return scene.arm->kineticEnergy() + scene.box->kineticEnergy() +
+             scene.box->state().mass * 9.81 * scene.box->state().position.z();
+    };
+    const double energy0 = energy(s);
+    const cr::BodyEpisodeResult r =
+        cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+    EXPECT_LE(r.end_time, s.options.horizon);
+    double last = 0.0;
+    for (const cr::BodyEpisodeImpact& impact : r.impacts) {
+      EXPECT_GE(impact.time, last);
+      last = impact.time;
+      for (const auto& p : impact.impulses) EXPECT_TRUE(std::isfinite(p.normal_impulse));
+    }
+    EXPECT_TRUE(s.arm->robot().jointPositions().allFinite());
+    EXPECT_TRUE(s.arm->robot().jointVelocities().allFinite());
+    EXPECT_GE(s.box->state().position.z(), 0.1615 + 0.05 - 2.0 * s.options.contact_tolerance);
+    if (stronge) EXPECT_LE(energy(s), energy0 + 1e-9 * energy0);
+    // The reference path up to the first impact (or the end).
+    const double until = r.impacts.empty() ? r.end_time : r.impacts[0].time;
+    std::vector<cr::BodyState> states = reference.part_states;
+    std::vector<cr::GapContact> gaps;
+    const double h = 5e-5;
+    double smallest = kInf;
+    for (double t = h; t <= until; t += h) {
+      reference.arm->advance(h);
+      for (std::size_t g = 0; g < reference.parts.size(); ++g)
+        reference.bodies[reference.parts[g].body]->partPose(reference.parts[g].part, states[g]);
+      reference.geometry->gaps(states, 0.05, gaps);
+      for (const auto& gap : gaps) {
+        if (gap.body_a >= 2 || gap.body_b >= 2) smallest = std::min(smallest, gap.gap);
+      }
+    }
+    EXPECT_GE(smallest, 0.0);
+  }
 }
 
 TEST(RobotEpisode, RefusesFloatingBaseAndBadParts) {
