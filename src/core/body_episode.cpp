@@ -234,8 +234,8 @@ double BodyEpisode::pairStep(const PairGap& pair) const {
 double BodyEpisode::step() const {
   double s = kInfinity;
   for (const PairGap& pair : pairs_) {
-    // Two sides kept in their resting contacts (re-analysed after every step): the contacts
-    // between them stay closed by the resting forces.
+    // Two sides kept in their resting contacts: the resting forces keep the contacts between them
+    // closed.
     if (kept(pair.a) && kept(pair.b)) continue;
     s = std::min(s, pairStep(pair));
   }
@@ -449,8 +449,8 @@ bool BodyEpisode::sustained() {
   };
   if (othersMayTouch(held)) {
     // Held, not slipping and at rest: kept still while the others fly. Held and moving, its turning
-    // within the resting velocity: moved on under the contact forces (EpisodeBody::hold()), the
-    // analysis redone after every step.
+    // within the thresholds: moved on under the contact forces (EpisodeBody::hold()), the
+    // analysis redone where its slip would stop, at the next impact, or when nothing touches.
     std::vector<Eigen::Vector3d> force(n, Eigen::Vector3d::Zero());
     for (std::size_t c = 0; c < contacts.size(); ++c) {
       const ContactImpulse& f = response.impulses[c];
@@ -594,7 +594,8 @@ BodyEpisodeResult BodyEpisode::run() {
     queried = true;
     // Bodies held sliding: their resting analysis redone when one's slip would stop (the step
     // limit it set), where the friction it feels changes.
-    if (time_ >= held_until_) resting_checked = false;
+    // (Within rounding: the last step ends where the slip stops, up to an ulp or so.)
+    if (time_ >= held_until_ - 1e-12 * std::max(1.0, held_until_)) resting_checked = false;
   }
   return std::move(result_);
 }

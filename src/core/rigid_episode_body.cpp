@@ -36,9 +36,12 @@ void RigidEpisodeBody::advance(double dt) {
 }
 
 double RigidEpisodeBody::stepLimit() const {
-  const double a = held_acceleration_.norm();
-  if (!held_ || !(a > 0.0)) return std::numeric_limits<double>::infinity();
-  return state_.linear_velocity.norm() / a;  // until the slip stops
+  // Until the velocity's component against the acceleration is used up (a slip stopping under
+  // friction); never for a body that the acceleration speeds up (sliding off from rest).
+  const double a2 = held_acceleration_.squaredNorm();
+  const double against = -state_.linear_velocity.dot(held_acceleration_);
+  if (!held_ || !(a2 > 0.0) || !(against > 0.0)) return std::numeric_limits<double>::infinity();
+  return against / a2;
 }
 
 bool RigidEpisodeBody::hold(const Eigen::Vector3d& contact_force) {

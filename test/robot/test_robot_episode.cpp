@@ -375,6 +375,30 @@ TEST(RobotEpisode, RandomStrikesMissNoContactAndGainNoEnergy) {
   }
 }
 
+// A held rigid body's step limit: the time its velocity's component against the held
+// acceleration takes to run out (v / (mu g) for a slide stopping under friction), never for one
+// the acceleration speeds up (sliding off from rest).
+TEST(RobotEpisode, HeldBodyStepLimitIsWhereItsSlipStops) {
+  cr::BodyState box;
+  box.mass = 2.0;
+  box.inertia = Eigen::Matrix3d::Identity();
+  box.linear_velocity = Vector3d(0.5, 0.0, 0.0);
+  cr::RigidEpisodeBody body(box);
+  body.setGravity(Vector3d(0, 0, -10.0));
+  // Normal force m g up, friction 0.4 m g against the slip.
+  ASSERT_TRUE(body.hold(Vector3d(-0.4 * 2.0 * 10.0, 0.0, 2.0 * 10.0)));
+  EXPECT_NEAR(body.stepLimit(), 0.5 / 4.0, 1e-15);
+  EXPECT_NEAR(body.partAccelerationBound(0, 0.1), 4.0, 1e-12);
+  box.linear_velocity.setZero();
+  cr::RigidEpisodeBody still(box);
+  still.setGravity(Vector3d(0, 0, -10.0));
+  ASSERT_TRUE(still.hold(Vector3d(3.0, 0.0, 20.0)));  // pushed off from rest
+  EXPECT_EQ(still.stepLimit(), kInf);
+  still.release();
+  EXPECT_EQ(still.stepLimit(), kInf);
+  EXPECT_NEAR(still.partAccelerationBound(0, 0.1), 10.0, 1e-12);
+}
+
 TEST(RobotEpisode, RefusesFloatingBaseAndBadParts) {
   rb::ArticulatedBody floating =
       rb::robotFromUrdfFile(kDir + "/pendulum.urdf", rb::BaseType::kFloating);

@@ -63,9 +63,10 @@ class EpisodeBody {
   /// moves as if `contact_force` [N], world (the resting analysis' total contact force on it) acted
   /// on it besides its own loads: a rigid body's centre of mass at the constant acceleration
   /// g + (F_own + contact_force) / m, its rotation still torque-free; its acceleration bound that
-  /// acceleration's size, and stepLimit() the time its velocity would take to stop at it (the
-  /// analysis is redone after every step). False if the body cannot be held so (a robot): it then
-  /// keeps its own motion, its touches solved plastic.
+  /// acceleration's size, and stepLimit() the time its velocity's component against it takes to run
+  /// out (infinity if the acceleration speeds it up), where the episode redoes the resting
+  /// analysis. False if the body cannot be held so (a robot): it then keeps its own motion, its
+  /// touches solved plastic.
   virtual bool hold(const Eigen::Vector3d& /*contact_force*/) { return false; }
   virtual void release() {}
   /// Kinetic energy [J] (diagnostics and tests).
