@@ -9,6 +9,12 @@
 //  - ball_drop: a 0.2 kg solid ball of radius 0.05 m released at rest 0.1 m above the plane, e =
 //  0.5,
 //    mu = 0.25: the bounces' accumulation closed, then sustained contact.
+//  - arm_strikes_box: the shipped 7-DOF arm (urdf/arm7.urdf) under gravity compensation swinging
+//    its fingertips (joint2 at 1.2 rad/s, as scripts/robot_demo.sh) down onto a 1 kg box resting
+//    on a table (test/support/arm_box_scene.h), core::computeBodyEpisode(): the strike, the box
+//    held on the table while the arm flies, to the horizon (0.1 s), sustained contact or
+//    separation. The bodies are set back to their start state inside the timed loop (one
+//    setState() of the arm, about 1 us).
 // The shapes are prepared once (ShapeGaps' constructor) outside the timed loop; *_with_setup times
 // the constructor too (what one service call pays). Counters: impacts listed per episode, impacts
 // closed by an accumulation, the end time [s]; the label names the law and the episode's end.
@@ -20,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "../test/support/arm_box_scene.h"
 #include "../test/support/shape_builders.h"
 #include "collision_response/core/episode.h"
 #include "collision_response/detection/shape_gaps.h"
@@ -127,7 +134,26 @@ void BM_EpisodeWithSetup(benchmark::State& state) {
   report(state, result, law);
 }
 
+void BM_ArmStrikesBox(benchmark::State& state) {
+  const core::ImpactLaw law = lawOf(state.range(0));
+  auto s = collision_response::testing::armBoxScene(ARM7_URDF);
+  s.options.solver.law = law;
+  std::vector<Eigen::VectorXd> start(s.bodies.size());
+  for (std::size_t i = 0; i < s.bodies.size(); ++i) s.bodies[i]->saveState(start[i]);
+  core::BodyEpisodeResult result;
+  for (auto _ : state) {
+    for (std::size_t i = 0; i < s.bodies.size(); ++i) s.bodies[i]->restoreState(start[i]);
+    result = core::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+    benchmark::DoNotOptimize(result.impacts.data());
+  }
+  state.counters["impacts"] = static_cast<double>(result.impacts.size());
+  state.counters["steps"] = static_cast<double>(result.steps);
+  state.counters["end_time_s"] = result.end_time;
+  state.SetLabel(std::string(core::toString(law)) + ", " + core::toString(result.end));
+}
+
 // Arguments: 0 Newton, 1 Poisson, 2 Stronge.
+BENCHMARK(BM_ArmStrikesBox)->Name("arm_strikes_box")->Arg(0)->Arg(2)->Unit(benchmark::kMicrosecond);
 BENCHMARK_TEMPLATE(BM_Episode, cubeLanding)->Name("cube_landing")->DenseRange(0, 2);
 BENCHMARK_TEMPLATE(BM_EpisodeWithSetup, cubeLanding)
     ->Name("cube_landing_with_setup")

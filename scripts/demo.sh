@@ -26,7 +26,7 @@ for arg in "$@"; do
   esac
 done
 if [ "$robot" = yes ] && [ "$episode" = yes ]; then
-  echo "demo: --robot and --episode do not combine (episodes do not follow robots yet)" >&2
+  echo "demo: --robot and --episode do not combine (the robot demo asks for one impact; ~compute_episode takes robots: docs/robots.md, \"Robots in episodes\")" >&2
   exit 2
 fi
 scripts/setup.sh

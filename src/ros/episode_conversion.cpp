@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "collision_response/core/errors.h"
+#include "collision_response/core/rigid_episode_body.h"
 #include "collision_response/ros/message_conversion.h"
 
 namespace collision_response {
@@ -20,11 +21,6 @@ void checkEpisodeRequest(const ComputeEpisode::Request& request) {
     throw core::InvalidInput("options.uncertainty",
                              "episodes do not propagate uncertain coefficients: ask ~compute for "
                              "one impact with uncertainties");
-  }
-  if (!request.robots.empty()) {
-    throw core::InvalidInput("robots", "episodes do not follow robots yet (" +
-                                           std::to_string(request.robots.size()) +
-                                           " given): ask ~compute for one impact instead");
   }
   if (!request.contacts.empty()) {
     throw core::InvalidInput("contacts", "must be empty (" +
@@ -186,11 +182,99 @@ EpisodeResult toMsg(const core::EpisodeResult& result, const std::string& frame_
   return msg;
 }
 
+namespace {
+
+sensor_msgs::JointState jointState(const robot::ArticulatedBody& body, const Eigen::VectorXd& q,
+                                   const Eigen::VectorXd& qdot, const std_msgs::Header& header) {
+  sensor_msgs::JointState out;
+  out.header = header;
+  out.name = body.jointNames();
+  out.position.assign(q.data(), q.data() + q.size());
+  out.velocity.assign(qdot.data(), qdot.data() + qdot.size());
+  return out;
+}
+
+}  // namespace
+
+EpisodeResult toMsg(const core::BodyEpisodeResult& result,
+                    const std::vector<core::BodyState>& bodies,
+                    const std::vector<core::BodyState>& bodies_end,
+                    const std::vector<EpisodeRobotAnswer>& robots, const std_msgs::Header& header) {
+  const std::string& frame_id = header.frame_id;
+  const std::size_t rigid = bodies.size();
+  const auto idOf = [&](int body, int part) {
+    if (body < static_cast<int>(rigid)) return bodies[body].id;
+    const EpisodeRobotAnswer& robot = robots[body - rigid];
+    return robot.name + "/" + robot.body->linkName(part < 0 ? robot.body->defaultLink() : part);
+  };
+  const auto contactOf = [&](const core::ContactPoint& point) {
+    core::Contact contact;
+    contact.body_a = idOf(point.body_a, point.part_a);
+    contact.body_b = idOf(point.body_b, point.part_b);
+    contact.point = point.point;
+    contact.normal = point.normal;
+    contact.restitution = point.restitution;
+    contact.static_friction = point.static_friction;
+    contact.dynamic_friction = point.dynamic_friction;
+    return toMsg(contact);
+  };
+  EpisodeResult msg;
+  msg.success = true;
+  for (const core::BodyState& body : bodies_end) msg.bodies.push_back(toMsg(body, frame_id));
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const robot::ArticulatedBody& body = *robots[r].body;
+    EpisodeRobot out;
+    out.name = robots[r].name;
+    out.joint_state = jointState(body, body.jointPositions(), body.jointVelocities(), header);
+    const Eigen::Quaterniond q(robots[r].base_pose.linear());
+    out.base_pose.position.x = robots[r].base_pose.translation().x();
+    out.base_pose.position.y = robots[r].base_pose.translation().y();
+    out.base_pose.position.z = robots[r].base_pose.translation().z();
+    out.base_pose.orientation.x = q.x();
+    out.base_pose.orientation.y = q.y();
+    out.base_pose.orientation.z = q.z();
+    out.base_pose.orientation.w = q.w();
+    out.kinetic_energy = body.kineticEnergy();
+    out.outcome = rigid + r < result.outcomes.size() ? outcomeName(result.outcomes[rigid + r])
+                                                     : EpisodeResult::OUTCOME_SEPARATED;
+    msg.robots.push_back(std::move(out));
+  }
+  for (const core::BodyEpisodeImpact& impact : result.impacts) {
+    EpisodeImpact out;
+    out.time = impact.time;
+    for (const core::ContactPoint& point : impact.contacts)
+      out.contacts.push_back(contactOf(point));
+    for (const core::ContactImpulse& impulse : impact.impulses)
+      out.impulses.push_back(toMsg(impulse));
+    for (std::size_t i = 0; i < rigid; ++i) {
+      out.bodies.push_back(
+          toMsg(core::RigidEpisodeBody::stateFrom(bodies[i], impact.states_after[i]), frame_id));
+    }
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      const Eigen::VectorXd& state = impact.states_after[rigid + r];
+      const Eigen::Index n = state.size() / 2;
+      out.robots.push_back(jointState(*robots[r].body, state.head(n), state.tail(n), header));
+    }
+    msg.impacts.push_back(std::move(out));
+  }
+  for (std::size_t i = 0; i < rigid && i < result.outcomes.size(); ++i)
+    msg.outcomes.emplace_back(outcomeName(result.outcomes[i]));
+  msg.end_reason = endReasonName(result.end);
+  msg.end_time = result.end_time;
+  for (const core::ContactPoint& point : result.resting_contacts)
+    msg.resting_contacts.push_back(contactOf(point));
+  for (const core::ContactImpulse& force : result.resting)
+    msg.resting_forces.push_back(toMsg(force));
+  for (const core::Warning& warning : result.warnings) msg.warnings.push_back(warning.text());
+  return msg;
+}
+
 void moveInto(EpisodeResult&& result, ComputeEpisode::Response& response) {
   response.success = result.success;
   response.message = std::move(result.message);
   response.warnings = std::move(result.warnings);
   response.bodies = std::move(result.bodies);
+  response.robots = std::move(result.robots);
   response.impacts = std::move(result.impacts);
   response.accumulated_impacts = result.accumulated_impacts;
   response.outcomes = std::move(result.outcomes);

@@ -1,7 +1,7 @@
 // The episode services of CollisionResponseServer (~compute_episode, ~compute_episode_batch) and
 // the ~episodes topic: the request checked and converted (episode_conversion.h), the bodies read
 // as for ~compute (tf2, validation), their shapes as a detection::ShapeGaps, then
-// core::computeEpisode().
+// core::computeEpisode(); with robots, their links' geometry added and core::computeBodyEpisode().
 #include <collision_response/Episode.h>
 
 #include <algorithm>
@@ -10,10 +10,13 @@
 #include <utility>
 #include <vector>
 
+#include "collision_response/core/body_episode.h"
 #include "collision_response/core/episode.h"
 #include "collision_response/core/errors.h"
+#include "collision_response/core/rigid_episode_body.h"
 #include "collision_response/core/validation.h"
 #include "collision_response/detection/shape_gaps.h"
+#include "collision_response/robot/robot_episode_body.h"
 #include "collision_response/ros/collision_response_server.h"
 #include "collision_response/ros/episode_conversion.h"
 #include "collision_response/ros/message_conversion.h"
@@ -43,6 +46,10 @@ std::optional<core::InvalidInput> CollisionResponseServer::solveEpisode(
     request.header = shared.header;  // kept for the caller (the published answer's header)
     core::Scene scene = toScene(shared);
     const core::SceneValidator validator(scene, solver, parameters_.limits);
+    if (!shared.robots.empty()) {
+      solveRobotEpisode(shared, scene, options, defaults_now.contact_tolerance, warnings, result);
+      return field_error;
+    }
     std::size_t shapes = 0, vertices = 0, triangles = 0;
     for (const BodyState& body : shared.bodies) countGeometry(body, shapes, vertices, triangles);
     core::checkGeometrySize(shapes, vertices, triangles, parameters_.limits);
@@ -77,6 +84,88 @@ std::optional<core::InvalidInput> CollisionResponseServer::solveEpisode(
   }
   result.success = false;
   return field_error;
+}
+
+void CollisionResponseServer::solveRobotEpisode(const ComputeResponse::Request& shared,
+                                                const core::Scene& scene,
+                                                const core::EpisodeOptions& options,
+                                                double contact_tolerance,
+                                                std::vector<std::string>& warnings,
+                                                EpisodeResult& result) {
+  // The robots at their state, as ~compute places them (listed ones only: an episode has no
+  // contacts to name others).
+  std::vector<RequestRobot> robots = requestRobots(shared, scene.bodies, robots_);
+  placeRobots(robots, shared.header, tf_buffer_, tf_timeout_, ros::Time::now(),
+              parameters_.joint_state_timeout, warnings);
+  for (const RequestRobot& robot : robots) {
+    // One gravity moves every body: a robot's own (for ~compute's resting contacts) must agree.
+    const Eigen::Vector3d own = toEigen(robot.message.gravity);
+    if (!own.isZero(0.0) && (own - options.gravity).norm() > 1e-9 * options.gravity.norm()) {
+      throw core::InvalidInput(
+          robot.field + ".gravity",
+          "differs from the episode's gravity: leave it zero (the episode's is "
+          "used) or give the same vector");
+    }
+  }
+  const LinkBodies links = linkBodies(robots);
+  std::size_t shapes = links.shapes, vertices = links.vertices, triangles = links.triangles;
+  for (const BodyState& body : shared.bodies) countGeometry(body, shapes, vertices, triangles);
+  core::checkGeometrySize(shapes, vertices, triangles, parameters_.limits);
+  detection::DetectionInput input =
+      detectionInputFromMsg(shared.bodies, shared.detection, contact_tolerance);
+  input.options.max_contacts_per_pair = parameters_.max_contacts_per_pair;
+  input.collision_groups.assign(scene.bodies.size(), -1);
+  for (const detection::BodyGeometry* geometry : links.geometry) {
+    input.geometry.push_back(*geometry);
+    input.materials.emplace_back();  // the request's detection coefficients
+  }
+  input.collision_groups.insert(input.collision_groups.end(), links.groups.begin(),
+                                links.groups.end());
+
+  const auto start = std::chrono::steady_clock::now();
+  // The episode's bodies: the rigid bodies, then one per robot; its geometry's: the rigid bodies,
+  // then the links with collision geometry (their robot and link kept by index).
+  const int rigid_count = static_cast<int>(scene.bodies.size());
+  std::vector<core::RigidEpisodeBody> rigid;
+  rigid.reserve(scene.bodies.size());
+  for (const core::BodyState& body : scene.bodies) rigid.emplace_back(body);
+  std::vector<robot::RobotEpisodeBody> moving;
+  moving.reserve(robots.size());
+  for (RequestRobot& robot : robots) {
+    try {
+      moving.emplace_back(std::move(*robot.model));
+    } catch (const core::InvalidInput& e) {
+      throw e.prefixed(robot.field);
+    }
+  }
+  std::vector<core::EpisodeBody*> bodies;
+  for (core::RigidEpisodeBody& body : rigid) bodies.push_back(&body);
+  for (robot::RobotEpisodeBody& body : moving) bodies.push_back(&body);
+  std::vector<core::EpisodePart> parts;
+  std::vector<core::BodyState> part_states = scene.bodies;
+  for (int i = 0; i < rigid_count; ++i) parts.push_back({i, 0});
+  const RobotLinkIds link_ids = robotLinkIds(robots);
+  for (std::size_t k = 0; k < links.bodies.size(); ++k) {
+    const std::pair<int, int>& robot_link = link_ids.robot_link[links.link_ids[k]];
+    parts.push_back({rigid_count + robot_link.first, robot_link.second});
+    part_states.push_back(links.bodies[k]);
+  }
+  const detection::ShapeGaps geometry(part_states, input, parameters_.materials,
+                                      parameters_.limits);
+  const core::BodyEpisodeResult episode =
+      core::computeBodyEpisode(bodies, parts, geometry, options);
+  const double solve_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  std::vector<core::BodyState> bodies_end;
+  for (const core::RigidEpisodeBody& body : rigid) bodies_end.push_back(body.state());
+  std::vector<EpisodeRobotAnswer> answers;
+  for (std::size_t r = 0; r < robots.size(); ++r)
+    answers.push_back({robots[r].message.name, &moving[r].robot(), robots[r].base_pose});
+  result = toMsg(episode, scene.bodies, bodies_end, answers, shared.header);
+  result.solve_time = solve_time;
+  warnings.insert(warnings.end(), result.warnings.begin(), result.warnings.end());
+  result.warnings = std::move(warnings);
 }
 
 bool CollisionResponseServer::computeEpisode(ComputeEpisode::Request& request,

@@ -4,6 +4,7 @@
 // answers are compared with the core library's, given the same state: the robot library's model
 // from the same URDF, the same rigid body, core::computeBodyResponse().
 #include <collision_response/ComputeBatch.h>
+#include <collision_response/ComputeEpisode.h>
 #include <collision_response/ComputeResponse.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -992,6 +993,126 @@ TEST_F(RobotNodeTest, BatchScenesCarryRobots) {
   EXPECT_FALSE(batch.response.results[1].success);
   EXPECT_NE(batch.response.results[1].message.find("scenes[1].robots[0].name"), std::string::npos)
       << batch.response.results[1].message;
+}
+
+// Robots in episodes through ~compute_episode (docs/robots.md, "Robots in episodes"): the arm at
+// the published state (its joint state in the request), no gravity and no actuation (torque model
+// none), swinging its hand into a 0.5 kg ball (radius 5 cm) at rest 1 cm ahead of the hand point
+// strikeOf() takes. Checked: the robot accepted, the ball struck by a link of "arm", each impact
+// carrying the arm's joint state, the end joint state returned in the model's joint order, and no
+// kinetic energy gained (the flight conserves it without gravity and torque; e = 0.4 dissipates).
+TEST_F(RobotNodeTest, EpisodeFollowsTheArmIntoABall) {
+  const cr::robot::ArticulatedBody arm = publishedArm();
+  const Strike strike = strikeOf(arm);
+  ros::ServiceClient episodes =
+      node_.serviceClient<cr::ComputeEpisode>("/collision_response/compute_episode");
+  ASSERT_TRUE(episodes.waitForExistence(ros::Duration(20.0)));
+  cr::ComputeEpisode srv;
+  srv.request.header.frame_id = "world";
+  cr::BodyState ball;
+  ball.id = "ball";
+  ball.inertia.m = 0.5;
+  ball.inertia.ixx = ball.inertia.iyy = ball.inertia.izz = 0.4 * 0.5 * 0.05 * 0.05;
+  const Eigen::Vector3d centre = strike.point + 0.06 * strike.normal;
+  ball.pose.position.x = centre.x();
+  ball.pose.position.y = centre.y();
+  ball.pose.position.z = centre.z();
+  ball.pose.orientation.w = 1.0;
+  ball.primitives.resize(1);
+  ball.primitives[0].type = shape_msgs::SolidPrimitive::SPHERE;
+  ball.primitives[0].dimensions = {0.05};
+  ball.primitive_poses.resize(1);
+  ball.primitive_poses[0].orientation.w = 1.0;
+  srv.request.bodies = {ball};
+  cr::RobotState robot = armAtRest(kPublishedPositions);
+  robot.joint_state.velocity = kPublishedVelocities;
+  robot.joint_torques = cr::RobotState::JOINT_TORQUES_NONE;
+  srv.request.robots = {robot};
+  srv.request.detection.restitution = 0.4;
+  srv.request.detection.static_friction = 0.3;
+  srv.request.detection.dynamic_friction = 0.2;
+  srv.request.options.law = cr::SolverOptions::LAW_STRONGE;
+  srv.request.horizon = 0.2;
+  srv.request.max_impacts = 20;
+  ASSERT_TRUE(episodes.call(srv));
+  const cr::ComputeEpisode::Response& response = srv.response;
+  ASSERT_TRUE(response.success) << response.message;
+  ASSERT_FALSE(response.impacts.empty());
+  const cr::EpisodeImpact& first = response.impacts[0];
+  bool arm_on_ball = false;
+  for (const cr::Contact& c : first.contacts) {
+    arm_on_ball = arm_on_ball || (c.body_a.rfind("arm/", 0) == 0 && c.body_b == "ball") ||
+                  (c.body_b.rfind("arm/", 0) == 0 && c.body_a == "ball");
+  }
+  EXPECT_TRUE(arm_on_ball);
+  // The hand point starts 1 cm from the ball and moves at |v|: the first touch comes no later
+  // than when that point would reach it.
+  EXPECT_LE(first.time, 0.0101 / arm.partPointVelocity(arm.linkIndex("hand"), strike.point).norm());
+  ASSERT_EQ(first.robots.size(), 1u);
+  EXPECT_EQ(first.robots[0].name, arm.jointNames());
+  EXPECT_EQ(first.robots[0].velocity.size(), kJoints.size());
+  ASSERT_EQ(response.robots.size(), 1u);
+  const cr::EpisodeRobot& end = response.robots[0];
+  EXPECT_EQ(end.name, "arm");
+  EXPECT_EQ(end.joint_state.name, arm.jointNames());
+  ASSERT_EQ(end.joint_state.position.size(), kJoints.size());
+  ASSERT_EQ(end.joint_state.velocity.size(), kJoints.size());
+  ASSERT_EQ(response.bodies.size(), 1u);
+  const double ball_energy =
+      0.5 * 0.5 * toEigen(response.bodies[0].twist.linear).squaredNorm() +
+      0.5 * ball.inertia.ixx * toEigen(response.bodies[0].twist.angular).squaredNorm();
+  const double before = arm.kineticEnergy();
+  // The end state's energy, recomputed here from the returned joint state.
+  cr::robot::ArticulatedBody after = referenceArm();
+  after.setState(vector(end.joint_state.position), vector(end.joint_state.velocity), worldToBase());
+  EXPECT_NEAR(end.kinetic_energy, after.kineticEnergy(), 1e-9 * before);
+  EXPECT_LE(after.kineticEnergy() + ball_energy, before * (1.0 + 1e-9));
+  EXPECT_LT(after.kineticEnergy() + ball_energy, before);
+  EXPECT_GT(ball_energy, 0.0);
+}
+
+// Bad robot input in an episode is named, and the node keeps serving.
+TEST_F(RobotNodeTest, BadRobotInputInAnEpisodeIsNamed) {
+  ros::ServiceClient episodes =
+      node_.serviceClient<cr::ComputeEpisode>("/collision_response/compute_episode");
+  ASSERT_TRUE(episodes.waitForExistence(ros::Duration(20.0)));
+  const auto request = [](const std::string& name) {
+    cr::ComputeEpisode srv;
+    srv.request.header.frame_id = "world";
+    cr::BodyState floor;
+    floor.id = "floor";
+    floor.pose.orientation.w = 1.0;
+    floor.planes.resize(1);
+    floor.planes[0].coef = {0.0, 0.0, 1.0, 10.0};
+    floor.plane_poses.resize(1);
+    floor.plane_poses[0].orientation.w = 1.0;
+    srv.request.bodies = {floor};
+    srv.request.robots.resize(1);
+    srv.request.robots[0] = armAtRest(kPublishedPositions);
+    srv.request.robots[0].name = name;
+    srv.request.horizon = 0.01;
+    srv.request.max_impacts = 5;
+    return srv;
+  };
+  const auto expectNamed = [&](cr::ComputeEpisode srv, const std::string& field) {
+    ASSERT_TRUE(episodes.call(srv));
+    EXPECT_FALSE(srv.response.success);
+    EXPECT_EQ(srv.response.message.rfind(field, 0), 0u) << srv.response.message;
+    EXPECT_TRUE(srv.response.robots.empty());
+  };
+  expectNamed(request("no_such_arm"), "robots[0].name");
+  cr::ComputeEpisode gravity = request("arm");
+  gravity.request.gravity.z = -9.81;
+  gravity.request.robots[0].gravity.z = -9.8;
+  expectNamed(gravity, "robots[0].gravity");
+  cr::ComputeEpisode floating = request("floating_arm");
+  floating.request.robots[0].base_pose.orientation.w = 1.0;
+  expectNamed(floating, "robots[0].base");
+  cr::ComputeEpisode good = request("arm");
+  ASSERT_TRUE(episodes.call(good));
+  EXPECT_TRUE(good.response.success) << good.response.message;
+  ASSERT_EQ(good.response.robots.size(), 1u);
+  EXPECT_EQ(good.response.robots[0].joint_state.position, kPublishedPositions);
 }
 
 }  // namespace

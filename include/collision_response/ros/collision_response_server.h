@@ -15,6 +15,7 @@
 #include <optional>
 #include <vector>
 
+#include "collision_response/core/episode.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
@@ -97,6 +98,12 @@ class CollisionResponseServer {
   /// request's bodies.
   std::optional<core::InvalidInput> solveEpisode(ComputeEpisode::Request& request,
                                                  EpisodeResult& result);
+  /// The episode of a request with robots (episode_service.cpp): the robots placed at their state
+  /// (tf2, joint states, torque model), their links' collision geometry beside the bodies' shapes,
+  /// core::computeBodyEpisode(); fills `result` and its solve_time.
+  void solveRobotEpisode(const ComputeResponse::Request& shared, const core::Scene& scene,
+                         const core::EpisodeOptions& options, double contact_tolerance,
+                         std::vector<std::string>& warnings, EpisodeResult& result);
   /// The part of solve() for requests of rigid bodies alone: the given contacts checked, contacts
   /// detected (wantsDetection(), within `contact_tolerance` [m]) and checked, then
   /// core::computeValidatedResponse(); fills the answer (request frame) but not its success.

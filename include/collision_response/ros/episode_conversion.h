@@ -12,15 +12,20 @@
 
 #include <string>
 
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "collision_response/core/body_episode.h"
 #include "collision_response/core/episode.h"
 #include "collision_response/core/solver_options.h"
+#include "collision_response/robot/articulated_body.h"
 
 namespace collision_response {
 
 /// Refuses what an episode cannot follow, before any work: derivatives ("options.derivatives":
-/// only ~compute differentiates an impact), robots ("robots": episodes do not follow
-/// robots yet), given contacts ("contacts": an episode finds its contacts from the shapes),
-/// detection.mode MODE_NEVER or an unknown mode ("detection.mode"), a body without shapes
+/// only ~compute differentiates an impact), given contacts ("contacts": an episode finds its
+/// contacts from the shapes), detection.mode MODE_NEVER or an unknown mode ("detection.mode"), a
+/// body without shapes
 /// ("bodies[i]"). Throws core::InvalidInput naming the field.
 void checkEpisodeRequest(const ComputeEpisode::Request& request);
 
@@ -51,6 +56,23 @@ const char* outcomeName(core::BodyOutcome outcome);
 /// resting contacts and forces, accelerations, warnings; states expressed in `frame_id`.
 EpisodeResult toMsg(const core::EpisodeResult& result, const std::string& frame_id);
 
+/// A robot of an episode as its answer names it: its request name, its body at the end of the
+/// episode (joint names, link names, state) and its base pose (request frame).
+struct EpisodeRobotAnswer {
+  std::string name;
+  const robot::ArticulatedBody* body = nullptr;
+  Eigen::Isometry3d base_pose = Eigen::Isometry3d::Identity();
+};
+/// The answer of an episode with robots (core::computeBodyEpisode() over the request's rigid
+/// bodies, then one body per robot, in order): `bodies` the rigid bodies as given (ids and mass
+/// properties), `bodies_end` at end_time; contacts name a rigid body by its id and a robot's link
+/// "<robot>/<link>"; each impact's rigid bodies from its states_after, its robots' joint positions
+/// at the impact and velocities after it; the robots' end states and outcomes in `robots`;
+/// accelerations empty. States in header.frame_id.
+EpisodeResult toMsg(const core::BodyEpisodeResult& result,
+                    const std::vector<core::BodyState>& bodies,
+                    const std::vector<core::BodyState>& bodies_end,
+                    const std::vector<EpisodeRobotAnswer>& robots, const std_msgs::Header& header);
 /// The same fields, moved into the service's response.
 void moveInto(EpisodeResult&& result, ComputeEpisode::Response& response);
 

@@ -1,0 +1,419 @@
+// Robots in impact episodes (core::computeBodyEpisode() with robot::RobotEpisodeBody;
+// docs/robots.md, "Robots in episodes") against references written here: a pendulum swinging
+// down onto a floor (its time of first contact from an independent fixed-step integration of
+// theta'' = -(3 g / 2 L) cos(theta), its speed there from energy, the impact from the single-link
+// closed form with the reflected inertia I / r^2), the flight of the shipped arm under each torque
+// model against conservation laws (no gravity and no torque, or gravity compensated: kinetic
+// energy constant; a constant torque: its work tau . (q1 - q0)), and the arm's fingertips striking
+// a box on a table: no contact passed through along a finely stepped reference path, no energy
+// gained under Stronge.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "arm_box_scene.h"
+#include "collision_response/core/body_episode.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/rigid_episode_body.h"
+#include "collision_response/robot/robot_episode_body.h"
+#include "collision_response/robot/urdf_loader.h"
+
+namespace cr = collision_response::core;
+namespace rb = collision_response::robot;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+
+namespace {
+
+const std::string kDir = ROBOT_TEST_DIR;
+const std::string kArm7 = ARM7_URDF;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// pendulum.urdf: a uniform rod, m = 2 kg, L = 1 m, hinged at the origin about z.
+constexpr double kMass = 2.0, kLength = 1.0, kInertia = kMass * kLength * kLength / 3.0;
+constexpr double kG = 9.81;
+constexpr double kFloor = 0.8;  // the floor is the plane y = -kFloor
+
+// Closed-form geometry: geometry body 0 the floor (plane y = -kFloor, normal +y), body 1 the rod,
+// its only feature the tip (L, 0, 0) in the rod's frame.
+class TipOnFloor final : public cr::GapQuery {
+ public:
+  void gaps(const std::vector<cr::BodyState>& bodies, double range,
+            std::vector<cr::GapContact>& out) const override {
+    out.clear();
+    const Vector3d tip = bodies[1].position + bodies[1].orientation * Vector3d(kLength, 0, 0);
+    cr::GapContact c;
+    c.body_a = 0;
+    c.body_b = 1;
+    c.gap = tip.y() + kFloor;
+    c.point = tip;
+    c.normal = Vector3d::UnitY();
+    c.restitution = restitution;
+    if (c.gap <= range) out.push_back(c);
+  }
+  double radius(int body) const override { return body == 0 ? kInf : kLength; }
+  int bodyCount() const override { return 2; }
+  double restitution = 0.5;
+};
+
+// theta'' = -(3 g / 2 L) cos(theta), RK4 at step h from theta = 0 at rest, until the tip reaches
+// the floor (L sin(theta) = -kFloor), the crossing located by linear interpolation in the step.
+double referenceContactTime(double h) {
+  double th = 0.0, w = 0.0, t = 0.0;
+  const auto acc = [](double x) { return -1.5 * kG / kLength * std::cos(x); };
+  for (;;) {
+    const double k1t = w, k1w = acc(th);
+    const double k2t = w + 0.5 * h * k1w, k2w = acc(th + 0.5 * h * k1t);
+    const double k3t = w + 0.5 * h * k2w, k3w = acc(th + 0.5 * h * k2t);
+    const double k4t = w + h * k3w, k4w = acc(th + h * k3t);
+    const double th1 = th + h / 6 * (k1t + 2 * k2t + 2 * k3t + k4t);
+    const double w1 = w + h / 6 * (k1w + 2 * k2w + 2 * k3w + k4w);
+    const double g0 = kLength * std::sin(th) + kFloor, g1 = kLength * std::sin(th1) + kFloor;
+    if (g1 <= 0.0) return t + h * g0 / (g0 - g1);
+    th = th1;
+    w = w1;
+    t += h;
+  }
+}
+
+struct Pendulum {
+  std::unique_ptr<rb::RobotEpisodeBody> rod;
+  std::unique_ptr<cr::RigidEpisodeBody> floor;
+  std::vector<cr::EpisodeBody*> bodies;
+  std::vector<cr::EpisodePart> parts;
+  TipOnFloor geometry;
+  cr::EpisodeOptions options;
+};
+
+Pendulum pendulum() {
+  Pendulum p;
+  rb::ArticulatedBody rod = rb::robotFromUrdfFile(kDir + "/pendulum.urdf");
+  rod.setState(VectorXd::Zero(1), VectorXd::Zero(1));
+  rod.setLoads(VectorXd::Zero(1), Vector3d::Zero());  // torque model none
+  const int link = rod.linkIndex("rod");
+  p.rod = std::make_unique<rb::RobotEpisodeBody>(std::move(rod));
+  cr::BodyState floor;
+  floor.id = "floor";
+  p.floor = std::make_unique<cr::RigidEpisodeBody>(floor);
+  p.bodies = {p.floor.get(), p.rod.get()};
+  p.parts = {{0, 0}, {1, link}};
+  p.options.gravity = Vector3d(0.0, -kG, 0.0);
+  p.options.horizon = 2.0;
+  p.options.max_impacts = 1;
+  p.options.contact_tolerance = 1e-5;
+  p.options.solver.law = cr::ImpactLaw::kNewton;
+  return p;
+}
+
+double pendulumEnergy(double theta, double rate) {
+  return 0.5 * kInertia * rate * rate + kMass * kG * 0.5 * kLength * std::sin(theta);
+}
+
+}  // namespace
+
+// The rod falls from horizontal at rest; its tip meets the floor at sin(theta) = -0.8.
+TEST(RobotEpisode, PendulumFirstContactTimeSpeedAndImpact) {
+  Pendulum p = pendulum();
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(p.bodies, p.parts, p.geometry, p.options);
+  ASSERT_GE(r.impacts.size(), 1u);
+  const cr::BodyEpisodeImpact& first = r.impacts[0];
+  ASSERT_EQ(first.contacts.size(), 1u);
+  // The reference's contact time converges to ~1e-12 at h = 1e-5 (RK4, error ~ h^4).
+  const double t_ref = referenceContactTime(1e-5);
+  const double theta_c = std::asin(-kFloor / kLength);
+  const double rate_c = -std::sqrt(3.0 * kG / kLength * -std::sin(theta_c));  // energy
+  const double tip_speed = std::abs(kLength * std::cos(theta_c) * rate_c);
+  // Found within the tolerance before the true contact: gap in [0, tol] at the impact.
+  EXPECT_LE(first.time, t_ref + 1e-9);
+  EXPECT_GE(first.time, t_ref - p.options.contact_tolerance / tip_speed - 1e-9);
+  // The state at the impact: energy conserved over the flight (kRobotFlightTolerance).
+  const double u_n = first.impulses[0].normal_velocity_before;
+  const double rate_before = u_n / (kLength * std::cos(theta_c));  // approximately, see below
+  EXPECT_NEAR(u_n, -tip_speed, 2e-4 * tip_speed);  // the impact lies within 1e-5 m of theta_c
+  // Single-DOF closed form, frictionless Newton: the joint rate reverses times e, and the impulse
+  // is (1 + e) |u_n| times the reflected inertia I / r^2 at the tip (r = L cos(theta), the lever
+  // of the normal y about the hinge).
+  const double e = p.geometry.restitution;
+  ASSERT_EQ(first.velocities_after[1].size(), 1);
+  const double rate_after = first.velocities_after[1](0);
+  (void)rate_before;
+  // theta at the impact from the rod's tip point (x = L cos(theta), y = L sin(theta)).
+  const double theta_i = std::atan2(first.contacts[0].point.y(), first.contacts[0].point.x());
+  const double r_lever = kLength * std::cos(theta_i);
+  const double rate_i = u_n / r_lever;
+  EXPECT_NEAR(rate_after, -e * rate_i, 1e-9 * std::abs(rate_i));
+  EXPECT_NEAR(first.impulses[0].normal_impulse,
+              (1.0 + e) * std::abs(u_n) * kInertia / (r_lever * r_lever),
+              1e-9 * first.impulses[0].normal_impulse);
+  // Energy before the impact from the flight: 0 at the start (theta = 0 at rest).
+  EXPECT_NEAR(pendulumEnergy(theta_i, rate_i), 0.0, 1e-8 * kMass * kG * kLength);
+  // The episode ends at the second impact (max_impacts 1): the flight in between conserves
+  // (1/2) I w^2 + m g (L/2) sin(theta).
+  EXPECT_EQ(r.end, cr::EpisodeEnd::kImpactCap);
+  const rb::ArticulatedBody& rod = p.rod->robot();
+  const double after = pendulumEnergy(theta_i, rate_after);
+  EXPECT_NEAR(pendulumEnergy(rod.jointPositions()(0), rod.jointVelocities()(0)), after,
+              1e-8 * kMass * kG * kLength);
+  EXPECT_GT(r.end_time, first.time);
+}
+
+// Bounces down to rest on the floor: sustained contact, the rod sticking (frictionless: sliding
+// is allowed, but the tip cannot slide along the floor without turning the rod upward).
+TEST(RobotEpisode, PendulumSettlesInSustainedContactWithoutGainingEnergy) {
+  Pendulum p = pendulum();
+  p.options.max_impacts = 200;
+  p.options.horizon = 20.0;
+  p.geometry.restitution = 0.3;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(p.bodies, p.parts, p.geometry, p.options);
+  ASSERT_EQ(r.end, cr::EpisodeEnd::kSustainedContact) << cr::toString(r.end);
+  ASSERT_FALSE(r.resting.empty());
+  // At rest on the tip: the tip's normal force holds the rod's weight moment about the hinge,
+  // N L cos(theta) = m g (L/2) cos(theta): N = m g / 2.
+  double normal = 0.0;
+  for (const auto& f : r.resting) normal += f.normal_force;
+  const double theta = p.rod->robot().jointPositions()(0);
+  EXPECT_NEAR(std::sin(theta), -kFloor, 1e-4);
+  EXPECT_NEAR(normal, 0.5 * kMass * kG, 1e-3 * kMass * kG);
+  // Each impact keeps the energy at most what it was (e < 1).
+  double energy = 0.0;
+  for (const cr::BodyEpisodeImpact& impact : r.impacts) {
+    const double th = std::atan2(impact.contacts[0].point.y(), impact.contacts[0].point.x());
+    const double now = pendulumEnergy(th, impact.velocities_after[1](0));
+    EXPECT_LE(now, energy + 1e-7);
+    energy = now;
+  }
+}
+
+// No contact, no gravity, no torque: the arm's kinetic energy is constant over a 0.3 s flight
+// through large joint motions; under gravity compensation with gravity, the same motion.
+TEST(RobotEpisode, ArmFlightConservesEnergyUnderNoneAndGravityCompensation) {
+  const auto arm = [](bool compensated) {
+    rb::ArticulatedBody a = rb::robotFromUrdfFile(kArm7);
+    VectorXd q = VectorXd::Zero(a.jointCount()), qdot = VectorXd::Zero(a.jointCount());
+    for (int j = 0; j < 7; ++j) {
+      q(j) = 0.3 * std::sin(1.0 + j);
+      qdot(j) = 2.0 * std::cos(0.7 * j);
+    }
+    a.setState(q, qdot);
+    if (compensated) {
+      a.setGravityCompensation(Vector3d(0, 0, -9.81));
+    } else {
+      a.setLoads(VectorXd::Zero(a.jointCount()), Vector3d::Zero());
+    }
+    return rb::RobotEpisodeBody(std::move(a));
+  };
+  rb::RobotEpisodeBody none = arm(false);
+  rb::RobotEpisodeBody held = arm(true);
+  none.setGravity(Vector3d::Zero());
+  held.setGravity(Vector3d(0, 0, -9.81));
+  const double e0 = none.kineticEnergy();
+  const VectorXd q0 = none.robot().jointPositions();
+  for (int k = 0; k < 30; ++k) {
+    none.advance(0.01);
+    held.advance(0.01);
+  }
+  EXPECT_GT((none.robot().jointPositions() - q0).norm(), 0.5);  // it did move a lot
+  EXPECT_NEAR(none.kineticEnergy(), e0, 1e-8 * e0);
+  EXPECT_NEAR(held.kineticEnergy(), e0, 1e-8 * e0);
+  EXPECT_LT((held.robot().jointPositions() - none.robot().jointPositions()).norm(), 1e-7);
+  EXPECT_LT((held.robot().jointVelocities() - none.robot().jointVelocities()).norm(), 1e-7);
+}
+
+// A constant joint torque without gravity: the kinetic energy gained is the torque's work,
+// tau . (q(t) - q(0)).
+TEST(RobotEpisode, ArmFlightUnderConstantEffortGainsTheTorquesWork) {
+  rb::ArticulatedBody a = rb::robotFromUrdfFile(kArm7);
+  VectorXd q = VectorXd::Zero(a.jointCount()), qdot = VectorXd::Zero(a.jointCount());
+  VectorXd tau = VectorXd::Zero(a.jointCount());
+  for (int j = 0; j < 7; ++j) {
+    q(j) = 0.2 * std::cos(0.5 + j);
+    qdot(j) = 0.5 * std::sin(1.3 * j);
+    tau(j) = 3.0 * std::cos(2.1 * j);
+  }
+  a.setState(q, qdot);
+  a.setLoads(tau, Vector3d::Zero());
+  rb::RobotEpisodeBody body(std::move(a));
+  body.setGravity(Vector3d::Zero());
+  const double e0 = body.kineticEnergy();
+  body.advance(0.2);
+  const double work = tau.dot(body.robot().jointPositions() - q);
+  EXPECT_GT(std::abs(work), 0.1);
+  EXPECT_NEAR(body.kineticEnergy() - e0, work, 1e-8 * (e0 + std::abs(work)));
+}
+
+// The arm's fingertips strike the box on the table. Reference path: the arm's flight stepped at
+// 20 us from the start state (no contact can happen before the episode's first impact if it was
+// found in time): along it the fingers' signed distance to the box and the table stays >= 0 until
+// the first impact's time. Energy: no kinetic energy gained (Stronge; gravity compensated, the box
+// stays on the table).
+TEST(RobotEpisode, ArmStrikesBoxNoContactMissedNoEnergyGained) {
+  using collision_response::testing::armBoxScene;
+  auto s = armBoxScene(kArm7);
+  const double energy0 = s.arm->kineticEnergy() + s.box->kineticEnergy();
+  auto reference = armBoxScene(kArm7);
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  ASSERT_GE(r.impacts.size(), 1u);
+  // The first impact is the fingertips on the box (parts 2, 3 of the arm: body 2).
+  bool arm_on_box = false;
+  for (const auto& c : r.impacts[0].contacts)
+    arm_on_box =
+        arm_on_box || ((c.body_a == 1 && c.body_b == 2) || (c.body_a == 2 && c.body_b == 1));
+  EXPECT_TRUE(arm_on_box);
+  const double t1 = r.impacts[0].time;
+  EXPECT_GT(t1, 0.0);
+  std::vector<cr::BodyState> states = reference.part_states;
+  std::vector<cr::GapContact> gaps;
+  const double h = 2e-5;
+  double smallest = kInf;
+  for (double t = 0.0; t + h <= t1; t += h) {
+    reference.arm->advance(h);
+    for (std::size_t g = 0; g < reference.parts.size(); ++g)
+      reference.bodies[reference.parts[g].body]->partPose(reference.parts[g].part, states[g]);
+    reference.geometry->gaps(states, 0.05, gaps);
+    for (const auto& gap : gaps) {
+      if (gap.body_a >= 2 || gap.body_b >= 2) smallest = std::min(smallest, gap.gap);
+    }
+  }
+  EXPECT_GE(smallest, 0.0);
+  EXPECT_LT(smallest, 0.01);  // the path does come close (the impact follows)
+  const double energy1 = s.arm->kineticEnergy() + s.box->kineticEnergy();
+  EXPECT_LE(energy1, energy0 * (1.0 + 1e-6));
+  EXPECT_LT(energy1, energy0);  // the impacts dissipate
+}
+
+// A box sliding on the table while the arm is still on its way (the episode cannot end in
+// sustained contact: the arm may reach the box before the horizon): held on the table by its
+// resting forces, it slides to rest under dynamic friction, v^2 / (2 mu_d g) away after v / (mu_d
+// g) (closed form), without sinking into the table or leaving it.
+TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
+  using collision_response::testing::armBoxScene;
+  auto s = armBoxScene(kArm7, /*lift=*/0.35);
+  const double v = 0.3, mu_d = 0.4, g = 9.81;
+  cr::BodyState box = s.box->state();
+  const Vector3d start = box.position;
+  box.linear_velocity = Vector3d(v, 0.0, 0.0);
+  *s.box = cr::RigidEpisodeBody(box);
+  s.bodies[1] = s.box.get();
+  s.options.horizon = 0.12;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
+  const cr::BodyState& end = s.box->state();
+  EXPECT_NEAR(end.position.x() - start.x(), v * v / (2.0 * mu_d * g), 1e-6);
+  EXPECT_NEAR(end.position.y(), start.y(), 1e-9);
+  EXPECT_NEAR(end.position.z(), start.z(), 1e-9);
+  EXPECT_LT(end.linear_velocity.norm(), 1e-9);
+  EXPECT_LT(end.angular_velocity.norm(), 1e-9);
+  EXPECT_LT(r.end_time, s.options.horizon + 1e-12);
+}
+
+// A random suite of strikes (joint2's lift and speed, the other joints' speeds, the box's place,
+// Newton or Stronge): every episode ends within its horizon with finite states and impacts in
+// order, the box stays on the table, no contact is passed through before the first impact along a
+// reference path of 50 us steps, and under Stronge the mechanical energy (the arm's kinetic
+// energy, gravity compensated, and the box's kinetic and potential energy) is not gained.
+TEST(RobotEpisode, RandomStrikesMissNoContactAndGainNoEnergy) {
+  using collision_response::testing::armBoxScene;
+  std::mt19937 rng(24u);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int trial = 0; trial < 12; ++trial) {
+    SCOPED_TRACE(trial);
+    const double lift = 0.01 + 0.08 * unit(rng), speed = 0.5 + 1.5 * unit(rng);
+    auto s = armBoxScene(kArm7, lift, speed);
+    auto reference = armBoxScene(kArm7, lift, speed);
+    rb::ArticulatedBody arm = s.arm->robot();
+    VectorXd qdot = arm.jointVelocities();
+    for (const char* joint : {"joint1", "joint3", "joint5", "joint7"})
+      qdot(arm.jointIndex(joint)) = 0.4 * (unit(rng) - 0.5);
+    arm.setState(arm.jointPositions(), qdot);
+    *s.arm = rb::RobotEpisodeBody(arm);
+    *reference.arm = rb::RobotEpisodeBody(arm);
+    cr::BodyState box = s.box->state();
+    box.position += Vector3d(0.04 * (unit(rng) - 0.5), 0.04 * (unit(rng) - 0.5), 0.0);
+    *s.box = cr::RigidEpisodeBody(box);
+    *reference.box = cr::RigidEpisodeBody(box);
+    const bool stronge = trial % 2 == 1;
+    s.options.solver.law = stronge ? cr::ImpactLaw::kStronge : cr::ImpactLaw::kNewton;
+    const auto energy = [](const auto& scene) {
+      return scene.arm->kineticEnergy() + scene.box->kineticEnergy() +
+             scene.box->state().mass * 9.81 * scene.box->state().position.z();
+    };
+    const double energy0 = energy(s);
+    const cr::BodyEpisodeResult r =
+        cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+    EXPECT_LE(r.end_time, s.options.horizon);
+    double last = 0.0;
+    for (const cr::BodyEpisodeImpact& impact : r.impacts) {
+      EXPECT_GE(impact.time, last);
+      last = impact.time;
+      for (const auto& p : impact.impulses) EXPECT_TRUE(std::isfinite(p.normal_impulse));
+    }
+    EXPECT_TRUE(s.arm->robot().jointPositions().allFinite());
+    EXPECT_TRUE(s.arm->robot().jointVelocities().allFinite());
+    EXPECT_GE(s.box->state().position.z(), 0.1615 + 0.05 - 2.0 * s.options.contact_tolerance);
+    if (stronge) EXPECT_LE(energy(s), energy0 + 1e-9 * energy0);
+    // The reference path up to the first impact (or the end).
+    const double until = r.impacts.empty() ? r.end_time : r.impacts[0].time;
+    std::vector<cr::BodyState> states = reference.part_states;
+    std::vector<cr::GapContact> gaps;
+    const double h = 5e-5;
+    double smallest = kInf;
+    for (double t = h; t <= until; t += h) {
+      reference.arm->advance(h);
+      for (std::size_t g = 0; g < reference.parts.size(); ++g)
+        reference.bodies[reference.parts[g].body]->partPose(reference.parts[g].part, states[g]);
+      reference.geometry->gaps(states, 0.05, gaps);
+      for (const auto& gap : gaps) {
+        if (gap.body_a >= 2 || gap.body_b >= 2) smallest = std::min(smallest, gap.gap);
+      }
+    }
+    EXPECT_GE(smallest, 0.0);
+  }
+}
+
+// A held rigid body's step limit: the time its velocity's component against the held
+// acceleration takes to run out (v / (mu g) for a slide stopping under friction), never for one
+// the acceleration speeds up (sliding off from rest).
+TEST(RobotEpisode, HeldBodyStepLimitIsWhereItsSlipStops) {
+  cr::BodyState box;
+  box.mass = 2.0;
+  box.inertia = Eigen::Matrix3d::Identity();
+  box.linear_velocity = Vector3d(0.5, 0.0, 0.0);
+  cr::RigidEpisodeBody body(box);
+  body.setGravity(Vector3d(0, 0, -10.0));
+  // Normal force m g up, friction 0.4 m g against the slip.
+  ASSERT_TRUE(body.hold(Vector3d(-0.4 * 2.0 * 10.0, 0.0, 2.0 * 10.0)));
+  EXPECT_NEAR(body.stepLimit(), 0.5 / 4.0, 1e-15);
+  EXPECT_NEAR(body.partAccelerationBound(0, 0.1), 4.0, 1e-12);
+  box.linear_velocity.setZero();
+  cr::RigidEpisodeBody still(box);
+  still.setGravity(Vector3d(0, 0, -10.0));
+  ASSERT_TRUE(still.hold(Vector3d(3.0, 0.0, 20.0)));  // pushed off from rest
+  EXPECT_EQ(still.stepLimit(), kInf);
+  still.release();
+  EXPECT_EQ(still.stepLimit(), kInf);
+  EXPECT_NEAR(still.partAccelerationBound(0, 0.1), 10.0, 1e-12);
+}
+
+TEST(RobotEpisode, RefusesFloatingBaseAndBadParts) {
+  rb::ArticulatedBody floating =
+      rb::robotFromUrdfFile(kDir + "/pendulum.urdf", rb::BaseType::kFloating);
+  try {
+    rb::RobotEpisodeBody body(floating);
+    FAIL() << "a floating base was accepted";
+  } catch (const cr::InvalidInput& e) {
+    EXPECT_EQ(e.field(), "base");
+  }
+  Pendulum p = pendulum();
+  p.parts[1].part = 99;
+  try {
+    cr::computeBodyEpisode(p.bodies, p.parts, p.geometry, p.options);
+    FAIL() << "a part out of range was accepted";
+  } catch (const cr::InvalidInput& e) {
+    EXPECT_EQ(e.field(), "parts[1]");
+  }
+}
