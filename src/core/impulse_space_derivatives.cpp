@@ -29,6 +29,7 @@
 
 #include "collision_response/core/contact_space.h"
 #include "collision_response/core/friction_disk.h"
+#include "collision_response/core/hermite_root.h"
 #include "collision_response/core/least_norm.h"
 
 namespace collision_response::core {
@@ -345,27 +346,6 @@ D eventValue(const Problem& pr, const State& st, const Y4& y) {
 D eventRate(const Problem& pr, const State& st, const Y4& f) {
   if (!st.restitution) return pr.c * f.y[0] + pr.b.x() * f.y[1] + pr.b.y() * f.y[2];
   return pr.stronge ? f.y[3] : f.y[0];
-}
-
-// Root in (0, 1] of the cubic Hermite interpolant of an event value over a step (values only).
-double hermiteRoot(double e0, double d0, double e1, double d1) {
-  double lo = 0.0, hi = 1.0, t = e0 / (e0 - e1);
-  for (int i = 0; i < 50; ++i) {
-    const double t2 = t * t, t3 = t2 * t;
-    const double v = (2 * t3 - 3 * t2 + 1) * e0 + (t3 - 2 * t2 + t) * d0 + (3 * t2 - 2 * t3) * e1 +
-                     (t3 - t2) * d1;
-    const double dv =
-        (6 * t2 - 6 * t) * (e0 - e1) + (3 * t2 - 4 * t + 1) * d0 + (3 * t2 - 2 * t) * d1;
-    if (v < 0.0)
-      lo = t;
-    else
-      hi = t;
-    double next = dv != 0.0 ? t - v / dv : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::abs(next - t) <= 1e-15) return next;
-    t = next;
-  }
-  return t;
 }
 
 void setState(State& st, const Y4& y) {

@@ -34,6 +34,7 @@
 #include <limits>
 
 #include "collision_response/core/friction_disk.h"
+#include "collision_response/core/hermite_root.h"
 #include "collision_response/core/least_norm.h"
 #include "collision_response/core/single_contact.h"
 #include "collision_response/core/stick_approach.h"
@@ -258,28 +259,6 @@ void phaseEvent(const Problem& pr, const State& st, Vec4& grad, double& offset) 
     grad << 1.0, 0.0, 0.0, 0.0;
     offset = -st.p_end;
   }
-}
-
-/// Root in (0, 1] of the cubic Hermite interpolant of an event value over a step, e0 < 0 <= e1,
-/// with slopes d0, d1 per unit theta.
-double hermiteRoot(double e0, double d0, double e1, double d1) {
-  double lo = 0.0, hi = 1.0, t = e0 / (e0 - e1);
-  for (int i = 0; i < 30; ++i) {
-    const double t2 = t * t, t3 = t2 * t;
-    const double v = (2 * t3 - 3 * t2 + 1) * e0 + (t3 - 2 * t2 + t) * d0 + (3 * t2 - 2 * t3) * e1 +
-                     (t3 - t2) * d1;
-    const double dv =
-        (6 * t2 - 6 * t) * (e0 - e1) + (3 * t2 - 4 * t + 1) * d0 + (3 * t2 - 2 * t) * d1;
-    if (v < 0.0)
-      lo = t;
-    else
-      hi = t;
-    double next = dv != 0.0 ? t - v / dv : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::abs(next - t) <= 1e-14) return next;
-    t = next;
-  }
-  return t;
 }
 
 /// Near stick, slip is self-similar: with theta the angle of s, dtheta/dln(sigma) = R(theta) =
