@@ -17,6 +17,19 @@
 namespace collision_response::core {
 namespace {
 
+// The largest and the second largest of x (0 where x has fewer entries), x >= 0.
+void twoLargest(const std::vector<double>& x, double& first, double& second) {
+  first = second = 0.0;
+  for (const double value : x) {
+    if (value > first) {
+      second = first;
+      first = value;
+    } else if (value > second) {
+      second = value;
+    }
+  }
+}
+
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // Halvings of a step undone because a pair overlapped after it, before the step is taken anyway
 // (a robot pressing into a contact, which a plastic touch does not move back out).
@@ -155,22 +168,12 @@ void BodyEpisode::bounds() {
 void BodyEpisode::query() {
   refreshModels();
   bounds();
-  double v1 = 0.0, v2 = 0.0, a1 = 0.0, a2 = 0.0;
   for (std::size_t g = 0; g < parts_.size(); ++g) {
-    if (speed_[g] > v1) {
-      v2 = v1;
-      v1 = speed_[g];
-    } else if (speed_[g] > v2) {
-      v2 = speed_[g];
-    }
-    if (acceleration_[g] > a1) {
-      a2 = a1;
-      a1 = acceleration_[g];
-    } else if (acceleration_[g] > a2) {
-      a2 = acceleration_[g];
-    }
     bodies_[parts_[g].body]->partPose(parts_[g].part, states_[g]);
   }
+  double v1, v2, a1, a2;
+  twoLargest(speed_, v1, v2);
+  twoLargest(acceleration_, a1, a2);
   const double remaining = options_.horizon - time_;
   range_ = std::clamp((v1 + v2) * remaining + 0.5 * (a1 + a2) * remaining * remaining,
                       10.0 * tolerance_, std::max(1.0, 1e4 * tolerance_));
@@ -240,21 +243,9 @@ double BodyEpisode::step() const {
     s = std::min(s, pairStep(pair));
   }
   // Pairs the query left out are farther apart than the range: the two fastest parts.
-  double v1 = 0.0, v2 = 0.0, a1 = 0.0, a2 = 0.0;
-  for (std::size_t g = 0; g < parts_.size(); ++g) {
-    if (speed_[g] > v1) {
-      v2 = v1;
-      v1 = speed_[g];
-    } else if (speed_[g] > v2) {
-      v2 = speed_[g];
-    }
-    if (acceleration_[g] > a1) {
-      a2 = a1;
-      a1 = acceleration_[g];
-    } else if (acceleration_[g] > a2) {
-      a2 = acceleration_[g];
-    }
-  }
+  double v1, v2, a1, a2;
+  twoLargest(speed_, v1, v2);
+  twoLargest(acceleration_, a1, a2);
   if (parts_.size() >= 2) s = std::min(s, safeStep(v1 + v2, a1 + a2, range_));
   for (std::size_t i = 0; i < bodies_.size(); ++i) {
     if (moving(static_cast<int>(i))) s = std::min(s, bodies_[i]->stepLimit());
