@@ -211,7 +211,7 @@ class Simultaneous {
       const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
       const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& cod = factorization();
       b_.resize(k);
-      base_.noalias() = w_ * rates_;
+      base_.noalias() = w_.lazyProduct(rates_);
       for (std::size_t p = 0; p < stick_.size(); ++p) {
         b_.segment<2>(2 * p) = -tangents(stick_[p]).transpose() * base_.segment<3>(3 * stick_[p]);
       }
@@ -324,6 +324,27 @@ class Simultaneous {
     return un > 0.0 ? work_left / un : e * s.compression_impulse;
   }
 
+  // M r = -q for one or two compressing contacts in closed form, where it is the least-norm
+  // answer the complete orthogonal decomposition gives (threshold 1e-12): one contact, r = -q / M
+  // (0 if M = 0, rank 0); two, Cramer's rule when |det M| >= 1e-8 |M|_F^2, which bounds
+  // sigma_min / sigma_max >= 1e-8 (sigma_max sigma_min = |det|, sigma_max^2 <= |M|_F^2), so that
+  // every pivot of the decomposition's column-pivoted QR (|R_ii| >= sigma_min) is above its
+  // threshold: full rank, and the same answer to round-off. False: the decomposition decides.
+  static bool solveSmall(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, Eigen::VectorXd& r) {
+    if (M.rows() == 1) {
+      r.resize(1);
+      r(0) = M(0, 0) != 0.0 ? -q(0) / M(0, 0) : 0.0;
+      return true;
+    }
+    if (M.rows() != 2) return false;
+    const double det = M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0);
+    if (!(std::abs(det) >= 1e-8 * M.squaredNorm()) || det == 0.0) return false;
+    r.resize(2);
+    r(0) = (-q(0) * M(1, 1) + q(1) * M(0, 1)) / det;
+    r(1) = (-q(1) * M(0, 0) + q(0) * M(1, 0)) / det;
+    return true;
+  }
+
   // The compressing contacts' rates: r >= 0, w = q + M r >= 0, r.w = 0 (M the effective normal
   // map of the compressing contacts, q their normal velocities plus the restituting contacts'
   // effect). First the all-active least-norm answer (redundant contacts share symmetrically),
@@ -334,12 +355,16 @@ class Simultaneous {
       r.setZero(q.size());
       return true;
     }
-    compression_cod_.setThreshold(1e-12);
-    compression_cod_.compute(M);
-    r = compression_cod_.solve(-q);
+    if (!solveSmall(M, q, r)) {
+      compression_cod_.setThreshold(1e-12);
+      compression_cod_.compute(M);
+      r = compression_cod_.solve(-q);
+    }
     const double r_scale = r.cwiseAbs().maxCoeff();
+    residual_.noalias() = M.lazyProduct(r);
+    residual_ += q;
     if (r.allFinite() && r.minCoeff() >= -1e-12 * r_scale &&
-        (M * r + q).cwiseAbs().maxCoeff() <= 1e-10 * q_scale) {
+        residual_.cwiseAbs().maxCoeff() <= 1e-10 * q_scale) {
       r = r.cwiseMax(0.0);
       return true;
     }
@@ -413,7 +438,7 @@ class Simultaneous {
       }
       if (!stick_.empty()) {
         const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& cod = factorization();
-        wg_.noalias() = w_ * g_;
+        wg_.noalias() = w_.lazyProduct(g_);
         stick_rhs_.resize(2 * static_cast<Eigen::Index>(stick_.size()), m);
         for (std::size_t p = 0; p < stick_.size(); ++p) {
           stick_rhs_.middleRows(2 * p, 2).noalias() =
@@ -426,18 +451,24 @@ class Simultaneous {
         }
       }
       if (!compressing_.empty()) {
-        wg_.noalias() = w_ * g_;
+        wg_.noalias() = w_.lazyProduct(g_);
         const Eigen::Index k = static_cast<Eigen::Index>(compressing_.size());
         eff_.resize(k, k);
         q_.resize(k);
         for (Eigen::Index a = 0; a < k; ++a) {
           const std::size_t i = compressing_[a];
-          const Eigen::RowVectorXd row =
-              problem_.contact(i).normal.transpose() * wg_.middleRows(3 * i, 3);
-          for (Eigen::Index b = 0; b < k; ++b) eff_(a, b) = row(compressing_[b]);
+          const Eigen::Vector3d& n = problem_.contact(i).normal;
+          const auto row = [&](Eigen::Index j) {
+            return n.dot(wg_.block<3, 1>(3 * static_cast<Eigen::Index>(i), j));
+          };
+          for (Eigen::Index b = 0; b < k; ++b) {
+            eff_(a, b) = row(static_cast<Eigen::Index>(compressing_[b]));
+          }
           q_(a) = normalVelocity(i);
           for (std::size_t j = 0; j < m_; ++j) {
-            if (state_[j].phase == Phase::kRestitution) q_(a) += row(j) * normal_rate_[j];
+            if (state_[j].phase == Phase::kRestitution) {
+              q_(a) += row(static_cast<Eigen::Index>(j)) * normal_rate_[j];
+            }
           }
         }
         if (!solveCompression(eff_, q_, r_) && !frictionlessCompression()) {
@@ -451,7 +482,7 @@ class Simultaneous {
         for (Eigen::Index a = 0; a < k; ++a) normal_rate_[compressing_[a]] = r_(a);
       }
       r_all_ = Eigen::Map<const Eigen::VectorXd>(normal_rate_.data(), m);
-      rates_.noalias() = g_ * r_all_;
+      rates_.noalias() = g_.lazyProduct(r_all_);
       // Sticking contacts whose friction leaves the static cone resume slip against it.
       bool all_in = true;
       for (std::size_t i : stick_) {
@@ -471,7 +502,7 @@ class Simultaneous {
       // A sliding contact whose slip along its friction's direction is ~0 and would turn against
       // it (friction would work with the slip) is not consistent: it stops (the cone decides);
       // if it has just resumed, it gets no friction for this step (which cannot add energy).
-      du_.noalias() = w_ * rates_;
+      du_.noalias() = w_.lazyProduct(rates_);
       bool consistent = true;
       for (std::size_t i = 0; i < m_; ++i) {
         State& s = state_[i];
@@ -510,7 +541,7 @@ class Simultaneous {
   // Returns false if there are no rates (a jammed island under kVelocityConsistent).
   bool step() {
     if (!computeRates()) return false;
-    du_.noalias() = w_ * rates_;
+    du_.noalias() = w_.lazyProduct(rates_);
     du_ *= h_;
     // The step fraction of the first event, and which contacts have it.
     std::vector<double>& event = event_;
@@ -645,7 +676,7 @@ class Simultaneous {
   std::vector<std::size_t> compressing_;
   std::vector<char> unfrictioned_, unstuck_now_;  // per contact, this step
   Eigen::MatrixXd g_, wg_, stick_rhs_, stick_map_, eff_;
-  Eigen::VectorXd q_, r_, r_all_;
+  Eigen::VectorXd q_, r_, r_all_, residual_;
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> compression_cod_;
   double scale_ = 0.0;   // largest |u| before the impact
   double lambda_ = 0.0;  // largest n^T W_ii n
