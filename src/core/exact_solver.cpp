@@ -427,18 +427,25 @@ void IslandLcp::completePyramids() {
 
 void IslandLcp::assembleDelassus() {
   M_.setZero(unknowns_, unknowns_);
-  for (const LcpContact& c : contacts_) {
-    const auto D = c.directions.leftCols(c.columns);
-    M_.block(c.offset, c.offset, c.columns, c.columns).noalias() =
-        D.transpose() * c.entry->delassus * D;
-  }
+  // D_i^T W_ij D_j: of fixed size (n and the pyramid's directions) for frictional contacts, so
+  // that the products are unrolled instead of general matrix products with their packing.
+  using Directions = Eigen::Matrix<double, 3, kD + 1>;
+  const auto block = [this](const LcpContact& ci, const LcpContact& cj,
+                            const Eigen::Matrix3d& W_ij) {
+    if (ci.columns == kD + 1 && cj.columns == kD + 1) {
+      const Directions WD = W_ij * cj.directions;
+      M_.block<kD + 1, kD + 1>(ci.offset, cj.offset).noalias() = ci.directions.transpose() * WD;
+    } else {
+      const auto Di = ci.directions.leftCols(ci.columns);
+      const auto Dj = cj.directions.leftCols(cj.columns);
+      M_.block(ci.offset, cj.offset, ci.columns, cj.columns).noalias() = Di.transpose() * W_ij * Dj;
+    }
+  };
+  for (const LcpContact& c : contacts_) block(c, c, c.entry->delassus);
   for (const auto& [i, j] : problem_.couplings()) {
     const LcpContact& ci = contacts_[i];
     const LcpContact& cj = contacts_[j];
-    const Eigen::Matrix3d W_ij = problem_.delassusBlock(i, j);
-    const auto Di = ci.directions.leftCols(ci.columns);
-    const auto Dj = cj.directions.leftCols(cj.columns);
-    M_.block(ci.offset, cj.offset, ci.columns, cj.columns).noalias() = Di.transpose() * W_ij * Dj;
+    block(ci, cj, problem_.delassusBlock(i, j));
     M_.block(cj.offset, ci.offset, cj.columns, ci.columns) =
         M_.block(ci.offset, cj.offset, ci.columns, cj.columns).transpose();
   }

@@ -9,6 +9,7 @@
 
 #include "collision_response/core/exact_solver.h"
 #include "collision_response/core/impulse_space_integrator.h"
+#include "collision_response/core/island_solver.h"
 #include "collision_response/core/iterative_solver.h"
 #include "collision_response/core/lcp.h"
 
@@ -16,6 +17,10 @@ namespace collision_response::core {
 namespace {
 
 enum class Phase { kIdle, kCompression, kRestitution };
+
+// Islands of at most this many contacts (the automatic choice's, island_solver.h) are integrated
+// with matrices of bounded size, in the scheme's object; larger ones on the heap.
+constexpr int kBoundedContacts = static_cast<int>(kSimultaneousMaxContacts);
 
 // Steps of the fictitious time per 1 / sqrt(k max_i n^T W_ii n): about 50 per compression.
 constexpr double kStepsPerUnit = 32.0;
@@ -44,7 +49,33 @@ struct State {
   Eigen::Vector3d impulse = Eigen::Vector3d::Zero();
 };
 
+// The scheme's matrices, of at most kMax contacts (Eigen::Dynamic: unbounded, on the heap; a
+// bound keeps them in the object, with no allocation per step).
+template <int kMax>
+struct Storage {
+  static constexpr int kTimes(int k) { return kMax == Eigen::Dynamic ? Eigen::Dynamic : k * kMax; }
+  using Stacked = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kTimes(3), kTimes(3)>;
+  using StackedVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kTimes(3), 1>;
+  using PerContact = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kTimes(3), kTimes(1)>;
+  using Sticking = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kTimes(2), kTimes(2)>;
+  using StickingMap =
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kTimes(2), kTimes(1)>;
+  using StickingVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kTimes(2), 1>;
+  using Square = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kTimes(1), kTimes(1)>;
+  using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kTimes(1), 1>;
+};
+
+template <int kMax>
 class Simultaneous {
+  using Stacked = typename Storage<kMax>::Stacked;
+  using StackedVector = typename Storage<kMax>::StackedVector;
+  using PerContact = typename Storage<kMax>::PerContact;
+  using Sticking = typename Storage<kMax>::Sticking;
+  using StickingMap = typename Storage<kMax>::StickingMap;
+  using StickingVector = typename Storage<kMax>::StickingVector;
+  using Square = typename Storage<kMax>::Square;
+  using Vector = typename Storage<kMax>::Vector;
+
  public:
   Simultaneous(const ContactProblem& problem, ImpactLaw law, SimultaneousSharing sharing,
                const Deadline& deadline)
@@ -58,15 +89,15 @@ class Simultaneous {
     w_.setZero(n3, n3);
     u_.resize(n3);
     for (std::size_t i = 0; i < m_; ++i) {
-      w_.block<3, 3>(3 * i, 3 * i) = problem.contact(i).delassus;
-      u_.segment<3>(3 * i) = problem.relativeMotion(i);
-      scale_ = std::max(scale_, u_.segment<3>(3 * i).norm());
+      w_.template block<3, 3>(3 * i, 3 * i) = problem.contact(i).delassus;
+      u_.template segment<3>(3 * i) = problem.relativeMotion(i);
+      scale_ = std::max(scale_, u_.template segment<3>(3 * i).norm());
       lambda_ = std::max(lambda_, problem.contact(i).normalDelassus());
     }
     for (const auto& [i, j] : problem.couplings()) {
       const Eigen::Matrix3d block = problem.delassusBlock(i, j);
-      w_.block<3, 3>(3 * i, 3 * j) = block;
-      w_.block<3, 3>(3 * j, 3 * i) = block.transpose();
+      w_.template block<3, 3>(3 * i, 3 * j) = block;
+      w_.template block<3, 3>(3 * j, 3 * i) = block.transpose();
     }
     // Spring rates are forces in a fictitious time; consistent rates are the impulses still
     // needed, so that one unit of fictitious time ends every phase that stays linear.
@@ -131,11 +162,11 @@ class Simultaneous {
     return t;
   }
   double normalVelocity(std::size_t i) const {
-    return problem_.contact(i).normal.dot(u_.segment<3>(3 * i));
+    return problem_.contact(i).normal.dot(u_.template segment<3>(3 * i));
   }
   Eigen::Vector3d tangentialVelocity(std::size_t i) const {
     const Eigen::Vector3d& n = problem_.contact(i).normal;
-    const Eigen::Vector3d u = u_.segment<3>(3 * i);
+    const Eigen::Vector3d u = u_.template segment<3>(3 * i);
     return u - n.dot(u) * n;
   }
 
@@ -192,14 +223,15 @@ class Simultaneous {
       if (s.phase == Phase::kIdle) continue;
       const ProblemContact& c = problem_.contact(i);
       normal_rate_[i] = normalRate(i);
-      rates_.segment<3>(3 * i) = normal_rate_[i] * c.normal;
+      rates_.template segment<3>(3 * i) = normal_rate_[i] * c.normal;
     }
     for (std::size_t i = 0; i < m_; ++i) {
       State& s = state_[i];
       if (s.phase == Phase::kIdle || problem_.contact(i).frictionless() || s.sticking) continue;
       const Eigen::Vector3d ut = tangentialVelocity(i);
       if (ut.norm() > 1e-14 * scale_) s.slip = ut.normalized();
-      rates_.segment<3>(3 * i) -= problem_.contact(i).dynamic_friction * normal_rate_[i] * s.slip;
+      rates_.template segment<3>(3 * i) -=
+          problem_.contact(i).dynamic_friction * normal_rate_[i] * s.slip;
     }
     // Sticking contacts: tangential rates holding u_t = 0, in the static cone, else slip resumes.
     for (;;) {
@@ -209,14 +241,15 @@ class Simultaneous {
       }
       if (stick_.empty()) return;
       const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
-      const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& cod = factorization();
+      const Eigen::CompleteOrthogonalDecomposition<Sticking>& cod = factorization();
       b_.resize(k);
-      base_.noalias() = w_ * rates_;
+      base_.noalias() = w_.lazyProduct(rates_);
       for (std::size_t p = 0; p < stick_.size(); ++p) {
-        b_.segment<2>(2 * p) = -tangents(stick_[p]).transpose() * base_.segment<3>(3 * stick_[p]);
+        b_.template segment<2>(2 * p) =
+            -tangents(stick_[p]).transpose() * base_.template segment<3>(3 * stick_[p]);
       }
       x_ = cod.solve(b_);
-      const Eigen::VectorXd& x = x_;
+      const StickingVector& x = x_;
       bool all_in = true;
       for (std::size_t p = 0; p < stick_.size(); ++p) {
         const std::size_t i = stick_[p];
@@ -226,7 +259,8 @@ class Simultaneous {
           // Slip resumes against the friction it would need.
           state_[i].sticking = false;
           state_[i].slip = -f.normalized();
-          rates_.segment<3>(3 * i) -= c.dynamic_friction * normal_rate_[i] * state_[i].slip;
+          rates_.template segment<3>(3 * i) -=
+              c.dynamic_friction * normal_rate_[i] * state_[i].slip;
           all_in = false;
           ++events_;
         }
@@ -234,7 +268,8 @@ class Simultaneous {
       if (all_in) {
         for (std::size_t p = 0; p < stick_.size(); ++p) {
           const ProblemContact& c = problem_.contact(stick_[p]);
-          rates_.segment<3>(3 * stick_[p]) += x(2 * p) * c.tangent1 + x(2 * p + 1) * c.tangent2;
+          rates_.template segment<3>(3 * stick_[p]) +=
+              x(2 * p) * c.tangent1 + x(2 * p + 1) * c.tangent2;
         }
         return;
       }
@@ -243,20 +278,20 @@ class Simultaneous {
 
   // The least-norm decomposition of the sticking block of W (tangential rows and columns of the
   // stuck contacts), kept per stuck set (a set recurs as contacts stop and resume).
-  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& factorization() {
+  const Eigen::CompleteOrthogonalDecomposition<Sticking>& factorization() {
     for (const auto& [set, cod] : factorizations_) {
       if (set == stick_) return cod;
     }
     const Eigen::Index k = 2 * static_cast<Eigen::Index>(stick_.size());
-    Eigen::MatrixXd a(k, k);
+    Sticking a(k, k);
     for (std::size_t p = 0; p < stick_.size(); ++p) {
       for (std::size_t q = 0; q < stick_.size(); ++q) {
-        a.block<2, 2>(2 * p, 2 * q) = tangents(stick_[p]).transpose() *
-                                      w_.block<3, 3>(3 * stick_[p], 3 * stick_[q]) *
-                                      tangents(stick_[q]);
+        a.template block<2, 2>(2 * p, 2 * q) =
+            tangents(stick_[p]).transpose() *
+            w_.template block<3, 3>(3 * stick_[p], 3 * stick_[q]) * tangents(stick_[q]);
       }
     }
-    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
+    Eigen::CompleteOrthogonalDecomposition<Sticking> cod;
     cod.setThreshold(1e-12);
     cod.compute(a);
     factorizations_.emplace_back(stick_, std::move(cod));
@@ -324,26 +359,51 @@ class Simultaneous {
     return un > 0.0 ? work_left / un : e * s.compression_impulse;
   }
 
+  // M r = -q for one or two compressing contacts in closed form, where it is the least-norm
+  // answer the complete orthogonal decomposition gives (threshold 1e-12): one contact, r = -q / M
+  // (0 if M = 0, rank 0); two, Cramer's rule when |det M| >= 1e-8 |M|_F^2, which bounds
+  // sigma_min / sigma_max >= 1e-8 (sigma_max sigma_min = |det|, sigma_max^2 <= |M|_F^2), so that
+  // every pivot of the decomposition's column-pivoted QR (|R_ii| >= sigma_min) is above its
+  // threshold: full rank, and the same answer to round-off. False: the decomposition decides.
+  static bool solveSmall(const Square& M, const Vector& q, Vector& r) {
+    if (M.rows() == 1) {
+      r.resize(1);
+      r(0) = M(0, 0) != 0.0 ? -q(0) / M(0, 0) : 0.0;
+      return true;
+    }
+    if (M.rows() != 2) return false;
+    const double det = M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0);
+    if (!(std::abs(det) >= 1e-8 * M.squaredNorm()) || det == 0.0) return false;
+    r.resize(2);
+    r(0) = (-q(0) * M(1, 1) + q(1) * M(0, 1)) / det;
+    r(1) = (-q(1) * M(0, 0) + q(0) * M(1, 0)) / det;
+    return true;
+  }
+
   // The compressing contacts' rates: r >= 0, w = q + M r >= 0, r.w = 0 (M the effective normal
   // map of the compressing contacts, q their normal velocities plus the restituting contacts'
   // effect). First the all-active least-norm answer (redundant contacts share symmetrically),
   // else Lemke's method. False if neither gives one.
-  bool solveCompression(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, Eigen::VectorXd& r) {
+  bool solveCompression(const Square& M, const Vector& q, Vector& r) {
     const double q_scale = q.cwiseAbs().maxCoeff();
     if (q_scale <= 0.0) {
       r.setZero(q.size());
       return true;
     }
-    compression_cod_.setThreshold(1e-12);
-    compression_cod_.compute(M);
-    r = compression_cod_.solve(-q);
+    if (!solveSmall(M, q, r)) {
+      compression_cod_.setThreshold(1e-12);
+      compression_cod_.compute(M);
+      r = compression_cod_.solve(-q);
+    }
     const double r_scale = r.cwiseAbs().maxCoeff();
+    residual_.noalias() = M.lazyProduct(r);
+    residual_ += q;
     if (r.allFinite() && r.minCoeff() >= -1e-12 * r_scale &&
-        (M * r + q).cwiseAbs().maxCoeff() <= 1e-10 * q_scale) {
+        residual_.cwiseAbs().maxCoeff() <= 1e-10 * q_scale) {
       r = r.cwiseMax(0.0);
       return true;
     }
-    const LcpResult lcp = solveLcp(M, q);
+    const LcpResult lcp = solveLcp(Eigen::MatrixXd(M), Eigen::VectorXd(q));
     if (lcp.status != LcpStatus::kSolved) return false;
     r = lcp.z;
     return true;
@@ -354,19 +414,20 @@ class Simultaneous {
   // semi-definite), with the restituting contacts' normal rates. Friction then follows them.
   bool frictionlessCompression() {
     const Eigen::Index k = static_cast<Eigen::Index>(compressing_.size());
-    Eigen::MatrixXd& M = eff_;
-    Eigen::VectorXd& q = q_;
+    Square& M = eff_;
+    Vector& q = q_;
     for (Eigen::Index a = 0; a < k; ++a) {
       const std::size_t i = compressing_[a];
       const Eigen::Vector3d& n = problem_.contact(i).normal;
       for (Eigen::Index b = 0; b < k; ++b) {
         const std::size_t j = compressing_[b];
-        M(a, b) = n.dot(w_.block<3, 3>(3 * i, 3 * j) * problem_.contact(j).normal);
+        M(a, b) = n.dot(w_.template block<3, 3>(3 * i, 3 * j) * problem_.contact(j).normal);
       }
       q(a) = normalVelocity(i);
       for (std::size_t j = 0; j < m_; ++j) {
         if (state_[j].phase != Phase::kRestitution) continue;
-        q(a) += n.dot(w_.block<3, 3>(3 * i, 3 * j) * problem_.contact(j).normal) * normal_rate_[j];
+        q(a) += n.dot(w_.template block<3, 3>(3 * i, 3 * j) * problem_.contact(j).normal) *
+                normal_rate_[j];
       }
     }
     return solveCompression(M, q, r_);
@@ -409,35 +470,52 @@ class Simultaneous {
           }
           column -= c.dynamic_friction * s.slip;
         }
-        g_.block<3, 1>(3 * i, i) = column;
+        g_.template block<3, 1>(3 * i, i) = column;
+      }
+      // wg_ = W g_ from g_'s structure: column i is contact i's column above, in its own rows.
+      wg_.setZero(3 * m, m);
+      for (std::size_t i = 0; i < m_; ++i) {
+        if (state_[i].phase == Phase::kIdle) continue;
+        const Eigen::Index at = 3 * static_cast<Eigen::Index>(i);
+        wg_.col(at / 3).noalias() =
+            w_.middleCols(at, 3).lazyProduct(g_.template block<3, 1>(at, at / 3));
       }
       if (!stick_.empty()) {
-        const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>& cod = factorization();
-        wg_.noalias() = w_ * g_;
+        const Eigen::CompleteOrthogonalDecomposition<Sticking>& cod = factorization();
         stick_rhs_.resize(2 * static_cast<Eigen::Index>(stick_.size()), m);
         for (std::size_t p = 0; p < stick_.size(); ++p) {
           stick_rhs_.middleRows(2 * p, 2).noalias() =
               -tangents(stick_[p]).transpose() * wg_.middleRows(3 * stick_[p], 3);
         }
         stick_map_ = cod.solve(stick_rhs_);
+        // The stuck contacts' tangential impulses fill their rows of g_ (every column); W g_
+        // takes what they add.
         for (std::size_t p = 0; p < stick_.size(); ++p) {
-          g_.middleRows(3 * stick_[p], 3).noalias() +=
+          const Eigen::Index at = 3 * static_cast<Eigen::Index>(stick_[p]);
+          const Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, Storage<kMax>::kTimes(1)> added =
               tangents(stick_[p]) * stick_map_.middleRows(2 * p, 2);
+          g_.middleRows(at, 3) += added;
+          wg_.noalias() += w_.middleCols(at, 3).lazyProduct(added);
         }
       }
       if (!compressing_.empty()) {
-        wg_.noalias() = w_ * g_;
         const Eigen::Index k = static_cast<Eigen::Index>(compressing_.size());
         eff_.resize(k, k);
         q_.resize(k);
         for (Eigen::Index a = 0; a < k; ++a) {
           const std::size_t i = compressing_[a];
-          const Eigen::RowVectorXd row =
-              problem_.contact(i).normal.transpose() * wg_.middleRows(3 * i, 3);
-          for (Eigen::Index b = 0; b < k; ++b) eff_(a, b) = row(compressing_[b]);
+          const Eigen::Vector3d& n = problem_.contact(i).normal;
+          const auto row = [&](Eigen::Index j) {
+            return n.dot(wg_.template block<3, 1>(3 * static_cast<Eigen::Index>(i), j));
+          };
+          for (Eigen::Index b = 0; b < k; ++b) {
+            eff_(a, b) = row(static_cast<Eigen::Index>(compressing_[b]));
+          }
           q_(a) = normalVelocity(i);
           for (std::size_t j = 0; j < m_; ++j) {
-            if (state_[j].phase == Phase::kRestitution) q_(a) += row(j) * normal_rate_[j];
+            if (state_[j].phase == Phase::kRestitution) {
+              q_(a) += row(static_cast<Eigen::Index>(j)) * normal_rate_[j];
+            }
           }
         }
         if (!solveCompression(eff_, q_, r_) && !frictionlessCompression()) {
@@ -451,12 +529,12 @@ class Simultaneous {
         for (Eigen::Index a = 0; a < k; ++a) normal_rate_[compressing_[a]] = r_(a);
       }
       r_all_ = Eigen::Map<const Eigen::VectorXd>(normal_rate_.data(), m);
-      rates_.noalias() = g_ * r_all_;
+      rates_.noalias() = g_.lazyProduct(r_all_);
       // Sticking contacts whose friction leaves the static cone resume slip against it.
       bool all_in = true;
       for (std::size_t i : stick_) {
         const ProblemContact& c = problem_.contact(i);
-        Eigen::Vector3d f = rates_.segment<3>(3 * i);
+        Eigen::Vector3d f = rates_.template segment<3>(3 * i);
         f -= c.normal.dot(f) * c.normal;
         if (f.norm() > c.static_friction * normal_rate_[i] * (1.0 + 1e-9) + 1e-300) {
           state_[i].sticking = false;
@@ -471,13 +549,13 @@ class Simultaneous {
       // A sliding contact whose slip along its friction's direction is ~0 and would turn against
       // it (friction would work with the slip) is not consistent: it stops (the cone decides);
       // if it has just resumed, it gets no friction for this step (which cannot add energy).
-      du_.noalias() = w_ * rates_;
+      du_.noalias() = w_.lazyProduct(rates_);
       bool consistent = true;
       for (std::size_t i = 0; i < m_; ++i) {
         State& s = state_[i];
         const ProblemContact& c = problem_.contact(i);
         if (s.phase == Phase::kIdle || c.frictionless() || s.sticking || unfrictioned_[i]) continue;
-        Eigen::Vector3d dut = du_.segment<3>(3 * i);
+        Eigen::Vector3d dut = du_.template segment<3>(3 * i);
         dut -= c.normal.dot(dut) * c.normal;
         const double along = s.slip.dot(dut);
         if (along >= 0.0 || s.slip.dot(tangentialVelocity(i)) > -1e-12 * along) continue;
@@ -498,7 +576,8 @@ class Simultaneous {
       for (std::size_t i = 0; i < m_; ++i) {
         if (state_[i].phase != Phase::kIdle || normalVelocity(i) > 1e-12 * scale_) continue;
         if (state_[i].impulse.squaredNorm() > 0.0) continue;  // not the first time: see run()
-        if (problem_.contact(i).normal.dot(du_.segment<3>(3 * i)) >= -1e-12 * scale_) continue;
+        if (problem_.contact(i).normal.dot(du_.template segment<3>(3 * i)) >= -1e-12 * scale_)
+          continue;
         startCycle(i);
         compressing_.push_back(i);
         joined = true;
@@ -510,7 +589,7 @@ class Simultaneous {
   // Returns false if there are no rates (a jammed island under kVelocityConsistent).
   bool step() {
     if (!computeRates()) return false;
-    du_.noalias() = w_ * rates_;
+    du_.noalias() = w_.lazyProduct(rates_);
     du_ *= h_;
     // The step fraction of the first event, and which contacts have it.
     std::vector<double>& event = event_;
@@ -520,7 +599,7 @@ class Simultaneous {
       const State& s = state_[i];
       const ProblemContact& c = problem_.contact(i);
       const double un = normalVelocity(i);
-      const double dun = c.normal.dot(du_.segment<3>(3 * i));
+      const double dun = c.normal.dot(du_.template segment<3>(3 * i));
       const double dpn = h_ * normal_rate_[i];
       double t = 2.0;
       if (s.phase == Phase::kIdle) {
@@ -540,7 +619,7 @@ class Simultaneous {
       }
       if (s.phase != Phase::kIdle && !s.sticking && !c.frictionless() && !unfrictioned(i)) {
         const Eigen::Vector3d ut = tangentialVelocity(i);
-        Eigen::Vector3d dut = du_.segment<3>(3 * i);
+        Eigen::Vector3d dut = du_.template segment<3>(3 * i);
         dut -= c.normal.dot(dut) * c.normal;
         const double dd = dut.squaredNorm();
         if (dd > 0.0) {
@@ -572,8 +651,8 @@ class Simultaneous {
       if (s.phase == Phase::kIdle) continue;
       const ProblemContact& c = problem_.contact(i);
       const double un0 = normalVelocity(i);
-      const double un1 = un0 + theta * c.normal.dot(du_.segment<3>(3 * i));
-      s.impulse += theta * h_ * rates_.segment<3>(3 * i);
+      const double un1 = un0 + theta * c.normal.dot(du_.template segment<3>(3 * i));
+      s.impulse += theta * h_ * rates_.template segment<3>(3 * i);
       s.delta -= theta * h_ * 0.5 * (un0 + un1);
       s.work += theta * h_ * normal_rate_[i] * 0.5 * (un0 + un1);
     }
@@ -630,23 +709,25 @@ class Simultaneous {
   Deadline deadline_;
   std::size_t m_;
   std::vector<State> state_;
-  Eigen::MatrixXd w_;  // the stacked W (3m x 3m)
-  Eigen::VectorXd u_;  // the stacked current relative velocities
-  Eigen::VectorXd rates_, du_;
+  Stacked w_;        // the stacked W (3m x 3m)
+  StackedVector u_;  // the stacked current relative velocities
+  StackedVector rates_, du_;
   std::vector<double> normal_rate_;
   std::vector<std::size_t> stick_;
-  std::vector<
-      std::pair<std::vector<std::size_t>, Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>>>
+  std::vector<std::pair<std::vector<std::size_t>, Eigen::CompleteOrthogonalDecomposition<Sticking>>>
       factorizations_;
   std::vector<double> event_;
-  Eigen::VectorXd base_, b_, x_;
+  StackedVector base_;
+  StickingVector b_, x_;
   // kVelocityConsistent work space: g_ (3m x m) the impulse per unit normal rate, wg_ = W g_,
   // eff_ / q_ / r_ the compressing contacts' complementarity problem and its answer.
   std::vector<std::size_t> compressing_;
   std::vector<char> unfrictioned_, unstuck_now_;  // per contact, this step
-  Eigen::MatrixXd g_, wg_, stick_rhs_, stick_map_, eff_;
-  Eigen::VectorXd q_, r_, r_all_;
-  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> compression_cod_;
+  PerContact g_, wg_;
+  StickingMap stick_rhs_, stick_map_;
+  Square eff_;
+  Vector q_, r_, r_all_, residual_;
+  Eigen::CompleteOrthogonalDecomposition<Square> compression_cod_;
   double scale_ = 0.0;   // largest |u| before the impact
   double lambda_ = 0.0;  // largest n^T W_ii n
   double h_ = 0.0;       // fictitious time step
@@ -678,12 +759,26 @@ SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverO
   }
   // Falling back to the two-phase scheme, the integration gets half of the time left, so that the
   // fallback has the rest; finishing it here, all of it.
-  Simultaneous scheme(problem, options.law, options.simultaneous_sharing,
-                      plastic_rest ? options.deadline : options.deadline.portion(0.5));
-  const bool finished = scheme.run();
-  detail.steps = scheme.steps();
-  detail.segments = scheme.events();
-  report.iterations = scheme.steps();
+  const Deadline deadline = plastic_rest ? options.deadline : options.deadline.portion(0.5);
+  std::vector<Eigen::Vector3d> totals(problem.size());
+  const auto integrate = [&](auto& scheme) {
+    const bool done = scheme.run();
+    detail.steps = scheme.steps();
+    detail.segments = scheme.events();
+    for (std::size_t i = 0; i < problem.size(); ++i) totals[i] = scheme.impulse(i);
+    return done;
+  };
+  bool finished;
+  if (problem.size() <= static_cast<std::size_t>(kBoundedContacts)) {
+    Simultaneous<kBoundedContacts> scheme(problem, options.law, options.simultaneous_sharing,
+                                          deadline);
+    finished = integrate(scheme);
+  } else {
+    Simultaneous<Eigen::Dynamic> scheme(problem, options.law, options.simultaneous_sharing,
+                                        deadline);
+    finished = integrate(scheme);
+  }
+  report.iterations = detail.steps;
   if (!finished && !plastic_rest) {
     detail.fallback = true;
     report.converged = false;
@@ -692,7 +787,7 @@ SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverO
   }
   for (std::size_t i = 0; i < problem.size(); ++i) {
     const ProblemContact& c = problem.contact(i);
-    const Eigen::Vector3d p = scheme.impulse(i);
+    const Eigen::Vector3d& p = totals[i];
     problem.applyImpulse(i, p);
     impulses[i].normal_impulse = p.dot(c.normal);
     impulses[i].friction_impulse = p - impulses[i].normal_impulse * c.normal;

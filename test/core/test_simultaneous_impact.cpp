@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -236,6 +237,107 @@ TEST(SimultaneousImpact, SlidingCubeLandingFlatByHandUnderTheConsistentRule) {
 //    ball 2 at 1/3 + 1/sqrt(3), which then strikes ball 3 (at 1/3) as a new cycle of the second
 //    contact, two equal balls, e = 1: they exchange velocities.
 //    v' = (1/3 - 1/sqrt(3), 1/3, 1/3 + 1/sqrt(3)); energy conserved (e = 1).
+// A bar landing flat on its two ends (1 m x 0.1 m x 0.1 m, 2 kg), turning about y so that one end
+// approaches faster, plastic (e = 0) under the consistent rule: both ends compress together from
+// the start (two compressing contacts), and both end at u_n = 0 in one piece. With the slip along
+// x kept throughout (friction -mu P_n x at each end), the impulses solve the 2 x 2 system
+// u_n,i + sum_j n^T W_ij (n - mu x) P_j = 0, W_ij = I/m - [r_i]x I^-1 [r_j]x built here by hand
+// from the bar's inertia (not through the contact problem); frictionless too (mu = 0); and with
+// both ends stuck. The consistent rule ends such a compression in one step (its rates bring the
+// normal velocities to 0 together at t = 1), which a wrong rate would not.
+TEST(SimultaneousImpact, BarLandingOnBothEndsPlasticByHandUnderTheConsistentRule) {
+  const double m = 2.0, length = 1.0, side = 0.1;
+  const Vector3d com(0.0, 0.0, side / 2);
+  const std::vector<Vector3d> ends = {{length / 2, 0.0, 0.0}, {-length / 2, 0.0, 0.0}};
+  const Vector3d v(2.0, 0.0, -1.0), w(0.0, 0.4, 0.0);
+  const Vector3d size(length, side, side);
+  const Vector3d inertia(m * (size.y() * size.y() + size.z() * size.z()) / 12,
+                         m * (size.x() * size.x() + size.z() * size.z()) / 12,
+                         m * (size.x() * size.x() + size.y() * size.y()) / 12);
+  const Matrix3d inverse_inertia = inertia.cwiseInverse().asDiagonal();
+  const auto cross = [](const Vector3d& r) {
+    Matrix3d c;
+    c << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+    return c;
+  };
+  const Vector3d n = Vector3d::UnitZ(), x = Vector3d::UnitX();
+  for (const double mu : {0.0, 0.3}) {
+    for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+      const cr::RigidBody bar = box(m, size, Matrix3d::Identity(), com, v, w);
+      const Outcome got =
+          solve(bar, ends, 0.0, mu, mu, law, cr::SimultaneousSharing::kVelocityConsistent);
+      // The hand solution.
+      Eigen::Matrix2d A;
+      Eigen::Vector2d u;
+      for (int i = 0; i < 2; ++i) {
+        const Vector3d r_i = ends[i] - com;
+        u(i) = n.dot(v + w.cross(r_i));
+        for (int j = 0; j < 2; ++j) {
+          const Vector3d r_j = ends[j] - com;
+          const Matrix3d W = Matrix3d::Identity() / m - cross(r_i) * inverse_inertia * cross(r_j);
+          A(i, j) = n.dot(W * (n - mu * x));
+        }
+      }
+      const Eigen::Vector2d P = A.inverse() * -u;
+      ASSERT_GT(P.minCoeff(), 0.0);  // both ends loaded: the case meant
+      Vector3d v_after = v, w_after = w;
+      for (int j = 0; j < 2; ++j) {
+        const Vector3d impulse = P(j) * (n - mu * x);
+        v_after += impulse / m;
+        w_after += inverse_inertia * (ends[j] - com).cross(impulse);
+      }
+      for (int i = 0; i < 2; ++i) {
+        const Vector3d r_i = ends[i] - com;
+        EXPECT_NEAR(n.dot(v_after + w_after.cross(r_i)), 0.0, 1e-12);
+        EXPECT_GT(x.dot(v_after + w_after.cross(r_i)), 0.1);  // still sliding along +x
+        EXPECT_NEAR(got.impulses[i].normal_impulse, P(i), 1e-9 * P.norm()) << cr::toString(law);
+        EXPECT_NEAR((got.impulses[i].friction_impulse + mu * P(i) * x).norm(), 0.0,
+                    1e-9 * P.norm());
+      }
+      EXPECT_LT((got.body.linear_velocity - v_after).norm(), 1e-9);
+      EXPECT_LT((got.body.angular_velocity - w_after).norm(), 1e-9);
+      // The consistent rates bring both ends to u_n = 0 together at t = 1: one step.
+      ASSERT_TRUE(got.report.impulse_space.has_value());
+      EXPECT_EQ(got.report.impulse_space->steps, 1u) << cr::toString(law);
+    }
+  }
+  // Both ends stuck from the start (v_x = w_y h: no slip at either end) in a cone wide enough
+  // (mu = 1): the impulses hold u = 0 at both ends, the 6 x 6 system u_i + sum_j W_ij P_j = 0,
+  // its least-norm solution.
+  const Vector3d v_stuck(w.y() * side / 2, 0.0, -1.0);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    const cr::RigidBody bar = box(m, size, Matrix3d::Identity(), com, v_stuck, w);
+    const Outcome got =
+        solve(bar, ends, 0.0, 1.0, 1.0, law, cr::SimultaneousSharing::kVelocityConsistent);
+    Eigen::Matrix<double, 6, 6> A;
+    Eigen::Matrix<double, 6, 1> u;
+    for (int i = 0; i < 2; ++i) {
+      const Vector3d r_i = ends[i] - com;
+      u.segment<3>(3 * i) = v_stuck + w.cross(r_i);
+      for (int j = 0; j < 2; ++j) {
+        A.block<3, 3>(3 * i, 3 * j) =
+            Matrix3d::Identity() / m - cross(r_i) * inverse_inertia * cross(ends[j] - com);
+      }
+    }
+    ASSERT_LT(u.segment<2>(0).norm() + u.segment<2>(3).norm(), 1e-15);  // no slip at the start
+    // Redundant (two points of one body: their x slips are one), rank 5: the least-norm answer
+    // the scheme takes for stuck contacts, here by the singular value decomposition.
+    Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    ASSERT_EQ(svd.setThreshold(1e-12).rank(), 5);
+    const Eigen::Matrix<double, 6, 1> P = svd.solve(-u);
+    EXPECT_LT((A * P + u).norm(), 1e-12);
+    for (int i = 0; i < 2; ++i) {
+      ASSERT_GT(P(3 * i + 2), 0.0);
+      ASSERT_LT(P.segment<2>(3 * i).norm(), P(3 * i + 2));  // inside the cone: stuck
+      const Vector3d got_impulse =
+          got.impulses[i].normal_impulse * n + got.impulses[i].friction_impulse;
+      EXPECT_LT((got_impulse - P.segment<3>(3 * i)).norm(), 1e-9 * P.norm()) << cr::toString(law);
+    }
+    ASSERT_TRUE(got.report.impulse_space.has_value());
+    EXPECT_EQ(got.report.impulse_space->steps, 1u) << cr::toString(law);
+  }
+}
+
 TEST(SimultaneousImpact, NewtonsCradleByHandUnderTheConsistentRule) {
   for (cr::ImpactLaw law : kLaws) {
     SCOPED_TRACE(cr::toString(law));
