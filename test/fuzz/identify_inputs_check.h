@@ -9,8 +9,8 @@
 // found from rest).
 //
 // An outcome is a bug if anything crashes or hangs (the fuzzer's job), if an exception other than
-// std::runtime_error escapes, if an error does not name its source (the object file's name, and
-// maybe a line, for the object, the CSV file's path for the CSV, the recording's source for an extraction error), or if
+// std::runtime_error escapes, if an error does not begin with its source (the object file's name,
+// maybe with a line; the CSV file's path; the recording's source for an extraction error), or if
 // an accepted object or an extracted landing holds a non-finite number.
 #pragma once
 
