@@ -13,6 +13,10 @@
 #           cones, small meshes and planes, materials, gravity, horizon, impact cap, contact
 #           tolerance, a 0.05 s time budget) through detection::ShapeGaps and core::computeEpisode
 #           as ~compute_episode calls them; inputs decoded by test/fuzz/episode_decoder.h.
+#  - identify: test/fuzz/fuzz_identify_inputs.cpp, the identify program's inputs (an object file
+#           and a CSV recording) through calibration::parseObjectModel, readCsvTracks and
+#           extractLandings (src/calibration, no Ceres); inputs split by
+#           test/fuzz/identify_inputs_check.h; its seeds also committed in test/fuzz/corpus/identify/.
 # Each target seeds its corpus with inputs it writes itself (the robot target from the package's
 # URDFs, test/robot/*.urdf and urdf/arm7.urdf, and generated ones), and fuzzes for its share of the
 # time and runs. Exits non-zero if libFuzzer finds a crash, a sanitizer report, an unexpected
@@ -24,16 +28,21 @@
 #                                        robot-crash-*, corpus-robot/, test/fuzz/regressions/robot/),
 #                                        on the episode target if it is one of the episode's
 #                                        (episode-crash-*, corpus-episode/,
-#                                        test/fuzz/regressions/episode/), on the core target
-#                                        otherwise (FUZZ_TARGETS overrides)
+#                                        test/fuzz/regressions/episode/), on the identify target
+#                                        if it is one of the identify target's (identify-crash-*,
+#                                        corpus-identify/, test/fuzz/regressions/identify/), on the
+#                                        core target otherwise (FUZZ_TARGETS overrides)
 #
 # Environment: BUILD_DIR (default build-fuzz; corpora, crash artifacts and logs live there, out of
-# git), FUZZ_TARGETS (default "core robot episode"), FUZZ_SECONDS (default 120: the time cap of
+# git), FUZZ_TARGETS (default "core robot episode identify"), FUZZ_SECONDS (default 120: the time cap of
 # the whole run, split between the targets by the shares below), FUZZ_RUNS (the executions of the
 # whole run, split likewise; unset: no cap), FUZZ_ROBOT_SHARE and FUZZ_ROBOT_RUNS_SHARE (the robot
 # target's share of the time and of the runs, in percent; default 38 and 24),
 # FUZZ_EPISODE_SHARE and FUZZ_EPISODE_RUNS_SHARE (the episode target's; default 24 and 3; the
-# core target has the rest of each; the shares of the targets run are scaled to the whole), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
+# core target has the rest of each; the shares of the targets run are scaled to the whole),
+# FUZZ_IDENTIFY_SECONDS and FUZZ_IDENTIFY_RUNS (the identify target's own budget, on top of
+# FUZZ_SECONDS and FUZZ_RUNS, which it does not share unless it is the only target; default 60 s
+# and 10000 runs: about 20 s under the sanitizers), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
 # fixed seed and FUZZ_RUNS, and an empty corpus, a run is reproducible, as CI's is), FUZZ_ARGS
 # (extra libFuzzer flags), FUZZ_PRINT=1 (print each decoded request and its outcome; useful with
 # --replay), FUZZ_SKIP_EXTREME=1 (core target: excuse non-finite answers to requests holding finite
@@ -54,11 +63,12 @@ elif [ $# -gt 0 ]; then
   exit 2
 fi
 
-targets=${FUZZ_TARGETS:-core robot episode}
+targets=${FUZZ_TARGETS:-core robot episode identify}
 if [ "$mode" = replay ] && [ -z "${FUZZ_TARGETS:-}" ]; then
   case "${replay[*]}" in
     */robot-* | robot-* | *regressions/robot* | *-robot*) targets=robot ;;
     */episode-* | episode-* | *regressions/episode* | *-episode*) targets=episode ;;
+    */identify-* | identify-* | *regressions/identify* | *-identify* | *corpus/identify*) targets=identify ;;
     *) targets=core ;;
   esac
 fi
@@ -68,7 +78,7 @@ case " $targets " in *" robot "*) want_robot=true ;; esac
 # The core target links the detection library's sources too (the request path can detect contacts),
 # and with them FCL; the robot target KDL, urdf, resource_retriever and geometric_shapes (the links'
 # collision geometry), and the headers of the ROS messages it uses (generated below).
-packages=(clang-14 libclang-rt-14-dev libeigen3-dev libfcl-dev)
+packages=(clang-14 libclang-rt-14-dev libeigen3-dev libfcl-dev zlib1g-dev)
 if $want_robot; then
   packages+=(liborocos-kdl-dev libkdl-parser-dev liburdf-dev libresource-retriever-dev
     libgeometric-shapes-dev libroscpp-core-dev libroslib-dev libconsole-bridge-dev python3-gencpp
@@ -117,6 +127,10 @@ compile() {  # source -> object; prints the object
   echo "$object"
 }
 core_sources=(src/core/*.cpp src/detection/*.cpp)
+# What identify reads before it fits: the object file, the CSV recordings, the landings.
+identify_sources=(src/calibration/csv_tracks.cpp src/calibration/flight_fit.cpp
+  src/calibration/landing_extraction.cpp src/calibration/object_file.cpp
+  src/calibration/object_model.cpp src/calibration/simple_yaml.cpp)
 robot_sources=(src/robot/*.cpp src/ros/message_conversion.cpp src/ros/joint_state_cache.cpp
   src/ros/served_robot.cpp src/ros/robot_conversion.cpp src/ros/robot_geometry.cpp)
 build_target() {  # name main-source sources... -- libraries...
@@ -159,6 +173,10 @@ for name in $targets; do
     episode)
       build_target fuzz_episode test/fuzz/fuzz_episode.cpp "${core_sources[@]}" -- -lfcl -lccd
       ;;
+    identify)
+      build_target fuzz_identify_inputs test/fuzz/fuzz_identify_inputs.cpp "${identify_sources[@]}" \
+        -- -lz
+      ;;
     robot)
       build_target fuzz_robot_request test/fuzz/fuzz_robot_request.cpp "${core_sources[@]}" \
         "${robot_sources[@]}" -- -lfcl -lccd -lorocos-kdl -lkdl_parser -lurdf -lurdfdom_model \
@@ -166,7 +184,7 @@ for name in $targets; do
         -lconsole_bridge
       ;;
     *)
-      echo "fuzz: unknown target '$name' in FUZZ_TARGETS (core, robot, episode)" >&2
+      echo "fuzz: unknown target '$name' in FUZZ_TARGETS (core, robot, episode, identify)" >&2
       exit 2
       ;;
   esac
@@ -186,6 +204,7 @@ executable() {
     core) echo "$build_dir/fuzz_compute_response" ;;
     robot) echo "$build_dir/fuzz_robot_request" ;;
     episode) echo "$build_dir/fuzz_episode" ;;
+    identify) echo "$build_dir/fuzz_identify_inputs" ;;
   esac
 }
 
@@ -223,6 +242,9 @@ robot_runs_share=${FUZZ_ROBOT_RUNS_SHARE:-24}
 episode_share=${FUZZ_EPISODE_SHARE:-24}
 episode_runs_share=${FUZZ_EPISODE_RUNS_SHARE:-3}
 target_count=$(echo $targets | wc -w)
+# The targets that share FUZZ_SECONDS and FUZZ_RUNS (identify has its own budget beside them).
+sharing=$(echo $targets | tr ' ' '\n' | grep -vx identify | tr '\n' ' ' || true)
+sharing_count=$(echo $sharing | wc -w)
 status=0
 core_share=$((100 - robot_share - episode_share))
 core_runs_share=$((100 - robot_runs_share - episode_runs_share))
@@ -235,20 +257,23 @@ shareOf() {  # target -> "time-share runs-share" in percent, of the whole
 }
 # The shares of the targets run, scaled so that they split the whole time and runs.
 share_sum=0 runs_share_sum=0
-for name in $targets; do
+for name in $sharing; do
   read -r s r < <(shareOf "$name")
   share_sum=$((share_sum + s)) runs_share_sum=$((runs_share_sum + r))
 done
 for name in $targets; do
   # This target's share of the time and of the runs (all of them for a single target).
   share=100 runs_share=100
-  if [ "$target_count" -gt 1 ]; then
+  if [ "$name" != identify ] && [ "$sharing_count" -gt 1 ]; then
     read -r share runs_share < <(shareOf "$name")
     share=$((share * 100 / share_sum)) runs_share=$((runs_share * 100 / runs_share_sum))
   fi
   seconds=$((total_seconds * share / 100))
   runs=-1
   [ -n "${FUZZ_RUNS:-}" ] && runs=$((FUZZ_RUNS * runs_share / 100))
+  if [ "$name" = identify ] && [ "$target_count" -gt 1 ]; then
+    seconds=${FUZZ_IDENTIFY_SECONDS:-60} runs=${FUZZ_IDENTIFY_RUNS:-10000}
+  fi
   target=$(executable "$name")
   # Seeds: valid, solvable inputs the target finds itself, rewritten each run; the corpus grows
   # across runs.
@@ -267,13 +292,22 @@ for name in $targets; do
   prefix="$artifacts/"
   [ "$name" = robot ] && prefix="$artifacts/robot-"
   [ "$name" = episode ] && prefix="$artifacts/episode-"
+  [ "$name" = identify ] && prefix="$artifacts/identify-"
+  # The identify target's inputs are text (an object file and a CSV recording): room for a
+  # recording; and its committed seeds (read only: new inputs go to the first directory).
+  target_flags=() more_corpora=()
+  if [ "$name" = identify ]; then
+    target_flags=(-max_len=16384)
+    more_corpora=(test/fuzz/corpus/identify)
+  fi
   echo "fuzz: $name: $(count "$seeds") seeds, corpus $corpus ($(count "$corpus") inputs), ${seconds} s at most, $([ "$runs" -ge 0 ] && echo "$runs" || echo unlimited) runs, seed ${FUZZ_SEED:-random} (log: $log)"
   target_status=0
   # Inputs slower than 3 s are saved as ${prefix}slow-unit-* (not a failure; worth a look).
   # shellcheck disable=SC2086
   "$target" -max_total_time="$seconds" -runs="$runs" -seed="${FUZZ_SEED:-0}" \
     -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-    -report_slow_units=3 -artifact_prefix="$prefix" ${FUZZ_ARGS:-} "$corpus" "$seeds" >"$log" 2>&1 || target_status=$?
+    -report_slow_units=3 -artifact_prefix="$prefix" ${FUZZ_ARGS:-} "${target_flags[@]}" "$corpus" "$seeds" \
+    "${more_corpora[@]}" >"$log" 2>&1 || target_status=$?
   executions=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
   if [ -z "$executions" ]; then  # no final stats after a crash: the last progress line
     executions=$(grep -oE '^#[0-9]+' "$log" | tail -n 1 | tr -d '#')

@@ -73,7 +73,12 @@ void readFile(const std::string& path, int fallback_number, std::vector<Numbered
     }
     while (*p == ' ') ++p;
     if (*p != '\0') fail("not " + std::to_string(count) + " comma-separated numbers");
-    const double* row = numbered ? v : v - 1;  // row[1] is t
+    // row[1] is t, with or without the toss column (row[0] unused without it).
+    double row[9];
+    std::copy(v, v + count, row + (numbered ? 0 : 1));
+    // The toss number: an integer an int holds (a cast of another double is undefined).
+    if (numbered && !(v[0] == std::floor(v[0]) && std::abs(v[0]) <= 1e9))
+      fail("toss: not an integer of at most 9 digits");
     const int number = numbered ? static_cast<int>(v[0]) : fallback_number;
     if (out.size() == first_out || out.back().number != number) {
       for (size_t k = first_out; k < out.size(); ++k)

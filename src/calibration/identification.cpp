@@ -14,6 +14,10 @@ namespace {
 /// The automatic loss scale: the first stage's, and the least of the second's.
 constexpr double kFirstLossScale = 0.25;
 constexpr double kMinimumLossScale = 1e-4;
+/// The scan of mu_s with two friction coefficients: this far either side of the fit, this many
+/// steps (0.005 apart at most).
+constexpr double kStaticScanHalfWidth = 0.1;
+constexpr int kStaticScanPoints = 40;
 
 /// The fitted parameters x and the coefficients they stand for: x = (e, mu[, r][, s]) with
 /// mu_s = mu, mu_d = r mu (r = 1 with one mu).
@@ -235,39 +239,47 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
       throw std::invalid_argument("identifyCoefficients: the initial " + p.names()[j] +
                                   " is outside [" + std::to_string(bounds.lower[j]) + ", " +
                                   std::to_string(bounds.upper[j]) + "]");
+  // Sum over landings of the Cauchy loss c^2 log(1 + |r|^2 / c^2) at x = y (Ceres' cost times 2).
+  auto robustCost = [&](const std::vector<double>& y, double c) {
+    const double c2 = c * c;
+    std::vector<double> s(cases.size(), 0.0);
+    pool.parallelFor(cases.size(), [&](std::size_t i) {
+      try {
+        const double r2 =
+            cases[i].predictor->residual(*cases[i].landing, p.coefficients(y.data())).squaredNorm();
+        s[i] = std::isfinite(r2) ? c2 * std::log1p(r2 / c2) : INFINITY;
+      } catch (const std::exception&) {
+        s[i] = INFINITY;
+      }
+    });
+    double total = 0.0;
+    for (double v : s) total += v;
+    return total;
+  };
   std::vector<std::vector<double>> starts;
   if (options.grid_start) {
     // The objective has several basins (the order of a landing's corner impacts changes with the
     // coefficients): start from the best of a coarse grid over (e, mu), the other parameters at
     // their initial values, under the first stage's loss.
-    const double c2 = (options.loss_scale == 0.0 ? kFirstLossScale : options.loss_scale) *
-                      (options.loss_scale == 0.0 ? kFirstLossScale : options.loss_scale);
-    auto cost = [&](const std::vector<double>& y) {
-      std::vector<double> s(cases.size(), 0.0);
-      pool.parallelFor(cases.size(), [&](std::size_t i) {
-        try {
-          const double r2 = cases[i]
-                                .predictor->residual(*cases[i].landing, p.coefficients(y.data()))
-                                .squaredNorm();
-          s[i] = std::isfinite(r2) ? c2 * std::log1p(r2 / c2) : INFINITY;
-        } catch (const std::exception&) {
-          s[i] = INFINITY;
-        }
-      });
-      double total = 0.0;
-      for (double v : s) total += v;
-      return total;
-    };
+    const double first = options.loss_scale == 0.0 ? kFirstLossScale : options.loss_scale;
+    auto cost = [&](const std::vector<double>& y) { return robustCost(y, first); };
     std::vector<std::pair<double, std::vector<double>>> grid{{cost(x), x}};
     const std::vector<double> start = x;
+    // With two friction coefficients, over r = mu_d / mu_s too: where a landing sticks is decided
+    // by mu_s, how far it slides by mu_d, and from r = 1 alone the fit stays in the basin of one
+    // mu (the stick thresholds make the objective a staircase in mu_s).
+    const std::vector<double> ratios =
+        p.split ? std::vector<double>{1.0, 0.6, 0.3} : std::vector<double>{1.0};
     for (double e : {0.1, 0.3, 0.5, 0.7, 0.9})
-      for (double mu : {0.1, 0.2, 0.35, 0.5, 0.8}) {
-        if (mu > options.max_friction) continue;
-        std::vector<double> y = start;
-        y[0] = e;
-        y[1] = mu;
-        grid.emplace_back(cost(y), y);
-      }
+      for (double mu : {0.1, 0.2, 0.35, 0.5, 0.8})
+        for (double r : ratios) {
+          if (mu > options.max_friction) continue;
+          std::vector<double> y = start;
+          y[0] = e;
+          y[1] = mu;
+          if (p.split) y[2] = r;
+          grid.emplace_back(cost(y), y);
+        }
     std::sort(grid.begin(), grid.end());
     for (int k = 0; k < std::min<int>(options.starts, grid.size()); ++k)
       starts.push_back(grid[k].second);
@@ -327,6 +339,45 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
     iterations += static_cast<int>(summary.iterations.size());
   }
 
+  // mu_s (two friction coefficients) acts only through the stick tests: between two landings'
+  // stick thresholds it changes no prediction, across one it switches that landing from sliding
+  // to sticking. The objective is a staircase in mu_s, which the differences' step (spanning
+  // several thresholds) smooths into a slope whose minimum need not be the staircase's: scan
+  // mu_s at fixed e and mu_d on a fine grid, move to the lowest step and fit again (twice at
+  // most). The scan's points also give mu_s's interval below.
+  std::vector<std::pair<double, double>> mu_s_scan;  // (mu_s, cost) in increasing mu_s
+  auto scanStaticFriction = [&]() {
+    mu_s_scan.clear();
+    const double mu_d = x[1] * x[2];
+    const double low = std::max(mu_d, x[1] - kStaticScanHalfWidth);
+    const double high = std::min(options.max_friction, x[1] + kStaticScanHalfWidth);
+    for (int k = 0; k <= kStaticScanPoints; ++k) {
+      const double mu_s =
+          k == kStaticScanPoints / 2 ? x[1] : low + (high - low) * k / kStaticScanPoints;
+      std::vector<double> y = x;
+      y[1] = mu_s;
+      y[2] = mu_s > 0.0 ? mu_d / mu_s : 1.0;
+      mu_s_scan.emplace_back(mu_s, robustCost(y, scale));
+    }
+    std::sort(mu_s_scan.begin(), mu_s_scan.end());
+  };
+  if (p.split) {
+    for (int pass = 0; pass < 2; ++pass) {
+      scanStaticFriction();
+      const double here = robustCost(x, scale);
+      const auto best =
+          std::min_element(mu_s_scan.begin(), mu_s_scan.end(),
+                           [](const auto& a, const auto& b) { return a.second < b.second; });
+      if (!(best->second < here - 1e-12 * std::max(1.0, here))) break;
+      const double mu_d = x[1] * x[2];
+      x[1] = best->first;
+      x[2] = best->first > 0.0 ? mu_d / best->first : 1.0;
+      ceres::Solve(solver, &problem, &summary);
+      iterations += static_cast<int>(summary.iterations.size());
+    }
+    scanStaticFriction();
+  }
+
   IdentificationResult result;
   result.coefficients = p.coefficients(x.data());
   result.parameter_names = p.names();
@@ -379,6 +430,27 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
   const Eigen::MatrixXd& C = result.covariance;
   estimate("restitution", x[0], C(0, 0), onBound(0));
   estimate("static_friction", x[1], C(1, 1), onBound(1));
+  if (p.split && !mu_s_scan.empty()) {
+    // The interval of mu_s also covers the scanned values whose cost is within the 95 % chi-square
+    // bound of the lowest: 3.84 sigma^2 on the sum of the losses (Ceres' cost is half of it), the
+    // flat step of the staircase the data cannot narrow (contiguous around the fit).
+    const double bound = 3.84 * result.residual_sigma * result.residual_sigma;
+    double lowest = INFINITY;
+    for (const auto& [mu, c] : mu_s_scan) lowest = std::min(lowest, c);
+    std::size_t at = 0;
+    for (std::size_t k = 0; k < mu_s_scan.size(); ++k)
+      if (std::abs(mu_s_scan[k].first - x[1]) < std::abs(mu_s_scan[at].first - x[1])) at = k;
+    std::size_t from = at, to = at;
+    while (from > 0 && mu_s_scan[from - 1].second - lowest <= bound) --from;
+    while (to + 1 < mu_s_scan.size() && mu_s_scan[to + 1].second - lowest <= bound) ++to;
+    CoefficientEstimate& e = result.estimates.back();
+    e.lower = std::min(e.lower, mu_s_scan[from].first);
+    e.upper = std::max(e.upper, mu_s_scan[to].first);
+    // A flat step reaching the scan's upper end: the data do not bound mu_s above (every landing
+    // that could stick does); at its lower end the scan stops at mu_d, the parameter's bound.
+    if (to + 1 == mu_s_scan.size() && mu_s_scan[to].first < options.max_friction)
+      e.upper = std::numeric_limits<double>::infinity();
+  }
   if (p.split) {
     Eigen::Vector2d g(x[2], x[1]);  // d(r mu)/d(mu, r)
     estimate("dynamic_friction", x[1] * x[2], g.dot(C.block<2, 2>(1, 1) * g),

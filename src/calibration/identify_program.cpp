@@ -185,13 +185,7 @@ std::vector<PoseTrack> splitAtGaps(const PoseTrack& track, double max_gap) {
   return pieces;
 }
 
-void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
-                 std::function<void(const std::string&)> report) {
-  ProgressBar bar(!args.quiet);
-  const auto log = [&](const std::string& line) {
-    bar.finish();  // a report line never shares the bar's line
-    report(line);
-  };
+IdentificationOptions identificationOptions(const IdentifyArguments& args) {
   IdentificationOptions options;
   if (!core::fromString(args.law, options.prediction.law))
     throw std::runtime_error("--law: newton, poisson or stronge, not '" + args.law + "'");
@@ -199,6 +193,17 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
   options.split_friction = args.split_friction;
   options.fit_inertia_scale = args.fit_inertia;
   options.loss_scale = args.loss_scale;
+  return options;
+}
+
+void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
+                 std::function<void(const std::string&)> report) {
+  ProgressBar bar(!args.quiet);
+  const auto log = [&](const std::string& line) {
+    bar.finish();  // a report line never shares the bar's line
+    report(line);
+  };
+  IdentificationOptions options = identificationOptions(args);
   ExtractionOptions extraction;
   extraction.max_landings = args.landings_per_recording;
 

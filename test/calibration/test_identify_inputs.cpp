@@ -126,6 +126,20 @@ TEST_F(IdentifyInputs, MalformedRowNamesFileAndLine) {
   EXPECT_FALSE(fs::exists(output()));
 }
 
+// The toss column must hold an integer an int holds (a finding of the identify fuzzer: its value
+// was cast to int, undefined beyond the int range).
+TEST_F(IdentifyInputs, TossNumberThatIsNoIntegerNamesFileLineAndColumn) {
+  for (const char* toss : {"1e300", "2.5", "-3e9"}) {
+    const std::string path =
+        write("tosses.csv", std::string("toss,t,x,y,z,qw,qx,qy,qz\n4,0,1,2,3,1,0,0,0\n") + toss +
+                                ",0.1,1,2,3,1,0,0,0\n");
+    const std::string error = run(cubeFile(0.1048, true), {path});
+    EXPECT_NE(error.find(path + ":3"), std::string::npos) << error;
+    EXPECT_NE(error.find("toss"), std::string::npos) << error;
+    EXPECT_FALSE(fs::exists(output()));
+  }
+}
+
 TEST_F(IdentifyInputs, RecordingWithoutLandingIsAnError) {
   const std::string path = write("resting.csv", csv(restingCube(40)));
   const std::string error = run(cubeFile(0.1048, true), {path});

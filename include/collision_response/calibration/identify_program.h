@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "collision_response/calibration/identification.h"
 #include "collision_response/calibration/pose_track.h"
 
 namespace collision_response::calibration {
@@ -55,6 +56,12 @@ struct IdentifyArguments {
 
 /// Parses argv[1..]; throws std::runtime_error naming the flag.
 IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv);
+
+/// The identification's options that the arguments ask for: the law (--law), one impact or the
+/// episode (--single-impact), one or two friction coefficients (--friction), the inertia scale
+/// (--fit-inertia), the loss scale (--loss-scale); the rest at IdentificationOptions' defaults.
+/// Throws std::runtime_error naming --law for an unknown law.
+IdentificationOptions identificationOptions(const IdentifyArguments& arguments);
 
 /// Reads the poses of one rosbag as given by an input's topic / frame / world_frame (the ros
 /// library's reader, wired in by the program's main); throws naming the bag.
