@@ -61,6 +61,11 @@ double RobotEpisodeBody::partAccelerationBound(int part, double radius) const {
   return 2.0 * (a_o.norm() + (a.angular.norm() + w.squaredNorm()) * radius);
 }
 
+bool RobotEpisodeBody::partAngularVelocity(int part, Eigen::Vector3d& w) const {
+  w = toEigen(robot_.data().twists[part].rot);
+  return true;
+}
+
 void RobotEpisodeBody::setGravity(const Eigen::Vector3d& gravity) {
   accelerations_valid_ = false;
   if (robot_.data().gravity_compensation) {

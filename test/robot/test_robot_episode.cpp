@@ -399,6 +399,132 @@ TEST(RobotEpisode, HeldBodyStepLimitIsWhereItsSlipStops) {
   EXPECT_NEAR(still.partAccelerationBound(0, 0.1), 10.0, 1e-12);
 }
 
+namespace {
+
+// Closed-form convex geometry (GapQuery::convex() true): geometry body 0 a fixed sphere of radius
+// `fixed_radius` at `fixed_centre`, body 1 a ball of radius
+// `ball_radius` centred on its part's reference point (BodyState::com of the pose given; a robot
+// link's frame origin).
+class BallAndObstacle final : public cr::GapQuery {
+ public:
+  void gaps(const std::vector<cr::BodyState>& bodies, double range,
+            std::vector<cr::GapContact>& out) const override {
+    out.clear();
+    const cr::BodyState& b = bodies[1];
+    const Vector3d centre = b.position + b.orientation * b.com;
+    cr::GapContact c;
+    c.body_a = 0;
+    c.body_b = 1;
+    c.normal = (centre - fixed_centre).normalized();
+    c.gap = (centre - fixed_centre).norm() - ball_radius - fixed_radius;
+    c.point = centre - ball_radius * c.normal;
+    c.restitution = 0.5;
+    if (c.gap <= range) out.push_back(c);
+  }
+  double radius(int body) const override { return body == 1 ? ball_radius : fixed_radius; }
+  bool convex(int) const override { return true; }
+  int bodyCount() const override { return 2; }
+  Vector3d fixed_centre = Vector3d::Zero();
+  double fixed_radius = 0.01, ball_radius = 0.05;
+};
+
+}  // namespace
+
+// A ball thrown straight up from just above a small fixed sphere flies away from it and falls
+// back onto it: the gap's bound by its normal velocity lets the ball rise in long steps, and its
+// acceleration term (gravity) must bring it back before it passes through the small sphere; the
+// contact at the closed-form time z0 + v t - g t^2 / 2 = r_ball + r_fixed.
+TEST(RobotEpisode, BallThrownUpFromASphereComesBackAtTheClosedFormTime) {
+  BallAndObstacle geometry;
+  cr::BodyState floor;
+  floor.id = "fixed sphere";
+  cr::BodyState ball;
+  ball.id = "ball";
+  ball.mass = 1.0;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.001;
+  const double gap0 = 0.01, v0 = 1.0;
+  ball.position = Vector3d(0.0, 0.0, geometry.ball_radius + geometry.fixed_radius + gap0);
+  ball.linear_velocity = Vector3d(0.0, 0.0, v0);
+  cr::RigidEpisodeBody floor_body(floor), ball_body(ball);
+  std::vector<cr::EpisodeBody*> bodies = {&floor_body, &ball_body};
+  std::vector<cr::EpisodePart> parts = {{0, 0}, {1, 0}};
+  cr::EpisodeOptions options;
+  options.gravity = Vector3d(0.0, 0.0, -kG);
+  options.horizon = 1.0;
+  options.max_impacts = 1;
+  options.contact_tolerance = 1e-5;
+  options.solver.law = cr::ImpactLaw::kNewton;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(bodies, parts, geometry, options);
+  ASSERT_GE(r.impacts.size(), 1u) << "the falling ball's contact was missed";
+  const double t_c = (v0 + std::sqrt(v0 * v0 + 2.0 * kG * gap0)) / kG;
+  const double speed = std::sqrt(v0 * v0 + 2.0 * kG * gap0);
+  EXPECT_LE(r.impacts[0].time, t_c + 1e-9);
+  EXPECT_GE(r.impacts[0].time, t_c - options.contact_tolerance / speed - 1e-9);
+  EXPECT_NEAR(r.impacts[0].impulses[0].normal_velocity_before, -speed, 1e-4 * speed);
+}
+
+// theta'' = -m g L cos(theta) / (m L^2 + I_c) of ball_pendulum.urdf (m = 1 kg, L = 1 m,
+// I_c = 0.001 kg m^2), RK4 at step h from (theta0, rate0): the time at which theta first falls to
+// theta_c (by linear interpolation in the step).
+double ballPendulumTimeTo(double theta0, double rate0, double theta_c, double h) {
+  double th = theta0, w = rate0, t = 0.0;
+  const auto acc = [](double x) { return -kG * std::cos(x) / 1.001; };
+  for (;;) {
+    const double k1t = w, k1w = acc(th);
+    const double k2t = w + 0.5 * h * k1w, k2w = acc(th + 0.5 * h * k1t);
+    const double k3t = w + 0.5 * h * k2w, k3w = acc(th + 0.5 * h * k2t);
+    const double k4t = w + h * k3w, k4w = acc(th + h * k3t);
+    const double th1 = th + h / 6 * (k1t + 2 * k2t + 2 * k3t + k4t);
+    const double w1 = w + h / 6 * (k1w + 2 * k2w + 2 * k3w + k4w);
+    if (th1 <= theta_c) return t + h * (th - theta_c) / (th - th1);
+    th = th1;
+    w = w1;
+    t += h;
+  }
+}
+
+// A pendulum's ball swings up away from a small fixed sphere on its arc, turns under gravity and
+// falls back onto it: the return contact is found, at the time of an independent RK4 integration
+// of the pendulum's equation, and the receding half takes few steps.
+TEST(RobotEpisode, PendulumSwingingAwayAndBackFindsTheReturnContact) {
+  rb::ArticulatedBody bob = rb::robotFromUrdfFile(kDir + "/ball_pendulum.urdf");
+  const double theta_o = -M_PI / 2 + 0.5;  // the obstacle's centre on the ball's arc (L = 1)
+  const double theta0 = theta_o + 0.15, rate0 = 1.0;
+  bob.setState(VectorXd::Constant(1, theta0), VectorXd::Constant(1, rate0));
+  bob.setLoads(VectorXd::Zero(1), Vector3d::Zero());  // torque model none
+  const int link = bob.linkIndex("bob");
+  rb::RobotEpisodeBody rod(std::move(bob));
+  BallAndObstacle geometry;
+  geometry.fixed_centre = Vector3d(std::cos(theta_o), std::sin(theta_o), 0.0);
+  cr::BodyState obstacle;
+  obstacle.id = "obstacle";
+  obstacle.position = geometry.fixed_centre;
+  cr::RigidEpisodeBody obstacle_body(obstacle);
+  std::vector<cr::EpisodeBody*> bodies = {&obstacle_body, &rod};
+  std::vector<cr::EpisodePart> parts = {{0, 0}, {1, link}};
+  cr::EpisodeOptions options;
+  options.gravity = Vector3d(0.0, -kG, 0.0);
+  options.horizon = 2.0;
+  options.max_impacts = 1;
+  options.contact_tolerance = 1e-5;
+  options.solver.law = cr::ImpactLaw::kNewton;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(bodies, parts, geometry, options);
+  ASSERT_GE(r.impacts.size(), 1u) << "the returning ball's contact was missed";
+  // Centres 0.06 m apart (the radii) on the unit arc: theta_c - theta_o = 2 asin(0.03).
+  const double theta_c = theta_o + 2.0 * std::asin(0.03);
+  // The reference converges to ~1e-12 s at h = 1e-5 (RK4).
+  const double t_c = ballPendulumTimeTo(theta0, rate0, theta_c, 1e-5);
+  const double rate_c =
+      -std::sqrt(rate0 * rate0 + 2.0 * kG / 1.001 * (std::sin(theta0) - std::sin(theta_c)));
+  // The ball meets the obstacle's sphere along their centre line, the ball's velocity L rate along
+  // the tangent at angle (theta_c - theta_o) / 2 to that line's normal.
+  const double u_n = rate_c * std::cos(0.5 * (theta_c - theta_o));
+  EXPECT_LE(r.impacts[0].time, t_c + 1e-9);
+  EXPECT_GE(r.impacts[0].time, t_c - options.contact_tolerance / std::abs(u_n) - 1e-9);
+  EXPECT_NEAR(r.impacts[0].impulses[0].normal_velocity_before, u_n, 1e-3 * std::abs(u_n));
+  EXPECT_GT(t_c, 0.3);  // it receded first (its rate reaches 0 at about 0.17 s)
+}
+
 TEST(RobotEpisode, RefusesFloatingBaseAndBadParts) {
   rb::ArticulatedBody floating =
       rb::robotFromUrdfFile(kDir + "/pendulum.urdf", rb::BaseType::kFloating);

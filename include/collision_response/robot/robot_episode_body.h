@@ -47,6 +47,9 @@ class RobotEpisodeBody final : public core::EpisodeBody {
   void partPose(int part, core::BodyState& out) const override;
   double partSpeedBound(int part, double radius) const override;
   double partAccelerationBound(int part, double radius) const override;
+  /// The link's angular velocity now (its acceleration bound covers its points' velocity changes
+  /// over a step within stepLimit(), with the margin of 2).
+  bool partAngularVelocity(int part, Eigen::Vector3d& w) const override;
   bool movable() const override { return robot_.velocityCount() > 0; }
   void setGravity(const Eigen::Vector3d& gravity) override;
   void advance(double dt) override;
