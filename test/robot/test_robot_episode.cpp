@@ -6,10 +6,14 @@
 // model against conservation laws (no gravity and no torque, or gravity compensated: kinetic
 // energy constant; a constant torque: its work tau . (q1 - q0)), and the arm's fingertips striking
 // a box on a table: no contact passed through along a finely stepped reference path, no energy
-// gained under Stronge.
+// gained under Stronge; receding bodies (the bound by a convex pair's normal rate) that come back:
+// a ball thrown up from a small sphere (closed-form return time), a pendulum's ball swinging away
+// from a small sphere and back (an independent RK4 integration), and a turning capsule that
+// closes on a dot while its frame recedes (the gap sampled along the uniform rotation).
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -523,6 +527,103 @@ TEST(RobotEpisode, PendulumSwingingAwayAndBackFindsTheReturnContact) {
   EXPECT_GE(r.impacts[0].time, t_c - options.contact_tolerance / std::abs(u_n) - 1e-9);
   EXPECT_NEAR(r.impacts[0].impulses[0].normal_velocity_before, u_n, 1e-3 * std::abs(u_n));
   EXPECT_GT(t_c, 0.3);  // it receded first (its rate reaches 0 at about 0.17 s)
+}
+
+namespace {
+
+// Closed-form convex geometry: geometry body 0 a small fixed sphere (radius 0.001 m at `centre`),
+// body 1 a thin capsule on its part's frame: the segment from -h e to +h e (h = 0.3 m, e =
+// (-sin 0.1, cos 0.1, 0), part frame), radius 0.001 m.
+class CapsuleAndDot final : public cr::GapQuery {
+ public:
+  static constexpr double kHalf = 0.3, kRadius = 0.001;
+  static Vector3d axis() { return Vector3d(-std::sin(0.1), std::cos(0.1), 0.0); }
+  // The gap and unit normal (from the dot to the capsule) for the capsule at `pose`.
+  double gap(const cr::BodyState& capsule, Vector3d* normal = nullptr) const {
+    const Vector3d q = capsule.orientation.conjugate() * (centre - capsule.position);
+    const double t = std::clamp(q.dot(axis()), -kHalf, kHalf);
+    const Vector3d away = capsule.orientation * (t * axis() - q);  // dot -> closest point
+    if (normal != nullptr) *normal = away.normalized();
+    return away.norm() - 2.0 * kRadius;
+  }
+  void gaps(const std::vector<cr::BodyState>& bodies, double range,
+            std::vector<cr::GapContact>& out) const override {
+    out.clear();
+    cr::GapContact c;
+    c.body_a = 0;
+    c.body_b = 1;
+    c.gap = gap(bodies[1], &c.normal);
+    c.point = centre + kRadius * c.normal;
+    if (c.gap <= range) out.push_back(c);
+  }
+  double radius(int body) const override { return body == 1 ? kHalf + kRadius : kRadius; }
+  bool convex(int) const override { return true; }
+  int bodyCount() const override { return 2; }
+  Vector3d centre = Vector3d::Zero();
+};
+
+}  // namespace
+
+// Without gravity the ball pendulum turns uniformly (theta = w t). A thin capsule on its ball's
+// frame, tilted 0.1 rad from the tangent, passes a small fixed dot: the frame's origin recedes from
+// the dot along the normal (at w L sin 0.1) while the capsule's turning brings its far part onto
+// it (at w (t - L sin 0.1) for the point at t along it). The contact is found at the time sampled
+// from the closed-form gap along theta = w t; taking the origin's normal velocity for the
+// capsule's (no turning term) steps through the dot.
+TEST(RobotEpisode, TurningThatClosesWhileTheOriginRecedesIsNotMissed) {
+  rb::ArticulatedBody bob = rb::robotFromUrdfFile(kDir + "/ball_pendulum.urdf");
+  const double w = 2.0;
+  bob.setState(VectorXd::Zero(1), VectorXd::Constant(1, w));
+  bob.setLoads(VectorXd::Zero(1), Vector3d::Zero());
+  const int link = bob.linkIndex("bob");
+  rb::RobotEpisodeBody rod(std::move(bob));
+  CapsuleAndDot geometry;
+  const Vector3d n(std::cos(0.1), std::sin(0.1), 0.0);  // normal of the capsule's side
+  const double gap0 = 0.002;
+  geometry.centre = Vector3d(1.0, 0.0, 0.0) + 0.25 * CapsuleAndDot::axis() -
+                    (gap0 + 2.0 * CapsuleAndDot::kRadius) * n;
+  cr::BodyState dot;
+  dot.id = "dot";
+  dot.position = geometry.centre;
+  cr::RigidEpisodeBody dot_body(dot);
+  std::vector<cr::EpisodeBody*> bodies = {&dot_body, &rod};
+  std::vector<cr::EpisodePart> parts = {{0, 0}, {1, link}};
+  cr::EpisodeOptions options;
+  options.gravity = Vector3d::Zero();
+  options.horizon = 0.5;
+  options.max_impacts = 1;
+  options.contact_tolerance = 1e-5;
+  options.solver.law = cr::ImpactLaw::kNewton;
+  // The capsule's frame at theta: at (cos, sin, 0), turned by theta about z.
+  const auto pose = [](double theta) {
+    cr::BodyState b;
+    b.position = Vector3d(std::cos(theta), std::sin(theta), 0.0);
+    b.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(theta, Vector3d::UnitZ()));
+    return b;
+  };
+  ASSERT_NEAR(geometry.gap(pose(0.0)), gap0, 1e-12);
+  // Reference: the first time the gap reaches 0, sampled every 1e-7 s and bisected.
+  double lo = 0.0, hi = -1.0;
+  for (double t = 1e-7; t < options.horizon; t += 1e-7) {
+    if (geometry.gap(pose(w * t)) <= 0.0) {
+      hi = t;
+      break;
+    }
+    lo = t;
+  }
+  ASSERT_GT(hi, 0.0);
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (geometry.gap(pose(w * mid)) > 0.0 ? lo : hi) = mid;
+  }
+  const double t_ref = hi;
+  const double closing =
+      (geometry.gap(pose(w * (t_ref - 1e-6))) - geometry.gap(pose(w * t_ref))) / 1e-6;
+  ASSERT_GT(closing, 0.0);
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(bodies, parts, geometry, options);
+  ASSERT_GE(r.impacts.size(), 1u) << "the capsule passed through the dot";
+  EXPECT_LE(r.impacts[0].time, t_ref + 1e-9);
+  EXPECT_GE(r.impacts[0].time, t_ref - options.contact_tolerance / closing - 1e-9);
 }
 
 TEST(RobotEpisode, RefusesFloatingBaseAndBadParts) {
