@@ -68,6 +68,8 @@ bool RobotEpisodeBody::partAngularVelocity(int part, Eigen::Vector3d& w) const {
 
 void RobotEpisodeBody::setGravity(const Eigen::Vector3d& gravity) {
   accelerations_valid_ = false;
+  // A new episode: its flight does not depend on the step size an earlier one ended with.
+  hint_ = 0.0;
   if (robot_.data().gravity_compensation) {
     robot_.setGravityCompensation(gravity);
   } else {
