@@ -293,16 +293,15 @@ double BodyEpisode::pairStep(const PairGap& pair) const {
                             ? pair.gap
                             : std::max(tolerance_ + std::min(pair.gap, 0.0), 0.1 * tolerance_);
   const double s = safeStep(speed, acceleration, target);
-  if (!pair.convex) return s;
+  // Only for a pair apart that opens: one that closes is stepped as before (where its impacts are
+  // found), and so is a touching one (steps of about a tolerance: where a pair opening between two
+  // bounces is stepped decides where within the tolerance the next bounce is found).
+  if (!pair.convex || !(pair.gap > tolerance_)) return s;
   const double opening =
       pair.normal.dot(reference_velocity_[pair.b] - reference_velocity_[pair.a]) -
       turningAlong(pair.a, pair.normal) - turningAlong(pair.b, -pair.normal);
-  // Only for a pair that opens (the speed bound steps one that closes as before, where its impacts
-  // are found). A touching pair may come back to where it is, not below 0 (an impact found late
-  // would change its answer).
   if (!(opening > 0.0)) return s;
-  const double along = pair.gap > tolerance_ ? pair.gap : std::max(pair.gap, 0.0);
-  return std::max(s, pointStep(opening, acceleration, along));
+  return std::max(s, pointStep(opening, acceleration, pair.gap));
 }
 
 double BodyEpisode::step() const {
