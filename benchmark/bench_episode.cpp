@@ -138,6 +138,8 @@ void BM_ArmStrikesBox(benchmark::State& state) {
   const core::ImpactLaw law = lawOf(state.range(0));
   auto s = collision_response::testing::armBoxScene(ARM7_URDF);
   s.options.solver.law = law;
+  // Room for runs under callgrind (some 50 times slower): the episode's own time is far below.
+  s.options.solver.time_budget = 100.0;
   std::vector<Eigen::VectorXd> start(s.bodies.size());
   for (std::size_t i = 0; i < s.bodies.size(); ++i) s.bodies[i]->saveState(start[i]);
   core::BodyEpisodeResult result;

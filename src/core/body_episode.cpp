@@ -42,6 +42,15 @@ double safeStep(double speed, double acceleration, double target) {
   return 2.0 * target / (speed + std::sqrt(speed * speed + 2.0 * acceleration * target));
 }
 
+// Largest s >= 0 with -u s + A s^2 / 2 <= target: how long a gap opening at u (< 0 closing) whose
+// opening rate falls by at most A per second keeps within `target` of its value now.
+double pointStep(double velocity, double acceleration, double target) {
+  if (!std::isfinite(velocity) || !(acceleration < kInfinity)) return 0.0;
+  const double root = std::sqrt(velocity * velocity + 2.0 * acceleration * target);
+  if (velocity >= 0.0) return acceleration > 0.0 ? (velocity + root) / acceleration : kInfinity;
+  return 2.0 * target / (root - velocity);
+}
+
 struct Touch {
   int gap = 0;                   // index into gaps_
   double normal_velocity = 0.0;  // u_n [m/s], < 0 approaching
@@ -51,6 +60,9 @@ struct Touch {
 struct PairGap {
   int a = 0, b = 0;  // geometry bodies, a < b
   double gap = kInfinity;
+  // Both convex (GapQuery::convex()): the unit normal of the smallest gap's contact, from a to b.
+  bool convex = false;
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
 };
 
 class BodyEpisode {
@@ -72,6 +84,14 @@ class BodyEpisode {
     held_.assign(bodies_.size(), 0);
     speed_.resize(parts_.size());
     acceleration_.resize(parts_.size());
+    turning_.resize(parts_.size());
+    angular_.resize(parts_.size());
+    angular_known_.resize(parts_.size());
+    reference_velocity_.resize(parts_.size());
+    convex_.resize(parts_.size());
+    for (std::size_t g = 0; g < parts_.size(); ++g) {
+      convex_[g] = geometry_.convex(static_cast<int>(g)) ? 1 : 0;
+    }
     models_.resize(bodies_.size());
   }
 
@@ -94,6 +114,7 @@ class BodyEpisode {
   void refreshModels();
   void query();
   void bounds();
+  double turningAlong(int g, const Eigen::Vector3d& direction) const;
   double pairStep(const PairGap& pair) const;
   double step() const;
   bool advanceChecked(double s);
@@ -118,9 +139,18 @@ class BodyEpisode {
   std::vector<BodyState> states_;  // the geometry's bodies (parts), posed now
   std::vector<double> radius_;
   std::vector<double> speed_, acceleration_;  // per part: bounds now
-  std::vector<char> frozen_;                  // per body: held at rest while others fly
-  std::vector<char> held_;                    // per body: held sliding (EpisodeBody::hold())
-  double held_until_ = kInfinity;             // when the first held body's slip stops [s]
+  // Per part: the speed bound's share from turning, V(radius) - V(0) [m/s], and the velocity of
+  // its reference point [m/s], world (0 for a body held at rest).
+  std::vector<double> turning_;
+  std::vector<Eigen::Vector3d> reference_velocity_;
+  // Per part: its angular velocity now [rad/s], world, where EpisodeBody::partAngularVelocity()
+  // gives it (then its turning along a normal from the geometry's support, not turning_).
+  std::vector<Eigen::Vector3d> angular_;
+  std::vector<char> angular_known_;
+  std::vector<char> convex_;       // per part: GapQuery::convex()
+  std::vector<char> frozen_;       // per body: held at rest while others fly
+  std::vector<char> held_;         // per body: held sliding (EpisodeBody::hold())
+  double held_until_ = kInfinity;  // when the first held body's slip stops [s]
   std::vector<BodyModel*> models_;
   std::vector<GapContact> gaps_;
   std::vector<PairGap> pairs_;
@@ -152,7 +182,8 @@ ContactPoint BodyEpisode::contactOf(const GapContact& gap) const {
   return c;
 }
 
-// Each part's speed and acceleration bounds now (0 for a body held at rest).
+// Each part's speed and acceleration bounds now (0 for a body held at rest), and its reference
+// point's velocity (the parts posed now).
 void BodyEpisode::bounds() {
   for (std::size_t g = 0; g < parts_.size(); ++g) {
     const EpisodePart& p = parts_[g];
@@ -160,6 +191,17 @@ void BodyEpisode::bounds() {
     const double r = std::isfinite(radius_[g]) ? radius_[g] : 0.0;
     speed_[g] = frozen_[p.body] ? 0.0 : body.partSpeedBound(p.part, r);
     acceleration_[g] = frozen_[p.body] ? 0.0 : body.partAccelerationBound(p.part, r);
+    turning_[g] = 0.0;
+    reference_velocity_[g].setZero();
+    angular_[g].setZero();
+    angular_known_[g] = 1;
+    if (frozen_[p.body] || !convex_[g]) continue;
+    angular_known_[g] = body.partAngularVelocity(p.part, angular_[g]) ? 1 : 0;
+    turning_[g] = std::max(speed_[g] - body.partSpeedBound(p.part, 0.0), 0.0);
+    const BodyState& s = states_[g];
+    const int part = body.partCount() > 1 ? p.part : -1;
+    reference_velocity_[g] =
+        models_[p.body]->partPointVelocity(part, s.position + s.orientation * s.com);
   }
 }
 
@@ -167,10 +209,10 @@ void BodyEpisode::bounds() {
 // contacts with their normal velocities and resting thresholds.
 void BodyEpisode::query() {
   refreshModels();
-  bounds();
   for (std::size_t g = 0; g < parts_.size(); ++g) {
     bodies_[parts_[g].body]->partPose(parts_[g].part, states_[g]);
   }
+  bounds();
   double v1, v2, a1, a2;
   twoLargest(speed_, v1, v2);
   twoLargest(acceleration_, a1, a2);
@@ -200,10 +242,12 @@ void BodyEpisode::query() {
     const int lo = std::min(gap.body_a, gap.body_b), hi = std::max(gap.body_a, gap.body_b);
     auto it = std::find_if(pairs_.begin(), pairs_.end(),
                            [&](const PairGap& p) { return p.a == lo && p.b == hi; });
+    const Eigen::Vector3d unit = (gap.body_a == lo ? 1.0 : -1.0) * gap.normal / length;
     if (it == pairs_.end()) {
-      pairs_.push_back({lo, hi, gap.gap});
-    } else {
-      it->gap = std::min(it->gap, gap.gap);
+      pairs_.push_back({lo, hi, gap.gap, convex_[lo] && convex_[hi], unit});
+    } else if (gap.gap < it->gap) {
+      it->gap = gap.gap;
+      it->normal = unit;
     }
     if (gap.gap > tolerance_) continue;
     const EpisodePart& pa = parts_[gap.body_a];
@@ -224,6 +268,23 @@ void BodyEpisode::query() {
 }
 
 // The longest step a pair cannot close in: to 0 from apart, by about a tolerance when touching.
+// A convex pair also by its gap's rate along the normal: the plane normal to n through the closest
+// points separates the two by the gap, and over a span s each point of b moves along n by at least
+// (n . v_ref,b - W_b) s - A_b s^2 / 2 (v_ref its part's reference point's velocity now, W its
+// turning share of the speed bound, A its acceleration bound), each point of a by at most the
+// like; so the gap stays above gap + (u - W_a - W_b) s - (A_a + A_b) s^2 / 2, u the reference
+// points' relative velocity along n. Whichever bound allows the longer step holds.
+// How fast turning can move part g's points along `direction` (unit, world) relative to its
+// reference point now: the largest (w x rho) . direction = rho . (direction x w) over its points
+// rho (GapQuery::support()), or the turning share of its speed bound.
+double BodyEpisode::turningAlong(int g, const Eigen::Vector3d& direction) const {
+  if (!angular_known_[g]) return turning_[g];
+  const Eigen::Vector3d m = direction.cross(angular_[g]);
+  if (m.isZero(0.0)) return 0.0;
+  const double h = geometry_.support(g, states_[g].orientation.conjugate() * m);
+  return std::isfinite(h) ? h : turning_[g];
+}
+
 double BodyEpisode::pairStep(const PairGap& pair) const {
   const double speed = speed_[pair.a] + speed_[pair.b];
   const double acceleration = acceleration_[pair.a] + acceleration_[pair.b];
@@ -231,7 +292,16 @@ double BodyEpisode::pairStep(const PairGap& pair) const {
   const double target = pair.gap > tolerance_
                             ? pair.gap
                             : std::max(tolerance_ + std::min(pair.gap, 0.0), 0.1 * tolerance_);
-  return safeStep(speed, acceleration, target);
+  const double s = safeStep(speed, acceleration, target);
+  // Only for a pair apart that opens: one that closes is stepped as before (where its impacts are
+  // found), and so is a touching one (steps of about a tolerance: where a pair opening between two
+  // bounces is stepped decides where within the tolerance the next bounce is found).
+  if (!pair.convex || !(pair.gap > tolerance_)) return s;
+  const double opening =
+      pair.normal.dot(reference_velocity_[pair.b] - reference_velocity_[pair.a]) -
+      turningAlong(pair.a, pair.normal) - turningAlong(pair.b, -pair.normal);
+  if (!(opening > 0.0)) return s;
+  return std::max(s, pointStep(opening, acceleration, pair.gap));
 }
 
 double BodyEpisode::step() const {
@@ -360,6 +430,10 @@ bool BodyEpisode::othersMayTouch(const std::vector<char>& held) const {
     a1 = std::max(a1, acceleration_[g]);
   }
   if (!free_body) return false;
+  // The bounds hold within each free body's step limit only.
+  for (std::size_t i = 0; i < bodies_.size(); ++i) {
+    if (!held[i] && moving(static_cast<int>(i)) && bodies_[i]->stepLimit() < remaining) return true;
+  }
   for (const PairGap& pair : pairs_) {
     const int a = parts_[pair.a].body, b = parts_[pair.b].body;
     const bool free_a = !held[a] && bodies_[a]->movable();

@@ -60,6 +60,7 @@ struct BodyData {
   std::vector<LocalPlane> planes;
   std::vector<LocalSolid> solids;
   double radius = 0.0;
+  bool convex = false;  ///< one box, sphere, cylinder or cone (core::GapQuery::convex())
 };
 
 /// Farthest point of a circle (centre c, unit axis a, radius r) from the point o.
@@ -85,6 +86,30 @@ double solidRadius(const LocalSolid& s, const Vec3& com) {
     case LocalSolid::Kind::kCone:
       return std::max((s.centre + s.half_height * s.axis - com).norm(),
                       farthestOnCircle(s.centre - s.half_height * s.axis, s.axis, s.radius, com));
+  }
+  return 0.0;
+}
+
+/// The largest d . (x - com) over the solid's points x (body frame).
+double solidSupport(const LocalSolid& s, const Vec3& com, const Vec3& d) {
+  // A disc (centre c, unit axis a, radius r): d . (c - com) + r |d across a|.
+  const auto disc = [&](const Vec3& c, double r) {
+    return d.dot(c - com) + r * (d - d.dot(s.axis) * s.axis).norm();
+  };
+  switch (s.kind) {
+    case LocalSolid::Kind::kSphere:
+      return d.dot(s.centre - com) + s.radius * d.norm();
+    case LocalSolid::Kind::kPoints: {
+      double h = -std::numeric_limits<double>::infinity();
+      for (const Vec3& p : s.points) h = std::max(h, d.dot(p - com));
+      return h;
+    }
+    case LocalSolid::Kind::kCylinder:
+      return std::max(disc(s.centre + s.half_height * s.axis, s.radius),
+                      disc(s.centre - s.half_height * s.axis, s.radius));
+    case LocalSolid::Kind::kCone:
+      return std::max(d.dot(s.centre + s.half_height * s.axis - com),
+                      disc(s.centre - s.half_height * s.axis, s.radius));
   }
   return 0.0;
 }
@@ -332,6 +357,9 @@ ShapeGaps::ShapeGaps(const std::vector<core::BodyState>& bodies, const Detection
       im.fcl_geometry[i].shapes.push_back(shape);
     }
     body.radius = body.planes.empty() ? 0.0 : std::numeric_limits<double>::infinity();
+    const auto& shapes = input.geometry[i].shapes;
+    body.convex = shapes.size() == 1 && shapes[0].type != Shape::Type::kPlane &&
+                  shapes[0].type != Shape::Type::kMesh;
     for (const LocalSolid& s : body.solids) {
       body.radius = std::max(body.radius, solidRadius(s, body.com));
     }
@@ -361,6 +389,27 @@ double ShapeGaps::radius(int body) const {
                             std::to_string(bodyCount()));
   }
   return impl_->bodies[body].radius;
+}
+
+bool ShapeGaps::convex(int body) const {
+  if (body < 0 || body >= bodyCount()) {
+    throw std::out_of_range("ShapeGaps::convex: body " + std::to_string(body) + " of " +
+                            std::to_string(bodyCount()));
+  }
+  return impl_->bodies[body].convex;
+}
+
+double ShapeGaps::support(int body, const Eigen::Vector3d& direction) const {
+  if (body < 0 || body >= bodyCount()) {
+    throw std::out_of_range("ShapeGaps::support: body " + std::to_string(body) + " of " +
+                            std::to_string(bodyCount()));
+  }
+  const BodyData& b = impl_->bodies[body];
+  if (!b.planes.empty()) return std::numeric_limits<double>::infinity();
+  if (b.solids.empty()) return 0.0;
+  double h = -std::numeric_limits<double>::infinity();
+  for (const LocalSolid& s : b.solids) h = std::max(h, solidSupport(s, b.com, direction));
+  return h;
 }
 
 void ShapeGaps::Impl::detectWithFcl(const std::vector<Pose>& poses,

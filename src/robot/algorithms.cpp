@@ -407,11 +407,15 @@ Eigen::Matrix<double, 6, 1> momentum(const RobotModel& model, const RobotData& d
   return out;
 }
 
-void inverseDynamics(const RobotModel& model, const RobotData& data,
-                     const Eigen::VectorXd& joint_accelerations,
-                     const Eigen::Matrix<double, 6, 1>& base_acceleration, bool with_velocity,
-                     Eigen::VectorXd& joint_forces, Eigen::Matrix<double, 6, 1>& base_forces,
-                     std::vector<SpatialAcceleration>* accelerations) {
+namespace {
+
+// inverseDynamics() under the gravity `gravity` instead of data.gravity.
+void inverseDynamicsUnder(const RobotModel& model, const RobotData& data,
+                          const Eigen::VectorXd& joint_accelerations,
+                          const Eigen::Matrix<double, 6, 1>& base_acceleration, bool with_velocity,
+                          const Eigen::Vector3d& gravity, Eigen::VectorXd& joint_forces,
+                          Eigen::Matrix<double, 6, 1>& base_forces,
+                          std::vector<SpatialAcceleration>* accelerations) {
   const int n = model.linkCount();
   std::vector<SpatialAcceleration> acceleration(n);
   std::vector<Momentum> force(n);  // (force [N], moment about the origin [N m]) on each link
@@ -445,7 +449,7 @@ void inverseDynamics(const RobotModel& model, const RobotData& data,
   // acceleration of the frame, so that the forces are what the joints must transmit.
   for (int i = 0; i < n; ++i) {
     const SpatialInertia inertia = worldInertia(model.link(i).local, data.frames[i]);
-    force[i] = momentumOf(inertia, acceleration[i].angular, acceleration[i].linear - data.gravity);
+    force[i] = momentumOf(inertia, acceleration[i].angular, acceleration[i].linear - gravity);
     if (with_velocity) {
       const Eigen::Vector3d w = toEigen(data.twists[i].rot), v = toEigen(data.twists[i].vel);
       const Momentum p = momentumOf(inertia, w, v);
@@ -466,6 +470,17 @@ void inverseDynamics(const RobotModel& model, const RobotData& data,
     for (int k = 0; k < 6; ++k) base_forces(k) = power(data.base_axes[k], force[0]);
   }
   if (accelerations != nullptr) *accelerations = std::move(acceleration);
+}
+
+}  // namespace
+
+void inverseDynamics(const RobotModel& model, const RobotData& data,
+                     const Eigen::VectorXd& joint_accelerations,
+                     const Eigen::Matrix<double, 6, 1>& base_acceleration, bool with_velocity,
+                     Eigen::VectorXd& joint_forces, Eigen::Matrix<double, 6, 1>& base_forces,
+                     std::vector<SpatialAcceleration>* accelerations) {
+  inverseDynamicsUnder(model, data, joint_accelerations, base_acceleration, with_velocity,
+                       data.gravity, joint_forces, base_forces, accelerations);
 }
 
 Eigen::VectorXd gravityTorques(const RobotModel& model, const RobotData& data) {
@@ -491,9 +506,21 @@ Eigen::VectorXd jointTorques(const RobotModel& model, const RobotData& data) {
 Eigen::VectorXd freeAcceleration(const RobotModel& model, const RobotData& data) {
   if (data.unknowns == 0) return Eigen::VectorXd();
   requireRegular(data);
-  Eigen::VectorXd rhs =
-      foldJointForces(model, data, jointTorques(model, data), Eigen::Matrix<double, 6, 1>::Zero()) -
-      biasForces(model, data);
+  Eigen::VectorXd rhs;
+  if (data.gravity_compensation && !model.floating()) {
+    // tau - h = g(q) - (C(q, v) v + g(q)) = -C(q, v) v: the velocity terms alone, without g(q)
+    // computed twice (a floating base is not compensated: it keeps its gravity terms).
+    Eigen::VectorXd joint_forces;
+    Eigen::Matrix<double, 6, 1> base;
+    inverseDynamicsUnder(model, data, Eigen::VectorXd::Zero(model.jointCount()),
+                         Eigen::Matrix<double, 6, 1>::Zero(), true, Eigen::Vector3d::Zero(),
+                         joint_forces, base, nullptr);
+    rhs = -foldJointForces(model, data, joint_forces, base);
+  } else {
+    rhs = foldJointForces(model, data, jointTorques(model, data),
+                          Eigen::Matrix<double, 6, 1>::Zero()) -
+          biasForces(model, data);
+  }
   solveMassMatrix(data, rhs);
   return rhs;  // M^-1 (tau - h)
 }

@@ -61,8 +61,15 @@ double RobotEpisodeBody::partAccelerationBound(int part, double radius) const {
   return 2.0 * (a_o.norm() + (a.angular.norm() + w.squaredNorm()) * radius);
 }
 
+bool RobotEpisodeBody::partAngularVelocity(int part, Eigen::Vector3d& w) const {
+  w = toEigen(robot_.data().twists[part].rot);
+  return true;
+}
+
 void RobotEpisodeBody::setGravity(const Eigen::Vector3d& gravity) {
   accelerations_valid_ = false;
+  // A new episode: its flight does not depend on the step size an earlier one ended with.
+  hint_ = 0.0;
   if (robot_.data().gravity_compensation) {
     robot_.setGravityCompensation(gravity);
   } else {

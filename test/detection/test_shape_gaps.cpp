@@ -1,8 +1,9 @@
 // detection::ShapeGaps, the geometry of impact episodes, against closed forms written here: each
 // corner's height over a plane (level and tilted boxes), a sphere's lowest point, the distance of
 // two spheres and of two boxes, a convex-hull mesh against the box it encloses, a cylinder's and
-// a cone's lowest points, the material of each pair, the radius about the centre of mass from
-// points sampled on each shape, invalid input named, and concurrent calls.
+// a cone's lowest points, the material of each pair, the radius and the support about the centre
+// of mass from points sampled on each shape, which bodies are convex, invalid input named, and
+// concurrent calls.
 
 #include <gtest/gtest.h>
 
@@ -11,6 +12,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <random>
 #include <thread>
 #include <vector>
 
@@ -487,6 +489,42 @@ TEST(ShapeGaps, RadiusBoundsEveryPointAboutTheCentreOfMass) {
   }
   // And tight: the sampled farthest point is within the sampling error of the bound.
   EXPECT_NEAR(query.radius(1), farthest, 1e-4);
+
+  // The support about the centre of mass, in directions of several lengths: at least every
+  // sampled point's d . (x - com), and within the sampling error of the largest.
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    const Vector3d d = Vector3d(normal(rng), normal(rng), normal(rng)) * (0.5 + trial % 3);
+    double largest = -std::numeric_limits<double>::infinity();
+    for (const Vector3d& x : points) largest = std::max(largest, d.dot(x - com));
+    const double h = query.support(1, d);
+    EXPECT_GE(h, largest - 1e-12 * d.norm());
+    EXPECT_NEAR(h, largest, 1e-4 * d.norm());
+  }
+  EXPECT_TRUE(std::isinf(query.support(0, Vector3d::UnitZ())));
+  EXPECT_EQ(query.support(2, Vector3d::UnitZ()), 0.0);
+  EXPECT_THROW(query.support(3, Vector3d::UnitZ()), std::out_of_range);
+  // Five shapes, a plane, nothing: none is one convex solid.
+  EXPECT_FALSE(query.convex(0));
+  EXPECT_FALSE(query.convex(1));
+  EXPECT_FALSE(query.convex(2));
+}
+
+// One box, sphere, cylinder or cone is convex; a mesh (convex or not) is not assumed to be.
+TEST(ShapeGaps, ConvexOnlyForOnePrimitive) {
+  std::vector<core::BodyState> bodies;
+  for (int i = 0; i < 5; ++i) bodies.push_back(body(1.0, Vector3d(3.0 * i, 0, 0)));
+  const detection::ShapeGaps query(bodies,
+                                   inputOf({{primitive(Type::kBox, {0.1, 0.2, 0.3})},
+                                            {primitive(Type::kSphere, {0.1})},
+                                            {primitive(Type::kCylinder, {0.2, 0.1})},
+                                            {primitive(Type::kCone, {0.2, 0.1})},
+                                            {boxMesh(0.1, 0.1, 0.1)}}),
+                                   detection::MaterialTable{});
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(query.convex(i)) << i;
+  EXPECT_FALSE(query.convex(4));
+  EXPECT_THROW(query.convex(5), std::out_of_range);
 }
 
 TEST(ShapeGaps, ImmovablePairsAndCollisionGroupsNeverAppear) {

@@ -6,10 +6,14 @@
 // model against conservation laws (no gravity and no torque, or gravity compensated: kinetic
 // energy constant; a constant torque: its work tau . (q1 - q0)), and the arm's fingertips striking
 // a box on a table: no contact passed through along a finely stepped reference path, no energy
-// gained under Stronge.
+// gained under Stronge; receding bodies (the bound by a convex pair's normal rate) that come back:
+// a ball thrown up from a small sphere (closed-form return time), a pendulum's ball swinging away
+// from a small sphere and back (an independent RK4 integration), and a turning capsule that
+// closes on a dot while its frame recedes (the gap sampled along the uniform rotation).
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -397,6 +401,229 @@ TEST(RobotEpisode, HeldBodyStepLimitIsWhereItsSlipStops) {
   still.release();
   EXPECT_EQ(still.stepLimit(), kInf);
   EXPECT_NEAR(still.partAccelerationBound(0, 0.1), 10.0, 1e-12);
+}
+
+namespace {
+
+// Closed-form convex geometry (GapQuery::convex() true): geometry body 0 a fixed sphere of radius
+// `fixed_radius` at `fixed_centre`, body 1 a ball of radius
+// `ball_radius` centred on its part's reference point (BodyState::com of the pose given; a robot
+// link's frame origin).
+class BallAndObstacle final : public cr::GapQuery {
+ public:
+  void gaps(const std::vector<cr::BodyState>& bodies, double range,
+            std::vector<cr::GapContact>& out) const override {
+    out.clear();
+    const cr::BodyState& b = bodies[1];
+    const Vector3d centre = b.position + b.orientation * b.com;
+    cr::GapContact c;
+    c.body_a = 0;
+    c.body_b = 1;
+    c.normal = (centre - fixed_centre).normalized();
+    c.gap = (centre - fixed_centre).norm() - ball_radius - fixed_radius;
+    c.point = centre - ball_radius * c.normal;
+    c.restitution = 0.5;
+    if (c.gap <= range) out.push_back(c);
+  }
+  double radius(int body) const override { return body == 1 ? ball_radius : fixed_radius; }
+  bool convex(int) const override { return true; }
+  int bodyCount() const override { return 2; }
+  Vector3d fixed_centre = Vector3d::Zero();
+  double fixed_radius = 0.01, ball_radius = 0.05;
+};
+
+}  // namespace
+
+// A ball thrown straight up from just above a small fixed sphere flies away from it and falls
+// back onto it: the gap's bound by its normal velocity lets the ball rise in long steps, and its
+// acceleration term (gravity) must bring it back before it passes through the small sphere; the
+// contact at the closed-form time z0 + v t - g t^2 / 2 = r_ball + r_fixed.
+TEST(RobotEpisode, BallThrownUpFromASphereComesBackAtTheClosedFormTime) {
+  BallAndObstacle geometry;
+  cr::BodyState floor;
+  floor.id = "fixed sphere";
+  cr::BodyState ball;
+  ball.id = "ball";
+  ball.mass = 1.0;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.001;
+  const double gap0 = 0.01, v0 = 1.0;
+  ball.position = Vector3d(0.0, 0.0, geometry.ball_radius + geometry.fixed_radius + gap0);
+  ball.linear_velocity = Vector3d(0.0, 0.0, v0);
+  cr::RigidEpisodeBody floor_body(floor), ball_body(ball);
+  std::vector<cr::EpisodeBody*> bodies = {&floor_body, &ball_body};
+  std::vector<cr::EpisodePart> parts = {{0, 0}, {1, 0}};
+  cr::EpisodeOptions options;
+  options.gravity = Vector3d(0.0, 0.0, -kG);
+  options.horizon = 1.0;
+  options.max_impacts = 1;
+  options.contact_tolerance = 1e-5;
+  options.solver.law = cr::ImpactLaw::kNewton;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(bodies, parts, geometry, options);
+  ASSERT_GE(r.impacts.size(), 1u) << "the falling ball's contact was missed";
+  const double t_c = (v0 + std::sqrt(v0 * v0 + 2.0 * kG * gap0)) / kG;
+  const double speed = std::sqrt(v0 * v0 + 2.0 * kG * gap0);
+  EXPECT_LE(r.impacts[0].time, t_c + 1e-9);
+  EXPECT_GE(r.impacts[0].time, t_c - options.contact_tolerance / speed - 1e-9);
+  EXPECT_NEAR(r.impacts[0].impulses[0].normal_velocity_before, -speed, 1e-4 * speed);
+}
+
+// theta'' = -m g L cos(theta) / (m L^2 + I_c) of ball_pendulum.urdf (m = 1 kg, L = 1 m,
+// I_c = 0.001 kg m^2), RK4 at step h from (theta0, rate0): the time at which theta first falls to
+// theta_c (by linear interpolation in the step).
+double ballPendulumTimeTo(double theta0, double rate0, double theta_c, double h) {
+  double th = theta0, w = rate0, t = 0.0;
+  const auto acc = [](double x) { return -kG * std::cos(x) / 1.001; };
+  for (;;) {
+    const double k1t = w, k1w = acc(th);
+    const double k2t = w + 0.5 * h * k1w, k2w = acc(th + 0.5 * h * k1t);
+    const double k3t = w + 0.5 * h * k2w, k3w = acc(th + 0.5 * h * k2t);
+    const double k4t = w + h * k3w, k4w = acc(th + h * k3t);
+    const double th1 = th + h / 6 * (k1t + 2 * k2t + 2 * k3t + k4t);
+    const double w1 = w + h / 6 * (k1w + 2 * k2w + 2 * k3w + k4w);
+    if (th1 <= theta_c) return t + h * (th - theta_c) / (th - th1);
+    th = th1;
+    w = w1;
+    t += h;
+  }
+}
+
+// A pendulum's ball swings up away from a small fixed sphere on its arc, turns under gravity and
+// falls back onto it: the return contact is found, at the time of an independent RK4 integration
+// of the pendulum's equation, and the receding half takes few steps.
+TEST(RobotEpisode, PendulumSwingingAwayAndBackFindsTheReturnContact) {
+  rb::ArticulatedBody bob = rb::robotFromUrdfFile(kDir + "/ball_pendulum.urdf");
+  const double theta_o = -M_PI / 2 + 0.5;  // the obstacle's centre on the ball's arc (L = 1)
+  const double theta0 = theta_o + 0.15, rate0 = 1.0;
+  bob.setState(VectorXd::Constant(1, theta0), VectorXd::Constant(1, rate0));
+  bob.setLoads(VectorXd::Zero(1), Vector3d::Zero());  // torque model none
+  const int link = bob.linkIndex("bob");
+  rb::RobotEpisodeBody rod(std::move(bob));
+  BallAndObstacle geometry;
+  geometry.fixed_centre = Vector3d(std::cos(theta_o), std::sin(theta_o), 0.0);
+  cr::BodyState obstacle;
+  obstacle.id = "obstacle";
+  obstacle.position = geometry.fixed_centre;
+  cr::RigidEpisodeBody obstacle_body(obstacle);
+  std::vector<cr::EpisodeBody*> bodies = {&obstacle_body, &rod};
+  std::vector<cr::EpisodePart> parts = {{0, 0}, {1, link}};
+  cr::EpisodeOptions options;
+  options.gravity = Vector3d(0.0, -kG, 0.0);
+  options.horizon = 2.0;
+  options.max_impacts = 1;
+  options.contact_tolerance = 1e-5;
+  options.solver.law = cr::ImpactLaw::kNewton;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(bodies, parts, geometry, options);
+  ASSERT_GE(r.impacts.size(), 1u) << "the returning ball's contact was missed";
+  // Centres 0.06 m apart (the radii) on the unit arc: theta_c - theta_o = 2 asin(0.03).
+  const double theta_c = theta_o + 2.0 * std::asin(0.03);
+  // The reference converges to ~1e-12 s at h = 1e-5 (RK4).
+  const double t_c = ballPendulumTimeTo(theta0, rate0, theta_c, 1e-5);
+  const double rate_c =
+      -std::sqrt(rate0 * rate0 + 2.0 * kG / 1.001 * (std::sin(theta0) - std::sin(theta_c)));
+  // The ball meets the obstacle's sphere along their centre line, the ball's velocity L rate along
+  // the tangent at angle (theta_c - theta_o) / 2 to that line's normal.
+  const double u_n = rate_c * std::cos(0.5 * (theta_c - theta_o));
+  EXPECT_LE(r.impacts[0].time, t_c + 1e-9);
+  EXPECT_GE(r.impacts[0].time, t_c - options.contact_tolerance / std::abs(u_n) - 1e-9);
+  EXPECT_NEAR(r.impacts[0].impulses[0].normal_velocity_before, u_n, 1e-3 * std::abs(u_n));
+  EXPECT_GT(t_c, 0.3);  // it receded first (its rate reaches 0 at about 0.17 s)
+}
+
+namespace {
+
+// Closed-form convex geometry: geometry body 0 a small fixed sphere (radius 0.001 m at `centre`),
+// body 1 a thin capsule on its part's frame: the segment from -h e to +h e (h = 0.3 m, e =
+// (-sin 0.1, cos 0.1, 0), part frame), radius 0.001 m.
+class CapsuleAndDot final : public cr::GapQuery {
+ public:
+  static constexpr double kHalf = 0.3, kRadius = 0.001;
+  static Vector3d axis() { return Vector3d(-std::sin(0.1), std::cos(0.1), 0.0); }
+  // The gap and unit normal (from the dot to the capsule) for the capsule at `pose`.
+  double gap(const cr::BodyState& capsule, Vector3d* normal = nullptr) const {
+    const Vector3d q = capsule.orientation.conjugate() * (centre - capsule.position);
+    const double t = std::clamp(q.dot(axis()), -kHalf, kHalf);
+    const Vector3d away = capsule.orientation * (t * axis() - q);  // dot -> closest point
+    if (normal != nullptr) *normal = away.normalized();
+    return away.norm() - 2.0 * kRadius;
+  }
+  void gaps(const std::vector<cr::BodyState>& bodies, double range,
+            std::vector<cr::GapContact>& out) const override {
+    out.clear();
+    cr::GapContact c;
+    c.body_a = 0;
+    c.body_b = 1;
+    c.gap = gap(bodies[1], &c.normal);
+    c.point = centre + kRadius * c.normal;
+    if (c.gap <= range) out.push_back(c);
+  }
+  double radius(int body) const override { return body == 1 ? kHalf + kRadius : kRadius; }
+  bool convex(int) const override { return true; }
+  int bodyCount() const override { return 2; }
+  Vector3d centre = Vector3d::Zero();
+};
+
+}  // namespace
+
+// Without gravity the ball pendulum turns uniformly (theta = w t). A thin capsule on its ball's
+// frame, tilted 0.1 rad from the tangent, passes a small fixed dot: the frame's origin recedes from
+// the dot along the normal (at w L sin 0.1) while the capsule's turning brings its far part onto
+// it (at w (t - L sin 0.1) for the point at t along it). The contact is found at the time sampled
+// from the closed-form gap along theta = w t; taking the origin's normal velocity for the
+// capsule's (no turning term) steps through the dot.
+TEST(RobotEpisode, TurningThatClosesWhileTheOriginRecedesIsNotMissed) {
+  rb::ArticulatedBody bob = rb::robotFromUrdfFile(kDir + "/ball_pendulum.urdf");
+  const double w = 2.0;
+  bob.setState(VectorXd::Zero(1), VectorXd::Constant(1, w));
+  bob.setLoads(VectorXd::Zero(1), Vector3d::Zero());
+  const int link = bob.linkIndex("bob");
+  rb::RobotEpisodeBody rod(std::move(bob));
+  CapsuleAndDot geometry;
+  const Vector3d n(std::cos(0.1), std::sin(0.1), 0.0);  // normal of the capsule's side
+  const double gap0 = 0.002;
+  geometry.centre = Vector3d(1.0, 0.0, 0.0) + 0.25 * CapsuleAndDot::axis() -
+                    (gap0 + 2.0 * CapsuleAndDot::kRadius) * n;
+  cr::BodyState dot;
+  dot.id = "dot";
+  dot.position = geometry.centre;
+  cr::RigidEpisodeBody dot_body(dot);
+  std::vector<cr::EpisodeBody*> bodies = {&dot_body, &rod};
+  std::vector<cr::EpisodePart> parts = {{0, 0}, {1, link}};
+  cr::EpisodeOptions options;
+  options.gravity = Vector3d::Zero();
+  options.horizon = 0.5;
+  options.max_impacts = 1;
+  options.contact_tolerance = 1e-5;
+  options.solver.law = cr::ImpactLaw::kNewton;
+  // The capsule's frame at theta: at (cos, sin, 0), turned by theta about z.
+  const auto pose = [](double theta) {
+    cr::BodyState b;
+    b.position = Vector3d(std::cos(theta), std::sin(theta), 0.0);
+    b.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(theta, Vector3d::UnitZ()));
+    return b;
+  };
+  ASSERT_NEAR(geometry.gap(pose(0.0)), gap0, 1e-12);
+  // Reference: the first time the gap reaches 0, sampled every 1e-7 s and bisected.
+  double lo = 0.0, hi = -1.0;
+  for (double t = 1e-7; t < options.horizon; t += 1e-7) {
+    if (geometry.gap(pose(w * t)) <= 0.0) {
+      hi = t;
+      break;
+    }
+    lo = t;
+  }
+  ASSERT_GT(hi, 0.0);
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (geometry.gap(pose(w * mid)) > 0.0 ? lo : hi) = mid;
+  }
+  const double t_ref = hi;
+  const double closing =
+      (geometry.gap(pose(w * (t_ref - 1e-6))) - geometry.gap(pose(w * t_ref))) / 1e-6;
+  ASSERT_GT(closing, 0.0);
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(bodies, parts, geometry, options);
+  ASSERT_GE(r.impacts.size(), 1u) << "the capsule passed through the dot";
+  EXPECT_LE(r.impacts[0].time, t_ref + 1e-9);
+  EXPECT_GE(r.impacts[0].time, t_ref - options.contact_tolerance / closing - 1e-9);
 }
 
 TEST(RobotEpisode, RefusesFloatingBaseAndBadParts) {

@@ -60,8 +60,14 @@ struct BodyEpisodeResult {
 ///   EpisodeBody::partPose();
 /// - conservative advancement bounds each listed pair's closing by V s + A s^2 / 2 from the
 ///   parts' bounds (partSpeedBound(), partAccelerationBound()), pairs left out by the range with
-///   the two fastest parts; a step after which a pair that was apart overlaps (gap < 0), or a
-///   touching one sinks below -contact_tolerance, is undone and halved;
+///   the two fastest parts; a pair of convex parts (GapQuery::convex()) apart by more than the
+///   tolerance that opens also by its gap's rate along the normal n of its smallest gap,
+///   (u_n - W_a - W_b) s - (A_a + A_b) s^2 / 2 (u_n the parts' reference points' relative normal
+///   velocity, W how fast turning moves a part's points towards the other: a link's from its
+///   angular velocity and GapQuery::support(), a rigid body's V(r) - V(0)), whichever allows the
+///   longer step, so that a receding pair takes long steps (docs/physics.md, "Receding pairs"); a
+///   step after which a pair that was apart overlaps (gap < 0), or a touching one sinks below
+///   -contact_tolerance, is undone and halved;
 /// - impacts and resting forces by computeBodyResponse() on the bodies' models (contacts on
 ///   parts); a touch approaching within its resting threshold is solved plastic; inelastic
 ///   bounces are followed one by one until their rebound falls below the threshold (no

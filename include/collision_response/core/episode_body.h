@@ -37,6 +37,12 @@ class EpisodeBody {
   /// margin (robot_episode_body.h).
   virtual double partSpeedBound(int part, double radius) const = 0;
   virtual double partAccelerationBound(int part, double radius) const = 0;
+  /// The part's angular velocity now [rad/s], world, into `w`, if partAccelerationBound() also
+  /// bounds how fast each of its points' velocity changes over the step (a robot's link): an
+  /// episode then takes the points' turning along a direction from the angular velocity now and
+  /// the part's shape. False (the default; a rigid body, whose speed bound covers its spin over
+  /// the whole flight instead): the turning share of partSpeedBound() is used.
+  virtual bool partAngularVelocity(int /*part*/, Eigen::Vector3d& /*w*/) const { return false; }
   /// Whether the body moves on its own (false: immovable, its velocity prescribed and constant).
   virtual bool movable() const = 0;
   /// Gravity [m/s^2], world, under which the body moves and rests (set once, before the start).

@@ -55,6 +55,22 @@ class GapQuery {
   /// bounds the rate at which a gap can close from it: |v| + |w| * radius(i).
   virtual double radius(int body) const = 0;
 
+  /// Whether body i's geometry is one convex solid (false unless the query can promise it; a
+  /// plane or several shapes are not). For a pair of convex bodies the plane through a contact of
+  /// the pair's smallest gap, normal to its `normal`, separates them by that gap (up to the query's
+  /// accuracy), so an episode may bound the gap's closing by the pair's normal relative velocity
+  /// plus what turning and acceleration can add, and a pair moving apart takes long steps. Wrongly
+  /// true, contacts can be missed.
+  virtual bool convex(int /*body*/) const { return false; }
+
+  /// The support of body i's geometry about its centre of mass (BodyState::com): the largest
+  /// direction . (x - com) over its points x, `direction` in the body frame (any length) [m times
+  /// its length]. An episode bounds how fast turning moves a convex body's points along a pair's
+  /// normal from it. The default, radius(i) |direction|, is a bound; a query may give it exactly.
+  virtual double support(int body, const Eigen::Vector3d& direction) const {
+    return radius(body) * direction.norm();
+  }
+
   /// The number of bodies the geometry describes (gaps() needs that many states).
   virtual int bodyCount() const = 0;
 };

@@ -70,6 +70,12 @@ class ShapeGaps final : public core::GapQuery {
   /// mesh (the largest over its shapes); infinity if the body has a plane, 0 if it has no shapes.
   /// Throws std::out_of_range for i outside [0, bodyCount()).
   double radius(int body) const override;
+  /// True for a body of exactly one box, sphere, cylinder or cone (meshes are not assumed
+  /// convex); throws std::out_of_range as radius().
+  bool convex(int body) const override;
+  /// Exact over the body's shapes (the largest of theirs; infinity with a plane, 0 without
+  /// shapes); throws std::out_of_range as radius().
+  double support(int body, const Eigen::Vector3d& direction) const override;
   int bodyCount() const override;
 
  private:

@@ -47,7 +47,11 @@ class RobotEpisodeBody final : public core::EpisodeBody {
   void partPose(int part, core::BodyState& out) const override;
   double partSpeedBound(int part, double radius) const override;
   double partAccelerationBound(int part, double radius) const override;
+  /// The link's angular velocity now (its acceleration bound covers its points' velocity changes
+  /// over a step within stepLimit(), with the margin of 2).
+  bool partAngularVelocity(int part, Eigen::Vector3d& w) const override;
   bool movable() const override { return robot_.velocityCount() > 0; }
+  /// Also starts the integrator afresh (an episode's flight does not depend on an earlier one's).
   void setGravity(const Eigen::Vector3d& gravity) override;
   void advance(double dt) override;
   core::BodyModel& model() override { return robot_; }
