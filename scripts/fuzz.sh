@@ -68,7 +68,7 @@ fi
 targets=${FUZZ_TARGETS:-core robot episode robot_episode}
 if [ "$mode" = replay ] && [ -z "${FUZZ_TARGETS:-}" ]; then
   case "${replay[*]}" in
-    */robot_episode* | robot_episode* | *-robot_episode* | *regressions/robot_episode* | *corpus/robot_episode*) targets=robot_episode ;;
+    *robot_episode*) targets=robot_episode ;;
     */robot-* | robot-* | *regressions/robot* | *-robot*) targets=robot ;;
     */episode-* | episode-* | *regressions/episode* | *-episode*) targets=episode ;;
     *) targets=core ;;
