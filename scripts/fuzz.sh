@@ -17,6 +17,13 @@
 #           and a CSV recording) through calibration::parseObjectModel, readCsvTracks and
 #           extractLandings (src/calibration, no Ceres); inputs split by
 #           test/fuzz/identify_inputs_check.h; its seeds also committed in test/fuzz/corpus/identify/.
+#  - robot_episode: test/fuzz/fuzz_robot_episode.cpp, impact episodes with a robot (a URDF, given
+#           as text or generated, its joint positions, velocities, base pose, gravity and torque
+#           model; rigid bodies with shapes; the episode's options, a 0.05 s time budget) through
+#           the path of ~compute_episode with `robots` (ServedRobot, robotAtRequestState(), the
+#           links' geometry in detection::ShapeGaps, RobotEpisodeBody, core::computeBodyEpisode(),
+#           toMsg()); inputs decoded by test/fuzz/robot_episode_decoder.h (which reuses
+#           robot_decoder.h's URDFs and joint states and episode_decoder.h's world and options).
 # Each target seeds its corpus with inputs it writes itself (the robot target from the package's
 # URDFs, test/robot/*.urdf and urdf/arm7.urdf, and generated ones), and fuzzes for its share of the
 # time and runs. Exits non-zero if libFuzzer finds a crash, a sanitizer report, an unexpected
@@ -28,21 +35,26 @@
 #                                        robot-crash-*, corpus-robot/, test/fuzz/regressions/robot/),
 #                                        on the episode target if it is one of the episode's
 #                                        (episode-crash-*, corpus-episode/,
-#                                        test/fuzz/regressions/episode/), on the identify target
-#                                        if it is one of the identify target's (identify-crash-*,
-#                                        corpus-identify/, test/fuzz/regressions/identify/), on the
-#                                        core target otherwise (FUZZ_TARGETS overrides)
+#                                        test/fuzz/regressions/episode/), on the robot_episode
+#                                        target if it is one of its (robot_episode-crash-*,
+#                                        corpus-robot_episode/, test/fuzz/corpus/robot_episode/,
+#                                        test/fuzz/regressions/robot_episode/), on the identify
+#                                        target if it is one of the identify target's
+#                                        (identify-crash-*, corpus-identify/,
+#                                        test/fuzz/regressions/identify/), on the core target
+#                                        otherwise (FUZZ_TARGETS overrides)
 #
 # Environment: BUILD_DIR (default build-fuzz; corpora, crash artifacts and logs live there, out of
-# git), FUZZ_TARGETS (default "core robot episode identify"), FUZZ_SECONDS (default 120: the time cap of
-# the whole run, split between the targets by the shares below), FUZZ_RUNS (the executions of the
-# whole run, split likewise; unset: no cap), FUZZ_ROBOT_SHARE and FUZZ_ROBOT_RUNS_SHARE (the robot
-# target's share of the time and of the runs, in percent; default 38 and 24),
-# FUZZ_EPISODE_SHARE and FUZZ_EPISODE_RUNS_SHARE (the episode target's; default 24 and 3; the
-# core target has the rest of each; the shares of the targets run are scaled to the whole),
-# FUZZ_IDENTIFY_SECONDS and FUZZ_IDENTIFY_RUNS (the identify target's own budget, on top of
-# FUZZ_SECONDS and FUZZ_RUNS, which it does not share unless it is the only target; default 60 s
-# and 10000 runs: about 20 s under the sanitizers), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
+# git), FUZZ_TARGETS (default "core robot episode robot_episode identify"), FUZZ_SECONDS (default
+# 120: the time cap of the whole run, split between the targets by the shares below), FUZZ_RUNS
+# (the executions of the whole run, split likewise; unset: no cap), FUZZ_ROBOT_SHARE and
+# FUZZ_ROBOT_RUNS_SHARE (the robot target's share of the time and of the runs, in percent; default
+# 38 and 24), FUZZ_EPISODE_SHARE and FUZZ_EPISODE_RUNS_SHARE (the episode target's; default 21 and
+# 3), FUZZ_ROBOT_EPISODE_SHARE and FUZZ_ROBOT_EPISODE_RUNS_SHARE (the robot_episode target's;
+# default 6 and 2; the core target has the rest of each; the shares of the targets run are scaled
+# to the whole), FUZZ_IDENTIFY_SECONDS and FUZZ_IDENTIFY_RUNS (the identify target's own budget, on
+# top of FUZZ_SECONDS and FUZZ_RUNS, which it does not share unless it is the only target; default
+# 60 s and 10000 runs: about 20 s under the sanitizers), FUZZ_SEED (libFuzzer's -seed; default 0, a new random seed each run: with a
 # fixed seed and FUZZ_RUNS, and an empty corpus, a run is reproducible, as CI's is), FUZZ_ARGS
 # (extra libFuzzer flags), FUZZ_PRINT=1 (print each decoded request and its outcome; useful with
 # --replay), FUZZ_SKIP_EXTREME=1 (core target: excuse non-finite answers to requests holding finite
@@ -63,9 +75,10 @@ elif [ $# -gt 0 ]; then
   exit 2
 fi
 
-targets=${FUZZ_TARGETS:-core robot episode identify}
+targets=${FUZZ_TARGETS:-core robot episode robot_episode identify}
 if [ "$mode" = replay ] && [ -z "${FUZZ_TARGETS:-}" ]; then
   case "${replay[*]}" in
+    *robot_episode*) targets=robot_episode ;;
     */robot-* | robot-* | *regressions/robot* | *-robot*) targets=robot ;;
     */episode-* | episode-* | *regressions/episode* | *-episode*) targets=episode ;;
     */identify-* | identify-* | *regressions/identify* | *-identify* | *corpus/identify*) targets=identify ;;
@@ -73,7 +86,7 @@ if [ "$mode" = replay ] && [ -z "${FUZZ_TARGETS:-}" ]; then
   esac
 fi
 want_robot=false
-case " $targets " in *" robot "*) want_robot=true ;; esac
+case " $targets " in *" robot "* | *" robot_episode "*) want_robot=true ;; esac
 
 # The core target links the detection library's sources too (the request path can detect contacts),
 # and with them FCL; the robot target KDL, urdf, resource_retriever and geometric_shapes (the links'
@@ -131,6 +144,8 @@ core_sources=(src/core/*.cpp src/detection/*.cpp)
 identify_sources=(src/calibration/csv_tracks.cpp src/calibration/flight_fit.cpp
   src/calibration/landing_extraction.cpp src/calibration/object_file.cpp
   src/calibration/object_model.cpp src/calibration/simple_yaml.cpp)
+robot_libs=(-lfcl -lccd -lorocos-kdl -lkdl_parser -lurdf -lurdfdom_model -lresource_retriever
+  -lgeometric_shapes -lroslib -lrostime -lroscpp_serialization -lconsole_bridge)
 robot_sources=(src/robot/*.cpp src/ros/message_conversion.cpp src/ros/joint_state_cache.cpp
   src/ros/served_robot.cpp src/ros/robot_conversion.cpp src/ros/robot_geometry.cpp)
 build_target() {  # name main-source sources... -- libraries...
@@ -179,12 +194,14 @@ for name in $targets; do
       ;;
     robot)
       build_target fuzz_robot_request test/fuzz/fuzz_robot_request.cpp "${core_sources[@]}" \
-        "${robot_sources[@]}" -- -lfcl -lccd -lorocos-kdl -lkdl_parser -lurdf -lurdfdom_model \
-        -lresource_retriever -lgeometric_shapes -lroslib -lrostime -lroscpp_serialization \
-        -lconsole_bridge
+        "${robot_sources[@]}" -- "${robot_libs[@]}"
+      ;;
+    robot_episode)
+      build_target fuzz_robot_episode test/fuzz/fuzz_robot_episode.cpp "${core_sources[@]}" \
+        "${robot_sources[@]}" src/ros/episode_conversion.cpp -- "${robot_libs[@]}"
       ;;
     *)
-      echo "fuzz: unknown target '$name' in FUZZ_TARGETS (core, robot, episode, identify)" >&2
+      echo "fuzz: unknown target '$name' in FUZZ_TARGETS (core, robot, episode, robot_episode, identify)" >&2
       exit 2
       ;;
   esac
@@ -205,6 +222,7 @@ executable() {
     robot) echo "$build_dir/fuzz_robot_request" ;;
     episode) echo "$build_dir/fuzz_episode" ;;
     identify) echo "$build_dir/fuzz_identify_inputs" ;;
+    robot_episode) echo "$build_dir/fuzz_robot_episode" ;;
   esac
 }
 
@@ -234,24 +252,29 @@ total_seconds=${FUZZ_SECONDS:-120}
 # A robot input costs many core inputs (a URDF parsed, a KDL tree built, meshes read), and an
 # episode input far more (a flight stepped, gaps queried at every step, impacts solved; up to its
 # 0.05 s time budget, and under the sanitizers about 20 inputs a second), so the robot target gets
-# a quarter of the runs in 38 % of the time, the episode target 3 % of the runs in 24 % of the
-# time, the core target the rest (CI: 29,930 core, 9,840 robot and 1,230 episode runs in 148, 148
-# and 93 s at most).
+# a quarter of the runs in 38 % of the time, the episode target 3 % of the runs in 21 % of the
+# time, the robot episode target (a robot's forward dynamics at every step besides; about 50 inputs
+# a second under the sanitizers) 2 % of the runs in 6 % of the time, the core target the rest (CI:
+# 29,110 core, 9,840 robot, 1,230 episode and 820 robot episode runs in 136, 148, 81 and 23 s at
+# most).
 robot_share=${FUZZ_ROBOT_SHARE:-38}
 robot_runs_share=${FUZZ_ROBOT_RUNS_SHARE:-24}
-episode_share=${FUZZ_EPISODE_SHARE:-24}
+episode_share=${FUZZ_EPISODE_SHARE:-21}
 episode_runs_share=${FUZZ_EPISODE_RUNS_SHARE:-3}
+robot_episode_share=${FUZZ_ROBOT_EPISODE_SHARE:-6}
+robot_episode_runs_share=${FUZZ_ROBOT_EPISODE_RUNS_SHARE:-2}
 target_count=$(echo $targets | wc -w)
 # The targets that share FUZZ_SECONDS and FUZZ_RUNS (identify has its own budget beside them).
 sharing=$(echo $targets | tr ' ' '\n' | grep -vx identify | tr '\n' ' ' || true)
 sharing_count=$(echo $sharing | wc -w)
 status=0
-core_share=$((100 - robot_share - episode_share))
-core_runs_share=$((100 - robot_runs_share - episode_runs_share))
+core_share=$((100 - robot_share - episode_share - robot_episode_share))
+core_runs_share=$((100 - robot_runs_share - episode_runs_share - robot_episode_runs_share))
 shareOf() {  # target -> "time-share runs-share" in percent, of the whole
   case "$1" in
     robot) echo "$robot_share $robot_runs_share" ;;
     episode) echo "$episode_share $episode_runs_share" ;;
+    robot_episode) echo "$robot_episode_share $robot_episode_runs_share" ;;
     *) echo "$core_share $core_runs_share" ;;
   esac
 }
@@ -288,18 +311,19 @@ for name in $targets; do
     echo "fuzz: $name: writing the seeds failed (a bug on a seed input?), see $build_dir/seeds-$name.log" >&2
     exit 1
   }
+  # A committed seed corpus (test/fuzz/corpus/<target>/), read as seeds too.
+  committed=()
+  [ -d "test/fuzz/corpus/$name" ] && committed=("test/fuzz/corpus/$name")
   log="$build_dir/fuzz-$name.log"
   prefix="$artifacts/"
   [ "$name" = robot ] && prefix="$artifacts/robot-"
   [ "$name" = episode ] && prefix="$artifacts/episode-"
+  [ "$name" = robot_episode ] && prefix="$artifacts/robot_episode-"
   [ "$name" = identify ] && prefix="$artifacts/identify-"
   # The identify target's inputs are text (an object file and a CSV recording): room for a
-  # recording; and its committed seeds (read only: new inputs go to the first directory).
-  target_flags=() more_corpora=()
-  if [ "$name" = identify ]; then
-    target_flags=(-max_len=16384)
-    more_corpora=(test/fuzz/corpus/identify)
-  fi
+  # recording.
+  target_flags=()
+  [ "$name" = identify ] && target_flags=(-max_len=16384)
   echo "fuzz: $name: $(count "$seeds") seeds, corpus $corpus ($(count "$corpus") inputs), ${seconds} s at most, $([ "$runs" -ge 0 ] && echo "$runs" || echo unlimited) runs, seed ${FUZZ_SEED:-random} (log: $log)"
   target_status=0
   # Inputs slower than 3 s are saved as ${prefix}slow-unit-* (not a failure; worth a look).
@@ -307,7 +331,7 @@ for name in $targets; do
   "$target" -max_total_time="$seconds" -runs="$runs" -seed="${FUZZ_SEED:-0}" \
     -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
     -report_slow_units=3 -artifact_prefix="$prefix" ${FUZZ_ARGS:-} "${target_flags[@]}" "$corpus" "$seeds" \
-    "${more_corpora[@]}" >"$log" 2>&1 || target_status=$?
+    "${committed[@]}" >"$log" 2>&1 || target_status=$?
   executions=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
   if [ -z "$executions" ]; then  # no final stats after a crash: the last progress line
     executions=$(grep -oE '^#[0-9]+' "$log" | tail -n 1 | tr -d '#')

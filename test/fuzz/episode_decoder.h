@@ -279,24 +279,17 @@ inline void decodeMaterials(ByteReader& in, DecodedEpisode& episode, bool wild) 
   episode.input.options.max_contacts_per_pair = (wild && points == 0xff) ? 0 : kPoints[points % 4];
 }
 
-}  // namespace episode_detail
-
-/// The episode encoded by `data`. Layout: options (6 + 1-3 + 4-6 bytes), body count, each body and
-/// its shapes, then materials; see the episode_detail:: functions.
-inline DecodedEpisode decodeEpisode(const std::uint8_t* data, std::size_t size) {
-  ByteReader in(data, size);
-  DecodedEpisode episode;
-  episode.options = episode_detail::decodeOptions(in);
-  // 2 bodies when the input runs out; 1 to kMaxEpisodeBodies.
-  const std::size_t count = 1 + (in.byte() + 1) % kMaxEpisodeBodies;
+/// `count` bodies (decodeBody(): body 0 the floor unless the bytes say otherwise) with their
+/// shapes (the floor a plane, or what the bytes say; other bodies 1 shape, or 0 to 3), then the
+/// materials, appended to `episode`.
+inline void decodeWorld(ByteReader& in, std::size_t count, DecodedEpisode& episode) {
   bool any_wild = false;
   for (std::size_t i = 0; i < count; ++i) {
     bool wild = false;
-    episode.bodies.push_back(episode_detail::decodeBody(in, i, wild));
+    episode.bodies.push_back(decodeBody(in, i, wild));
     any_wild = any_wild || wild;
     const bool immovable = episode.bodies.back().mass == 0.0;
     detection::BodyGeometry geometry;
-    // The floor: a plane (or what the bytes say); other bodies 1 shape (or 0 to 3).
     const std::uint8_t shapes = in.byte();
     const std::size_t n = shapes < 0xc0 ? 1 : shapes % (kMaxShapesPerBody + 1);
     for (std::size_t k = 0; k < n; ++k) {
@@ -307,11 +300,24 @@ inline DecodedEpisode decodeEpisode(const std::uint8_t* data, std::size_t size) 
         geometry.shapes.push_back(plane);
         continue;
       }
-      geometry.shapes.push_back(episode_detail::decodeShape(in, wild, immovable));
+      geometry.shapes.push_back(decodeShape(in, wild, immovable));
     }
     episode.input.geometry.push_back(std::move(geometry));
   }
-  episode_detail::decodeMaterials(in, episode, any_wild);
+  decodeMaterials(in, episode, any_wild);
+}
+
+}  // namespace episode_detail
+
+/// The episode encoded by `data`. Layout: options (6 + 1-3 + 4-6 bytes), body count, each body and
+/// its shapes, then materials; see the episode_detail:: functions.
+inline DecodedEpisode decodeEpisode(const std::uint8_t* data, std::size_t size) {
+  ByteReader in(data, size);
+  DecodedEpisode episode;
+  episode.options = episode_detail::decodeOptions(in);
+  // 2 bodies when the input runs out; 1 to kMaxEpisodeBodies.
+  const std::size_t count = 1 + (in.byte() + 1) % kMaxEpisodeBodies;
+  episode_detail::decodeWorld(in, count, episode);
   return episode;
 }
 

@@ -305,6 +305,27 @@ inline bool unsafeUrdf(const std::string& text) {
   return false;
 }
 
+/// The URDF of an input (the file comment's layout: byte 0 even, generated from the bytes that
+/// follow; odd, the text up to the first 0x00) into `urdf`; returns the reader of the bytes after
+/// it, or nothing if the text names a URL the harness does not fetch (unsafeUrdf()).
+inline std::optional<ByteReader> urdfFromBytes(const std::uint8_t* data, std::size_t size,
+                                               std::string& urdf, bool& text_mode) {
+  text_mode = size > 0 && (data[0] % 2 == 1);
+  std::optional<ByteReader> in;
+  if (text_mode) {
+    std::size_t end = 1;
+    while (end < size && data[end] != 0) ++end;
+    urdf.assign(reinterpret_cast<const char*>(data) + 1, end - 1);
+    const std::size_t rest = end < size ? end + 1 : size;  // where the request's bytes start
+    if (unsafeUrdf(urdf)) return std::nullopt;
+    in.emplace(data + rest, size - rest);
+  } else {
+    in.emplace(size > 0 ? data + 1 : data, size > 0 ? size - 1 : 0);
+    urdf = generateUrdf(*in);
+  }
+  return in;
+}
+
 /// A value of a joint state: sane in [lo, hi], or (wild) NaN, infinities, huge, raw.
 inline double stateValue(ByteReader& in, bool wild, double lo, double hi) {
   return in.value(wild, lo, hi);
@@ -467,24 +488,13 @@ inline RobotOutcome runRobotInput(const std::uint8_t* data, std::size_t size,
   text.precision(17);
 
   // The URDF.
-  const bool text_mode = size > 0 && (data[0] % 2 == 1);
   std::string urdf;
-  std::size_t rest = size;  // where the request's bytes start
-  std::optional<ByteReader> in;
-  if (text_mode) {
-    std::size_t end = 1;
-    while (end < size && data[end] != 0) ++end;
-    urdf.assign(reinterpret_cast<const char*>(data) + 1, end - 1);
-    rest = end < size ? end + 1 : size;
-    in.emplace(data + rest, size - rest);
-    if (unsafeUrdf(urdf)) {
-      outcome.skipped = true;
-      outcome.description = "URDF (text, not run: it names a URL the harness does not fetch)\n";
-      return outcome;
-    }
-  } else {
-    in.emplace(size > 0 ? data + 1 : data, size > 0 ? size - 1 : 0);
-    urdf = generateUrdf(*in);
+  bool text_mode = false;
+  std::optional<ByteReader> in = urdfFromBytes(data, size, urdf, text_mode);
+  if (!in) {
+    outcome.skipped = true;
+    outcome.description = "URDF (text, not run: it names a URL the harness does not fetch)\n";
+    return outcome;
   }
   ByteReader& bytes = *in;
   text << "URDF (" << (text_mode ? "text" : "generated") << "):\n" << urdf << "\n";
