@@ -702,8 +702,9 @@ BodyEpisodeResult computeBodyEpisode(const std::vector<EpisodeBody*>& bodies,
       throw InvalidInput("geometry", "radius of body " + std::to_string(g) + " is not >= 0");
     }
     if (!std::isfinite(radius) && bodies[p.body]->movable()) {
-      throw InvalidInput("geometry",
-                         "part " + std::to_string(g) + " moves but its geometry is unbounded");
+      throw InvalidInput("bodies[" + std::to_string(p.body) + "]",
+                         "moves but the geometry of its part " + std::to_string(p.part) +
+                             " is unbounded (a plane): only an immovable body may have one");
     }
   }
   return BodyEpisode(bodies, parts, geometry, options).run();

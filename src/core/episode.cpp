@@ -779,8 +779,9 @@ EpisodeResult computeEpisode(const std::vector<BodyState>& bodies, const GapQuer
       throw InvalidInput("geometry", "radius of body " + std::to_string(i) + " is not >= 0");
     }
     if (!std::isfinite(radius) && !bodies[i].immovable()) {
-      throw InvalidInput("geometry",
-                         "body " + std::to_string(i) + " is movable but its geometry is unbounded");
+      throw InvalidInput("bodies[" + std::to_string(i) + "]",
+                         "is movable but its geometry is unbounded (a plane): only an immovable "
+                         "body may have one");
     }
     if (!std::isfinite(radius) && !bodies[i].angular_velocity.isZero(0.0)) {
       throw InvalidInput("bodies[" + std::to_string(i) + "].angular_velocity",

@@ -751,7 +751,7 @@ TEST(Episode, BadInputNamesTheField) {
   bad = bodies;
   bad[0].mass = 1.0;  // a movable plane: unbounded geometry
   bad[0].inertia = Eigen::Matrix3d::Identity();
-  EXPECT_EQ(fieldOf(bad, geometry, good), "geometry");
+  EXPECT_EQ(fieldOf(bad, geometry, good), "bodies[0]");  // the body given, not the geometry
 }
 
 // A ball squeezed between two walls closing on it (prescribed velocities): ever faster bounces,
