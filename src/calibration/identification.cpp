@@ -223,6 +223,12 @@ std::pair<double, double> rmsErrors(const std::vector<LandingResidual>& residual
   return {std::sqrt(v / n), std::sqrt(w / n)};
 }
 
+double rmsOfCases(const std::vector<Eigen::VectorXd>& residuals) {
+  double sum = 0.0;
+  for (const auto& r : residuals) sum += r.squaredNorm();
+  return std::sqrt(sum / std::max<std::size_t>(1, residuals.size()));
+}
+
 std::vector<LandingResidual> landingResiduals(const std::vector<ObjectLandings>& objects,
                                               const Coefficients& coefficients,
                                               const PredictionOptions& options,
@@ -430,6 +436,7 @@ IdentificationResult identifyCases(const std::vector<CaseResidual>& case_residua
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.summary = summary.BriefReport();
   result.case_residuals = caseResiduals(case_residuals, result.coefficients, pool);
+  result.rms_cases = rmsOfCases(result.case_residuals);
 
   // The residuals' scale, robustly: the median over cases of |r|^2 over the median of a
   // chi-square with as many degrees of freedom as the case has residuals (5.348 for a landing's

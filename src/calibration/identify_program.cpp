@@ -101,7 +101,8 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
       return a.inputs.back();
     };
     if (flag == "--object") {
-      a.inputs.push_back({value(), {}, {}});
+      a.inputs.emplace_back();
+      a.inputs.back().object = value();
     } else if (flag == "--csv") {
       const std::string v = value();
       group().csv.push_back(v);
@@ -146,6 +147,15 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
       if (v == "auto") continue;
       if (end == v.c_str() || *end != '\0' || !(a.loss_scale > 0.0) || !std::isfinite(a.loss_scale))
         throw std::runtime_error("--loss-scale: auto or a number > 0, not '" + v + "'");
+    } else if (flag == "--urdf") {
+      group().urdf = value();
+    } else if (flag == "--joint-csv") {
+      const std::string v = value();
+      group().joint_csv.push_back(v);
+    } else if (flag == "--joint-states") {
+      group().joint_states = value();
+    } else if (flag == "--gravity-compensation") {
+      a.gravity_compensation = true;
     } else if (flag == "--quiet") {
       a.quiet = true;
     } else {
@@ -153,11 +163,39 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
     }
   }
   if (a.inputs.empty()) throw std::runtime_error("--object: at least one object file is needed");
+  for (const auto& input : a.inputs) {
+    if (input.urdf.empty()) {
+      if (!input.joint_csv.empty() || !input.joint_states.empty())
+        throw std::runtime_error("--object " + input.object +
+                                 ": --joint-csv and --joint-states need the robot's --urdf");
+      continue;
+    }
+    if (!input.csv.empty())
+      throw std::runtime_error("--object " + input.object +
+                               ": --csv (object poses) with --urdf; a robot's joint positions are "
+                               "--joint-csv");
+    if (input.joint_csv.empty() && input.bags.empty())
+      throw std::runtime_error("--object " + input.object +
+                               ": give the robot's recordings (--joint-csv/--bag)");
+    if (!input.bags.empty() && input.joint_states.empty())
+      throw std::runtime_error("--bag: give --joint-states TOPIC (the robot's joint states)");
+    if (!input.frame.empty() || !input.topic.empty() || !input.world_frame.empty())
+      throw std::runtime_error("--object " + input.object +
+                               ": --topic, --frame, --world-frame are for object poses, not with "
+                               "--urdf");
+  }
+  bool robots = false, objects = false;
+  for (const auto& input : a.inputs) (input.urdf.empty() ? objects : robots) = true;
+  if (robots && objects)
+    throw std::runtime_error(
+        "--urdf: robot and object recordings in one run are not supported (run identify twice)");
+  if (robots && !a.plot.empty())
+    throw std::runtime_error("--plot: not available for robot recordings yet");
   for (const auto& input : a.inputs)
-    if (input.csv.empty() && input.bags.empty())
+    if (input.urdf.empty() && input.csv.empty() && input.bags.empty())
       throw std::runtime_error("--object " + input.object + ": give its recordings (--csv/--bag)");
   for (const auto& input : a.inputs) {
-    if (input.bags.empty()) continue;
+    if (input.bags.empty() || !input.urdf.empty()) continue;
     if (input.topic.empty() && (input.frame.empty() || input.world_frame.empty()))
       throw std::runtime_error("--bag: give --topic T, or --frame F and --world-frame W (tf)");
     if (!input.topic.empty() && !input.frame.empty())
@@ -196,8 +234,20 @@ IdentificationOptions identificationOptions(const IdentifyArguments& args) {
   return options;
 }
 
+void runIdentify(const IdentifyArguments& args, const IdentifyReaders& readers,
+                 std::function<void(const std::string&)> log) {
+  if (args.robot())
+    runRobotIdentify(args, readers, std::move(log));
+  else
+    runIdentify(args, readers.poses, std::move(log));
+}
+
 void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
                  std::function<void(const std::string&)> report) {
+  if (args.robot()) {
+    runRobotIdentify(args, IdentifyReaders{read_bag, {}, {}}, std::move(report));
+    return;
+  }
   ProgressBar bar(!args.quiet);
   const auto log = [&](const std::string& line) {
     bar.finish();  // a report line never shares the bar's line

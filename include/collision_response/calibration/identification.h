@@ -69,6 +69,7 @@ struct IdentificationResult {
   std::vector<LandingResidual> residuals;  ///< per landing, objects' landings in order
   /// Each case's residual at the fit (identifyCases(); for landings the same as `residuals`).
   std::vector<Eigen::VectorXd> case_residuals;
+  double rms_cases = 0.0;  ///< sqrt of the mean over cases of |r|^2 (a robot impact's whole r)
   double rms_linear = 0.0, rms_angular = 0.0;  ///< over the landings (|r| of each 3-vector)
   int landings = 0;
   int iterations = 0;
@@ -104,6 +105,9 @@ std::vector<LandingResidual> landingResiduals(const std::vector<ObjectLandings>&
                                               const Coefficients& coefficients,
                                               const PredictionOptions& options,
                                               core::WorkerPool& pool);
+
+/// sqrt of the mean over cases of |r|^2.
+double rmsOfCases(const std::vector<Eigen::VectorXd>& residuals);
 
 /// RMS over landings of |r.head(3)| (linear) and |r.tail(3)| (angular).
 std::pair<double, double> rmsErrors(const std::vector<LandingResidual>& residuals);

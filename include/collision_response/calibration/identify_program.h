@@ -5,6 +5,9 @@
 //            --output materials.yaml [--plot fit.png] [--law newton|poisson|stronge]
 //            [--single-impact] [--folds K] [--threads N] [--friction one|two] [--fit-inertia]
 //            [--landings-per-recording N] [--loss-scale auto|S] [--quiet]
+//   identify --object OBSTACLE.yaml --urdf ROBOT.urdf (--joint-csv FILE ... |
+//            --bag FILE.bag --joint-states TOPIC ...) [--object ...] --output materials.yaml
+//            [--gravity-compensation] [the fit's flags above]
 //
 // Each --object starts a group; the --csv / --bag after it are its recordings. Groups naming the
 // same pair of materials are fitted together; one ~materials entry per pair. A rosbag's poses are
@@ -18,7 +21,9 @@
 #include <vector>
 
 #include "collision_response/calibration/identification.h"
+#include "collision_response/calibration/joint_track.h"
 #include "collision_response/calibration/pose_track.h"
+#include "collision_response/calibration/robot_impact_prediction.h"
 
 namespace collision_response::calibration {
 
@@ -29,6 +34,11 @@ struct IdentifyInput {
   std::string topic;              ///< bags: a geometry_msgs/PoseStamped topic; "": tf
   std::string frame;              ///< bags on tf: the object's frame
   std::string world_frame;        ///< bags: the fixed frame (z up)
+  /// A robot's recordings (docs/calibration.md, "Robot recordings"): the robot's URDF; the object
+  /// file is then the fixed obstacle it strikes.
+  std::string urdf;
+  std::vector<std::string> joint_csv;  ///< CSV files of time and joint positions
+  std::string joint_states;            ///< bags: a sensor_msgs/JointState topic
 };
 
 /// A rosbag's track is cut into recordings where no pose came for longer than this [s].
@@ -52,6 +62,14 @@ struct IdentifyArguments {
   int landings_per_recording = 1;
   double loss_scale = 0.0;  ///< 0: automatic (IdentificationOptions::loss_scale)
   bool quiet = false;       ///< no progress bar
+  /// Robot recordings: the robot holds itself against gravity between impacts (tau = g(q));
+  /// else its joints are passive.
+  bool gravity_compensation = false;
+  bool robot() const {
+    for (const auto& input : inputs)
+      if (!input.urdf.empty()) return true;
+    return false;
+  }
 };
 
 /// Parses argv[1..]; throws std::runtime_error naming the flag.
@@ -67,9 +85,34 @@ IdentificationOptions identificationOptions(const IdentifyArguments& arguments);
 /// library's reader, wired in by the program's main); throws naming the bag.
 using BagReader = std::function<PoseTrack(const std::string& bag, const IdentifyInput& input)>;
 
+/// Reads a robot's joint positions from a rosbag's sensor_msgs/JointState topic (the ros library's
+/// reader); throws naming the bag and topic.
+using JointBagReader = std::function<JointTrack(const std::string& bag, const std::string& topic)>;
+
+/// Reads a robot (its dynamics and links' collision geometry) from a URDF file; throws naming it.
+using RobotLoader = std::function<RobotDescription(const std::string& urdf)>;
+
+struct IdentifyReaders {
+  BagReader poses;        ///< rosbags of an object's poses
+  JointBagReader joints;  ///< rosbags of a robot's joint states
+  RobotLoader robot;      ///< URDF files
+};
+
 /// Runs the identification and writes the output (and the plot). Report lines go to `log`.
 /// Throws std::runtime_error naming the source on bad input; nothing is written then.
 void runIdentify(const IdentifyArguments& arguments, const BagReader& read_bag,
                  std::function<void(const std::string&)> log);
+
+/// The same with readers for robots' recordings too: a run with --urdf identifies from robot
+/// impacts (runRobotIdentify()).
+void runIdentify(const IdentifyArguments& arguments, const IdentifyReaders& readers,
+                 std::function<void(const std::string&)> log);
+
+/// The identification from a robot's recorded impacts (docs/calibration.md, "Robot recordings"):
+/// each group's joint tracks (CSV or bags), their impacts (extractRobotImpacts()), each a case
+/// scored by RobotImpactPredictor against the group's obstacle, groups naming the same materials
+/// fitted together; output as runIdentify()'s (no plot).
+void runRobotIdentify(const IdentifyArguments& arguments, const IdentifyReaders& readers,
+                      std::function<void(const std::string&)> log);
 
 }  // namespace collision_response::calibration

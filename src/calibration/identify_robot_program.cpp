@@ -1,0 +1,195 @@
+// identify on a robot's recordings (docs/calibration.md, "Robot recordings"): the joint tracks,
+// their impacts, the fit and the ~materials output.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include "collision_response/calibration/cross_validation.h"
+#include "collision_response/calibration/identify_program.h"
+#include "collision_response/calibration/joint_csv.h"
+#include "collision_response/calibration/materials_output.h"
+#include "collision_response/calibration/object_file.h"
+#include "collision_response/calibration/progress_bar.h"
+#include "collision_response/calibration/robot_impact_extraction.h"
+
+namespace collision_response::calibration {
+namespace {
+
+/// One pair of materials: its impacts (each a case) and where they came from.
+struct RobotPair {
+  std::string a, b;
+  std::vector<std::shared_ptr<const RobotImpactPredictor>> predictors;
+  std::vector<std::shared_ptr<const RobotImpact>> impacts;
+  std::vector<CaseResidual> cases;
+  std::vector<int> sizes;
+  std::vector<std::string> sources;
+  int recordings = 0;
+  std::map<std::string, int> skipped;
+};
+
+std::string fileName(const std::string& path) {
+  return std::filesystem::path(path).filename().string();
+}
+
+}  // namespace
+
+void runRobotIdentify(const IdentifyArguments& args, const IdentifyReaders& readers,
+                      std::function<void(const std::string&)> report) {
+  ProgressBar bar(!args.quiet);
+  const auto log = [&](const std::string& line) {
+    bar.finish();
+    report(line);
+  };
+  IdentificationOptions options = identificationOptions(args);
+  RobotPredictionOptions prediction;
+  prediction.law = options.prediction.law;
+  prediction.single_impact = args.single_impact;
+  prediction.gravity = Eigen::Vector3d(0.0, 0.0, options.prediction.gravity_z);
+  prediction.gravity_compensation = args.gravity_compensation;
+
+  // Read everything and extract every impact first: any bad input fails before a fit starts.
+  std::map<std::string, RobotDescription> robots;
+  std::vector<RobotPair> pairs;
+  for (const IdentifyInput& input : args.inputs) {
+    const ObjectModel obstacle = loadObjectModel(input.object);
+    if (!robots.count(input.urdf)) {
+      if (!readers.robot) throw std::runtime_error(input.urdf + ": this identify reads no URDF");
+      bar.update(0.0, "reading " + input.urdf);
+      robots[input.urdf] = readers.robot(input.urdf);
+    }
+    const RobotDescription& robot = robots[input.urdf];
+    auto it = std::find_if(pairs.begin(), pairs.end(), [&](const RobotPair& p) {
+      return p.a == obstacle.material_a && p.b == obstacle.material_b;
+    });
+    if (it == pairs.end()) {
+      pairs.emplace_back();
+      pairs.back().a = obstacle.material_a;
+      pairs.back().b = obstacle.material_b;
+      it = pairs.end() - 1;
+    }
+    RobotPair& pair = *it;
+    std::vector<JointTrack> tracks;
+    for (const auto& path : input.joint_csv) {
+      bar.update(0.0, "reading " + path);
+      tracks.push_back(readJointCsv(path));
+      pair.sources.push_back(fileName(path) + " (joint CSV, robot " + fileName(input.urdf) +
+                             ", obstacle " + fileName(input.object) + ")");
+    }
+    for (const auto& path : input.bags) {
+      if (!readers.joints) throw std::runtime_error(path + ": this identify reads no rosbags");
+      bar.update(0.0, "reading " + path);
+      tracks.push_back(readers.joints(path, input.joint_states));
+      pair.sources.push_back(fileName(path) + " (rosbag " + input.joint_states + ", robot " +
+                             fileName(input.urdf) + ", obstacle " + fileName(input.object) + ")");
+    }
+    for (const JointTrack& track : tracks) {
+      ++pair.recordings;
+      // One scene per recording (its joints' order); the robot and obstacle are checked here.
+      auto predictor = std::make_shared<const RobotImpactPredictor>(
+          robot, track.names, track.source, obstacle, prediction);
+      const auto extractions = extractRobotImpacts(track);
+      if (extractions.empty())
+        throw std::runtime_error(track.source +
+                                 ": no impact (no jump in the joint velocities above the noise)");
+      for (const RobotImpactExtraction& x : extractions) {
+        if (!x.ok) {
+          ++pair.skipped[x.reason];
+          continue;
+        }
+        auto impact = std::make_shared<const RobotImpact>(x.impact);
+        pair.predictors.push_back(predictor);
+        pair.impacts.push_back(impact);
+        const RobotImpactPredictor* p = predictor.get();
+        const RobotImpact* m = impact.get();
+        pair.cases.push_back([p, m](const Coefficients& c) { return p->residual(*m, c); });
+        pair.sizes.push_back(predictor->joints());
+      }
+    }
+  }
+  for (const RobotPair& pair : pairs) {
+    const int impacts = static_cast<int>(pair.cases.size());
+    if (impacts == 0)
+      throw std::runtime_error(pair.a + " on " + pair.b + ": no usable impact in " +
+                               std::to_string(pair.recordings) + " recordings");
+    if (args.folds > impacts)
+      throw std::runtime_error("--folds " + std::to_string(args.folds) + ": only " +
+                               std::to_string(impacts) + " impacts of " + pair.a + " on " + pair.b);
+    std::string line = pair.a + " on " + pair.b + ": " + std::to_string(pair.recordings) +
+                       " recordings, " + std::to_string(impacts) + " impacts";
+    for (const auto& [reason, count] : pair.skipped)
+      line += "; " + std::to_string(count) + " skipped: " + reason;
+    log(line);
+  }
+
+  const int threads = args.threads > 0
+                          ? args.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  core::WorkerPool pool(threads);
+  const int total_fits = (1 + args.folds) * static_cast<int>(pairs.size());
+  int fits_done = 0;
+  std::vector<MaterialsEntry> entries;
+  for (const RobotPair& pair : pairs) {
+    MaterialsEntry entry;
+    entry.robot = true;
+    entry.material_a = pair.a;
+    entry.material_b = pair.b;
+    entry.sources = pair.sources;
+    entry.recordings = pair.recordings;
+    entry.skipped.assign(pair.skipped.begin(), pair.skipped.end());
+    entry.method = std::string("robot impacts, ") +
+                   (args.single_impact ? "one impact" : "episode") + ", " + args.law + ", " +
+                   (args.split_friction ? "mu_s and mu_d" : "one mu") +
+                   (args.gravity_compensation ? ", gravity compensation" : ", passive joints");
+    std::string stage = "fit";
+    options.progress = [&](int iteration) {
+      bar.update((fits_done + std::min(1.0, iteration / 20.0)) / total_fits,
+                 pair.a + "/" + pair.b + " " + stage + ", iteration " + std::to_string(iteration));
+    };
+    entry.fit = identifyCases(pair.cases, pair.sizes, options, pool);
+    char scale[64];
+    std::snprintf(scale, sizeof scale, ", Cauchy loss scale %.4f%s", entry.fit.loss_scale,
+                  args.loss_scale == 0.0 ? " (automatic)" : "");
+    entry.method += scale;
+    ++fits_done;
+    if (args.folds > 0) {
+      entry.held_out = crossValidateCases(
+          pair.cases, pair.sizes, options, args.folds, pool,
+          [&](int fold) {
+            stage = "fold " + std::to_string(fold + 1) + "/" + std::to_string(args.folds);
+            if (fold > 0) ++fits_done;
+          },
+          &entry.fit.coefficients);
+      ++fits_done;
+    }
+    const auto& f = entry.fit;
+    std::string line = pair.a + " on " + pair.b + ":";
+    for (const auto& e : f.estimates) {
+      char buffer[160];
+      std::snprintf(buffer, sizeof buffer, " %s %.4f [%.4f, %.4f]%s", e.name.c_str(), e.value,
+                    e.lower, e.upper, e.at_bound ? " (on a bound)" : "");
+      line += buffer;
+    }
+    char buffer[200];
+    std::snprintf(buffer, sizeof buffer, "; RMS joint velocities %.4f", f.rms_cases);
+    line += buffer;
+    if (args.folds > 0) {
+      std::snprintf(buffer, sizeof buffer, "; held out (%d-fold) %.4f", args.folds,
+                    entry.held_out.rms_cases);
+      line += buffer;
+    }
+    line += "; " + std::to_string(f.iterations) + " iterations" +
+            (f.converged ? "" : " (not converged: " + f.summary + ")");
+    entries.push_back(std::move(entry));
+    bar.finish();
+    log(line);
+  }
+  bar.finish();
+  writeFileAtomically(args.output, materialsYaml(entries));
+  log("wrote " + args.output);
+}
+
+}  // namespace collision_response::calibration

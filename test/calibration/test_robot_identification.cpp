@@ -1,0 +1,285 @@
+// Identification from a robot's recorded impacts (docs/calibration.md, "Robot recordings"), on
+// synthetic recordings of the 2R arm of striking_arm.urdf striking a fixed sphere
+// (synthetic_robot_strikes.h: the package's robot episode on a closed-form gap query, 500 Hz,
+// joint noise): the impacts found where the simulation had them, with its velocities; the known
+// coefficients inside the reported intervals; bad input named.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "collision_response/calibration/identification.h"
+#include "collision_response/calibration/identify_program.h"
+#include "collision_response/calibration/joint_csv.h"
+#include "collision_response/calibration/robot_impact_extraction.h"
+#include "collision_response/calibration/robot_impact_prediction.h"
+#include "synthetic_recordings.h"
+#include "synthetic_robot_strikes.h"
+
+using namespace collision_response;
+using namespace collision_response::calibration;
+using namespace collision_response::calibration::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kUrdf = std::string(CALIBRATION_TEST_DIR) + "/striking_arm.urdf";
+constexpr double kNoise = 5e-5;  // [rad], a coarse encoder's
+
+Coefficients truth() {
+  Coefficients c;
+  c.restitution = 0.6;
+  c.static_friction = c.dynamic_friction = 0.25;
+  return c;
+}
+
+/// Varied strikes: around the post (phi), head-on to glancing (beta: the glancing ones slide at
+/// mu 0.25), 0.8 to 1.6 m/s.
+std::vector<Strike> strikes(int count) {
+  std::vector<Strike> out;
+  for (int k = 0; k < count; ++k) {
+    Strike s;
+    s.phi = M_PI + 0.35 * (k % 4) - 0.5;  // the tip comes from the base's side
+    s.beta = (k % 3 == 0 ? 0.1 : (k % 3 == 1 ? 0.5 : -0.7));
+    s.speed = 0.8 + 0.8 * ((k * 7) % 5) / 4.0;
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::string writeCsv(const fs::path& path, const JointTrack& track) {
+  std::ofstream out(path);
+  out.precision(17);
+  out << "t";
+  for (const auto& n : track.names) out << "," << n;
+  out << "\n";
+  for (int k = 0; k < track.size(); ++k) {
+    out << track.time[k];
+    for (int j = 0; j < track.position[k].size(); ++j) out << "," << track.position[k][j];
+    out << "\n";
+  }
+  return path.string();
+}
+
+}  // namespace
+
+// The impact is found between the samples that bracket the simulation's impact time, and the
+// quadratic fits give the simulation's joint velocities before and after it (to the noise's and
+// the fits' few thousandths of the speed).
+TEST(RobotIdentification, ExtractionFindsTheSimulatedImpact) {
+  const RobotDescription arm = strikingArm(kUrdf);
+  for (const Strike& s : strikes(3)) {
+    const StrikeRecording r =
+        strikeRecording(arm, s, truth(), core::ImpactLaw::kStronge, kNoise, 7);
+    ASSERT_GT(r.impact_time, 0.0);
+    const auto found = extractRobotImpacts(r.track);
+    ASSERT_EQ(found.size(), 1u) << "phi " << s.phi << " beta " << s.beta;
+    ASSERT_TRUE(found[0].ok) << found[0].reason;
+    const RobotImpact& m = found[0].impact;
+    EXPECT_LE(m.t_before, r.impact_time);
+    EXPECT_GE(m.t_after, r.impact_time);
+    const double speed = r.qdot_before.norm();
+    EXPECT_LT((m.qdot_before - r.qdot_before).norm(), 0.01 * speed);
+    EXPECT_LT((m.qdot_after - r.qdot_after).norm(), 0.01 * speed);
+  }
+}
+
+// Free motion without an impact has none; the same recording with one is found.
+TEST(RobotIdentification, NoImpactInFreeMotion) {
+  const RobotDescription arm = strikingArm(kUrdf);
+  Strike s = strikes(1)[0];
+  s.duration = 0.08;  // ends before the strike at 0.1 s
+  const StrikeRecording r = strikeRecording(arm, s, truth(), core::ImpactLaw::kStronge, kNoise, 3);
+  EXPECT_LT(r.impact_time, 0.0);
+  EXPECT_TRUE(extractRobotImpacts(r.track).empty());
+}
+
+// The known e and mu lie inside the reported 95 % intervals, which are narrow (the coefficients are
+// identified, not merely not excluded).
+TEST(RobotIdentification, KnownCoefficientsInsideTheIntervals) {
+  const RobotDescription arm = strikingArm(kUrdf);
+  const ObjectModel post = strikeObstacle();
+  RobotPredictionOptions prediction;
+  std::vector<std::unique_ptr<RobotImpactPredictor>> predictors;
+  std::vector<RobotImpact> impacts;
+  const auto list = strikes(sized(8, 5));
+  unsigned seed = 11;
+  for (const Strike& s : list) {
+    const StrikeRecording r =
+        strikeRecording(arm, s, truth(), core::ImpactLaw::kStronge, kNoise, seed++);
+    for (const auto& x : extractRobotImpacts(r.track))
+      if (x.ok) impacts.push_back(x.impact);
+  }
+  ASSERT_GE(impacts.size(), list.size() - 1);
+  RobotImpactPredictor predictor(arm, {"shoulder", "elbow"}, "synthetic", post, prediction);
+  std::vector<CaseResidual> cases;
+  std::vector<int> sizes;
+  for (const RobotImpact& m : impacts) {
+    cases.push_back([&predictor, &m](const Coefficients& c) { return predictor.residual(m, c); });
+    sizes.push_back(2);
+  }
+  core::WorkerPool pool(2);
+  IdentificationOptions options;
+  const IdentificationResult fit = identifyCases(cases, sizes, options, pool);
+  ASSERT_EQ(fit.estimates.size(), 3u);
+  const CoefficientEstimate& e = fit.estimates[0];
+  const CoefficientEstimate& mu = fit.estimates[1];
+  EXPECT_LE(e.lower, 0.6);
+  EXPECT_GE(e.upper, 0.6);
+  EXPECT_LE(mu.lower, 0.25);
+  EXPECT_GE(mu.upper, 0.25);
+  EXPECT_LT(e.upper - e.lower, 0.05);
+  EXPECT_LT(mu.upper - mu.lower, 0.05);
+  EXPECT_LT(fit.rms_cases, 0.02);
+  std::printf("e %.4f [%.4f, %.4f], mu %.4f [%.4f, %.4f], rms %.4f, %zu impacts\n", e.value,
+              e.lower, e.upper, mu.value, mu.lower, mu.upper, fit.rms_cases, impacts.size());
+}
+
+class RobotIdentify : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("robot_identify_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    std::ofstream(dir_ / "post.yaml") << "shape: {type: sphere, radius: 0.1}\n"
+                                         "mass: 1.0   # not used: the obstacle is fixed\n"
+                                         "material_a: arm\nmaterial_b: post\n"
+                                         "position: [1.2, 0.6, 0.0]\n";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  IdentifyReaders readers() const {
+    IdentifyReaders r;
+    r.robot = [](const std::string& path) { return strikingArm(path); };
+    return r;
+  }
+  /// identify's arguments: the post and arm, then `extra`.
+  IdentifyArguments arguments(std::vector<std::string> extra) const {
+    std::vector<std::string> words = {"identify", "--object", (dir_ / "post.yaml").string(),
+                                      "--urdf",   kUrdf,      "--output",
+                                      output(),   "--quiet",  "--threads",
+                                      "2"};
+    words.insert(words.end(), extra.begin(), extra.end());
+    std::vector<const char*> argv;
+    for (const auto& w : words) argv.push_back(w.c_str());
+    return parseIdentifyArguments(static_cast<int>(argv.size()), argv.data());
+  }
+  std::string output() const { return (dir_ / "materials.yaml").string(); }
+  /// runIdentify's error (fails the test if there is none) and that nothing was written.
+  std::string error(const IdentifyArguments& a) const {
+    try {
+      runIdentify(a, readers(), [](const std::string&) {});
+    } catch (const std::exception& e) {
+      EXPECT_FALSE(fs::exists(output())) << "written despite the error";
+      return e.what();
+    }
+    ADD_FAILURE() << "no error";
+    return "";
+  }
+  fs::path dir_;
+};
+
+// End to end from joint CSV files: the ~materials entry with the known e inside its interval.
+TEST_F(RobotIdentify, FromJointCsvFiles) {
+  const RobotDescription arm = strikingArm(kUrdf);
+  std::vector<std::string> args;
+  unsigned seed = 21;
+  int k = 0;
+  for (const Strike& s : strikes(sized(6, 4))) {
+    const StrikeRecording r =
+        strikeRecording(arm, s, truth(), core::ImpactLaw::kStronge, kNoise, seed++);
+    args.push_back("--joint-csv");
+    args.push_back(writeCsv(dir_ / ("strike_" + std::to_string(k++) + ".csv"), r.track));
+  }
+  args.insert(args.end(), {"--folds", "0"});
+  std::vector<std::string> lines;
+  runIdentify(arguments(args), readers(), [&](const std::string& l) { lines.push_back(l); });
+  std::ifstream in(output());
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string yaml = text.str();
+  // "#   restitution 0.6012 sd 0.0040 [0.5933, 0.6090]"
+  const auto at = yaml.find("#   restitution ");
+  ASSERT_NE(at, std::string::npos) << yaml;
+  double value, sd, lower, upper;
+  ASSERT_EQ(std::sscanf(yaml.c_str() + at, "#   restitution %lf sd %lf [%lf, %lf]", &value, &sd,
+                        &lower, &upper),
+            4)
+      << yaml;
+  EXPECT_LE(lower, 0.6);
+  EXPECT_GE(upper, 0.6);
+  EXPECT_LT(upper - lower, 0.1);
+  EXPECT_NE(yaml.find("{a: \"arm\", b: \"post\", restitution: "), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("impacts used"), std::string::npos) << yaml;
+}
+
+// Bad input: an error naming the source, nothing written.
+TEST_F(RobotIdentify, BadInputIsNamed) {
+  const RobotDescription arm = strikingArm(kUrdf);
+  const StrikeRecording r =
+      strikeRecording(arm, strikes(1)[0], truth(), core::ImpactLaw::kStronge, kNoise, 5);
+  // A joint the URDF does not have.
+  JointTrack renamed = r.track;
+  renamed.names[1] = "wrist";
+  const std::string wrong = writeCsv(dir_ / "wrong.csv", renamed);
+  std::string what = error(arguments({"--joint-csv", wrong, "--folds", "0"}));
+  EXPECT_NE(what.find("wrong.csv"), std::string::npos) << what;
+  EXPECT_NE(what.find("'wrist'"), std::string::npos) << what;
+  EXPECT_NE(what.find("striking_arm.urdf"), std::string::npos) << what;
+  // A joint of the URDF not recorded.
+  JointTrack one = r.track;
+  one.names = {"shoulder"};
+  for (auto& q : one.position) q = q.head(1).eval();
+  const std::string short_track = writeCsv(dir_ / "shoulder_only.csv", one);
+  what = error(arguments({"--joint-csv", short_track, "--folds", "0"}));
+  EXPECT_NE(what.find("shoulder_only.csv"), std::string::npos) << what;
+  EXPECT_NE(what.find("'elbow'"), std::string::npos) << what;
+  // A non-finite sample: the file, line and column.
+  const std::string good = writeCsv(dir_ / "nan.csv", r.track);
+  {
+    std::ifstream in(good);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string s = text.str();
+    std::size_t line = 0;
+    for (int k = 0; k < 5; ++k) line = s.find('\n', line) + 1;  // the 5th sample's row (line 6)
+    const std::size_t comma = s.find_last_of(',', s.find('\n', line));
+    s.replace(comma + 1, s.find('\n', line) - comma - 1, "nan");
+    std::ofstream(good) << s;
+  }
+  what = error(arguments({"--joint-csv", good, "--folds", "0"}));
+  EXPECT_NE(what.find("nan.csv:6"), std::string::npos) << what;
+  EXPECT_NE(what.find("elbow"), std::string::npos) << what;
+  // A recording without an impact.
+  Strike early = strikes(1)[0];
+  early.duration = 0.08;
+  const std::string free_motion =
+      writeCsv(dir_ / "free.csv",
+               strikeRecording(arm, early, truth(), core::ImpactLaw::kStronge, kNoise, 5).track);
+  what = error(arguments({"--joint-csv", free_motion, "--folds", "0"}));
+  EXPECT_NE(what.find("free.csv"), std::string::npos) << what;
+  EXPECT_NE(what.find("no impact"), std::string::npos) << what;
+  // A bag's topic that the reader does not find: its error passes through unchanged.
+  IdentifyReaders with_bag = readers();
+  with_bag.joints = [](const std::string& bag, const std::string& topic) -> JointTrack {
+    throw std::runtime_error(bag + ":" + topic + ": no such topic in the bag");
+  };
+  try {
+    runIdentify(arguments({"--bag", "strikes.bag", "--joint-states", "/joint_states"}), with_bag,
+                [](const std::string&) {});
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("strikes.bag:/joint_states"), std::string::npos);
+    EXPECT_FALSE(fs::exists(output()));
+  }
+  // Flags: --joint-states without --urdf, --csv with --urdf.
+  const char* no_urdf[] = {"identify",       "--object", "post.yaml", "--bag", "b.bag",
+                           "--joint-states", "/js",      "--output",  "m.yaml"};
+  EXPECT_THROW(parseIdentifyArguments(9, no_urdf), std::runtime_error);
+  const char* poses[] = {"identify", "--object", "post.yaml", "--urdf", "a.urdf",
+                         "--csv",    "t.csv",    "--output",  "m.yaml"};
+  EXPECT_THROW(parseIdentifyArguments(9, poses), std::runtime_error);
+}
