@@ -136,6 +136,57 @@ TEST(RobotIdentification, KnownCoefficientsInsideTheIntervals) {
               e.lower, e.upper, mu.value, mu.lower, mu.upper, fit.rms_cases, impacts.size());
 }
 
+// The reported deviation against the spread of the estimates over repeated noise draws of the
+// same strikes (an independent check of the covariance): the sample deviation of e and mu over
+// the draws is at most 3 times the mean reported one (the intervals are not too narrow; wider ones
+// would be conservative, and the ratio is printed: about 0.7 for e and 1.2 for mu with 12 draws).
+TEST(RobotIdentification, ReportedDeviationMatchesTheSpreadOverNoiseDraws) {
+  const RobotDescription arm = strikingArm(kUrdf);
+  const ObjectModel post = strikeObstacle();
+  RobotImpactPredictor predictor(arm, {"shoulder", "elbow"}, "synthetic", post, {});
+  core::WorkerPool pool(2);
+  const int draws = sized(12, 8);
+  const auto list = strikes(6);
+  std::vector<double> e, mu, e_sd, mu_sd;
+  for (int d = 0; d < draws; ++d) {
+    std::vector<RobotImpact> impacts;
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      const StrikeRecording r = strikeRecording(arm, list[k], truth(), core::ImpactLaw::kStronge,
+                                                kNoise, 1000 + 100 * d + k);
+      for (const auto& x : extractRobotImpacts(r.track))
+        if (x.ok) impacts.push_back(x.impact);
+    }
+    std::vector<CaseResidual> cases;
+    for (const RobotImpact& m : impacts)
+      cases.push_back([&predictor, &m](const Coefficients& c) { return predictor.residual(m, c); });
+    const IdentificationResult fit =
+        identifyCases(cases, std::vector<int>(cases.size(), 2), IdentificationOptions(), pool);
+    e.push_back(fit.estimates[0].value);
+    mu.push_back(fit.estimates[1].value);
+    e_sd.push_back(fit.estimates[0].std_dev);
+    mu_sd.push_back(fit.estimates[1].std_dev);
+  }
+  auto mean = [](const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return s / v.size();
+  };
+  auto spread = [&](const std::vector<double>& v) {
+    const double m = mean(v);
+    double s = 0.0;
+    for (double x : v) s += (x - m) * (x - m);
+    return std::sqrt(s / (v.size() - 1));
+  };
+  const double e_ratio = spread(e) / mean(e_sd), mu_ratio = spread(mu) / mean(mu_sd);
+  std::printf("spread / reported sd over %d draws: e %.2f (mean %.4f), mu %.2f (mean %.4f)\n",
+              draws, e_ratio, mean(e), mu_ratio, mean(mu));
+  EXPECT_LT(e_ratio, 3.0);
+  EXPECT_LT(mu_ratio, 3.0);
+  // The estimates centre on the truth (the mean's error within 3 of its standard errors).
+  EXPECT_LT(std::abs(mean(e) - 0.6), 3.0 * spread(e) / std::sqrt(draws) + 1e-4);
+  EXPECT_LT(std::abs(mean(mu) - 0.25), 3.0 * spread(mu) / std::sqrt(draws) + 1e-4);
+}
+
 class RobotIdentify : public ::testing::Test {
  protected:
   void SetUp() override {
