@@ -37,6 +37,24 @@ std::string fileName(const std::string& path) {
 
 }  // namespace
 
+std::vector<JointTrack> splitAtGaps(const JointTrack& track, double max_gap) {
+  std::vector<JointTrack> pieces;
+  int first = 0;
+  for (int i = 1; i <= track.size(); ++i) {
+    if (i < track.size() && !(track.time[i] - track.time[i - 1] > max_gap)) continue;
+    if (i - first >= 2) {
+      JointTrack piece;
+      piece.source = track.source + " #" + std::to_string(pieces.size());
+      piece.names = track.names;
+      piece.time.assign(track.time.begin() + first, track.time.begin() + i);
+      piece.position.assign(track.position.begin() + first, track.position.begin() + i);
+      pieces.push_back(std::move(piece));
+    }
+    first = i;
+  }
+  return pieces;
+}
+
 void runRobotIdentify(const IdentifyArguments& args, const IdentifyReaders& readers,
                       std::function<void(const std::string&)> report) {
   ProgressBar bar(!args.quiet);
@@ -82,12 +100,18 @@ void runRobotIdentify(const IdentifyArguments& args, const IdentifyReaders& read
     for (const auto& path : input.bags) {
       if (!readers.joints) throw std::runtime_error(path + ": this identify reads no rosbags");
       bar.update(0.0, "reading " + path);
-      tracks.push_back(readers.joints(path, input.joint_states));
+      // Strikes with untracked time between them (the robot moved back) are cut apart.
+      for (auto& piece : splitAtGaps(readers.joints(path, input.joint_states), kMaxRecordingGap))
+        tracks.push_back(std::move(piece));
       pair.sources.push_back(fileName(path) + " (rosbag " + input.joint_states + ", robot " +
                              fileName(input.urdf) + ", obstacle " + fileName(input.object) + ")");
     }
     for (const JointTrack& track : tracks) {
       ++pair.recordings;
+      if (track.size() < 2 * RobotImpactOptions().min_samples + 1) {
+        ++pair.skipped["recording too short for an impact"];
+        continue;
+      }
       // One scene per recording (its joints' order); the robot and obstacle are checked here.
       auto predictor = std::make_shared<const RobotImpactPredictor>(
           robot, track.names, track.source, obstacle, prediction);

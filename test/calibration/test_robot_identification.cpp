@@ -25,7 +25,8 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kUrdf = std::string(CALIBRATION_TEST_DIR) + "/striking_arm.urdf";
-constexpr double kNoise = 5e-5;  // [rad], a coarse encoder's
+constexpr double kNoise = 5e-5;     // [rad], a coarse encoder's
+constexpr int kFixtureStrikes = 6;  // test/data/arm_strikes/strike_<k>.csv
 
 Coefficients truth() {
   Coefficients c;
@@ -48,9 +49,9 @@ std::vector<Strike> strikes(int count) {
   return out;
 }
 
-std::string writeCsv(const fs::path& path, const JointTrack& track) {
+std::string writeCsv(const fs::path& path, const JointTrack& track, int digits = 17) {
   std::ofstream out(path);
-  out.precision(17);
+  out.precision(digits);
   out << "t";
   for (const auto& n : track.names) out << "," << n;
   out << "\n";
@@ -333,4 +334,27 @@ TEST_F(RobotIdentify, BadInputIsNamed) {
   const char* poses[] = {"identify", "--object", "post.yaml", "--urdf", "a.urdf",
                          "--csv",    "t.csv",    "--output",  "m.yaml"};
   EXPECT_THROW(parseIdentifyArguments(9, poses), std::runtime_error);
+}
+
+// The committed fixture test/data/arm_strikes/ (the README's robot example) is these synthetic
+// strikes: each CSV file against its strike regenerated here (to the files' 10 significant
+// digits). CR_WRITE_ARM_STRIKES=1 writes them instead (after a change of the generator).
+TEST(RobotIdentification, FixtureIsTheSyntheticStrikes) {
+  const RobotDescription arm = strikingArm(kUrdf);
+  const fs::path dir = fs::path(CALIBRATION_TEST_DIR).parent_path() / "data" / "arm_strikes";
+  const char* write = std::getenv("CR_WRITE_ARM_STRIKES");
+  const auto list = strikes(kFixtureStrikes);
+  for (int k = 0; k < kFixtureStrikes; ++k) {
+    const StrikeRecording r =
+        strikeRecording(arm, list[k], truth(), core::ImpactLaw::kStronge, kNoise, 500 + k);
+    const fs::path file = dir / ("strike_" + std::to_string(k) + ".csv");
+    if (write != nullptr && std::string(write) == "1") writeCsv(file, r.track, 10);
+    const JointTrack stored = readJointCsv(file.string());
+    ASSERT_EQ(stored.names, r.track.names);
+    ASSERT_EQ(stored.size(), r.track.size()) << file;
+    for (int i = 0; i < stored.size(); ++i) {
+      EXPECT_NEAR(stored.time[i], r.track.time[i], 1e-12);
+      EXPECT_LT((stored.position[i] - r.track.position[i]).cwiseAbs().maxCoeff(), 1e-8) << file;
+    }
+  }
 }

@@ -49,6 +49,10 @@ constexpr double kMaxRecordingGap = 0.25;
 /// are dropped.
 std::vector<PoseTrack> splitAtGaps(const PoseTrack& track, double max_gap);
 
+/// The same for a robot's joint track (a bag holds many strikes in one stream); pieces of fewer
+/// than 2 samples are dropped.
+std::vector<JointTrack> splitAtGaps(const JointTrack& track, double max_gap);
+
 struct IdentifyArguments {
   std::vector<IdentifyInput> inputs;
   std::string output;  ///< materials YAML
