@@ -104,7 +104,7 @@ TEST(RobotIdentification, KnownCoefficientsInsideTheIntervals) {
   RobotPredictionOptions prediction;
   std::vector<std::unique_ptr<RobotImpactPredictor>> predictors;
   std::vector<RobotImpact> impacts;
-  const auto list = strikes(sized(8, 5));
+  const auto list = strikes(8);
   unsigned seed = 11;
   for (const Strike& s : list) {
     const StrikeRecording r =
@@ -146,7 +146,7 @@ TEST(RobotIdentification, ReportedDeviationMatchesTheSpreadOverNoiseDraws) {
   const ObjectModel post = strikeObstacle();
   RobotImpactPredictor predictor(arm, {"shoulder", "elbow"}, "synthetic", post, {});
   core::WorkerPool pool(2);
-  const int draws = sized(12, 8);
+  const int draws = sized(12, 6);
   const auto list = strikes(6);
   std::vector<double> e, mu, e_sd, mu_sd;
   for (int d = 0; d < draws; ++d) {
@@ -240,7 +240,7 @@ TEST_F(RobotIdentify, FromJointCsvFiles) {
   std::vector<std::string> args;
   unsigned seed = 21;
   int k = 0;
-  for (const Strike& s : strikes(sized(6, 4))) {
+  for (const Strike& s : strikes(6)) {
     const StrikeRecording r =
         strikeRecording(arm, s, truth(), core::ImpactLaw::kStronge, kNoise, seed++);
     args.push_back("--joint-csv");
