@@ -89,6 +89,10 @@ class TipAndPost final : public core::GapQuery {
 /// little), recorded for `duration` [s].
 struct Strike {
   double phi = 0.0, speed = 1.0, beta = 0.0, lead = 0.1, duration = 0.3;
+  /// Gravity in the base frame [m/s^2] (along -z: out of the arm's plane) and the torque model:
+  /// passive joints, or holding the arm against gravity (tau = g(q)).
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  bool gravity_compensation = false;
 };
 
 struct StrikeRecording {
@@ -121,7 +125,10 @@ inline StrikeRecording strikeRecording(const RobotDescription& arm, const Strike
 
   robot::ArticulatedBody model = *arm.robot;
   model.setState(q_c - strike.lead * qdot_c, qdot_c);
-  model.setLoads(Eigen::VectorXd::Zero(2), Eigen::Vector3d(0.0, 0.0, -9.81));
+  if (strike.gravity_compensation)
+    model.setGravityCompensation(strike.gravity);
+  else
+    model.setLoads(Eigen::VectorXd::Zero(2), strike.gravity);
   const int link = model.linkIndex("tip");
   robot::RobotEpisodeBody body(std::move(model));
   core::BodyState post;
@@ -130,7 +137,7 @@ inline StrikeRecording strikeRecording(const RobotDescription& arm, const Strike
   core::RigidEpisodeBody fixed(post);
   const TipAndPost gaps(truth);
   core::EpisodeOptions options;
-  options.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  options.gravity = strike.gravity;
   options.horizon = 1.0 / kArmRate;
   options.max_impacts = 100;
   options.contact_tolerance = 1e-6;
