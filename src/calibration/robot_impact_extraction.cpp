@@ -77,13 +77,15 @@ std::vector<RobotImpactExtraction> extractRobotImpacts(const JointTrack& track,
                    median(std::vector<double>(jumps.begin() + first, jumps.begin() + last + 1)));
   const double rms_limit = std::max(options.min_rms, options.rms_factor * median(rms));
   // The impacts: the largest jump above the threshold, then the next outside its windows, ...
+  std::vector<int> candidates;
+  for (int k = first; k <= last; ++k)
+    if (jumps[k] > threshold) candidates.push_back(k);
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [&](int a, int b) { return jumps[a] > jumps[b]; });
   std::vector<int> impacts;
   std::vector<char> taken(n, 0);
-  for (;;) {
-    int best = -1;
-    for (int k = first; k <= last; ++k)
-      if (!taken[k] && jumps[k] > threshold && (best < 0 || jumps[k] > jumps[best])) best = k;
-    if (best < 0) break;
+  for (int best : candidates) {
+    if (taken[best]) continue;
     impacts.push_back(best);
     for (int k = std::max(0, best - w); k <= std::min(n - 1, best + w); ++k) taken[k] = 1;
   }
@@ -119,6 +121,9 @@ std::vector<RobotImpactExtraction> extractRobotImpacts(const JointTrack& track,
       x.reason = "too close to another impact or an end of the recording";
     } else if (x.impact.rms_before > rms_limit || x.impact.rms_after > rms_limit) {
       x.reason = "no free motion before or after (fit residual above the noise)";
+    } else if (!(x.impact.qdot_before.norm() >= options.min_jump)) {
+      // The residuals are relative to the speed before: a robot at rest struck nothing.
+      x.reason = "the joints at rest before the jump";
     } else {
       x.ok = true;
     }

@@ -60,11 +60,15 @@ RobotImpactPredictor::RobotImpactPredictor(const RobotDescription& robot,
     throw std::runtime_error(robot.source + ": no link has collision geometry");
   input.options.max_contacts_per_pair = 16;
   // The parts' states for the detection's set-up (the robot at its model's state).
-  robot::RobotEpisodeBody body(model);
-  core::RigidEpisodeBody fixed(impl_->obstacle);
   std::vector<core::BodyState> states;
-  for (const core::EpisodePart& p : impl_->parts)
-    states.push_back(p.body == 0 ? fixed.partGeometry(0) : body.partGeometry(p.part));
+  try {
+    robot::RobotEpisodeBody body(model);  // refuses a floating base, a singular mass matrix
+    core::RigidEpisodeBody fixed(impl_->obstacle);
+    for (const core::EpisodePart& p : impl_->parts)
+      states.push_back(p.body == 0 ? fixed.partGeometry(0) : body.partGeometry(p.part));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(robot.source + ": " + e.what());
+  }
   try {
     impl_->gaps = std::make_unique<detection::ShapeGaps>(states, input, detection::MaterialTable());
   } catch (const std::exception& e) {

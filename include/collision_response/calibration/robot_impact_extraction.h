@@ -48,7 +48,9 @@ struct RobotImpactExtraction {
   RobotImpact impact;  ///< when ok
 };
 
-/// The impacts of `track` in time order, each found or skipped with its reason. Throws
+/// The impacts of `track` in time order, each found or skipped with its reason (too close to
+/// another impact or an end; a side's fit not free motion; the joints slower than min_jump before
+/// the jump: a robot at rest strikes nothing, and the residual is relative to that speed). Throws
 /// std::runtime_error naming the track's source when the options are out of range or the track
 /// is shorter than 2 min_samples + 1 samples.
 std::vector<RobotImpactExtraction> extractRobotImpacts(const JointTrack& track,

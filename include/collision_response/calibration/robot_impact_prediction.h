@@ -51,8 +51,9 @@ class RobotImpactPredictor {
   /// track's order; `recording` names them in messages), against `obstacle` fixed at its pose
   /// (ObjectModel::position, orientation; its mass and inertia are not used). Throws
   /// std::runtime_error naming the recording and the robot's source for a joint not in the robot
-  /// or a robot joint not recorded, naming the robot for links without geometry, naming the
-  /// obstacle's source for a shape the detection rejects.
+  /// or a robot joint not recorded, naming the robot for links without geometry or a model that
+  /// episodes refuse (a floating base, a singular mass matrix), naming the obstacle's source for a
+  /// shape the detection rejects.
   RobotImpactPredictor(const RobotDescription& robot, const std::vector<std::string>& joints,
                        const std::string& recording, const ObjectModel& obstacle,
                        const RobotPredictionOptions& options);
