@@ -5,6 +5,7 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <string>
 
 #include "collision_response/calibration/identify_program.h"
 #include "collision_response/robot/urdf_loader.h"
@@ -13,8 +14,20 @@
 
 int main(int argc, char** argv) {
   using namespace collision_response::calibration;
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::printf("%s", identifyUsage().c_str());
+      return 0;
+    }
+  IdentifyArguments parsed;
   try {
-    const IdentifyArguments arguments = parseIdentifyArguments(argc, argv);
+    parsed = parseIdentifyArguments(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "identify: %s\n%s", e.what(), identifyUsage().c_str());
+    return 2;
+  }
+  try {
+    const IdentifyArguments& arguments = parsed;
     IdentifyReaders readers;
     // Rosbags: the ros library's readers (tf or PoseStamped; JointState).
     readers.poses = [](const std::string& bag, const IdentifyInput& input) {

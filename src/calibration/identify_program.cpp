@@ -88,6 +88,28 @@ void writePlotData(const std::string& path, const std::vector<Pair>& pairs,
 
 }  // namespace
 
+std::string identifyUsage() {
+  return "usage: identify --object OBJECT.yaml (--csv FILE_OR_DIR | --bag FILE.bag [--topic T |\n"
+         "                --frame F --world-frame W]) ... [--object ...] --output materials.yaml\n"
+         "       identify --object OBSTACLE.yaml --urdf ROBOT.urdf (--joint-csv FILE |\n"
+         "                --bag FILE.bag --joint-states TOPIC) ... --output materials.yaml\n"
+         "  --plot fit.png          predicted against measured velocities after each landing or\n"
+         "                          impact (and its data in fit.csv)\n"
+         "  --law newton|poisson|stronge   the impact law fitted for (default stronge)\n"
+         "  --single-impact         score each landing's first impact, not the episode\n"
+         "  --folds K               K-fold cross-validation (default 5; 0: none)\n"
+         "  --threads N             worker threads (default: the machine's)\n"
+         "  --friction one|two      one mu, or mu_s and mu_d (default one)\n"
+         "  --fit-inertia           fit the object's inertia scale too\n"
+         "  --landings-per-recording N   landings taken from each recording (default 1)\n"
+         "  --clearance METRES      an object is in flight above the floor by more than this\n"
+         "                          (default 0.002; object landings only)\n"
+         "  --loss-scale auto|S     the Cauchy loss's scale (default auto)\n"
+         "  --gravity-compensation  robots: the joints hold the arm against gravity\n"
+         "  --quiet                 no progress bar\n"
+         "docs/calibration.md of the collision_response package tells more.\n";
+}
+
 IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
   IdentifyArguments a;
   for (int i = 1; i < argc; ++i) {
@@ -140,6 +162,13 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
       a.fit_inertia = true;
     } else if (flag == "--landings-per-recording") {
       a.landings_per_recording = integer(flag, value(), 1);
+    } else if (flag == "--clearance") {
+      const std::string v = value();
+      char* end = nullptr;
+      const double c = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end != '\0' || !std::isfinite(c) || c < 0.0)
+        throw std::runtime_error("--clearance: a finite number of metres >= 0, not '" + v + "'");
+      a.clearance = c;
     } else if (flag == "--loss-scale") {
       const std::string v = value();
       char* end = nullptr;
@@ -189,8 +218,10 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
   if (robots && objects)
     throw std::runtime_error(
         "--urdf: robot and object recordings in one run are not supported (run identify twice)");
-  if (robots && !a.plot.empty())
-    throw std::runtime_error("--plot: not available for robot recordings yet");
+  if (robots && a.clearance)
+    throw std::runtime_error(
+        "--clearance: for object landings; a robot's impacts are found as jumps in its joint "
+        "velocities");
   for (const auto& input : a.inputs)
     if (input.urdf.empty() && input.csv.empty() && input.bags.empty())
       throw std::runtime_error("--object " + input.object + ": give its recordings (--csv/--bag)");
@@ -234,6 +265,33 @@ IdentificationOptions identificationOptions(const IdentifyArguments& args) {
   return options;
 }
 
+ExtractionOptions extractionOptions(const IdentifyArguments& args) {
+  ExtractionOptions extraction;
+  extraction.max_landings = args.landings_per_recording;
+  if (args.clearance) extraction.clearance = *args.clearance;
+  return extraction;
+}
+
+std::string plotDataPath(const std::string& png) {
+  return fs::path(png).replace_extension(".csv").string();
+}
+
+void plotIdentification(const std::string& data, const std::string& png,
+                        const std::function<void(const std::string&)>& log) {
+  // The script beside the program when installed (catkin_install_python), else the source's.
+  std::error_code error;
+  const fs::path beside =
+      fs::read_symlink("/proc/self/exe", error).parent_path() / "plot_identification.py";
+  const std::string script =
+      !error && fs::exists(beside) ? beside.string() : std::string(IDENTIFY_PLOT_SCRIPT);
+  const std::string command =
+      "/usr/bin/python3 \"" + script + "\" \"" + data + "\" \"" + png + "\"";
+  const int status = std::system(command.c_str());
+  if (status != 0)
+    log("no plot: " + script +
+        " failed (matplotlib missing? apt-get install python3-matplotlib); its data is in " + data);
+}
+
 void runIdentify(const IdentifyArguments& args, const IdentifyReaders& readers,
                  std::function<void(const std::string&)> log) {
   if (args.robot())
@@ -254,8 +312,7 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
     report(line);
   };
   IdentificationOptions options = identificationOptions(args);
-  ExtractionOptions extraction;
-  extraction.max_landings = args.landings_per_recording;
+  const ExtractionOptions extraction = extractionOptions(args);
 
   // Read and extract everything first: any bad input fails before a fit starts.
   std::vector<Pair> pairs;
@@ -387,22 +444,10 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
   writeFileAtomically(args.output, materialsYaml(entries));
   log("wrote " + args.output);
   if (!args.plot.empty()) {
-    const std::string data = std::filesystem::path(args.plot).replace_extension(".csv").string();
+    const std::string data = plotDataPath(args.plot);
     writePlotData(data, pairs, entries);
     log("wrote " + data);
-    // The script beside the program when installed (catkin_install_python), else the source's.
-    std::error_code error;
-    const fs::path beside =
-        fs::read_symlink("/proc/self/exe", error).parent_path() / "plot_identification.py";
-    const std::string script =
-        !error && fs::exists(beside) ? beside.string() : std::string(IDENTIFY_PLOT_SCRIPT);
-    const std::string command =
-        "/usr/bin/python3 \"" + script + "\" \"" + data + "\" \"" + args.plot + "\"";
-    const int status = std::system(command.c_str());
-    if (status != 0)
-      log("no plot: " + script +
-          " failed (matplotlib missing? apt-get install python3-matplotlib); its data is in " +
-          data);
+    plotIdentification(data, args.plot, log);
   }
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -26,6 +27,7 @@ struct RobotPair {
   std::vector<std::shared_ptr<const RobotImpact>> impacts;
   std::vector<CaseResidual> cases;
   std::vector<int> sizes;
+  std::vector<std::vector<std::string>> joints;  ///< each case's joint names (its track's order)
   std::vector<std::string> sources;
   int recordings = 0;
   std::map<std::string, int> skipped;
@@ -33,6 +35,42 @@ struct RobotPair {
 
 std::string fileName(const std::string& path) {
   return std::filesystem::path(path).filename().string();
+}
+
+/// A CSV field in double quotes (a source may hold commas).
+std::string quoted(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+/// The plot's data (plotIdentification()): one row per joint and impact, its velocity after the
+/// impact [rad/s, or m/s for a prismatic joint] measured, predicted by the fit on all impacts and
+/// by the fit on the folds without the impact (empty without cross-validation). A prediction is
+/// the measured velocity plus the case's residual times the joints' speed before the impact (the
+/// residual's scale, RobotImpactPredictor).
+void writeRobotPlotData(const std::string& path, const std::vector<RobotPair>& pairs,
+                        const std::vector<MaterialsEntry>& entries) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write");
+  out << "pair,source,joint,measured,fitted,held_out\n";
+  out.precision(9);
+  for (size_t p = 0; p < pairs.size(); ++p) {
+    const RobotPair& pair = pairs[p];
+    const MaterialsEntry& entry = entries[p];
+    for (size_t k = 0; k < pair.cases.size(); ++k) {
+      const RobotImpact& impact = *pair.impacts[k];
+      const double speed = impact.qdot_before.norm();
+      for (int j = 0; j < impact.qdot_after.size(); ++j) {
+        out << pair.a << "/" << pair.b << "," << quoted(impact.source) << "," << pair.joints[k][j]
+            << "," << impact.qdot_after[j] << ","
+            << impact.qdot_after[j] + speed * entry.fit.case_residuals[k][j] << ",";
+        if (entry.held_out.folds > 0)
+          out << impact.qdot_after[j] + speed * entry.held_out.held_out_cases[k][j];
+        out << "\n";
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -131,6 +169,7 @@ void runRobotIdentify(const IdentifyArguments& args, const IdentifyReaders& read
         const RobotImpact* m = impact.get();
         pair.cases.push_back([p, m](const Coefficients& c) { return p->residual(*m, c); });
         pair.sizes.push_back(predictor->joints());
+        pair.joints.push_back(track.names);
       }
     }
   }
@@ -214,6 +253,12 @@ void runRobotIdentify(const IdentifyArguments& args, const IdentifyReaders& read
   bar.finish();
   writeFileAtomically(args.output, materialsYaml(entries));
   log("wrote " + args.output);
+  if (!args.plot.empty()) {
+    const std::string data = plotDataPath(args.plot);
+    writeRobotPlotData(data, pairs, entries);
+    log("wrote " + data);
+    plotIdentification(data, args.plot, log);
+  }
 }
 
 }  // namespace collision_response::calibration

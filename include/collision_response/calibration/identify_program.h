@@ -4,10 +4,10 @@
 //            --bag FILE.bag [--topic T | --frame F --world-frame W] ...) [--object ...]
 //            --output materials.yaml [--plot fit.png] [--law newton|poisson|stronge]
 //            [--single-impact] [--folds K] [--threads N] [--friction one|two] [--fit-inertia]
-//            [--landings-per-recording N] [--loss-scale auto|S] [--quiet]
+//            [--landings-per-recording N] [--clearance METRES] [--loss-scale auto|S] [--quiet]
 //   identify --object OBSTACLE.yaml --urdf ROBOT.urdf (--joint-csv FILE ... |
 //            --bag FILE.bag --joint-states TOPIC ...) [--object ...] --output materials.yaml
-//            [--gravity-compensation] [the fit's flags above]
+//            [--plot fit.png] [--gravity-compensation] [the fit's flags above, not --clearance]
 //
 // Each --object starts a group; the --csv / --bag after it are its recordings. Groups naming the
 // same pair of materials are fitted together; one ~materials entry per pair. A rosbag's poses are
@@ -17,11 +17,13 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "collision_response/calibration/identification.h"
 #include "collision_response/calibration/joint_track.h"
+#include "collision_response/calibration/landing_extraction.h"
 #include "collision_response/calibration/pose_track.h"
 #include "collision_response/calibration/robot_impact_prediction.h"
 
@@ -56,7 +58,9 @@ std::vector<JointTrack> splitAtGaps(const JointTrack& track, double max_gap);
 struct IdentifyArguments {
   std::vector<IdentifyInput> inputs;
   std::string output;  ///< materials YAML
-  std::string plot;    ///< PNG, "" for none (its data goes to the same name with .csv)
+  /// PNG, "" for none (its data goes to the same name with .csv, plotIdentification()): the
+  /// landings' velocities, or a robot's joint velocities after its impacts.
+  std::string plot;
   std::string law = "stronge";
   bool single_impact = false;
   int folds = 5;    ///< 0: no cross-validation
@@ -64,6 +68,9 @@ struct IdentifyArguments {
   bool split_friction = false;
   bool fit_inertia = false;
   int landings_per_recording = 1;
+  /// --clearance [m], >= 0: a sample is in flight when the object's lowest point is more than this
+  /// above the floor (ExtractionOptions::clearance); unset: that default. Object landings only.
+  std::optional<double> clearance;
   double loss_scale = 0.0;  ///< 0: automatic (IdentificationOptions::loss_scale)
   bool quiet = false;       ///< no progress bar
   /// Robot recordings: the robot holds itself against gravity between impacts (tau = g(q));
@@ -76,6 +83,9 @@ struct IdentifyArguments {
   }
 };
 
+/// The program's usage text (its flags, one line each), printed by --help and after a bad flag.
+std::string identifyUsage();
+
 /// Parses argv[1..]; throws std::runtime_error naming the flag.
 IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv);
 
@@ -84,6 +94,22 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv);
 /// (--fit-inertia), the loss scale (--loss-scale); the rest at IdentificationOptions' defaults.
 /// Throws std::runtime_error naming --law for an unknown law.
 IdentificationOptions identificationOptions(const IdentifyArguments& arguments);
+
+/// The landing extraction's options that the arguments ask for: the landings per recording
+/// (--landings-per-recording) and the clearance (--clearance); the rest at ExtractionOptions'
+/// defaults.
+ExtractionOptions extractionOptions(const IdentifyArguments& arguments);
+
+/// The plot's data file for the PNG `png`: the same name with .csv.
+std::string plotDataPath(const std::string& png);
+
+/// Draws `png` from the data file `data` with scripts/plot_identification.py (beside the installed
+/// program, else the source tree's), run by /usr/bin/python3; the one plot for landings (a row per
+/// landing: measured, fitted and held-out velocities) and robot impacts (a row per joint and
+/// impact: its velocity after the impact, measured and predicted). Without the script or matplotlib
+/// it logs why and where the data is; the fit's output is not affected.
+void plotIdentification(const std::string& data, const std::string& png,
+                        const std::function<void(const std::string&)>& log);
 
 /// Reads the poses of one rosbag as given by an input's topic / frame / world_frame (the ros
 /// library's reader, wired in by the program's main); throws naming the bag.
@@ -115,7 +141,7 @@ void runIdentify(const IdentifyArguments& arguments, const IdentifyReaders& read
 /// The identification from a robot's recorded impacts (docs/calibration.md, "Robot recordings"):
 /// each group's joint tracks (CSV or bags), their impacts (extractRobotImpacts()), each a case
 /// scored by RobotImpactPredictor against the group's obstacle, groups naming the same materials
-/// fitted together; output as runIdentify()'s (no plot).
+/// fitted together; output as runIdentify()'s, and the plot of each impact's joint velocities.
 void runRobotIdentify(const IdentifyArguments& arguments, const IdentifyReaders& readers,
                       std::function<void(const std::string&)> log);
 
