@@ -50,15 +50,25 @@ struct Bounds {
   std::vector<double> lower, upper;
 };
 
-/// One landing to predict: its object's predictor and the landing.
+/// One measured outcome to predict (identification.h, CaseResidual).
 struct Case {
-  const LandingPredictor* predictor;
-  const Landing* landing;
+  const CaseResidual* residual;
+  int size;  // its residual's length
 };
 
-/// Each landing's residual and its Jacobian in x by differences (central inside the bounds,
-/// one-sided at them), all landings evaluated at once on the worker pool when Ceres moves to a new
-/// point (ceres::EvaluationCallback); the residual blocks read them.
+/// The median of a chi-square distribution with d degrees of freedom (d = 1..10 tabulated, beyond
+/// the Wilson-Hilferty approximation d (1 - 2 / (9 d))^3).
+double chiSquareMedian(int d) {
+  static const double table[] = {0.4549, 1.3863, 2.3660, 3.3567, 4.3515,
+                                 5.348,  6.3458, 7.3441, 8.3428, 9.3418};
+  if (d >= 1 && d <= 10) return table[d - 1];
+  const double k = 1.0 - 2.0 / (9.0 * d);
+  return d * k * k * k;
+}
+
+/// Each case's residual (a landing's, a robot impact's) and its Jacobian in x by differences
+/// (central inside the bounds, one-sided at them), all landings evaluated at once on the worker
+/// pool when Ceres moves to a new point (ceres::EvaluationCallback); the residual blocks read them.
 class LandingEvaluations final : public ceres::EvaluationCallback {
  public:
   LandingEvaluations(std::vector<Case> cases, const Parametrisation& p, const Bounds& bounds,
@@ -78,10 +88,10 @@ class LandingEvaluations final : public ceres::EvaluationCallback {
     });
   }
 
-  /// Residuals (and the Jacobian, row-major 6 x n) of landing i at x: from the cache when x is its
-  /// point, else computed here.
+  /// Residuals (and the Jacobian, row-major m x n, m the case's size) of case i at x: from the
+  /// cache when x is its point, else computed here.
   bool get(std::size_t i, const double* x, double* residuals, double* jacobian) const {
-    LandingResidual r;
+    Eigen::VectorXd r;
     Eigen::MatrixXd J;
     bool ok;
     const bool cached = point_.size() == static_cast<size_t>(p_.size()) &&
@@ -95,21 +105,22 @@ class LandingEvaluations final : public ceres::EvaluationCallback {
       ok = evaluate(i, x, r, jacobian ? &J : nullptr);
     }
     if (!ok) return false;
-    for (int k = 0; k < 6; ++k) residuals[k] = r[k];
+    const int m = cases_[i].size;
+    for (int k = 0; k < m; ++k) residuals[k] = r[k];
     if (jacobian)
-      for (int k = 0; k < 6; ++k)
+      for (int k = 0; k < m; ++k)
         for (int j = 0; j < p_.size(); ++j) jacobian[k * p_.size() + j] = J(k, j);
     return true;
   }
 
-  bool evaluate(std::size_t i, const double* x, LandingResidual& r, Eigen::MatrixXd* J) const {
+  bool evaluate(std::size_t i, const double* x, Eigen::VectorXd& r, Eigen::MatrixXd* J) const {
     try {
       const Case& c = cases_[i];
-      r = c.predictor->residual(*c.landing, p_.coefficients(x));
-      if (!r.allFinite()) return false;
+      r = (*c.residual)(p_.coefficients(x));
+      if (r.size() != c.size || !r.allFinite()) return false;
       if (J == nullptr) return true;
       const int n = p_.size();
-      J->resize(6, n);
+      J->resize(c.size, n);
       std::vector<double> y(x, x + n);
       for (int j = 0; j < n; ++j) {
         // Absolute steps in e, mu, r; relative in the inertia scale.
@@ -117,10 +128,11 @@ class LandingEvaluations final : public ceres::EvaluationCallback {
         const double up = std::min(x[j] + h, bounds_.upper[j]);
         const double down = std::max(x[j] - h, bounds_.lower[j]);
         y[j] = up;
-        const LandingResidual r_up = c.predictor->residual(*c.landing, p_.coefficients(y.data()));
+        const Eigen::VectorXd r_up = (*c.residual)(p_.coefficients(y.data()));
         y[j] = down;
-        const LandingResidual r_down = c.predictor->residual(*c.landing, p_.coefficients(y.data()));
+        const Eigen::VectorXd r_down = (*c.residual)(p_.coefficients(y.data()));
         y[j] = x[j];
+        if (r_up.size() != c.size || r_down.size() != c.size) return false;
         J->col(j) = (r_up - r_down) / (up - down);
       }
       return J->allFinite();
@@ -138,16 +150,17 @@ class LandingEvaluations final : public ceres::EvaluationCallback {
   const double* x_;
   std::vector<double> point_;
   bool have_jacobians_ = false;
-  std::vector<LandingResidual> residuals_;
+  std::vector<Eigen::VectorXd> residuals_;
   std::vector<Eigen::MatrixXd> jacobians_;
   std::vector<char> ok_;
 };
 
 class LandingCost final : public ceres::CostFunction {
  public:
-  LandingCost(const LandingEvaluations& evaluations, std::size_t index, int parameters)
+  LandingCost(const LandingEvaluations& evaluations, std::size_t index, int residuals,
+              int parameters)
       : evaluations_(evaluations), index_(index) {
-    set_num_residuals(6);
+    set_num_residuals(residuals);
     mutable_parameter_block_sizes()->push_back(parameters);
   }
   bool Evaluate(double const* const* parameters, double* residuals,
@@ -172,14 +185,29 @@ class Progress final : public ceres::IterationCallback {
   const std::function<void(int)>& f_;
 };
 
-std::vector<std::unique_ptr<LandingPredictor>> predictors(
-    const std::vector<ObjectLandings>& objects, const PredictionOptions& options,
-    std::vector<Case>& cases) {
-  std::vector<std::unique_ptr<LandingPredictor>> out;
+/// Each landing of `objects` as a case (the predictors kept in `keep`).
+std::vector<CaseResidual> landingCases(const std::vector<ObjectLandings>& objects,
+                                       const PredictionOptions& options,
+                                       std::vector<std::unique_ptr<LandingPredictor>>& keep) {
+  std::vector<CaseResidual> cases;
   for (const auto& o : objects) {
-    out.push_back(std::make_unique<LandingPredictor>(o.object, options));
-    for (const auto& l : o.landings) cases.push_back({out.back().get(), &l});
+    keep.push_back(std::make_unique<LandingPredictor>(o.object, options));
+    const LandingPredictor* predictor = keep.back().get();
+    for (const auto& l : o.landings) {
+      const Landing* landing = &l;
+      cases.push_back([predictor, landing](const Coefficients& c) -> Eigen::VectorXd {
+        return predictor->residual(*landing, c);
+      });
+    }
   }
+  return cases;
+}
+
+std::vector<Eigen::VectorXd> caseResiduals(const std::vector<CaseResidual>& cases,
+                                           const Coefficients& coefficients,
+                                           core::WorkerPool& pool) {
+  std::vector<Eigen::VectorXd> out(cases.size());
+  pool.parallelFor(cases.size(), [&](std::size_t i) { out[i] = cases[i](coefficients); });
   return out;
 }
 
@@ -195,30 +223,52 @@ std::pair<double, double> rmsErrors(const std::vector<LandingResidual>& residual
   return {std::sqrt(v / n), std::sqrt(w / n)};
 }
 
+double rmsOfCases(const std::vector<Eigen::VectorXd>& residuals) {
+  double sum = 0.0;
+  for (const auto& r : residuals) sum += r.squaredNorm();
+  return std::sqrt(sum / std::max<std::size_t>(1, residuals.size()));
+}
+
 std::vector<LandingResidual> landingResiduals(const std::vector<ObjectLandings>& objects,
                                               const Coefficients& coefficients,
                                               const PredictionOptions& options,
                                               core::WorkerPool& pool) {
-  std::vector<Case> cases;
-  const auto keep = predictors(objects, options, cases);
-  std::vector<LandingResidual> out(cases.size());
-  pool.parallelFor(cases.size(), [&](std::size_t i) {
-    out[i] = cases[i].predictor->residual(*cases[i].landing, coefficients);
-  });
+  std::vector<std::unique_ptr<LandingPredictor>> keep;
+  const auto cases = landingCases(objects, options, keep);
+  std::vector<LandingResidual> out;
+  for (const auto& r : caseResiduals(cases, coefficients, pool)) out.push_back(r);
   return out;
 }
 
 IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& objects,
                                           const IdentificationOptions& options,
                                           core::WorkerPool& pool) {
+  std::vector<std::unique_ptr<LandingPredictor>> keep;
+  const auto cases = landingCases(objects, options.prediction, keep);
+  if (cases.empty()) throw std::invalid_argument("identifyCoefficients: no landing to fit");
+  std::vector<int> sizes(cases.size(), 6);
+  IdentificationResult result = identifyCases(cases, sizes, options, pool);
+  for (const auto& r : result.case_residuals) result.residuals.push_back(r);
+  std::tie(result.rms_linear, result.rms_angular) = rmsErrors(result.residuals);
+  return result;
+}
+
+IdentificationResult identifyCases(const std::vector<CaseResidual>& case_residuals,
+                                   const std::vector<int>& sizes,
+                                   const IdentificationOptions& options, core::WorkerPool& pool) {
   if (!(options.loss_scale >= 0.0) || !(options.difference_step > 0.0) ||
       !(options.max_friction > 0.0) || options.max_iterations < 1 || options.starts < 1)
     throw std::invalid_argument(
         "identifyCoefficients: loss_scale must be >= 0, difference_step, max_friction and "
         "max_iterations > 0");
+  if (case_residuals.empty()) throw std::invalid_argument("identifyCoefficients: no case to fit");
+  if (sizes.size() != case_residuals.size())
+    throw std::invalid_argument("identifyCoefficients: one residual size per case");
   std::vector<Case> cases;
-  const auto keep = predictors(objects, options.prediction, cases);
-  if (cases.empty()) throw std::invalid_argument("identifyCoefficients: no landing to fit");
+  for (std::size_t i = 0; i < case_residuals.size(); ++i) {
+    if (sizes[i] < 1) throw std::invalid_argument("identifyCoefficients: a residual size < 1");
+    cases.push_back({&case_residuals[i], sizes[i]});
+  }
 
   Parametrisation p{options.split_friction, options.fit_inertia_scale};
   const int n = p.size();
@@ -245,8 +295,7 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
     std::vector<double> s(cases.size(), 0.0);
     pool.parallelFor(cases.size(), [&](std::size_t i) {
       try {
-        const double r2 =
-            cases[i].predictor->residual(*cases[i].landing, p.coefficients(y.data())).squaredNorm();
+        const double r2 = (*cases[i].residual)(p.coefficients(y.data())).squaredNorm();
         s[i] = std::isfinite(r2) ? c2 * std::log1p(r2 / c2) : INFINITY;
       } catch (const std::exception&) {
         s[i] = INFINITY;
@@ -296,7 +345,7 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
   double scale = automatic ? kFirstLossScale : options.loss_scale;
   ceres::LossFunctionWrapper loss(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
   for (std::size_t i = 0; i < cases.size(); ++i)
-    problem.AddResidualBlock(new LandingCost(evaluations, i, n), &loss, x.data());
+    problem.AddResidualBlock(new LandingCost(evaluations, i, cases[i].size, n), &loss, x.data());
   for (int j = 0; j < n; ++j) {
     problem.SetParameterLowerBound(x.data(), j, bounds.lower[j]);
     problem.SetParameterUpperBound(x.data(), j, bounds.upper[j]);
@@ -328,8 +377,8 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
   if (automatic) {
     // The second stage: the scale from the first fit's landings (twice the median |r|; a
     // landing that far off weighs half), then the fit again from the first one's optimum.
-    std::vector<LandingResidual> first =
-        landingResiduals(objects, p.coefficients(x.data()), options.prediction, pool);
+    const std::vector<Eigen::VectorXd> first =
+        caseResiduals(case_residuals, p.coefficients(x.data()), pool);
     std::vector<double> norms;
     for (const auto& r : first) norms.push_back(r.norm());
     std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
@@ -386,20 +435,24 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
   result.loss_scale = scale;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.summary = summary.BriefReport();
-  result.residuals = landingResiduals(objects, result.coefficients, options.prediction, pool);
-  std::tie(result.rms_linear, result.rms_angular) = rmsErrors(result.residuals);
+  result.case_residuals = caseResiduals(case_residuals, result.coefficients, pool);
+  result.rms_cases = rmsOfCases(result.case_residuals);
 
-  // The residuals' scale, robustly: the median of the landings' |r|^2 over the median of a
-  // chi-square with 6 degrees of freedom (5.348), i.e. the variance of one residual component if
-  // the bulk of the landings had independent Gaussian residuals. Landings far off (a chaotic
-  // sequence of corner impacts, a tracking glitch) neither set the scale nor, downweighted by the
-  // loss, carry much information (docs/calibration.md, "How sure").
+  // The residuals' scale, robustly: the median over cases of |r|^2 over the median of a
+  // chi-square with as many degrees of freedom as the case has residuals (5.348 for a landing's
+  // 6), i.e. the variance of one residual component if the bulk of the cases had independent
+  // Gaussian residuals. Landings far off (a chaotic sequence of corner impacts, a tracking glitch)
+  // neither set the scale nor, downweighted by the loss, carry much information
+  // (docs/calibration.md, "How sure").
   std::vector<double> squares;
-  for (const auto& r : result.residuals) squares.push_back(r.squaredNorm());
+  int total = 0;
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    squares.push_back(result.case_residuals[i].squaredNorm() / chiSquareMedian(cases[i].size));
+    total += cases[i].size;
+  }
   std::nth_element(squares.begin(), squares.begin() + squares.size() / 2, squares.end());
-  const double dof_correction =
-      static_cast<double>(6 * result.landings) / std::max(1, 6 * result.landings - n);
-  result.residual_sigma = std::sqrt(squares[squares.size() / 2] / 5.348 * dof_correction);
+  const double dof_correction = static_cast<double>(total) / std::max(1, total - n);
+  result.residual_sigma = std::sqrt(squares[squares.size() / 2] * dof_correction);
 
   result.covariance = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::infinity());
   ceres::Covariance::Options covariance_options;

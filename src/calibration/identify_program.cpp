@@ -88,6 +88,28 @@ void writePlotData(const std::string& path, const std::vector<Pair>& pairs,
 
 }  // namespace
 
+std::string identifyUsage() {
+  return "usage: identify --object OBJECT.yaml (--csv FILE_OR_DIR | --bag FILE.bag [--topic T |\n"
+         "                --frame F --world-frame W]) ... [--object ...] --output materials.yaml\n"
+         "       identify --object OBSTACLE.yaml --urdf ROBOT.urdf (--joint-csv FILE |\n"
+         "                --bag FILE.bag --joint-states TOPIC) ... --output materials.yaml\n"
+         "  --plot fit.png          predicted against measured velocities after each landing or\n"
+         "                          impact (and its data in fit.csv)\n"
+         "  --law newton|poisson|stronge   the impact law fitted for (default stronge)\n"
+         "  --single-impact         score each landing's first impact, not the episode\n"
+         "  --folds K               K-fold cross-validation (default 5; 0: none)\n"
+         "  --threads N             worker threads (default: the machine's)\n"
+         "  --friction one|two      one mu, or mu_s and mu_d (default one)\n"
+         "  --fit-inertia           fit the object's inertia scale too\n"
+         "  --landings-per-recording N   landings taken from each recording (default 1)\n"
+         "  --clearance METRES      an object is in flight above the floor by more than this\n"
+         "                          (default 0.002; object landings only)\n"
+         "  --loss-scale auto|S     the Cauchy loss's scale (default auto)\n"
+         "  --gravity-compensation  robots: the joints hold the arm against gravity\n"
+         "  --quiet                 no progress bar\n"
+         "docs/calibration.md of the collision_response package tells more.\n";
+}
+
 IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
   IdentifyArguments a;
   for (int i = 1; i < argc; ++i) {
@@ -101,7 +123,8 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
       return a.inputs.back();
     };
     if (flag == "--object") {
-      a.inputs.push_back({value(), {}, {}});
+      a.inputs.emplace_back();
+      a.inputs.back().object = value();
     } else if (flag == "--csv") {
       const std::string v = value();
       group().csv.push_back(v);
@@ -139,6 +162,13 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
       a.fit_inertia = true;
     } else if (flag == "--landings-per-recording") {
       a.landings_per_recording = integer(flag, value(), 1);
+    } else if (flag == "--clearance") {
+      const std::string v = value();
+      char* end = nullptr;
+      const double c = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end != '\0' || !std::isfinite(c) || c < 0.0)
+        throw std::runtime_error("--clearance: a finite number of metres >= 0, not '" + v + "'");
+      a.clearance = c;
     } else if (flag == "--loss-scale") {
       const std::string v = value();
       char* end = nullptr;
@@ -146,6 +176,15 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
       if (v == "auto") continue;
       if (end == v.c_str() || *end != '\0' || !(a.loss_scale > 0.0) || !std::isfinite(a.loss_scale))
         throw std::runtime_error("--loss-scale: auto or a number > 0, not '" + v + "'");
+    } else if (flag == "--urdf") {
+      group().urdf = value();
+    } else if (flag == "--joint-csv") {
+      const std::string v = value();
+      group().joint_csv.push_back(v);
+    } else if (flag == "--joint-states") {
+      group().joint_states = value();
+    } else if (flag == "--gravity-compensation") {
+      a.gravity_compensation = true;
     } else if (flag == "--quiet") {
       a.quiet = true;
     } else {
@@ -153,11 +192,41 @@ IdentifyArguments parseIdentifyArguments(int argc, const char* const* argv) {
     }
   }
   if (a.inputs.empty()) throw std::runtime_error("--object: at least one object file is needed");
+  for (const auto& input : a.inputs) {
+    if (input.urdf.empty()) {
+      if (!input.joint_csv.empty() || !input.joint_states.empty())
+        throw std::runtime_error("--object " + input.object +
+                                 ": --joint-csv and --joint-states need the robot's --urdf");
+      continue;
+    }
+    if (!input.csv.empty())
+      throw std::runtime_error("--object " + input.object +
+                               ": --csv (object poses) with --urdf; a robot's joint positions are "
+                               "--joint-csv");
+    if (input.joint_csv.empty() && input.bags.empty())
+      throw std::runtime_error("--object " + input.object +
+                               ": give the robot's recordings (--joint-csv/--bag)");
+    if (!input.bags.empty() && input.joint_states.empty())
+      throw std::runtime_error("--bag: give --joint-states TOPIC (the robot's joint states)");
+    if (!input.frame.empty() || !input.topic.empty() || !input.world_frame.empty())
+      throw std::runtime_error("--object " + input.object +
+                               ": --topic, --frame, --world-frame are for object poses, not with "
+                               "--urdf");
+  }
+  bool robots = false, objects = false;
+  for (const auto& input : a.inputs) (input.urdf.empty() ? objects : robots) = true;
+  if (robots && objects)
+    throw std::runtime_error(
+        "--urdf: robot and object recordings in one run are not supported (run identify twice)");
+  if (robots && a.clearance)
+    throw std::runtime_error(
+        "--clearance: for object landings; a robot's impacts are found as jumps in its joint "
+        "velocities");
   for (const auto& input : a.inputs)
-    if (input.csv.empty() && input.bags.empty())
+    if (input.urdf.empty() && input.csv.empty() && input.bags.empty())
       throw std::runtime_error("--object " + input.object + ": give its recordings (--csv/--bag)");
   for (const auto& input : a.inputs) {
-    if (input.bags.empty()) continue;
+    if (input.bags.empty() || !input.urdf.empty()) continue;
     if (input.topic.empty() && (input.frame.empty() || input.world_frame.empty()))
       throw std::runtime_error("--bag: give --topic T, or --frame F and --world-frame W (tf)");
     if (!input.topic.empty() && !input.frame.empty())
@@ -196,16 +265,54 @@ IdentificationOptions identificationOptions(const IdentifyArguments& args) {
   return options;
 }
 
+ExtractionOptions extractionOptions(const IdentifyArguments& args) {
+  ExtractionOptions extraction;
+  extraction.max_landings = args.landings_per_recording;
+  if (args.clearance) extraction.clearance = *args.clearance;
+  return extraction;
+}
+
+std::string plotDataPath(const std::string& png) {
+  return fs::path(png).replace_extension(".csv").string();
+}
+
+void plotIdentification(const std::string& data, const std::string& png,
+                        const std::function<void(const std::string&)>& log) {
+  // The script beside the program when installed (catkin_install_python), else the source's.
+  std::error_code error;
+  const fs::path beside =
+      fs::read_symlink("/proc/self/exe", error).parent_path() / "plot_identification.py";
+  const std::string script =
+      !error && fs::exists(beside) ? beside.string() : std::string(IDENTIFY_PLOT_SCRIPT);
+  const std::string command =
+      "/usr/bin/python3 \"" + script + "\" \"" + data + "\" \"" + png + "\"";
+  const int status = std::system(command.c_str());
+  if (status != 0)
+    log("no plot: " + script +
+        " failed (matplotlib missing? apt-get install python3-matplotlib); its data is in " + data);
+}
+
+void runIdentify(const IdentifyArguments& args, const IdentifyReaders& readers,
+                 std::function<void(const std::string&)> log) {
+  if (args.robot())
+    runRobotIdentify(args, readers, std::move(log));
+  else
+    runIdentify(args, readers.poses, std::move(log));
+}
+
 void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
                  std::function<void(const std::string&)> report) {
+  if (args.robot()) {
+    runRobotIdentify(args, IdentifyReaders{read_bag, {}, {}}, std::move(report));
+    return;
+  }
   ProgressBar bar(!args.quiet);
   const auto log = [&](const std::string& line) {
     bar.finish();  // a report line never shares the bar's line
     report(line);
   };
   IdentificationOptions options = identificationOptions(args);
-  ExtractionOptions extraction;
-  extraction.max_landings = args.landings_per_recording;
+  const ExtractionOptions extraction = extractionOptions(args);
 
   // Read and extract everything first: any bad input fails before a fit starts.
   std::vector<Pair> pairs;
@@ -337,22 +444,10 @@ void runIdentify(const IdentifyArguments& args, const BagReader& read_bag,
   writeFileAtomically(args.output, materialsYaml(entries));
   log("wrote " + args.output);
   if (!args.plot.empty()) {
-    const std::string data = std::filesystem::path(args.plot).replace_extension(".csv").string();
+    const std::string data = plotDataPath(args.plot);
     writePlotData(data, pairs, entries);
     log("wrote " + data);
-    // The script beside the program when installed (catkin_install_python), else the source's.
-    std::error_code error;
-    const fs::path beside =
-        fs::read_symlink("/proc/self/exe", error).parent_path() / "plot_identification.py";
-    const std::string script =
-        !error && fs::exists(beside) ? beside.string() : std::string(IDENTIFY_PLOT_SCRIPT);
-    const std::string command =
-        "/usr/bin/python3 \"" + script + "\" \"" + data + "\" \"" + args.plot + "\"";
-    const int status = std::system(command.c_str());
-    if (status != 0)
-      log("no plot: " + script +
-          " failed (matplotlib missing? apt-get install python3-matplotlib); its data is in " +
-          data);
+    plotIdentification(data, args.plot, log);
   }
 }
 

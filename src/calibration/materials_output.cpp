@@ -35,7 +35,8 @@ std::string materialsYaml(const std::vector<MaterialsEntry>& entries) {
   for (const MaterialsEntry& e : entries) {
     const IdentificationResult& f = e.fit;
     out << "  # " << e.material_a << " on " << e.material_b << ": " << e.method << "\n";
-    out << "  # data: " << e.recordings << " recordings, " << f.landings << " landings used";
+    out << "  # data: " << e.recordings << " recordings, " << f.landings
+        << (e.robot ? " impacts used" : " landings used");
     int skipped = 0;
     for (const auto& [reason, count] : e.skipped) skipped += count;
     out << ", " << skipped << " skipped";
@@ -48,9 +49,18 @@ std::string materialsYaml(const std::vector<MaterialsEntry>& entries) {
           << " [" << number(est.lower) << ", " << number(est.upper) << "]"
           << (est.at_bound ? " (on a bound of the search: the interval is not reliable)" : "")
           << "\n";
-    out << "  # training RMS error (relative to the pre-impact speed): v "
-        << number(f.rms_linear, 3) << ", w " << number(f.rms_angular, 3) << "\n";
-    if (e.held_out.folds > 0)
+    if (e.robot) {
+      out << "  # training RMS error of the joint velocities after the impacts (relative to the "
+             "joints' speed before): "
+          << number(f.rms_cases, 3) << "\n";
+      if (e.held_out.folds > 0)
+        out << "  # held-out RMS error, " << e.held_out.folds
+            << "-fold cross-validation: " << number(e.held_out.rms_cases, 3) << "\n";
+    } else {
+      out << "  # training RMS error (relative to the pre-impact speed): v "
+          << number(f.rms_linear, 3) << ", w " << number(f.rms_angular, 3) << "\n";
+    }
+    if (!e.robot && e.held_out.folds > 0)
       out << "  # held-out RMS error, " << e.held_out.folds << "-fold cross-validation: v "
           << number(e.held_out.rms_linear, 3) << ", w " << number(e.held_out.rms_angular, 3)
           << "\n";

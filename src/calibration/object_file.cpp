@@ -57,7 +57,9 @@ struct Reader {
 ObjectModel parseObjectModel(const std::string& text, const std::string& source) {
   const Reader r{source};
   const YamlNode root = parseYaml(text, source);
-  r.onlyKeys(root, "", {"shape", "mass", "inertia", "material_a", "material_b", "floor_height"});
+  r.onlyKeys(root, "",
+             {"shape", "mass", "inertia", "material_a", "material_b", "floor_height", "position",
+              "orientation"});
   ObjectModel object;
   object.source = source;
   const YamlNode& shape = r.member(root, "shape", "shape");
@@ -111,6 +113,22 @@ ObjectModel parseObjectModel(const std::string& text, const std::string& source)
   object.material_b = r.text(r.member(root, "material_b", "material_b"), "material_b");
   if (const YamlNode* floor = root.find("floor_height"))
     object.floor_height = r.number(*floor, "floor_height");
+  if (const YamlNode* position = root.find("position")) {
+    if (position->kind != YamlNode::Kind::kSequence || position->items.size() != 3)
+      r.fail("position", "must be [x, y, z]");
+    for (int i = 0; i < 3; ++i)
+      object.position[i] = r.number(position->items[i], "position[" + std::to_string(i) + "]");
+  }
+  if (const YamlNode* orientation = root.find("orientation")) {
+    if (orientation->kind != YamlNode::Kind::kSequence || orientation->items.size() != 4)
+      r.fail("orientation", "must be [qw, qx, qy, qz]");
+    double v[4];
+    for (int i = 0; i < 4; ++i)
+      v[i] = r.number(orientation->items[i], "orientation[" + std::to_string(i) + "]");
+    const Eigen::Quaterniond q(v[0], v[1], v[2], v[3]);
+    if (!(std::abs(q.norm() - 1.0) <= 1e-3)) r.fail("orientation", "must be a unit quaternion");
+    object.orientation = q.normalized();
+  }
   return object;
 }
 

@@ -4,6 +4,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/JointState.h>
 #include <tf2/buffer_core.h>
 #include <tf2/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
@@ -292,6 +293,70 @@ calibration::PoseTrack readTf(const BagSource& source) {
 
 calibration::PoseTrack readBagPoseTrack(const BagSource& source) {
   return source.topic.empty() ? readTf(source) : readPoseStamped(source);
+}
+
+calibration::JointTrack readBagJointTrack(const std::string& path, const std::string& topic_name) {
+  const std::string topic = "/" + stripSlash(topic_name);
+  const Errors error(path + ":" + topic);
+  calibration::JointTrack track;
+  track.source = error.source();
+  try {
+    rosbag::Bag bag = openBag(path, error);
+    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{topic, topic.substr(1)}));
+    if (view.getConnections().empty()) {
+      throw error("no such topic in the bag (its topics: " + topicList(bag) + ")");
+    }
+    for (const rosbag::ConnectionInfo* connection : view.getConnections()) {
+      if (connection->datatype != "sensor_msgs/JointState") {
+        throw error("the topic has type " + connection->datatype + ", not sensor_msgs/JointState");
+      }
+    }
+    int index = 0;
+    for (const rosbag::MessageInstance& instance : view) {
+      const sensor_msgs::JointState::ConstPtr message =
+          instance.instantiate<sensor_msgs::JointState>();
+      const std::string what = "message " + std::to_string(index) + " (header.stamp " +
+                               formatTime(message->header.stamp) + ")";
+      if (message->name.empty()) throw error(what + ": no joints (name is empty)");
+      if (message->position.size() != message->name.size()) {
+        throw error(what + ": " + std::to_string(message->position.size()) + " positions for " +
+                    std::to_string(message->name.size()) + " names");
+      }
+      std::set<std::string> names(message->name.begin(), message->name.end());
+      if (names.size() != message->name.size()) throw error(what + ": a joint is named twice");
+      if (track.names.empty()) track.names = message->name;
+      Eigen::VectorXd q(track.names.size());
+      if (message->name.size() != track.names.size()) {
+        throw error(what + ": " + std::to_string(message->name.size()) + " joints, not the " +
+                    std::to_string(track.names.size()) + " of the first message");
+      }
+      for (std::size_t j = 0; j < track.names.size(); ++j) {
+        const auto at = std::find(message->name.begin(), message->name.end(), track.names[j]);
+        if (at == message->name.end()) {
+          throw error(what + ": joint '" + track.names[j] + "' (of the first message) is missing");
+        }
+        const double value = message->position[at - message->name.begin()];
+        if (!std::isfinite(value)) {
+          throw error(what + ": the position of joint '" + track.names[j] + "' is not finite");
+        }
+        q[j] = value;
+      }
+      if (message->header.stamp.isZero()) throw error(what + ": header.stamp is 0 (unset)");
+      const double time = message->header.stamp.toSec();
+      if (!track.time.empty() && !(time > track.time.back())) {
+        throw error(what +
+                    ": time is not after the previous message's (time goes backwards or "
+                    "repeats)");
+      }
+      track.time.push_back(time);
+      track.position.push_back(q);
+      ++index;
+    }
+  } catch (const rosbag::BagException& e) {
+    throw error(std::string("cannot read the bag: ") + e.what());
+  }
+  if (track.size() < 2) throw error("the topic has fewer than 2 messages");
+  return track;
 }
 
 }  // namespace collision_response

@@ -7,6 +7,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
+#include <sensor_msgs/JointState.h>
 #include <tf2_msgs/TFMessage.h>
 #include <zlib.h>
 
@@ -23,7 +24,9 @@
 #include "collision_response/ros/bag_recording.h"
 
 using collision_response::BagSource;
+using collision_response::readBagJointTrack;
 using collision_response::readBagPoseTrack;
+using collision_response::calibration::JointTrack;
 using collision_response::calibration::PoseTrack;
 using collision_response::core::InvalidInput;
 
@@ -419,3 +422,71 @@ TEST(BagRecording, TimeGoingBackwards) {
 }
 
 }  // namespace
+
+// A robot's joint states (readBagJointTrack()): the first message sets the joints' order, later
+// ones may list them in another; every position read at its stamp.
+namespace {
+
+sensor_msgs::JointState jointState(double t, const std::vector<std::string>& names,
+                                   const std::vector<double>& positions) {
+  sensor_msgs::JointState m;
+  m.header.stamp = ::ros::Time(t);
+  m.name = names;
+  m.position = positions;
+  return m;
+}
+
+void expectJointInvalid(const std::string& bag, const std::string& topic, const std::string& field,
+                        const std::string& says) {
+  try {
+    const JointTrack track = readBagJointTrack(bag, topic);
+    ADD_FAILURE() << "no error; read " << track.size() << " samples";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), field);
+    EXPECT_NE(std::string(e.what()).find(says), std::string::npos)
+        << e.what() << "\n  should say: " << says;
+  }
+}
+
+}  // namespace
+
+TEST(BagRecording, JointStatesInTheFirstMessagesOrder) {
+  const std::string path = tempBag("joint_states");
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    bag.write("/joint_states", ::ros::Time(1), jointState(1.0, {"shoulder", "elbow"}, {0.1, 0.2}));
+    bag.write("/joint_states", ::ros::Time(2), jointState(1.5, {"elbow", "shoulder"}, {0.4, 0.3}));
+    bag.write("/joint_states", ::ros::Time(3), jointState(2.0, {"shoulder", "elbow"}, {0.5, 0.6}));
+  }
+  const JointTrack track = readBagJointTrack(path, "joint_states");
+  EXPECT_EQ(track.source, path + ":/joint_states");
+  ASSERT_EQ(track.names, (std::vector<std::string>{"shoulder", "elbow"}));
+  ASSERT_EQ(track.size(), 3);
+  EXPECT_EQ(track.time, (std::vector<double>{1.0, 1.5, 2.0}));
+  EXPECT_EQ(track.position[1][0], 0.3);
+  EXPECT_EQ(track.position[1][1], 0.4);
+  EXPECT_EQ(track.position[2][1], 0.6);
+}
+
+TEST(BagRecording, BadJointStates) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::string path = tempBag("bad_joint_states");
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    bag.write("/joint_states", ::ros::Time(1), jointState(1.0, {"shoulder", "elbow"}, {0.1, 0.2}));
+    bag.write("/joint_states", ::ros::Time(2), jointState(2.0, {"shoulder", "elbow"}, {0.1, nan}));
+    bag.write("/cube/pose", ::ros::Time(1), pose(1, "world", 0, 1));
+    bag.write("/renamed", ::ros::Time(1), jointState(1.0, {"shoulder", "elbow"}, {0.1, 0.2}));
+    bag.write("/renamed", ::ros::Time(2), jointState(2.0, {"shoulder", "wrist"}, {0.1, 0.2}));
+    bag.write("/short", ::ros::Time(1), jointState(1.0, {"shoulder", "elbow"}, {0.1}));
+    bag.write("/backwards", ::ros::Time(1), jointState(2.0, {"shoulder"}, {0.1}));
+    bag.write("/backwards", ::ros::Time(2), jointState(1.0, {"shoulder"}, {0.1}));
+  }
+  expectJointInvalid(path, "/joint_states", path + ":/joint_states",
+                     "message 1 (header.stamp 2 s): the position of joint 'elbow' is not finite");
+  expectJointInvalid(path, "/arm/joint_states", path + ":/arm/joint_states", "no such topic");
+  expectJointInvalid(path, "/cube/pose", path + ":/cube/pose", "not sensor_msgs/JointState");
+  expectJointInvalid(path, "/renamed", path + ":/renamed", "joint 'elbow' (of the first message)");
+  expectJointInvalid(path, "/short", path + ":/short", "1 positions for 2 names");
+  expectJointInvalid(path, "/backwards", path + ":/backwards", "not after the previous");
+}

@@ -15,6 +15,9 @@ struct CrossValidation {
   std::vector<LandingResidual> held_out;
   double rms_linear = 0.0, rms_angular = 0.0;  ///< over held_out, as rmsErrors()
   std::vector<Coefficients> fitted;            ///< per fold
+  /// crossValidateCases(): each case's residual when held out, and rmsOfCases() over them.
+  std::vector<Eigen::VectorXd> held_out_cases;
+  double rms_cases = 0.0;
 };
 
 /// Landing k (counting the objects' landings in order) goes to fold k mod `folds`. folds in
@@ -26,5 +29,14 @@ CrossValidation crossValidate(const std::vector<ObjectLandings>& objects,
                               core::WorkerPool& pool,
                               const std::function<void(int fold)>& progress = {},
                               const Coefficients* warm_start = nullptr);
+
+/// The same over any cases (identifyCases()): case k to fold k mod `folds`; fills folds, fitted,
+/// held_out_cases and rms_cases.
+CrossValidation crossValidateCases(const std::vector<CaseResidual>& cases,
+                                   const std::vector<int>& sizes,
+                                   const IdentificationOptions& options, int folds,
+                                   core::WorkerPool& pool,
+                                   const std::function<void(int fold)>& progress = {},
+                                   const Coefficients* warm_start = nullptr);
 
 }  // namespace collision_response::calibration

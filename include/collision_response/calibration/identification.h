@@ -66,7 +66,10 @@ struct IdentificationResult {
   Eigen::MatrixXd covariance;                  ///< of the fitted parameters
   double residual_sigma = 0.0;  ///< the residuals' estimated standard deviation (covariance scale)
   double loss_scale = 0.0;      ///< the Cauchy scale of the final fit
-  std::vector<LandingResidual> residuals;      ///< per landing, objects' landings in order
+  std::vector<LandingResidual> residuals;  ///< per landing, objects' landings in order
+  /// Each case's residual at the fit (identifyCases(); for landings the same as `residuals`).
+  std::vector<Eigen::VectorXd> case_residuals;
+  double rms_cases = 0.0;  ///< sqrt of the mean over cases of |r|^2 (a robot impact's whole r)
   double rms_linear = 0.0, rms_angular = 0.0;  ///< over the landings (|r| of each 3-vector)
   int landings = 0;
   int iterations = 0;
@@ -81,11 +84,30 @@ IdentificationResult identifyCoefficients(const std::vector<ObjectLandings>& obj
                                           const IdentificationOptions& options,
                                           core::WorkerPool& pool);
 
+/// One measured outcome the fit scores, whatever it is (a landing, a robot's impact): its residual
+/// vector under the coefficients, of a fixed length, dimensionless (errors relative to the
+/// outcome's own scale, so that cases weigh alike). Called from several threads at once (it must
+/// be thread safe); a non-finite residual or an exception marks the point as one the case cannot
+/// be predicted at (Ceres steps back).
+using CaseResidual = std::function<Eigen::VectorXd(const Coefficients&)>;
+
+/// The fit of identifyCoefficients() over any cases, `sizes[i]` the length of case i's residual:
+/// the same starts, loss, bounds, differences and covariance (the residuals' scale from the median
+/// over cases of |r|^2 / median of chi-square(sizes[i])). Fills every field of the result but
+/// `residuals`, rms_linear and rms_angular (landing-specific). Throws std::invalid_argument as
+/// identifyCoefficients(), and for no case or sizes not matching.
+IdentificationResult identifyCases(const std::vector<CaseResidual>& cases,
+                                   const std::vector<int>& sizes,
+                                   const IdentificationOptions& options, core::WorkerPool& pool);
+
 /// The residuals of every landing of `objects` under `coefficients` (objects' landings in order).
 std::vector<LandingResidual> landingResiduals(const std::vector<ObjectLandings>& objects,
                                               const Coefficients& coefficients,
                                               const PredictionOptions& options,
                                               core::WorkerPool& pool);
+
+/// sqrt of the mean over cases of |r|^2.
+double rmsOfCases(const std::vector<Eigen::VectorXd>& residuals);
 
 /// RMS over landings of |r.head(3)| (linear) and |r.tail(3)| (angular).
 std::pair<double, double> rmsErrors(const std::vector<LandingResidual>& residuals);

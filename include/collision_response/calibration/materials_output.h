@@ -21,6 +21,9 @@ struct MaterialsEntry {
   int recordings = 0;                                ///< recordings read
   std::vector<std::pair<std::string, int>> skipped;  ///< landings skipped, by reason
   std::string method;  ///< e.g. "episode, stronge, one mu, Cauchy loss 0.25"
+  /// A robot's impacts (docs/calibration.md, "Robot recordings"): the data are impacts, the errors
+  /// those of the joint velocities (rms_cases), not landings' v and w.
+  bool robot = false;
 };
 
 /// The YAML text: a comment header, then `materials:` with one entry per pair.

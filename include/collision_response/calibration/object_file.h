@@ -10,6 +10,8 @@
 //   material_b: table              # the floor's material (its b)
 //   floor_height: 0.0              # optional [m]: the floor's z in the recording's frame;
 //                                  # default: found per recording from the object at rest
+//   position: [x, y, z]            # optional [m], robot recordings: the fixed obstacle's pose
+//   orientation: [qw, qx, qy, qz]  # optional, in the robot's base frame (default identity)
 #pragma once
 
 #include <string>

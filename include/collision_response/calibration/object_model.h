@@ -24,6 +24,11 @@ struct ObjectModel {
   /// The floor's height in the recording's world frame [m] (z up); unset: the median lowest-point
   /// height over each recording's last samples, where the object lies at rest.
   std::optional<double> floor_height;
+  /// Robot recordings only (docs/calibration.md, "Robot recordings"): the object is the fixed
+  /// obstacle the robot strikes, its shape's frame at this pose in the robot's base frame [m]
+  /// (mass and inertia then unused). Landings ignore it.
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
 };
 
 /// Height [m] of the shape's lowest point (world z) with its frame at (position, orientation).

@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "collision_response/calibration/joint_track.h"
 #include "collision_response/calibration/pose_track.h"
 
 // In the ROS layer's namespace, collision_response (not collision_response::ros, which would hide
@@ -44,5 +45,19 @@ struct BagSource {
 /// quaternion further from unit norm, a zero stamp, or a stamp not after the previous sample's
 /// (time going backwards or repeated), or there are no samples.
 calibration::PoseTrack readBagPoseTrack(const BagSource& source);
+
+/// A robot's recorded joint positions (docs/calibration.md, "Robot recordings"): the
+/// sensor_msgs/JointState messages of `topic` in the bag at `path`, one sample per message at its
+/// header stamp [s], in the bag's order. The first message's `name` list sets the joints and their
+/// order (JointTrack::names); every later message must name the same joints (in any order), each
+/// with a position [rad | m]; velocities and efforts are not read (the identification fits the
+/// positions). JointTrack::source is "<bag>:<topic>".
+///
+/// Throws core::InvalidInput, its field naming the bag and topic, when the bag cannot be opened or
+/// read, the topic is missing or is not sensor_msgs/JointState, a message has no joints, a joint
+/// named twice, other joints than the first message, fewer positions than names, a non-finite
+/// position (naming the joint), a zero stamp or a stamp not after the previous one, or there are
+/// fewer than 2 messages.
+calibration::JointTrack readBagJointTrack(const std::string& path, const std::string& topic);
 
 }  // namespace collision_response
