@@ -102,7 +102,7 @@ std::string identifyUsage() {
          "  --friction one|two      one mu, or mu_s and mu_d (default one)\n"
          "  --fit-inertia           fit the object's inertia scale too\n"
          "  --landings-per-recording N   landings taken from each recording (default 1)\n"
-         "  --clearance METRES      an object is in flight above the floor by more than this\n"
+         "  --clearance METRES      an object more than this above the floor is in flight\n"
          "                          (default 0.002; object landings only)\n"
          "  --loss-scale auto|S     the Cauchy loss's scale (default auto)\n"
          "  --gravity-compensation  robots: the joints hold the arm against gravity\n"
