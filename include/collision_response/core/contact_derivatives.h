@@ -12,16 +12,15 @@
 namespace collision_response::core {
 
 /// The contact-space part of the derivatives of the impact map, shared by the rigid-body path
-/// (computeImpactDerivatives()) and the general-body path (computeBodyImpactDerivatives()): the
-/// switch flags, the islands without an impulse, and Newton's law differentiated in contact space
-/// (docs/physics.md, "Derivatives of the impact map", "What is analytic"): the derivative of the
-/// impulses P of the contacts of one island with
-/// respect to their pre-impact relative velocities and their coefficients, at the final mode of
-/// the answer. Nothing here knows what the bodies are: the caller gives the contacts' Jacobian J
-/// (u = J v, v the velocity unknowns it chooses: a rigid island's twists, a robot's joint
-/// velocities and the other bodies' unknowns) and M^-1 J^T, and maps dP back to its own rows
-/// (dv'/dv = I + M^-1 J^T dP/dv, dv'/dtheta = M^-1 J^T dP/dtheta). Used by
-/// computeImpactDerivatives() (rigid bodies) and computeBodyImpactDerivatives() (any BodyModel).
+/// (computeImpactDerivatives()) and the general-body path (computeBodyImpactDerivatives()): which
+/// islands are analytic, the switch flags, the islands without an impulse, and Newton's law
+/// differentiated in contact space at the answer's final mode (docs/physics.md, "Derivatives of
+/// the impact map", "What is analytic"): the derivatives of the impulses P of one island's contacts
+/// with respect to their pre-impact relative velocities and their coefficients. Nothing here knows
+/// what the bodies are: the caller gives the contacts' Jacobian J (u = J v, v the velocity
+/// unknowns it chooses: a rigid island's twists, or every body's unknowns, a robot's joint
+/// velocities among them) and M^-1 J^T, and maps dP back to its own rows
+/// (dv'/dv = I + M^-1 J^T dP/dv, dv'/dtheta = M^-1 J^T dP/dtheta).
 
 /// How an island that got an impulse is differentiated analytically, from how it was solved.
 enum class AnalyticIsland {
@@ -94,8 +93,8 @@ struct NewtonIsland {
 /// contributes three equations of its final mode (no impulse, sticking, sliding on a pyramid edge
 /// or facet), F(P, u, theta) = 0, and F_P dP = -(F_u du + F_theta dtheta). `all_sticking`: the
 /// answer came without a pivot (SolveReport::iterations 0: every contact sticking inside its
-/// static cone). Computes dP/dv (3m x L; when `velocities`, else 0) and dP/dtheta (3m x 3m, per
-/// contact e, mu_s, mu_d; only the coefficient columns `columns` asks for, by the caller's
+/// static cone). Computes dP/dv (3m x L; when columns.velocities, else 0) and dP/dtheta (3m x 3m,
+/// per contact e, mu_s, mu_d; only the coefficient columns `columns` asks for, by the caller's
 /// contact index, the rest 0) and sets modes[contacts[i]] (mode, kAnalytic, switch flags). False
 /// for redundant contacts sliding with friction (impulses not unique: the caller differences;
 /// the contacts are flagged).
