@@ -1,12 +1,12 @@
 #include "collision_response/core/body_impact_derivatives.h"
 
-#include <Eigen/QR>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
 #include <tuple>
 
+#include "collision_response/core/contact_derivatives.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/impulse_space_derivatives.h"
 #include "collision_response/core/validation.h"
@@ -22,18 +22,24 @@ using Eigen::VectorXd;
 // ~ 1e-16 / step).
 constexpr double kStep = 1e-6;
 
-// (A null body, which computeBodyResponse() refuses when a contact names it, has no velocity.)
-std::vector<VectorXd> velocities(const std::vector<BodyModel*>& bodies) {
-  std::vector<VectorXd> out;
-  out.reserve(bodies.size());
-  for (const BodyModel* body : bodies) out.push_back(body ? body->velocity() : VectorXd());
-  return out;
+// The bodies' velocity unknowns stacked as the layout has them (body b's from offset[b]; -1: a
+// body without unknowns, or null, which computeBodyResponse() refuses when a contact names it).
+VectorXd velocities(const std::vector<BodyModel*>& bodies, const std::vector<int>& offset,
+                    Index count) {
+  VectorXd v(count);
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    if (offset[b] >= 0) v.segment(offset[b], bodies[b]->velocityCount()) = bodies[b]->velocity();
+  }
+  return v;
 }
 
-void setVelocities(const std::vector<BodyModel*>& bodies, const std::vector<VectorXd>& v) {
+void setVelocities(const std::vector<BodyModel*>& bodies, const std::vector<int>& offset,
+                   const VectorXd& v) {
   for (std::size_t b = 0; b < bodies.size(); ++b) {
-    if (bodies[b] != nullptr && bodies[b]->velocityCount() > 0)
-      bodies[b]->addVelocityChange(v[b] - bodies[b]->velocity());
+    if (offset[b] >= 0) {
+      bodies[b]->addVelocityChange(v.segment(offset[b], bodies[b]->velocityCount()) -
+                                   bodies[b]->velocity());
+    }
   }
 }
 
@@ -53,8 +59,7 @@ std::vector<ContactPoint> normalized(const std::vector<ContactPoint>& given) {
 // computeBodyImpactDerivatives()) runs out; each perturbed solve gets what is left of it.
 VectorXd evaluate(const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& contacts,
                   const SolverOptions& options, std::chrono::steady_clock::time_point end,
-                  const std::vector<VectorXd>& before, const std::vector<int>& offset,
-                  Index velocity_count) {
+                  const VectorXd& before, const std::vector<int>& offset, Index velocity_count) {
   SolverOptions remaining = options;
   remaining.time_budget =
       std::chrono::duration<double>(end - std::chrono::steady_clock::now()).count();
@@ -62,12 +67,10 @@ VectorXd evaluate(const std::vector<BodyModel*>& bodies, const std::vector<Conta
     throw SolverTimeout("the derivatives' finite differences exceeded the time budget of " +
                         std::to_string(options.time_budget) + " s");
   }
-  setVelocities(bodies, before);
+  setVelocities(bodies, offset, before);
   const BodyResponse result = computeBodyResponse(bodies, contacts, remaining);
   VectorXd out(velocity_count + 4 * static_cast<Index>(contacts.size()));
-  for (std::size_t b = 0; b < bodies.size(); ++b) {
-    if (offset[b] >= 0) out.segment(offset[b], bodies[b]->velocityCount()) = bodies[b]->velocity();
-  }
+  out.head(velocity_count) = velocities(bodies, offset, velocity_count);
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     const Index row = velocity_count + 4 * static_cast<Index>(c);
     out(row) = result.impulses[c].normal_impulse;
@@ -79,6 +82,122 @@ VectorXd evaluate(const std::vector<BodyModel*>& bodies, const std::vector<Conta
 ImpactMode modeOf(const ContactImpulse& impulse) {
   if (!(impulse.normal_impulse > 0.0)) return ImpactMode::kNoImpulse;
   return impulse.sticking ? ImpactMode::kSticking : ImpactMode::kSliding;
+}
+
+// The contacts of one island in contact space over all the bodies' unknowns (N columns, the
+// layout's): rows 3i..3i+2 of J = J_b - J_a at contact i's point (J(p) of each side with
+// unknowns), M^-1 J^T, u = J v + the velocity of a side without unknowns, before (`before`) and
+// after (`after`, the prediction's) the impact, the impulse and the coefficients.
+NewtonIsland contactSpace(const std::vector<BodyModel*>& bodies,
+                          const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
+                          const std::vector<int>& offset, Index N, const VectorXd& before,
+                          const VectorXd& after, const BodyResponse& result) {
+  NewtonIsland s;
+  s.contacts = island;
+  const Index m = static_cast<Index>(island.size());
+  s.J.setZero(3 * m, N);
+  s.MinvJt.setZero(N, 3 * m);
+  for (Index i = 0; i < m; ++i) {
+    const int c = island[i];
+    const ContactPoint& contact = contacts[c];
+    Eigen::Vector3d prescribed = Eigen::Vector3d::Zero();
+    for (const auto& [body, part, sign] : {std::tuple{contact.body_a, contact.part_a, -1.0},
+                                           std::tuple{contact.body_b, contact.part_b, 1.0}}) {
+      if (offset[body] < 0) {
+        prescribed += sign * bodies[body]->partPointVelocity(part, contact.point);
+        continue;
+      }
+      const int n = bodies[body]->velocityCount();
+      s.J.block(3 * i, offset[body], 3, n) +=
+          sign * bodies[body]->partPointJacobian(part, contact.point);
+      s.MinvJt.block(offset[body], 3 * i, n, 3) +=
+          sign * bodies[body]->partInverseMassJacobianTranspose(part, contact.point);
+    }
+    s.normal.push_back(contact.normal);
+    s.u.push_back(s.J.middleRows<3>(3 * i) * before + prescribed);
+    s.u_after.push_back(s.J.middleRows<3>(3 * i) * after + prescribed);
+    const ContactImpulse& impulse = result.impulses[c];
+    s.P.push_back(impulse.normal_impulse * contact.normal + impulse.friction_impulse);
+    s.coefficients.push_back(
+        {contact.restitution, contact.static_friction, contact.dynamic_friction});
+  }
+  return s;
+}
+
+// Writes an island's derivatives into the layout's Jacobian from dP/dv (3m x N) and dP/dtheta
+// (3m x 3m, per contact e, mu_s, mu_d): dv'/dv += M^-1 J^T dP/dv, dv'/dtheta = M^-1 J^T dP/dtheta,
+// and the impulse rows (normal_impulse = n.P, friction_impulse = (I - n n^T) P).
+void scatter(const NewtonIsland& s, const MatrixXd& dP_dv, const MatrixXd& dP_dtheta, Index N,
+             MatrixXd& jacobian) {
+  const Index m = static_cast<Index>(s.contacts.size());
+  // Contact by contact, as coefficient-wise products with an inner size of 3 fixed at compile
+  // time: the matrices are small (N of a few dozen), where the blocked product's set-up costs
+  // more than the product.
+  for (Index j = 0; j < m; ++j) {
+    const auto MinvJt_j = s.MinvJt.middleCols<3>(3 * j);
+    jacobian.topLeftCorner(N, N).noalias() += MinvJt_j.lazyProduct(dP_dv.middleRows<3>(3 * j));
+    for (Index k = 0; k < m; ++k) {
+      const Index column = N + 3 * static_cast<Index>(s.contacts[k]);
+      jacobian.block(0, column, N, 3).noalias() +=
+          MinvJt_j.lazyProduct(dP_dtheta.block<3, 3>(3 * j, 3 * k));
+    }
+  }
+  for (Index i = 0; i < m; ++i) {
+    const Eigen::Vector3d& n = s.normal[i];
+    Eigen::Matrix<double, 4, 3> impulse_of_P;
+    impulse_of_P.row(0) = n.transpose();
+    impulse_of_P.bottomRows<3>() = Eigen::Matrix3d::Identity() - n * n.transpose();
+    const Index row = N + 4 * static_cast<Index>(s.contacts[i]);
+    jacobian.block(row, 0, 4, N).noalias() = impulse_of_P.lazyProduct(dP_dv.middleRows<3>(3 * i));
+    for (Index j = 0; j < m; ++j) {
+      jacobian.block<4, 3>(row, N + 3 * static_cast<Index>(s.contacts[j])).noalias() =
+          impulse_of_P * dP_dtheta.block<3, 3>(3 * i, 3 * j);
+    }
+  }
+}
+
+// The analytic derivative of one island (docs/physics.md, "General bodies (robots)"), written
+// into out.jacobian and out.contacts: Newton's closed form (one contact) or the exact solver's
+// final mode, or one contact integrated in impulse space (Poisson, Stronge). False where the
+// island is differenced instead (another solver, a singular K, redundant contacts sliding with
+// friction, an integration that fell back).
+bool analyticIsland(const std::vector<BodyModel*>& bodies,
+                    const std::vector<ContactPoint>& contacts, const SolveReport& report,
+                    const SolverOptions& options, const VectorXd& before, const VectorXd& after,
+                    BodyImpactDerivatives& out) {
+  const Index N = out.velocity_count;
+  const AnalyticIsland kind = analyticIslandOf(report, options.law);
+  if (kind == AnalyticIsland::kNone) return false;
+  const NewtonIsland s = contactSpace(bodies, contacts, report.contacts, out.velocity_offset, N,
+                                      before, after, out.result);
+  MatrixXd dP_dv, dP_dtheta;
+  if (kind == AnalyticIsland::kNewtonExact) {
+    // The exact solver's answer came without a pivot (iterations 0) when every contact was
+    // active and sticking inside its static cone (exact_solver.h).
+    if (!differentiateNewtonIsland(s, report.iterations == 0, DerivativeColumns{}, dP_dv, dP_dtheta,
+                                   out.contacts)) {
+      return false;
+    }
+  } else {
+    // One contact: its impulse is a function of its 3x3 W = J M^-1 J^T and u = J v (+ the part
+    // of a body without unknowns), so dP/dv = dP/du J.
+    const int c = report.contacts[0];
+    const ContactPoint& contact = contacts[c];
+    const Eigen::Matrix3d W = s.J.lazyProduct(s.MinvJt);
+    Eigen::Matrix3d dP_du, dP_dtheta3;
+    const bool done = kind == AnalyticIsland::kNewtonClosedForm
+                          ? differentiateNewtonContact(contact.normal, W, s.u[0], s.coefficients[0],
+                                                       dP_du, dP_dtheta3, out.contacts[c])
+                          : differentiateImpulseSpace(
+                                contact.normal, W, s.u[0], contact.restitution,
+                                contact.static_friction, contact.dynamic_friction, options.law,
+                                options.integration_tolerance, dP_du, dP_dtheta3, out.contacts[c]);
+    if (!done) return false;
+    dP_dv = dP_du.lazyProduct(s.J);
+    dP_dtheta = dP_dtheta3;
+  }
+  scatter(s, dP_dv, dP_dtheta, N, out.jacobian);
+  return true;
 }
 
 }  // namespace
@@ -99,10 +218,10 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
   const auto end = std::chrono::steady_clock::now() +
                    std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                        std::chrono::duration<double>(options.time_budget));
-  const std::vector<VectorXd> before = velocities(bodies);
-  out.result = computeBodyResponse(bodies, contacts, options);  // validates
-  const std::vector<VectorXd> after = velocities(bodies);
   const Index N = out.velocity_count, C = static_cast<Index>(contacts.size());
+  const VectorXd before = velocities(bodies, out.velocity_offset, N);
+  out.result = computeBodyResponse(bodies, contacts, options);  // validates
+  const VectorXd after = velocities(bodies, out.velocity_offset, N);
   out.contact_count = contacts.size();
   out.jacobian.setZero(N + 4 * C, N + 3 * C);
   out.jacobian.topLeftCorner(N, N).setIdentity();
@@ -110,141 +229,35 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
   for (std::size_t c = 0; c < contacts.size(); ++c)
     out.contacts[c].mode = modeOf(out.result.impulses[c]);
 
-  const bool frictionless = std::all_of(contacts.begin(), contacts.end(),
-                                        [](const ContactPoint& c) { return c.frictionless(); });
-  // The active-set formula holds where the answer is exact: every island solved in closed form or
-  // by the exact solver (not by the iterative one, which kAuto takes beyond
-  // kExactSolverMaxContacts, and not as resting contacts, whose answer is forces).
-  const bool exact_islands =
-      std::all_of(out.result.islands.begin(), out.result.islands.end(), [](const SolveReport& r) {
-        return r.method == SolvedBy::kNone || r.method == SolvedBy::kClosedForm ||
-               r.method == SolvedBy::kExact;
-      });
-  // One contact under an impulse-space law, integrated to its end: its impulse is a function of
-  // its 3x3 W = J M^-1 J^T and u = J v (+ the part of bodies without unknowns), so
-  // dv'/dv = I + M^-1 J^T (dP/du) J and dv'/dtheta = M^-1 J^T dP/dtheta, dP from the sensitivity
-  // of the integration (impulse_space_derivatives.h).
-  bool single_impulse_space = false;
-  if ((options.law == ImpactLaw::kPoisson || options.law == ImpactLaw::kStronge) && C == 1 &&
-      out.result.islands.size() == 1) {
-    const SolveReport& report = out.result.islands[0];
-    const bool integrated = (report.method == SolvedBy::kImpulseSpace ||
-                             report.method == SolvedBy::kSimultaneousImpulseSpace) &&
-                            report.converged &&
-                            !(report.impulse_space && report.impulse_space->fallback);
-    if (integrated) {
-      const ContactPoint& contact = contacts[0];
-      Eigen::Matrix<double, 3, Eigen::Dynamic> J = Eigen::MatrixXd::Zero(3, N);
-      Eigen::Matrix<double, Eigen::Dynamic, 3> MinvJt = Eigen::MatrixXd::Zero(N, 3);
-      Eigen::Vector3d u = Eigen::Vector3d::Zero();
-      for (const auto& [body, part, sign] : {std::tuple{contact.body_a, contact.part_a, -1.0},
-                                             std::tuple{contact.body_b, contact.part_b, 1.0}}) {
-        const int offset = out.velocity_offset[body];
-        if (offset < 0) {
-          u += sign * bodies[body]->partPointVelocity(part, contact.point);
-          continue;
-        }
-        const int n = bodies[body]->velocityCount();
-        const Eigen::Matrix<double, 3, Eigen::Dynamic> Jb =
-            bodies[body]->partPointJacobian(part, contact.point);
-        J.middleCols(offset, n) += sign * Jb;
-        u += sign * (Jb * before[body]);
-        MinvJt.middleRows(offset, n) +=
-            sign * bodies[body]->partInverseMassJacobianTranspose(part, contact.point);
-      }
-      const Eigen::Matrix3d W = J * MinvJt;
-      Eigen::Matrix3d dP_du, dP_dtheta;
-      ContactDerivativeMode mode;
-      if (differentiateImpulseSpace(contact.normal, W, u, contact.restitution,
-                                    contact.static_friction, contact.dynamic_friction, options.law,
-                                    options.integration_tolerance, dP_du, dP_dtheta, mode)) {
-        Eigen::Matrix<double, 4, 3> impulse_of_P;  // (normal_impulse, friction_impulse) of P
-        impulse_of_P.row(0) = contact.normal.transpose();
-        impulse_of_P.bottomRows<3>() =
-            Eigen::Matrix3d::Identity() - contact.normal * contact.normal.transpose();
-        const MatrixXd dP_dv = dP_du * J;
-        out.jacobian.topLeftCorner(N, N) += MinvJt * dP_dv;
-        out.jacobian.block(0, N, N, 3) = MinvJt * dP_dtheta;
-        out.jacobian.block(N, 0, 4, N) = impulse_of_P * dP_dv;
-        out.jacobian.block<4, 3>(N, N) = impulse_of_P * dP_dtheta;
-        out.contacts[0] = mode;
-        single_impulse_space = true;
-      }
+  // Analytic island by island (islands are independent: each writes its own bodies' and
+  // contacts' entries); if one cannot be, every column is differenced.
+  bool analytic = true;
+  for (const SolveReport& report : out.result.islands) {
+    if (markNoImpulseIsland(report, out.result.impulses, out.contacts)) continue;
+    if (!analyticIsland(bodies, contacts, report, options, before, after, out)) {
+      analytic = false;
+      break;
     }
   }
-  const bool analytic = options.law == ImpactLaw::kNewton && frictionless && exact_islands;
   std::vector<Index> fd_columns;  // columns taken by central differences
-  if (analytic) {
-    // Along the normals: j_i = n_i^T (J_b - J_a) (1 x N), MinvJ column i = M^-1 j_i^T.
-    std::vector<Index> active;
-    for (Index c = 0; c < C; ++c)
-      if (out.result.impulses[c].normal_impulse > 0.0) active.push_back(c);
-    const Index m = static_cast<Index>(active.size());
-    MatrixXd J = MatrixXd::Zero(m, N), MinvJt = MatrixXd::Zero(N, m);
-    VectorXd u(m), e(m);
-    for (Index i = 0; i < m; ++i) {
-      const ContactPoint& contact = contacts[active[i]];
-      for (const auto& [body, part, sign] : {std::tuple{contact.body_a, contact.part_a, -1.0},
-                                             std::tuple{contact.body_b, contact.part_b, 1.0}}) {
-        const int offset = out.velocity_offset[body];
-        if (offset < 0) continue;
-        const int n = bodies[body]->velocityCount();
-        J.block(i, offset, 1, n) += sign * contact.normal.transpose() *
-                                    bodies[body]->partPointJacobian(part, contact.point);
-        MinvJt.block(offset, i, n, 1) +=
-            sign * bodies[body]->partInverseMassJacobianTranspose(part, contact.point) *
-            contact.normal;
-      }
-      // Newton's target -e u_n for an approaching contact, 0 for one that is pushed without
-      // approaching (physics.md, "Several contacts"): then e plays no part.
-      u(i) = out.result.impulses[active[i]].normal_velocity_before;
-      e(i) = u(i) < 0.0 ? contact.restitution : 0.0;
-    }
-    if (m > 0) {
-      const MatrixXd W = J * MinvJt;
-      const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(W);
-      // dP/dv = -W^+ diag(1 + e) J;  dP/de_i = -W^+ 1_i u_i.
-      const MatrixXd dP_dv = -cod.solve((VectorXd::Ones(m) + e).asDiagonal() * J);
-      VectorXd u_approaching = u;
-      for (Index i = 0; i < m; ++i)
-        if (!(u(i) < 0.0)) u_approaching(i) = 0.0;
-      const MatrixXd dP_de = -cod.solve(MatrixXd(u_approaching.asDiagonal()));
-      out.jacobian.topLeftCorner(N, N) += MinvJt * dP_dv;
-      for (Index i = 0; i < m; ++i) {
-        const Index col = N + 3 * active[i];
-        out.jacobian.block(0, col, N, 1) = MinvJt * dP_de.col(i);
-        for (Index k = 0; k < m; ++k) {
-          const Index row = N + 4 * active[k];
-          out.jacobian.block(row, 0, 1, N) = dP_dv.row(k);
-          out.jacobian(row, col) = dP_de(k, i);
-        }
-      }
-    }
-    for (Index c = 0; c < C; ++c) {
-      out.contacts[c].method = DerivativeMethod::kAnalytic;
-      if (out.result.impulses[c].normal_impulse > 0.0) {
-        // Friction raised from 0: one-sided differences of the solver.
-        fd_columns.push_back(N + 3 * c + 1);
-        fd_columns.push_back(N + 3 * c + 2);
-        out.contacts[c].at_switch = true;
-        out.contacts[c].switch_detail =
-            "frictionless: the friction columns are one-sided (friction raised from 0), "
-            "differenced";
-      }
-    }
-  } else if (!single_impulse_space) {
+  if (!analytic) {
+    // The switch flags found so far stay (they describe the answer); the modes are the answer's.
     out.method = DerivativeMethod::kFiniteDifference;
+    out.jacobian.setZero();
+    out.jacobian.topLeftCorner(N, N).setIdentity();
     for (Index k = 0; k < N + 3 * C; ++k) fd_columns.push_back(k);
-    for (ContactDerivativeMode& mode : out.contacts)
-      mode.method = DerivativeMethod::kFiniteDifference;
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      out.contacts[c].mode = modeOf(out.result.impulses[c]);
+      out.contacts[c].method = DerivativeMethod::kFiniteDifference;
+    }
   }
 
   // Differences of the solver itself, column by column.
-  const auto solve = [&](const std::vector<VectorXd>& v, const std::vector<ContactPoint>& cs) {
+  const auto solve = [&](const VectorXd& v, const std::vector<ContactPoint>& cs) {
     return evaluate(bodies, cs, options, end, v, out.velocity_offset, N);
   };
   for (const Index column : fd_columns) {
-    std::vector<VectorXd> v_plus = before, v_minus = before;
+    VectorXd v_plus = before, v_minus = before;
     std::vector<ContactPoint> c_plus = contacts, c_minus = contacts;
     double h = 0.0;
     bool central = true;
@@ -253,10 +266,11 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
       while (!(out.velocity_offset[b] >= 0 && column >= out.velocity_offset[b] &&
                column < out.velocity_offset[b] + bodies[b]->velocityCount()))
         ++b;
-      const Index k = column - out.velocity_offset[b];
-      h = kStep * std::max(1.0, before[b].cwiseAbs().maxCoeff());
-      v_plus[b](k) += h;
-      v_minus[b](k) -= h;
+      h = kStep * std::max(1.0, before.segment(out.velocity_offset[b], bodies[b]->velocityCount())
+                                    .cwiseAbs()
+                                    .maxCoeff());
+      v_plus(column) += h;
+      v_minus(column) -= h;
     } else {
       const Index c = (column - N) / 3, which = (column - N) % 3;
       ContactPoint& p = c_plus[c];
@@ -293,7 +307,8 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
       }
     }
   }
-  setVelocities(bodies, after);  // the prediction's velocities, as computeBodyResponse() leaves
+  // The prediction's velocities, as computeBodyResponse() leaves them (the differences moved them).
+  if (!fd_columns.empty()) setVelocities(bodies, out.velocity_offset, after);
   return out;
 }
 

@@ -1,7 +1,8 @@
 // Derivatives of robot impacts (core/body_impact_derivatives.h): the frictionless closed form
 // dv'/dv = I - (1 + e) M^-1 J^T (J M^-1 J^T)^-1 J on the shipped arm, and every block against
-// central differences of computeBodyResponse() taken here at random states (frictionless Newton,
-// analytic; with friction and under Stronge, the library's own differences), to 1e-6 relative.
+// central differences of computeBodyResponse() taken here at random states (Newton with and
+// without friction, one and several contacts; Poisson and Stronge at one contact; all analytic),
+// to 1e-6 relative.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -62,12 +63,14 @@ struct Scene {
   rb::ArticulatedBody arm;
   cr::RigidBody ball;
   bool with_ball = true;
+  Vector3d wall_velocity = Vector3d::Zero();  // the walls' prescribed motion [m/s]
   std::vector<cr::ContactPoint> contacts;
 
   VectorXd outputs(const VectorXd& input, const cr::SolverOptions& options) const {
     rb::ArticulatedBody a = arm;
     cr::RigidBody b = ball;
-    cr::RigidBody wall;
+    cr::RigidBody wall;  // immovable, moving at wall_velocity
+    wall.linear_velocity = wall_velocity;
     const int n = a.velocityCount();
     a.addVelocityChange(input.head(n) - a.velocity());
     if (with_ball) {
@@ -81,7 +84,9 @@ struct Scene {
       cs[c].static_friction = input(N + 3 * c + 1);
       cs[c].dynamic_friction = input(N + 3 * c + 2);
     }
-    std::vector<cr::BodyModel*> bodies{&a, with_ball ? static_cast<cr::BodyModel*>(&b) : &wall};
+    // Body 1: the sphere or a wall; body 2: a wall (immovable, no unknowns) in either case.
+    std::vector<cr::BodyModel*> bodies{&a, with_ball ? static_cast<cr::BodyModel*>(&b) : &wall,
+                                       &wall};
     const cr::BodyResponse r = cr::computeBodyResponse(bodies, cs, options);
     VectorXd out(N + 4 * cs.size());
     out.head(n) = a.velocity();
@@ -119,8 +124,11 @@ struct Scene {
   cr::BodyImpactDerivatives derivatives(const cr::SolverOptions& options) const {
     rb::ArticulatedBody a = arm;
     cr::RigidBody b = ball;
-    cr::RigidBody wall;
-    std::vector<cr::BodyModel*> bodies{&a, with_ball ? static_cast<cr::BodyModel*>(&b) : &wall};
+    cr::RigidBody wall;  // immovable, moving at wall_velocity
+    wall.linear_velocity = wall_velocity;
+    // Body 1: the sphere or a wall; body 2: a wall (immovable, no unknowns) in either case.
+    std::vector<cr::BodyModel*> bodies{&a, with_ball ? static_cast<cr::BodyModel*>(&b) : &wall,
+                                       &wall};
     return cr::computeBodyImpactDerivatives(bodies, contacts, options);
   }
 };
@@ -180,9 +188,9 @@ TEST(RobotDerivatives, FrictionlessArmAgainstAWallIsTheClosedForm) {
 }
 
 // Every block against the test's central differences of the solver at random states: the arm
-// struck by a free sphere at two points (Newton frictionless: the analytic active-set formula,
-// two contacts through the exact solver), with friction under Newton (the library's differences)
-// and under Stronge (the integration's sensitivity): to 1e-6 relative.
+// struck by a free sphere at two points (Newton frictionless: two contacts through the exact
+// solver), with friction under Newton (the closed form's derivative) and under Stronge (the
+// integration's sensitivity), all analytic: to 1e-6 relative.
 TEST(RobotDerivatives, EveryBlockMatchesCentralDifferencesOfTheSolver) {
   std::mt19937 rng(26);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -195,7 +203,7 @@ TEST(RobotDerivatives, EveryBlockMatchesCentralDifferencesOfTheSolver) {
   const std::vector<Case> cases = {
       {cr::ImpactLaw::kNewton, 0.0, 0.0, 1, cr::DerivativeMethod::kAnalytic},
       {cr::ImpactLaw::kNewton, 0.0, 0.0, 2, cr::DerivativeMethod::kAnalytic},
-      {cr::ImpactLaw::kNewton, 0.6, 0.4, 1, cr::DerivativeMethod::kFiniteDifference},
+      {cr::ImpactLaw::kNewton, 0.6, 0.4, 1, cr::DerivativeMethod::kAnalytic},
       {cr::ImpactLaw::kStronge, 0.6, 0.4, 1, cr::DerivativeMethod::kAnalytic}};
   int checked = 0;
   for (const Case& test : cases) {
@@ -293,4 +301,108 @@ TEST(RobotDerivatives, ImpulseSpaceOneContactIsAnalyticAndMatchesCentralDifferen
     EXPECT_GE(sticking, 1);
     EXPECT_GE(sliding, 1);
   }
+}
+
+// Newton's law with friction on the shipped arm, analytic (the closed form's derivative at one
+// contact, the exact solver's final mode at several), every column (joint velocities, the
+// sphere's twist, each contact's e, mu_s, mu_d) against the test's central differences of
+// computeBodyResponse(), to 1e-6 relative, at random states and coefficients with mu_s > mu_d:
+// - one contact: the hand struck by a free sphere, or moving into an immovable wall (which moves:
+//   its prescribed velocity enters the contact's u);
+// - several contacts, one island: the sphere on two points of link7 (on its surface), and with
+//   the hand against the wall as a third contact.
+// States with a contact at a reported switch are skipped (the difference would straddle it); the
+// outcomes must include sticking and sliding contacts at one and at several contacts, and
+// sticking contacts in the band mu_d P_n < |P_t| <= mu_s P_n, where the answer depends on neither
+// coefficient (zero friction columns), though the sliding impulse would take mu_d.
+TEST(RobotDerivatives, NewtonWithFrictionIsAnalyticAndMatchesCentralDifferences) {
+  std::mt19937 rng(2626);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), mu(0.05, 1.5), ratio(0.2, 0.9),
+      restitution(0.1, 0.9);
+  const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+  int checked[2] = {0, 0}, sticking[2] = {0, 0}, sliding[2] = {0, 0}, band = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    Scene s{randomArm(rng)};
+    const int variant = trial % 4;  // 0: sphere, 1: wall, 2: sphere on 2 points, 3: and the wall
+    const int hand = s.arm.linkIndex("hand"), link7 = s.arm.linkIndex("link7");
+    const auto coefficients = [&](cr::ContactPoint& contact) {
+      contact.restitution = restitution(rng);
+      contact.static_friction = mu(rng);
+      contact.dynamic_friction = ratio(rng) * contact.static_friction;
+    };
+    const Vector3d p = s.arm.linkPose(variant == 0 ? hand : link7) * Vector3d(0.02, -0.01, 0.05);
+    if (variant != 1) {
+      const int link = variant == 0 ? hand : link7;
+      const Vector3d n = Vector3d(unit(rng), unit(rng), unit(rng)).normalized();  // ball -> arm
+      s.ball = sphere(1.5, 0.05, p - 0.05 * n,
+                      (n.dot(s.arm.partPointVelocity(link, p)) + 2.0) * n +
+                          0.8 * Vector3d(unit(rng), unit(rng), unit(rng)));
+      cr::ContactPoint contact(1, 0, p, n, 0.0, 0.0, 0.0);
+      contact.part_b = link;
+      coefficients(contact);
+      s.contacts.push_back(contact);
+      if (variant >= 2) {
+        const Vector3d n2 = (n + 0.5 * n.unitOrthogonal()).normalized();
+        cr::ContactPoint second(1, 0, s.ball.com + 0.05 * n2, n2, 0.0, 0.0, 0.0);
+        second.part_b = link7;
+        coefficients(second);
+        s.contacts.push_back(second);
+      }
+    } else {
+      s.with_ball = false;
+    }
+    if (variant == 1 || variant == 3) {
+      // The hand against a wall (a body without unknowns, moving: index 1 when there is no
+      // sphere, a third body otherwise) that it moves towards.
+      s.wall_velocity = 0.3 * Vector3d(unit(rng), unit(rng), unit(rng));
+      const Vector3d q = s.arm.linkPose(hand) * Vector3d(0.02, -0.01, 0.04);
+      const Vector3d v = s.arm.partPointVelocity(hand, q) - s.wall_velocity;
+      Vector3d n = (v + 0.8 * v.norm() * Vector3d(unit(rng), unit(rng), unit(rng))).normalized();
+      if (n.dot(v) <= 0.2 * v.norm()) continue;
+      cr::ContactPoint contact(0, variant == 1 ? 1 : 2, q, n, 0.0, 0.0, 0.0);  // arm -> wall
+      contact.part_a = hand;
+      coefficients(contact);
+      s.contacts.push_back(contact);
+    }
+    const cr::BodyImpactDerivatives d = s.derivatives(options);
+    ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
+    bool clear = true;
+    for (std::size_t c = 0; c < s.contacts.size(); ++c) {
+      EXPECT_EQ(d.contacts[c].method, cr::DerivativeMethod::kAnalytic);
+      const cr::ContactImpulse& impulse = d.result.impulses[c];
+      clear &= !d.contacts[c].at_switch &&
+               (impulse.normal_impulse > 1e-3 || impulse.normal_velocity_after > 1e-3);
+    }
+    if (!clear) continue;
+    const int N = static_cast<int>(d.velocity_count);
+    const MatrixXd want = s.differences(options, N + 3 * static_cast<int>(s.contacts.size()), 1e-5);
+    SCOPED_TRACE("trial " + std::to_string(trial) + ", variant " + std::to_string(variant));
+    EXPECT_LE(relativeError(d.jacobian, want), 1e-6);
+    const int several = s.contacts.size() > 1 ? 1 : 0;
+    ++checked[several];
+    for (std::size_t c = 0; c < s.contacts.size(); ++c) {
+      const cr::ContactImpulse& impulse = d.result.impulses[c];
+      sticking[several] += d.contacts[c].mode == cr::ImpactMode::kSticking;
+      sliding[several] += d.contacts[c].mode == cr::ImpactMode::kSliding;
+      const double friction = impulse.friction_impulse.norm();
+      if (d.contacts[c].mode == cr::ImpactMode::kSticking &&
+          friction > s.contacts[c].dynamic_friction * impulse.normal_impulse) {
+        ++band;
+        // In the band the answer depends on neither friction coefficient.
+        EXPECT_LE(relativeError(d.jacobian.middleCols(N + 3 * c + 1, 2),
+                                want.middleCols(N + 3 * c + 1, 2)),
+                  1e-6);
+      }
+    }
+  }
+  std::printf(
+      "one contact: %d states (%d sticking, %d sliding); several: %d states (%d sticking, "
+      "%d sliding contacts); %d sticking in the band mu_d P_n < |P_t| <= mu_s P_n\n",
+      checked[0], sticking[0], sliding[0], checked[1], sticking[1], sliding[1], band);
+  for (int several = 0; several < 2; ++several) {
+    EXPECT_GE(checked[several], 10);
+    EXPECT_GE(sticking[several], 2);
+    EXPECT_GE(sliding[several], 2);
+  }
+  EXPECT_GE(band, 2);
 }

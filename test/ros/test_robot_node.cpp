@@ -398,7 +398,7 @@ TEST_F(RobotNodeTest, FloatingBaseConservesMomentum) {
 // strike through the box's centre under Newton: the block of the arm's joint velocities after by
 // those before is I - (1 + e) M^-1 j^T j / (j M^-1 j^T + 1 / m_box) with j = n^T J(p) (J and M of
 // the reference model), analytic, rows and columns labelled "robots[0].joint_state.velocity[j]";
-// with friction, finite differences, the same labels.
+// with friction, analytic too (Newton's closed form at one contact), the same labels.
 TEST_F(RobotNodeTest, DerivativesWithRobotsThroughTheService) {
   const cr::robot::ArticulatedBody arm = publishedArm();
   const Strike strike = strikeOf(arm);
@@ -433,10 +433,10 @@ TEST_F(RobotNodeTest, DerivativesWithRobotsThroughTheService) {
   srv.request.contacts[0].dynamic_friction = 0.4;
   const auto frictional = call(srv);
   ASSERT_TRUE(frictional.success) << frictional.message;
-  EXPECT_EQ(frictional.derivatives.method, "finite_difference");
+  EXPECT_EQ(frictional.derivatives.method, "analytic");
   EXPECT_EQ(frictional.derivatives.column_labels, d.column_labels);
   ASSERT_EQ(frictional.derivatives.contacts.size(), 1u);
-  EXPECT_EQ(frictional.derivatives.contacts[0].method, "finite_difference");
+  EXPECT_EQ(frictional.derivatives.contacts[0].method, "analytic");
 }
 
 // The fraction of e in [a, b] (t = (e - a) / (b - a) in [0, 1]) with |x0 + t (x1 - x0)| > limit.

@@ -42,22 +42,28 @@ struct BodyImpactDerivatives {
 };
 
 /// Predicts the impact as computeBodyResponse() does (the bodies are left at their post-impact
-/// velocities, as it leaves them) and differentiates it. Analytic under Newton's law with the
-/// automatic or exact solver when every contact is frictionless and every island was solved in
-/// closed form or by the exact solver (not iteratively, not as resting contacts): on the final
-/// active set A (the contacts with an impulse), W_AA P_A = -(1 + e_A) u_A along the normals, so
-/// dP_A / dv = -W_AA^+ (1 + e_A) J_A and dP_A / de_i = -W_AA^+ 1_i u_i (least-norm for redundant
-/// contacts), the friction columns by one-sided differences (friction raised from 0, flagged).
-/// Analytic too: one contact under Poisson or Stronge (integrated to its end), from its 3x3
-/// W = J M^-1 J^T and u = J v by differentiateImpulseSpace(): dv'/dv = I + M^-1 J^T (dP/du) J,
-/// dv'/dtheta = M^-1 J^T dP/dtheta, with that function's mode and switch flags.
-/// Everything else (friction under Newton, several contacts under Poisson or Stronge, the
-/// iterative solver) by central differences of
-/// computeBodyResponse() itself (one-sided where a coefficient sits at its bound), reported per
-/// contact as kFiniteDifference; the differences are not mode-checked (a column across a
-/// stick/slip switch mixes both sides). options.time_budget bounds the whole call (the prediction
-/// and every perturbed solve): SolverTimeout when it runs out. Throws what computeBodyResponse()
-/// throws.
+/// velocities, as it leaves them) and differentiates it, island by island, in contact space: an
+/// island's contacts have the Jacobian J (3m x N, rows J_b - J_a of each contact's point, from
+/// BodyModel::partPointJacobian()), M^-1 J^T (partInverseMassJacobianTranspose()) and u = J v (+
+/// the velocity of a body without unknowns); from dP/du and dP/d(e, mu_s, mu_d) of its contacts,
+/// dv'/dv = I + M^-1 J^T (dP/du) J, dv'/dtheta = M^-1 J^T dP/dtheta (contact_derivatives.h).
+/// Analytic (each contact reported kAnalytic with its mode and switch flags, as
+/// computeImpactDerivatives() reports them) for
+/// - Newton's law, one contact under the automatic solver: the closed form's derivative
+///   (sticking, sliding, frictionless; differentiateNewtonContact());
+/// - Newton's law, an island the exact solver answered: implicit differentiation of its final
+///   mode (no impulse, sticking, sliding on a pyramid edge or facet per contact;
+///   differentiateNewtonIsland());
+/// - one contact under Poisson or Stronge integrated to its end: the integration's sensitivity
+///   (differentiateImpulseSpace());
+/// - islands without an impulse (nothing approaching, resting contacts): the identity.
+/// Everything else (the iterative solver or the exact solver's iterative fallback, several
+/// contacts under Poisson or Stronge, the one-pass law, a singular K, redundant contacts sliding
+/// with friction) makes every column a central difference of computeBodyResponse() itself
+/// (one-sided where a coefficient sits at its bound), each contact reported kFiniteDifference;
+/// the differences are not mode-checked (a column across a stick/slip switch mixes both sides).
+/// options.time_budget bounds the whole call (the prediction and every perturbed solve):
+/// SolverTimeout when it runs out. Throws what computeBodyResponse() throws.
 BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>& bodies,
                                                    const std::vector<ContactPoint>& contacts,
                                                    const SolverOptions& options = {});

@@ -122,6 +122,11 @@ struct DerivativeColumns {
   bool velocities = true;  ///< the pre-impact twists' columns
   /// One entry per coefficient column (3 per contact: e, mu_s, mu_d), true: computed; empty: all.
   std::vector<bool> coefficients;
+
+  /// Whether coefficient column k (3 c + 0, 1, 2 for contact c's e, mu_s, mu_d) is asked for.
+  bool wantsCoefficient(Eigen::Index k) const {
+    return coefficients.empty() || coefficients[static_cast<std::size_t>(k)];
+  }
 };
 
 /// computeImpactDerivatives() on a scene validate() has accepted (`contact_bodies` its answer),

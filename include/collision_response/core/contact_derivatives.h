@@ -1,0 +1,106 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "collision_response/core/contact_impulse.h"
+#include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/solve_report.h"
+#include "collision_response/core/solver_options.h"
+
+namespace collision_response::core {
+
+/// The contact-space part of the derivatives of the impact map, shared by the rigid-body path
+/// (computeImpactDerivatives()) and the general-body path (computeBodyImpactDerivatives()): which
+/// islands are analytic, the switch flags, the islands without an impulse, and Newton's law
+/// differentiated in contact space at the answer's final mode (docs/physics.md, "Derivatives of
+/// the impact map", "What is analytic"): the derivatives of the impulses P of one island's contacts
+/// with respect to their pre-impact relative velocities and their coefficients. Nothing here knows
+/// what the bodies are: the caller gives the contacts' Jacobian J (u = J v, v the velocity
+/// unknowns it chooses: a rigid island's twists, or every body's unknowns, a robot's joint
+/// velocities among them) and M^-1 J^T, and maps dP back to its own rows
+/// (dv'/dv = I + M^-1 J^T dP/dv, dv'/dtheta = M^-1 J^T dP/dtheta).
+
+/// How an island that got an impulse is differentiated analytically, from how it was solved.
+enum class AnalyticIsland {
+  kNone,              ///< not analytically: differenced
+  kNewtonClosedForm,  ///< one contact, Newton's closed form: differentiateNewtonContact()
+  kNewtonExact,       ///< Newton, the exact solver: differentiateNewtonIsland()
+  /// One contact under Poisson or Stronge integrated to its end (converged, no fallback):
+  /// differentiateImpulseSpace() (impulse_space_derivatives.h).
+  kImpulseSpaceContact,
+};
+
+/// The analytic path for an island solved as `island` reports under `law`.
+AnalyticIsland analyticIslandOf(const SolveReport& island, ImpactLaw law);
+
+/// A contact's coefficients (dimensionless): e in [0, 1], 0 <= mu_d <= mu_s.
+struct NewtonCoefficients {
+  double restitution = 0.0;
+  double static_friction = 0.0;
+  double dynamic_friction = 0.0;
+  bool frictionless() const { return static_friction == 0.0 && dynamic_friction == 0.0; }
+};
+
+/// Column offsets of a contact's coefficients in dP/dtheta (3 per contact: e, mu_s, mu_d).
+constexpr int kRestitutionColumn = 0, kStaticColumn = 1, kDynamicColumn = 2;
+
+/// Flags `mode` at a switch with `detail` (appended to any earlier detail, "; " between).
+void flagSwitch(ContactDerivativeMode& mode, const std::string& detail);
+
+/// An island that got no impulse (SolvedBy::kNone: nothing approaches; resting contacts, whose
+/// answer is forces): its contacts are marked kNoImpulse, and one touching at u_n = 0 (within
+/// kSwitchTolerance of the island's largest |u_n|) is flagged, since approaching would start an
+/// impact. False (nothing marked) for an island with an impact. `impulses`, `modes`: per contact
+/// of the whole answer (the island's SolveReport::contacts index them).
+bool markNoImpulseIsland(const SolveReport& island, const std::vector<ContactImpulse>& impulses,
+                         std::vector<ContactDerivativeMode>& modes);
+
+/// One contact solved by the closed form of "Newton restitution with Coulomb friction"
+/// (solveSingleContact()): dP/du (3 x 3) and dP/d(e, mu_s, mu_d) (3 x 3, columns as above) from
+/// its unit normal n (from a to b), its K = J M^-1 J^T [1/kg] and its pre-impact relative velocity
+/// u = v_b - v_a [m/s] (world). Sets `mode` (its mode, kAnalytic, the switch flags). False when K
+/// is singular or a sliding contact has no slip direction (the caller then differences).
+bool differentiateNewtonContact(const Eigen::Vector3d& n, const Eigen::Matrix3d& K,
+                                const Eigen::Vector3d& u, const NewtonCoefficients& coefficients,
+                                Eigen::Matrix3d& dP_du, Eigen::Matrix3d& dP_dtheta,
+                                ContactDerivativeMode& mode);
+
+/// An island as the exact solver answered it, in contact space: m contacts, rows 3i..3i+2 of J
+/// those of contact i (world x, y, z of u_i = v_b - v_a at its point).
+struct NewtonIsland {
+  std::vector<int> contacts;  ///< the caller's contact indices (of `modes`, of `columns`)
+  Eigen::MatrixXd J;          ///< 3m x L: u = J v (+ the part of bodies without unknowns)
+  Eigen::MatrixXd MinvJt;     ///< L x 3m: M^-1 J^T
+  /// Per contact (world): the unit normal, u before and after [m/s], the impulse P on b [N s].
+  std::vector<Eigen::Vector3d> normal, u, u_after, P;
+  std::vector<NewtonCoefficients> coefficients;  ///< per contact
+  /// Free rigid bodies only, v their twists, 6 unknowns each (v [m/s], w [rad/s]): per body its
+  /// mass [kg] and world inertia [kg m^2], for the body-space solve of a face's redundant
+  /// sticking contacts (W^+ = J G^-1 M G^-1 J^T). Empty for other bodies (W is decomposed).
+  std::vector<double> mass;
+  std::vector<Eigen::Matrix3d> inertia;
+
+  /// W = J M^-1 J^T (3m x 3m), formed on first use.
+  const Eigen::MatrixXd& W() const;
+
+ private:
+  mutable Eigen::MatrixXd W_;
+};
+
+/// Implicit differentiation of the exact solver's answer on `island` (solveExact()): each contact
+/// contributes three equations of its final mode (no impulse, sticking, sliding on a pyramid edge
+/// or facet), F(P, u, theta) = 0, and F_P dP = -(F_u du + F_theta dtheta). `all_sticking`: the
+/// answer came without a pivot (SolveReport::iterations 0: every contact sticking inside its
+/// static cone). Computes dP/dv (3m x L; when columns.velocities, else 0) and dP/dtheta (3m x 3m,
+/// per contact e, mu_s, mu_d; only the coefficient columns `columns` asks for, by the caller's
+/// contact index, the rest 0) and sets modes[contacts[i]] (mode, kAnalytic, switch flags). False
+/// for redundant contacts sliding with friction (impulses not unique: the caller differences;
+/// the contacts are flagged).
+bool differentiateNewtonIsland(const NewtonIsland& island, bool all_sticking,
+                               const DerivativeColumns& columns, Eigen::MatrixXd& dP_dv,
+                               Eigen::MatrixXd& dP_dtheta,
+                               std::vector<ContactDerivativeMode>& modes);
+
+}  // namespace collision_response::core

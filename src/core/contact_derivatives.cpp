@@ -1,0 +1,508 @@
+#include "collision_response/core/contact_derivatives.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "collision_response/core/constants.h"
+#include "collision_response/core/contact_space.h"
+#include "collision_response/core/exact_solver.h"
+
+namespace collision_response::core {
+namespace {
+
+using Eigen::Index;
+using Eigen::Matrix3d;
+using Eigen::MatrixXd;
+using Eigen::Vector3d;
+
+constexpr int kD = kPyramidDirections;
+// The exact solver's own thresholds (exact_solver.cpp): a contact whose slip exceeds kAlignedSlip
+// of its |u| gets its pyramid turned to the slip; one whose |u'_t| exceeds kSlipTolerance of the
+// island's largest pre-impact |u| slides.
+constexpr double kAlignedSlip = 1e-6;
+constexpr double kSlipTolerance = 1e-9;
+// Relative round-off below which a pyramid coefficient beta_k counts as 0 (an edge, not a facet).
+constexpr double kPyramidRoundOff = 1e-8;
+constexpr int kRestitution = kRestitutionColumn, kDynamic = kDynamicColumn;
+
+}  // namespace
+
+void flagSwitch(ContactDerivativeMode& mode, const std::string& detail) {
+  mode.at_switch = true;
+  if (!mode.switch_detail.empty()) mode.switch_detail += "; ";
+  mode.switch_detail += detail;
+}
+
+AnalyticIsland analyticIslandOf(const SolveReport& island, ImpactLaw law) {
+  const bool one = island.contacts.size() == 1;
+  if (law == ImpactLaw::kNewton) {
+    if (island.method == SolvedBy::kClosedForm && one) return AnalyticIsland::kNewtonClosedForm;
+    if (island.method == SolvedBy::kExact) return AnalyticIsland::kNewtonExact;
+    return AnalyticIsland::kNone;
+  }
+  const bool integrated = (island.method == SolvedBy::kImpulseSpace ||
+                           island.method == SolvedBy::kSimultaneousImpulseSpace) &&
+                          island.converged &&
+                          !(island.impulse_space && island.impulse_space->fallback);
+  return (law == ImpactLaw::kPoisson || law == ImpactLaw::kStronge) && one && integrated
+             ? AnalyticIsland::kImpulseSpaceContact
+             : AnalyticIsland::kNone;
+}
+
+bool markNoImpulseIsland(const SolveReport& island, const std::vector<ContactImpulse>& impulses,
+                         std::vector<ContactDerivativeMode>& modes) {
+  const bool impact = island.method != SolvedBy::kNone &&
+                      island.method != SolvedBy::kRestingClosedForm &&
+                      island.method != SolvedBy::kRestingIterative;
+  if (impact) return false;
+  double speed = 0.0;
+  for (const int c : island.contacts) {
+    speed = std::max(speed, std::abs(impulses[c].normal_velocity_before));
+  }
+  for (const int c : island.contacts) {
+    modes[c].mode = ImpactMode::kNoImpulse;
+    if (impulses[c].normal_velocity_before <= kSwitchTolerance * speed) {
+      flagSwitch(modes[c], "u_n = 0: touching; no-impulse side (approaching starts an impact)");
+    }
+  }
+  return true;
+}
+
+const MatrixXd& NewtonIsland::W() const {
+  // Coefficient-wise product: the island's matrices are small (3m, L of a few dozen), where the
+  // blocked product's set-up costs more than the product.
+  if (W_.size() == 0) W_ = J.lazyProduct(MinvJt);
+  return W_;
+}
+
+// ---- Newton, one contact in closed form (single_contact.h) ----------------------------------
+
+bool differentiateNewtonContact(const Vector3d& n, const Matrix3d& K, const Vector3d& u,
+                                const NewtonCoefficients& contact, Matrix3d& dP_du,
+                                Matrix3d& dP_dtheta, ContactDerivativeMode& mode) {
+  const double e = contact.restitution, mu_s = contact.static_friction,
+               mu_d = contact.dynamic_friction;
+  const double u_n = n.dot(u);
+  dP_du.setZero();
+  dP_dtheta.setZero();
+  mode.method = DerivativeMethod::kAnalytic;
+  if (!(u_n < 0.0)) {
+    mode.mode = ImpactMode::kNoImpulse;
+    return true;
+  }
+  if (-u_n <= kSwitchTolerance * u.norm()) {
+    flagSwitch(mode,
+               "u_n = 0: the contact barely approaches; approaching side (a larger u_n separates)");
+  }
+  const double trace = K.trace();
+  if (!(K.determinant() > 1e-12 * trace * trace * trace)) return false;
+  const Matrix3d K_inv = K.inverse();
+  const Matrix3d nnT = n * n.transpose();
+  const Matrix3d tangential = Matrix3d::Identity() - nnT;
+  // Sticking impulse q = K^-1 (-u - e u_n n) and its derivatives.
+  const Vector3d q = K_inv * (-u - e * u_n * n);
+  const Matrix3d dq_du = -K_inv * (Matrix3d::Identity() + e * nnT);
+  const Vector3d dq_de = -u_n * (K_inv * n);
+  const bool frictionless = contact.frictionless();
+  const double q_n = q.dot(n);
+  const Vector3d q_t = q - q_n * n;
+  const double q_t_norm = q_t.norm();
+  if (frictionless) {
+    // P = -(1 + e) u_n / K_nn n.
+    const double K_nn = n.dot(K * n);
+    mode.mode = ImpactMode::kSliding;
+    dP_du = (-(1.0 + e) / K_nn) * nnT;
+    dP_dtheta.col(kRestitution) = (-u_n / K_nn) * n;
+    // mu_s alone (mu_d = 0) keeps the frictionless impulse (the contact slides with mu_d = 0);
+    // mu_d (with mu_s) slides along the sticking impulse's tangential direction: one-sided.
+    if (q_t_norm > 0.0) {
+      const Vector3d s = q_t / q_t_norm;
+      const double alpha = -(1.0 + e) * u_n / K_nn;
+      const double dalpha = -alpha * n.dot(K * s) / K_nn;
+      dP_dtheta.col(kDynamic) = dalpha * n + alpha * s;
+    }
+    flagSwitch(mode,
+               "frictionless: the friction columns are one-sided, for increasing coefficients");
+    return true;
+  }
+  const double limit = mu_s * q_n;
+  if (q_n >= 0.0 && q_t_norm <= limit) {
+    mode.mode = ImpactMode::kSticking;
+    dP_du = dq_du;
+    dP_dtheta.col(kRestitution) = dq_de;
+    if (q_t_norm >= (1.0 - kSwitchTolerance) * limit) {
+      flagSwitch(mode, "stick/slide: |P_t| = mu_s P_n; sticking side");
+    }
+    if (q_n <= kSwitchTolerance * q.norm())
+      flagSwitch(mode, "P_n = 0 while sticking; sticking side");
+    return true;
+  }
+  if (q_t_norm == 0.0) return false;  // sliding without a direction: numerically
+  const Vector3d s = q_t / q_t_norm;
+  const Vector3d direction = n + mu_d * s;
+  const double denominator = n.dot(K * direction);
+  if (!(denominator > 0.0)) {
+    // Painleve-like: the sticking impulse is returned.
+    mode.mode = ImpactMode::kSticking;
+    dP_du = dq_du;
+    dP_dtheta.col(kRestitution) = dq_de;
+    flagSwitch(mode, "no sliding impulse exists (n^T K (n + mu_d d) <= 0): the sticking impulse");
+    return true;
+  }
+  mode.mode = ImpactMode::kSliding;
+  if (q_n >= 0.0 && q_t_norm <= (1.0 + kSwitchTolerance) * limit) {
+    flagSwitch(mode, "stick/slide: |P_t| = mu_s P_n; sliding side");
+  }
+  if (denominator <= kSwitchTolerance * n.dot(K * n)) {
+    flagSwitch(mode, "sliding impulse near n^T K (n + mu_d d) = 0");
+  }
+  // P = alpha (n + mu_d s), alpha = -(1 + e) u_n / (n^T K (n + mu_d s)), s = q_t / |q_t|.
+  const double alpha = -(1.0 + e) * u_n / denominator;
+  const Matrix3d ds_dq = (Matrix3d::Identity() - s * s.transpose()) * tangential / q_t_norm;
+  const Vector3d nK = K * n;  // K symmetric: n^T K x = nK . x
+  // Through s (u, e), and directly through u_n (u), e and mu_d.
+  const Matrix3d ds_du = ds_dq * dq_du;
+  const Vector3d ds_de = ds_dq * dq_de;
+  const Eigen::RowVector3d dden_du = mu_d * nK.transpose() * ds_du;
+  const double dden_de = mu_d * nK.dot(ds_de);
+  const double dden_dmu = nK.dot(s);
+  const Eigen::RowVector3d dalpha_du =
+      (-(1.0 + e) / denominator) * n.transpose() - (alpha / denominator) * dden_du;
+  const double dalpha_de = -u_n / denominator - (alpha / denominator) * dden_de;
+  const double dalpha_dmu = -(alpha / denominator) * dden_dmu;
+  dP_du = direction * dalpha_du + alpha * mu_d * ds_du;
+  dP_dtheta.col(kRestitution) = dalpha_de * direction + alpha * mu_d * ds_de;
+  dP_dtheta.col(kDynamic) = dalpha_dmu * direction + alpha * s;
+  return true;
+}
+
+namespace {
+
+// ---- Newton, exact solver: the final active set, implicit differentiation -------------------
+
+// The pyramid of a contact as the exact solver builds it: d_k = cos(2 pi k / D) t1 +
+// sin(2 pi k / D) t2, t1 along the pre-impact slip when it slides (then dt1/du = T1), otherwise
+// tangentBasis(n) (T1 = 0).
+struct Pyramid {
+  Vector3d t1, t2;
+  Matrix3d T1 = Matrix3d::Zero();
+  Vector3d direction(int k) const {
+    const double angle = 2.0 * kPi * k / kD;
+    return std::cos(angle) * t1 + std::sin(angle) * t2;
+  }
+  // d d_k / du: (cos I + sin [n]x) T1, t2 = n x t1.
+  Matrix3d derivative(int k, const Vector3d& n) const {
+    const double angle = 2.0 * kPi * k / kD;
+    return (std::cos(angle) * Matrix3d::Identity() + std::sin(angle) * skew(n)) * T1;
+  }
+};
+
+Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
+  Pyramid p;
+  const Vector3d slip = u - u.dot(n) * n;
+  const double slip_norm = slip.norm();
+  if (slip_norm > kAlignedSlip * u.norm()) {
+    p.t1 = slip / slip_norm;
+    p.t2 = n.cross(p.t1);
+    p.T1 = (Matrix3d::Identity() - p.t1 * p.t1.transpose()) *
+           (Matrix3d::Identity() - n * n.transpose()) / slip_norm;
+  } else {
+    tangentBasis(n, p.t1, p.t2);
+  }
+  return p;
+}
+
+// The all-sticking system F_P dP = -rhs with F_P = W = J M^-1 J^T (every contact's rows those of
+// a sticking contact), in the least-norm sense of the general path below without decomposing the
+// 3m x 3m W: with J of full column rank (more contact rows than body unknowns, a face on its
+// corners), W^+ = J G^-1 M G^-1 J^T, G = J^T J (6L x 6L); with W regular (3m <= 6L), W^-1. False
+// when the rank condition does not hold clearly (the caller then decomposes F_P).
+// Relative size of the smallest pivot of a Cholesky factor (squared) for the rank to count as
+// full: well above round-off, well below any physical mass ratio's effect on G or W.
+constexpr double kRegular = 1e-10;
+
+template <typename Llt>
+bool regular(const Llt& llt) {
+  if (llt.info() != Eigen::Success) return false;
+  const auto pivots = llt.matrixLLT().diagonal().cwiseAbs2().eval();
+  return pivots.minCoeff() > kRegular * pivots.maxCoeff();
+}
+
+// G^-1 b for every column b of `columns`, in place: column by column for a fixed size (inlined
+// kernels), at once otherwise.
+template <int N>
+void solveColumns(const Eigen::LLT<Eigen::Matrix<double, N, N>>& G,
+                  Eigen::Matrix<double, N, Eigen::Dynamic>& columns) {
+  if constexpr (N == Eigen::Dynamic) {
+    columns = G.solve(columns).eval();
+  } else {
+    for (Index k = 0; k < columns.cols(); ++k) {
+      const Eigen::Matrix<double, N, 1> b = columns.col(k);
+      columns.col(k) = G.solve(b);
+    }
+  }
+}
+
+// The body-space least-norm solve, G of size N x N (N = 6L; fixed for one body, the common case,
+// where Eigen's fixed-size kernels avoid the blocked ones' set-up).
+template <int N>
+bool solveStickingBodySpace(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd& solution) {
+  using Square = Eigen::Matrix<double, N, N>;
+  using Tall = Eigen::Matrix<double, N, Eigen::Dynamic>;
+  const Index L = s.J.cols();
+  const Eigen::LLT<Square> G(Square(s.J.transpose().lazyProduct(s.J)));
+  if (!regular(G)) return false;
+  // x = G^-1 J^T rhs (the bodies' velocity change, up to sign), then J G^-1 M x.
+  Tall x = s.J.transpose().lazyProduct(rhs);
+  solveColumns(G, x);
+  Tall Mx(L, x.cols());
+  for (Index l = 0; l < L / 6; ++l) {
+    const auto b = static_cast<std::size_t>(l);
+    Mx.template middleRows<3>(6 * l).noalias() = s.mass[b] * x.template middleRows<3>(6 * l);
+    Mx.template middleRows<3>(6 * l + 3).noalias() =
+        s.inertia[b] * x.template middleRows<3>(6 * l + 3);
+  }
+  if (!Mx.allFinite()) return false;  // a singular inertia: decomposed instead
+  solveColumns(G, Mx);
+  solution = s.J.lazyProduct(Mx);
+  return true;
+}
+
+bool solveSticking(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd& solution) {
+  const Index rows = s.J.rows(), L = s.J.cols();
+  if (rows > L) {
+    if (s.mass.empty()) return false;  // not rigid bodies: W is decomposed
+    return L == 6 ? solveStickingBodySpace<6>(s, rhs, solution)
+                  : solveStickingBodySpace<Eigen::Dynamic>(s, rhs, solution);
+  }
+  const Eigen::LLT<MatrixXd> W(s.W());
+  if (!regular(W)) return false;
+  solution = W.solve(rhs);
+  return true;
+}
+
+}  // namespace
+
+bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
+                               const DerivativeColumns& columns, MatrixXd& dP_dv,
+                               MatrixXd& dP_dtheta, std::vector<ContactDerivativeMode>& modes) {
+  const Index m = static_cast<Index>(s.contacts.size());
+  MatrixXd F_P = MatrixXd::Zero(3 * m, 3 * m), F_u = MatrixXd::Zero(3 * m, 3 * m),
+           F_theta = MatrixXd::Zero(3 * m, 3 * m);
+  double u_reference = 0.0, P_scale = 0.0;
+  for (Index i = 0; i < m; ++i) {
+    u_reference = std::max(u_reference, s.u[i].norm());
+    P_scale = std::max(P_scale, s.P[i].norm());
+  }
+  const double facet = 1.0 + std::cos(2.0 * kPi / kD);
+  bool frictional_sliding = false;   // F_P then depends on the inputs (pyramid, mu)
+  bool every_row_sticking = true;    // F_P = W
+  std::vector<Index> sticking_rows;  // first rows of the sticking contacts
+  sticking_rows.reserve(static_cast<std::size_t>(m));
+  for (Index i = 0; i < m; ++i) {
+    const NewtonCoefficients& contact = s.coefficients[i];
+    ContactDerivativeMode& mode = modes[s.contacts[i]];
+    mode.method = DerivativeMethod::kAnalytic;
+    const Vector3d& n = s.normal[i];
+    const Vector3d& u = s.u[i];
+    const Vector3d& u_after = s.u_after[i];
+    const Vector3d& P = s.P[i];
+    const double e = contact.restitution, mu_s = contact.static_friction,
+                 mu_d = contact.dynamic_friction;
+    const double u_n = n.dot(u), P_n = n.dot(P);
+    const bool approaching = u_n < 0.0;
+    const double target = approaching ? -e * u_n : 0.0;
+    const Index r = 3 * i;
+    if (std::abs(u_n) <= kSwitchTolerance * u_reference) {
+      flagSwitch(mode, "u_n = 0: the target normal velocity switches between -e u_n and 0");
+    }
+    const Vector3d P_t = P - P_n * n;
+    const Vector3d slip_after = u_after - u_after.dot(n) * n;
+    const double slip = slip_after.norm();
+    const Pyramid pyramid = pyramidOf(n, u);
+    Vector3d E1, E2;
+    tangentBasis(n, E1, E2);
+    Eigen::Matrix<double, 2, 3> E;
+    E.row(0) = E1.transpose();
+    E.row(1) = E2.transpose();
+    // The normal row of an active contact: n^T u' - target = 0.
+    auto normalRow = [&]() {
+      F_P.block(r, 0, 1, 3 * m) = n.transpose() * s.W().middleRows<3>(r);
+      F_u.block<1, 3>(r, r) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
+      if (approaching) F_theta(r, r + kRestitution) = u_n;
+    };
+    if (!(P_n > kPyramidRoundOff * P_scale) && P_t.norm() <= kPyramidRoundOff * P_scale) {
+      mode.mode = ImpactMode::kNoImpulse;
+      every_row_sticking = false;
+      F_P.block<3, 3>(r, r).setIdentity();
+      if (u_after.dot(n) - target <= kSwitchTolerance * u_reference) {
+        flagSwitch(mode, "u'_n at its target with P_n = 0: separating/active; no-impulse side");
+      }
+      continue;
+    }
+    if (P_n <= kSwitchTolerance * P_scale) flagSwitch(mode, "P_n = 0 while active; active side");
+    // Index of the edge the friction impulse (or, frictionless, the slip's opposite) is nearest.
+    auto sector = [&](const Vector3d& t) {
+      double angle = std::atan2(t.dot(pyramid.t2), t.dot(pyramid.t1));
+      if (angle < 0.0) angle += 2.0 * kPi;
+      return static_cast<int>(std::floor(angle * kD / (2.0 * kPi))) % kD;
+    };
+    if (contact.frictionless()) {
+      mode.mode = ImpactMode::kSliding;
+      every_row_sticking = false;
+      normalRow();
+      F_P.block<2, 3>(r + 1, r) = E;  // P_t = 0
+      // Friction from mu = 0 up: along the pyramid edge most opposed to the slip.
+      if (slip > kSlipTolerance * u_reference) {
+        int best = 0;
+        for (int k = 1; k < kD; ++k) {
+          if (pyramid.direction(k).dot(slip_after) < pyramid.direction(best).dot(slip_after)) {
+            best = k;
+          }
+        }
+        F_theta.block<2, 1>(r + 1, r + kDynamic) = -P_n * E * pyramid.direction(best);
+      }
+      flagSwitch(mode,
+                 "frictionless: the friction columns are one-sided, for increasing coefficients");
+      continue;
+    }
+    // The friction impulse in the pyramid's sector (d_k, d_k+1): P_t = b_k d_k + b_k+1 d_k+1.
+    // (Computed where it is read: the all-sticking answer's contacts do without it.)
+    struct FrictionSector {
+      int k, k1;
+      Vector3d d_k, d_k1;
+      Eigen::Vector2d beta;
+      double gauge;
+    };
+    auto frictionSector = [&]() {
+      FrictionSector f;
+      f.k = sector(P_t);
+      f.k1 = (f.k + 1) % kD;
+      f.d_k = pyramid.direction(f.k);
+      f.d_k1 = pyramid.direction(f.k1);
+      Eigen::Matrix2d B;
+      B << f.d_k.dot(pyramid.t1), f.d_k1.dot(pyramid.t1), f.d_k.dot(pyramid.t2),
+          f.d_k1.dot(pyramid.t2);
+      f.beta = B.inverse() * Eigen::Vector2d(P_t.dot(pyramid.t1), P_t.dot(pyramid.t2));
+      f.gauge = f.beta.sum();
+      return f;
+    };
+    if (slip <= kSlipTolerance * u_reference) {
+      mode.mode = ImpactMode::kSticking;
+      sticking_rows.push_back(r);  // F_P's rows: W's, filled if F_P is decomposed
+      F_u.block<3, 3>(r, r) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
+      if (approaching) F_theta.block<3, 1>(r, r + kRestitution) = u_n * n;
+      // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
+      // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
+      auto on_pyramid_boundary = [&] {
+        const double gauge = frictionSector().gauge;
+        return gauge >= (1.0 - kSwitchTolerance) * mu_s * P_n ||
+               (mu_d < mu_s && std::abs(gauge - mu_d * P_n) <= kSwitchTolerance * mu_s * P_n);
+      };
+      if (all_sticking ? P_t.norm() >= (1.0 - kSwitchTolerance) * mu_s * P_n
+                       : on_pyramid_boundary()) {
+        flagSwitch(mode, all_sticking
+                             ? "stick/slide: |P_t| = mu_s P_n; sticking side"
+                             : "stick/slide: friction on its pyramid's boundary; sticking side");
+      }
+      continue;
+    }
+    mode.mode = ImpactMode::kSliding;
+    frictional_sliding = true;
+    every_row_sticking = false;
+    if (slip <= 10.0 * kSlipTolerance * u_reference) {
+      flagSwitch(mode, "stick/slide: the slip is at the solver's tolerance; sliding side");
+    }
+    normalRow();
+    const FrictionSector f = frictionSector();
+    const int k = f.k, k1 = f.k1;
+    const Vector3d &d_k = f.d_k, &d_k1 = f.d_k1;
+    const Eigen::Vector2d& beta = f.beta;
+    const double gauge = f.gauge;
+    const double mu = mu_d;  // a contact that slides ends on the dynamic pyramid
+    const double beta_min = std::min(beta(0), beta(1));
+    if (beta_min <= kPyramidRoundOff * gauge) {
+      // Along one edge: P_t = mu P_n d, expressed in the fixed tangents E.
+      const int edge = beta(0) >= beta(1) ? k : k1;
+      const Vector3d d = pyramid.direction(edge);
+      F_P.block<2, 3>(r + 1, r) = E * (Matrix3d::Identity() - (n + mu * d) * n.transpose());
+      F_u.block<2, 3>(r + 1, r) = -mu * P_n * E * pyramid.derivative(edge, n);
+      F_theta.block<2, 1>(r + 1, r + kDynamic) = -P_n * E * d;
+      const double opposing = d.dot(slip_after);
+      for (const int j : {(edge + 1) % kD, (edge + kD - 1) % kD}) {
+        if (pyramid.direction(j).dot(slip_after) - opposing <= kSwitchTolerance * slip) {
+          flagSwitch(mode, "slip between two pyramid edges; sliding side of the reported edge");
+        }
+      }
+      if (beta_min > 0.0 && beta_min > kSwitchTolerance * gauge) {
+        flagSwitch(mode, "friction between a pyramid edge and a facet");
+      }
+    } else {
+      // On the facet (d_k, d_k+1): (d_k - d_k+1).u' = 0 and c.P = mu P_n, c = (d_k + d_k+1) /
+      // (1 + cos(2 pi / D)) (c.d_k = c.d_k+1 = 1).
+      const Vector3d g = d_k - d_k1;
+      const Vector3d c = (d_k + d_k1) / facet;
+      const Matrix3d D_k = pyramid.derivative(k, n), D_k1 = pyramid.derivative(k1, n);
+      F_P.block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W().middleRows<3>(r);
+      F_u.block<1, 3>(r + 1, r) = g.transpose() + u_after.transpose() * (D_k - D_k1);
+      F_P.block<1, 3>(r + 2, r) = c.transpose() - mu * n.transpose();
+      F_u.block<1, 3>(r + 2, r) = P.transpose() * (D_k + D_k1) / facet;
+      F_theta(r + 2, r + kDynamic) = -P_n;
+    }
+  }
+  // One decomposition for both right-hand sides, F_u J (F_u is block diagonal) and F_theta, of
+  // the columns asked for; a coefficient column whose F_theta column is 0 has a 0 derivative (a
+  // sticking contact's friction coefficients) and is not solved. Where redundant contacts make
+  // F_P singular (a face on 4 points), the least-norm change, as the solver's least-norm impulses
+  // (the velocities' derivatives are the same for every solution).
+  const Index L = s.J.cols();
+  const Index V = columns.velocities ? L : 0;
+  std::vector<Index> theta_columns;  // island coefficient columns solved
+  theta_columns.reserve(static_cast<std::size_t>(3 * m));
+  for (Index k = 0; k < 3 * m; ++k) {
+    if (columns.wantsCoefficient(3 * static_cast<Index>(s.contacts[k / 3]) + k % 3) &&
+        !F_theta.col(k).isZero(0.0)) {
+      theta_columns.push_back(k);
+    }
+  }
+  const Index T = static_cast<Index>(theta_columns.size());
+  dP_dv.setZero(3 * m, L);
+  dP_dtheta.setZero(3 * m, 3 * m);
+  if (V + T == 0) return true;
+  MatrixXd rhs(3 * m, V + T);
+  if (V > 0) {
+    for (Index i = 0; i < m; ++i) {
+      rhs.block(3 * i, 0, 3, L).noalias() =
+          F_u.block<3, 3>(3 * i, 3 * i) * s.J.middleRows<3>(3 * i);
+    }
+  }
+  for (Index t = 0; t < T; ++t)
+    rhs.col(V + t) = F_theta.col(theta_columns[static_cast<std::size_t>(t)]);
+  MatrixXd solution;
+  if (!every_row_sticking || !solveSticking(s, rhs, solution)) {
+    for (const Index r : sticking_rows) F_P.block(r, 0, 3, 3 * m) = s.W().middleRows<3>(r);
+    const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
+    if (cod.rank() < 3 * m && frictional_sliding) {
+      // Redundant contacts sliding with friction (a face sliding on 4 points): how the normal
+      // impulse is shared is not fixed by the equations, and through friction neither are the
+      // twists; the solver's choice depends on its own unknowns, and the least-norm change of
+      // these equations (whose F_P moves with the pyramid and mu) is not its derivative.
+      for (const int c : s.contacts) {
+        flagSwitch(modes[c],
+                   "redundant contacts sliding with friction: the impulses are not unique, the "
+                   "solver's choice is differenced");
+      }
+      return false;
+    }
+    solution = cod.solve(rhs);
+  }
+  if (V > 0) dP_dv = -solution.leftCols(L);
+  for (Index t = 0; t < T; ++t) {
+    dP_dtheta.col(theta_columns[static_cast<std::size_t>(t)]) = -solution.col(V + t);
+  }
+  return true;
+}
+
+}  // namespace collision_response::core
