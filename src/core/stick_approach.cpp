@@ -87,25 +87,14 @@ Eigen::Vector2d rotated(const Eigen::Vector2d& s, double a) {
   return Eigen::Vector2d(cs * s.x() - sn * s.y(), sn * s.x() + cs * s.y());
 }
 
-/// A value with its derivative in mu_d (forward mode), for StickApproach::muDerivatives(): the
-/// recurrence and the sums run on it unchanged.
+/// A value with its derivative in mu_d (forward mode), for the sums of
+/// StickApproach::muDerivatives().
 struct Dual {
   double v = 0.0, d = 0.0;
   Dual(double value = 0.0, double derivative = 0.0) : v(value), d(derivative) {}  // NOLINT
-  Dual& operator+=(const Dual& x) {
-    v += x.v;
-    d += x.d;
-    return *this;
-  }
 };
 inline Dual operator+(const Dual& a, const Dual& b) {
   return {a.v + b.v, a.d + b.d};
-}
-inline Dual operator+(const Dual& a, double b) {
-  return {a.v + b, a.d};
-}
-inline Dual operator-(const Dual& a, const Dual& b) {
-  return {a.v - b.v, a.d - b.d};
 }
 inline Dual operator-(const Dual& a) {
   return {-a.v, -a.d};
@@ -116,30 +105,22 @@ inline Dual operator*(const Dual& a, const Dual& b) {
 inline Dual operator*(double a, const Dual& b) {
   return {a * b.v, a * b.d};
 }
-inline Dual operator*(const Dual& a, double b) {
-  return {a.v * b, a.d * b};
-}
-inline Dual operator/(double a, const Dual& b) {
-  const double q = a / b.v;
-  return {q, -q * b.d / b.v};
-}
 inline Dual operator/(const Dual& a, const Dual& b) {
   const double q = a.v / b.v;
   return {q, (a.d - q * b.d) / b.v};
 }
 
-template <class T>
-void extendSeries(StickSeries<T>& co) {
+void extendSeries(StickSeries& co) {
   const int k = ++co.order;
   if (k == 0) {
     // Gamma_0 = gamma'(0) and f_0 = f(0): m = f_0 / Gamma_0 (and H_0 = -1 / Gamma_0 below).
-    const T gamma0 = co.gamma_s1 + 2.0 * co.gamma_s2;
+    const double gamma0 = co.gamma_s1 + 2.0 * co.gamma_s2;
     co.inverse_gamma0 = 1.0 / gamma0;
     co.m = (co.fb_star - co.mu * co.a_ss) / gamma0;
   }
   // The weights of the sums' coefficients, first: their divisions then run alongside the pass
   // below instead of holding up the next order.
-  const T w = 1.0 / (co.m + k), w_work = 1.0 / (2.0 * co.m + k);
+  const double w = 1.0 / (co.m + k), w_work = 1.0 / (2.0 * co.m + k);
   // The recurrence, from y Gamma H' = H phi with phi = f - m Gamma - y Gamma' and Gamma = gamma/y:
   //   (H f)_k = (m + k) (H Gamma)_k = (m + k) (H gamma)_(k+1),
   // whose H_k terms give k Gamma_0 H_k = [(H f)_k - (m + k) (H gamma)_(k+1)] over j < k. f and
@@ -149,7 +130,7 @@ void extendSeries(StickSeries<T>& co) {
   // one pass over j < k, with E1 = cos + sin and E2 = cos 2y + sin 2y: their even orders are the
   // cosine's and their odd ones the sine's, so the parity of j says which a term belongs to.
   // (H cos y)_k, (H sin y)_k, (H cos 2y)_k, (H sin 2y)_k over j < k:
-  T pc = 0.0, ps = 0.0, qc = 0.0, qs = 0.0;
+  double pc = 0.0, ps = 0.0, qc = 0.0, qs = 0.0;
   if (k > 0) {
     pc = co.next_c1;
     ps = co.next_s1 + co.H[k - 1];  // sin y's order 1
@@ -160,7 +141,7 @@ void extendSeries(StickSeries<T>& co) {
   // and j = k terms, two terms a step (j, then j - 1 of the other parity) in six independent sums
   // that the processor overlaps.
   co.H[k] = 0.0;  // the step at j = 1 reads D_0 H_k: that term is added below
-  T c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0, dh_a = 0.0, dh_b = 0.0;
+  double c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0, dh_a = 0.0, dh_b = 0.0;
   int j = k - 1;
   for (; j >= 1; j -= 2) {  // order k + 1 - j even (the cosines'), then odd for j - 1
     const int i = k + 1 - j;
@@ -182,16 +163,20 @@ void extendSeries(StickSeries<T>& co) {
   if (k == 0) {
     co.H[0] = -co.inverse_gamma0;
   } else {
-    const T hf = co.fb_star * pc + co.eps * co.fb_perp * ps -
-                 co.mu * (0.5 * (co.a_ss - co.a_pp) * qc + co.eps * co.a_sp * qs);
-    const T hgamma = co.gamma_c1 * c1 + co.gamma_s1 * s1 + co.gamma_c2 * c2 + co.gamma_s2 * s2;
+    const double hf = co.fb_star * pc + co.eps * co.fb_perp * ps -
+                      co.mu * (0.5 * (co.a_ss - co.a_pp) * qc + co.eps * co.a_sp * qs);
+    const double hgamma = co.gamma_c1 * c1 + co.gamma_s1 * s1 + co.gamma_c2 * c2 + co.gamma_s2 * s2;
     co.H[k] = (hf - (co.m + k) * hgamma) * (kInverse.v[k] * co.inverse_gamma0);
   }
+  co.Pc[k] = pc;
+  co.Ps[k] = ps;
+  co.Qc[k] = qc;
+  co.Qs[k] = qs;
   co.Ip[k] = co.H[k] * w;
   co.Ic[k] = (pc + co.H[k]) * w;  // cos y's order 0
   co.Is[k] = ps * w;
   co.D[k] = co.c * co.Ip[k] - co.mu * (co.fb_star * co.Ic[k] + co.eps * co.fb_perp * co.Is[k]);
-  const T d_h = dh_a + dh_b + co.D[0] * co.H[k] + (k > 0 ? T(co.D[k] * co.H[0]) : T(0.0));
+  const double d_h = dh_a + dh_b + co.D[0] * co.H[k] + (k > 0 ? co.D[k] * co.H[0] : 0.0);
   co.DH2[k] = d_h * w_work;
 }
 
@@ -402,43 +387,110 @@ bool StickApproach::converged(double y, double relative_impulse, double relative
   }
 }
 
-StickApproach::MuDerivatives StickApproach::muDerivatives(double y, double sigma) const {
+StickApproach::MuDerivatives StickApproach::muDerivatives(double y, double sigma) {
   // With A and b fixed, mu_d moves theta* (g(theta*) = s*_perp . (b - mu_d A s*) = 0):
   // dtheta*/dmu_d = -(dg/dmu_d) / g'(theta*) = a_sp / Gamma(0), which turns s* and s*_perp and so
   // the flow's constants: d(b.s*) = (b.s*_perp) dtheta*, d(b.s*_perp) = -(b.s*) dtheta*,
-  // d a_ss = 2 a_sp dtheta*, d a_sp = (a_pp - a_ss) dtheta*, d a_pp = -2 a_sp dtheta*.
-  const StickSeries<double>& v = co_;
-  const double dtheta = v.a_sp / (v.gamma_s1 + 2.0 * v.gamma_s2);
-  StickSeries<Dual> d;
-  d.eps = v.eps;
-  d.mu = Dual(v.mu, 1.0);
-  d.c = v.c;
-  d.fb_star = Dual(v.fb_star, v.fb_perp * dtheta);
-  d.fb_perp = Dual(v.fb_perp, -v.fb_star * dtheta);
-  d.a_ss = Dual(v.a_ss, 2.0 * v.a_sp * dtheta);
-  d.a_sp = Dual(v.a_sp, (v.a_pp - v.a_ss) * dtheta);
-  d.a_pp = Dual(v.a_pp, -2.0 * v.a_sp * dtheta);
-  d.gamma_c1 = d.eps * d.fb_perp;
-  d.gamma_s1 = -d.fb_star;
-  d.gamma_c2 = -(d.mu * d.eps * d.a_sp);
-  d.gamma_s2 = -0.5 * (d.mu * (d.a_pp - d.a_ss));
-  const int top = std::min(kMaxOrder, v.order + 4);
-  while (d.order < top) extendSeries(d);
+  // d a_ss = 2 a_sp dtheta*, d a_sp = (a_pp - a_ss) dtheta*, d a_pp = -2 a_sp dtheta*. The
+  // recurrence of extend() is differentiated term by term (a d in front: the mu_d derivative),
+  // reading the values it stored; two orders beyond those converged() asked for, and the values
+  // one further (the trig sums at k + 1 of order k are those at order k + 1).
+  const int top = std::min(kMaxOrder - 1, co_.order);
+  while (co_.order < top + 1) extend();
+  const StickSeries& v = co_;
+  const double ig0 = v.inverse_gamma0;
+  const double dtheta = v.a_sp * ig0;
+  const double dfs = v.fb_perp * dtheta, dfp = -v.fb_star * dtheta;
+  const double dss = 2.0 * v.a_sp * dtheta, dsp = (v.a_pp - v.a_ss) * dtheta,
+               dpp = -2.0 * v.a_sp * dtheta;
+  const double dgc1 = v.eps * dfp, dgs1 = -dfs, dgc2 = -v.eps * (v.a_sp + v.mu * dsp),
+               dgs2 = -0.5 * ((v.a_pp - v.a_ss) + v.mu * (dpp - dss));
+  const double dgamma0 = dgs1 + 2.0 * dgs2;
+  const double dig0 = -ig0 * ig0 * dgamma0;
+  // m = (b.s* - mu a_ss) / Gamma(0)
+  const double dm = (dfs - v.a_ss - v.mu * dss - v.m * dgamma0) * ig0;
+  Series dH, dIp, dDH2, dD;
+  double next_c1 = 0.0, next_s1 = 0.0, next_c2 = 0.0, next_s2 = 0.0;
+  for (int k = 0; k <= top; ++k) {
+    const double w = 1.0 / (v.m + k), w_work = 1.0 / (2.0 * v.m + k);
+    const double dw = -w * w * dm, dw_work = -2.0 * w_work * w_work * dm;
+    double dpc = 0.0, dps = 0.0, dqc = 0.0, dqs = 0.0;
+    if (k > 0) {
+      dpc = next_c1;
+      dps = next_s1 + dH[k - 1];
+      dqc = next_c2;
+      dqs = next_s2 + 2.0 * dH[k - 1];
+    }
+    // The pass over j < k, as extend()'s: the trig sums at k + 1, and d(D H)_k over 0 < j < k
+    // (its j = 0 and j = k terms need dH_k and dD_k, added below), two terms a step.
+    double c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0, dh_a = 0.0, dh_b = 0.0;
+    int j = k - 1;
+    for (; j >= 2; j -= 2) {
+      const int i = k + 1 - j;
+      c1 += dH[j] * kE1.v[i];
+      c2 += dH[j] * kE2.v[i];
+      dh_a += dD[j] * v.H[k - j] + v.D[j] * dH[k - j];
+      s1 += dH[j - 1] * kE1.v[i + 1];
+      s2 += dH[j - 1] * kE2.v[i + 1];
+      dh_b += dD[j - 1] * v.H[k - j + 1] + v.D[j - 1] * dH[k - j + 1];
+    }
+    if (j == 1) {
+      c1 += dH[1] * kE1.v[k];
+      c2 += dH[1] * kE2.v[k];
+      dh_a += dD[1] * v.H[k - 1] + v.D[1] * dH[k - 1];
+      s1 += dH[0] * kE1.v[k + 1];
+      s2 += dH[0] * kE2.v[k + 1];
+    } else if (j == 0) {
+      c1 += dH[0] * kE1.v[k + 1];
+      c2 += dH[0] * kE2.v[k + 1];
+    }
+    next_c1 = c1;
+    next_s1 = s1;
+    next_c2 = c2;
+    next_s2 = s2;
+    if (k == 0) {
+      dH[0] = -dig0;
+    } else {
+      const double pc = v.Pc[k], ps = v.Ps[k], qc = v.Qc[k], qs = v.Qs[k];
+      // The trig sums at k + 1 of this order (values).
+      const double vc1 = v.Pc[k + 1], vs1 = v.Ps[k + 1] - v.H[k], vc2 = v.Qc[k + 1],
+                   vs2 = v.Qs[k + 1] - 2.0 * v.H[k];
+      const double dhf = dfs * pc + v.fb_star * dpc + v.eps * (dfp * ps + v.fb_perp * dps) -
+                         (0.5 * (v.a_ss - v.a_pp) * qc + v.eps * v.a_sp * qs) -
+                         v.mu * (0.5 * (dss - dpp) * qc + 0.5 * (v.a_ss - v.a_pp) * dqc +
+                                 v.eps * (dsp * qs + v.a_sp * dqs));
+      const double hgamma =
+          v.gamma_c1 * vc1 + v.gamma_s1 * vs1 + v.gamma_c2 * vc2 + v.gamma_s2 * vs2;
+      const double dhgamma = dgc1 * vc1 + v.gamma_c1 * c1 + dgs1 * vs1 + v.gamma_s1 * s1 +
+                             dgc2 * vc2 + v.gamma_c2 * c2 + dgs2 * vs2 + v.gamma_s2 * s2;
+      dH[k] =
+          (dhf - dm * hgamma - (v.m + k) * dhgamma) * (kInverse.v[k] * ig0) + v.H[k] * dig0 / ig0;
+    }
+    dIp[k] = dH[k] * w + v.H[k] * dw;
+    const double dIc = (dpc + dH[k]) * w + (v.Pc[k] + v.H[k]) * dw;
+    const double dIs = dps * w + v.Ps[k] * dw;
+    dD[k] = v.c * dIp[k] - (v.fb_star * v.Ic[k] + v.eps * v.fb_perp * v.Is[k]) -
+            v.mu * (dfs * v.Ic[k] + v.fb_star * dIc + v.eps * (dfp * v.Is[k] + v.fb_perp * dIs));
+    double dDH = dh_a + dh_b + dD[0] * v.H[k] + v.D[0] * dH[k];
+    if (k > 0) dDH += dD[k] * v.H[0] + v.D[k] * dH[0];
+    dDH2[k] = dDH * w_work + v.DH2[k] * (2.0 * v.m + k) * dw_work;
+  }
   // The slip held fixed: y = eps (theta - theta*) moves by -eps dtheta*. The remaining quantities
   // at y (remaining()): p_rem = sigma e^-S Ip(y), work_drop = (sigma e^-S)^2 DH2(y), with
   // e^S = -H(y) Gamma(y) = -H(y) gamma(y) / y.
   const Dual yd(y, -v.eps * dtheta);
-  Dual ip = d.Ip[top], dh2 = d.DH2[top], h = d.H[top];
+  Dual ip(v.Ip[top], dIp[top]), dh2(v.DH2[top], dDH2[top]), h(v.H[top], dH[top]);
   for (int k = top - 1; k >= 0; --k) {
-    ip = ip * yd + d.Ip[k];
-    dh2 = dh2 * yd + d.DH2[k];
-    h = h * yd + d.H[k];
+    ip = ip * yd + Dual(v.Ip[k], dIp[k]);
+    dh2 = dh2 * yd + Dual(v.DH2[k], dDH2[k]);
+    h = h * yd + Dual(v.H[k], dH[k]);
   }
   const double c1 = std::cos(y), s1 = std::sin(y), c2 = std::cos(2.0 * y), s2 = std::sin(2.0 * y);
-  const Dual cos1(c1, -s1 * yd.d), sin1(s1, c1 * yd.d), cos2(c2, -2.0 * s2 * yd.d),
-      sin2(s2, 2.0 * c2 * yd.d);
-  const Dual gamma = d.gamma_c1 * cos1 + d.gamma_s1 * sin1 + d.gamma_c2 * cos2 + d.gamma_s2 * sin2;
-  const Dual scale = (sigma * yd) / -(h * gamma);
+  const double gamma = v.gamma_c1 * c1 + v.gamma_s1 * s1 + v.gamma_c2 * c2 + v.gamma_s2 * s2;
+  const double dgamma =
+      dgc1 * c1 + dgs1 * s1 + dgc2 * c2 + dgs2 * s2 +
+      yd.d * (-v.gamma_c1 * s1 + v.gamma_s1 * c1 - 2.0 * v.gamma_c2 * s2 + 2.0 * v.gamma_s2 * c2);
+  const Dual scale = (sigma * yd) / -(h * Dual(gamma, dgamma));
   MuDerivatives out;
   out.p = (scale * ip).d;
   out.work_drop = (scale * scale * dh2).d;

@@ -8,28 +8,29 @@ namespace collision_response::core {
 /// Highest order of the stick-approach series (StickApproach::kMaxOrder).
 constexpr int kStickSeriesMaxOrder = 64;
 
-/// The state of the stick-approach series (StickApproach's members; the scalar T is double, or a
-/// value with its derivative in mu_d for StickApproach::muDerivatives()).
-template <class T>
+/// The state of the stick-approach series (StickApproach's members).
 struct StickSeries {
   double eps = 1.0;  ///< theta = theta* + eps y
-  T mu = 0.0, c = 0.0, m = 0.0;
-  T fb_star = 0.0, fb_perp = 0.0;        ///< b . s*, b . s*_perp
-  T a_ss = 0.0, a_sp = 0.0, a_pp = 0.0;  ///< s*^T A s*, s*^T A s*_perp, s*_perp^T A s*_perp
+  double mu = 0.0, c = 0.0, m = 0.0;
+  double fb_star = 0.0, fb_perp = 0.0;        ///< b . s*, b . s*_perp
+  double a_ss = 0.0, a_sp = 0.0, a_pp = 0.0;  ///< s*^T A s*, s*^T A s*_perp, s*_perp^T A s*_perp
   /// gamma(y) = gamma_c1 cos y + gamma_s1 sin y + gamma_c2 cos 2y + gamma_s2 sin 2y [1/kg]
   /// (gamma(0) = 0), from the members above: gammaAt(), the recurrence and radius() read them.
-  T gamma_c1 = 0.0, gamma_s1 = 0.0, gamma_c2 = 0.0, gamma_s2 = 0.0;
+  double gamma_c1 = 0.0, gamma_s1 = 0.0, gamma_c2 = 0.0, gamma_s2 = 0.0;
   // Taylor coefficients in y: H = -e^S / Gamma with Gamma = gamma / y (dp/dy's regular part,
   // from y Gamma H' = H (f - m Gamma - y Gamma')), and the sums' coefficients Ip = H / (m + k),
   // Ic = (H cos y)_k / (m + k), Is likewise, D = c Ip - mu (b.s*) Ic - mu eps (b.s*_perp) Is,
   // DH2 = (D H)_k / (2m + k).
-  using Series = std::array<T, kStickSeriesMaxOrder + 1>;
+  using Series = std::array<double, kStickSeriesMaxOrder + 1>;
   int order = -1;
-  T inverse_gamma0 = 0.0;  ///< 1 / Gamma(0) = 1 / g'(theta*) < 0
+  double inverse_gamma0 = 0.0;  ///< 1 / Gamma(0) = 1 / g'(theta*) < 0
   /// (H cos y), (H sin y), (H cos 2y), (H sin 2y) at index order + 1 over j <= order - 1
   /// (extend()'s sums at the next order, but for their last terms).
-  T next_c1 = 0.0, next_s1 = 0.0, next_c2 = 0.0, next_s2 = 0.0;
+  double next_c1 = 0.0, next_s1 = 0.0, next_c2 = 0.0, next_s2 = 0.0;
   Series H, Ip, Ic, Is, D, DH2;
+  /// (H cos y)_k, (H sin y)_k, (H cos 2y)_k, (H sin 2y)_k over j < k, as the recurrence formed
+  /// them (kept for the mu_d derivatives' recurrence, StickApproach::muDerivatives()).
+  Series Pc, Ps, Qc, Qs;
 };
 
 /// Rotating slip that settles into stick, in closed form (docs/physics.md, "Approach to stick in
@@ -83,14 +84,14 @@ class StickApproach {
   /// Derivatives with respect to mu_d of the remaining normal impulse p_rem [N s / 1] and of
   /// work_drop [J / 1] (Remaining) of a slip of speed sigma [m/s] at angle distance y [rad] from
   /// s*, the slip u_t itself held fixed (so y moves with theta*: dy/dmu_d = -eps dtheta*/dmu_d,
-  /// dtheta*/dmu_d = (s*^T A s*_perp) / g'(theta*)). The series' coefficients are carried with
-  /// their mu_d derivatives through the same recurrence to order() + 4 (at most kMaxOrder): call
-  /// after converged() at y. With K, u_t fixed the remaining quantities depend on nothing else.
+  /// dtheta*/dmu_d = (s*^T A s*_perp) / g'(theta*)); A, b, c fixed. From the recurrence of the
+  /// series' coefficients differentiated term by term, to two orders beyond order() (the values
+  /// are extended to three beyond it): call after converged() at y.
   struct MuDerivatives {
     double p = 0.0;          ///< d p_rem / d mu_d [N s]
     double work_drop = 0.0;  ///< d work_drop / d mu_d [J]
   };
-  MuDerivatives muDerivatives(double y, double sigma) const;
+  MuDerivatives muDerivatives(double y, double sigma);
 
   /// ln(sigma e^-S(y)) of the slip at y with speed sigma; the scale at another y' of the same
   /// path is this plus m ln(y' / y).
@@ -117,10 +118,9 @@ class StickApproach {
   double gammaAt(double y) const;
 
   Eigen::Vector2d s_star_, s_perp_;  ///< s at theta*, and s rotated by +90 degrees
-  /// The flow's constants and the series' coefficients (stick_approach.cpp: the recurrence is
-  /// written once, for double and for the value-and-mu_d-derivative type of muDerivatives()).
-  using Series = StickSeries<double>::Series;
-  StickSeries<double> co_;
+  /// The flow's constants and the series' coefficients.
+  using Series = StickSeries::Series;
+  StickSeries co_;
 };
 
 }  // namespace collision_response::core
