@@ -372,7 +372,8 @@ void setState(State& st, const Y4& y) {
 // their mu_d derivatives (StickApproach::muDerivatives()). Chained with the sensitivity up to the
 // series' start (the gradients of u_t there), and put on the sticking manifold at the stop.
 // kTaken: the state is at the stop; kRetry: the series do not converge at this angle (try closer);
-// kGiveUp: an event on the way, or sums that cancel (integrate the rest).
+// kGiveUp: an event on the way, sums that cancel, or a slip already within 1e-4 rad of s*
+// (integrate the rest).
 enum class SeriesOutcome { kTaken, kRetry, kGiveUp };
 SeriesOutcome seriesToStop(Context& cx, StickApproach& approach) {
   const Problem& pr = cx.pr;
@@ -384,6 +385,12 @@ SeriesOutcome seriesToStop(Context& cx, StickApproach& approach) {
   const double y0 = approach.distance(s);
   if (y0 < 0.0) return SeriesOutcome::kRetry;
   const Vec2 F = pr.b - pr.mu_d.v * (pr.A * s);
+  // The two equations for the gradient in u_t below degenerate as the slip's direction nears s*
+  // (u_t and F parallel; the component across u_t is then a difference of two nearly equal terms
+  // over the angle): within 1e-4 of it, integrate instead.
+  if (!(std::abs(s.x() * F.y() - s.y() * F.x()) > 1e-4 * F.norm())) {
+    return SeriesOutcome::kGiveUp;
+  }
   const double rate = s.dot(F);
   // The series' shares of the tolerance, as the integrator's (there: seriesToStop()).
   const double rise = pr.c + pr.mu_d.v * pr.b.norm();
