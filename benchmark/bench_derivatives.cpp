@@ -6,16 +6,18 @@
 // the same scene. Rigid bodies, Newton law, analytic paths: one off-centre frictional contact that
 // slides, the same that sticks, and a cube landing on 4 contacts (exact solver). The shipped arm
 // (urdf/arm7.urdf) striking a box with its hand at one frictional contact (robot_scene.h, as
-// bench_robot), Stronge (analytic: the integration's sensitivity) and Newton (frictional: finite
-// differences): the derivatives with respect to the joint velocities, the box's twist and the
-// contact's e, mu_s, mu_d. The instruction counts of one call of each, for the benchmark report:
+// bench_robot), Stronge and Poisson (analytic: the integration's sensitivity) and Newton
+// (frictional: analytic, the exact solver's final mode): the derivatives with respect to the joint
+// velocities, the box's twist and the contact's e, mu_s, mu_d. The instruction counts of one call
+// of each, for the benchmark report:
 //   LD_BIND_NOW=1 valgrind --tool=callgrind --toggle-collect='*predictOnce*' bench_derivatives
 //   --callgrind SCENE
 //   LD_BIND_NOW=1 valgrind --tool=callgrind --toggle-collect='*differentiateOnce*'
 //   bench_derivatives --callgrind SCENE
 // (LD_BIND_NOW: the dynamic linker's first resolution of a library function is not counted)
-// with SCENE one of sliding, sticking, cube4, arm_stronge, arm_newton (the arm's functions are
-// predictArmOnce and differentiateArmOnce).
+// with SCENE one of sliding, sticking, cube4, arm_stronge, arm_poisson, arm_newton (the arm's
+// functions are predictArmOnce and differentiateArmOnce; each is counted on one call after an
+// uncounted warm-up call).
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
@@ -159,9 +161,9 @@ struct ArmScene {
   }
 };
 
-core::SolverOptions armOptions(bool newton) {
+core::SolverOptions armOptions(core::ImpactLaw law) {
   core::SolverOptions options;
-  options.law = newton ? core::ImpactLaw::kNewton : core::ImpactLaw::kStronge;
+  options.law = law;
   return options;
 }
 
@@ -179,22 +181,32 @@ core::SolverOptions armOptions(bool newton) {
 
 void BM_Predict_ArmStronge(benchmark::State& state) {
   ArmScene s;
-  const core::SolverOptions options = armOptions(false);
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kStronge);
   for (auto _ : state) benchmark::DoNotOptimize(predictArmOnce(s, options));
 }
 void BM_Derivatives_ArmStronge(benchmark::State& state) {
   ArmScene s;
-  const core::SolverOptions options = armOptions(false);
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kStronge);
+  for (auto _ : state) benchmark::DoNotOptimize(differentiateArmOnce(s, options));
+}
+void BM_Predict_ArmPoisson(benchmark::State& state) {
+  ArmScene s;
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kPoisson);
+  for (auto _ : state) benchmark::DoNotOptimize(predictArmOnce(s, options));
+}
+void BM_Derivatives_ArmPoisson(benchmark::State& state) {
+  ArmScene s;
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kPoisson);
   for (auto _ : state) benchmark::DoNotOptimize(differentiateArmOnce(s, options));
 }
 void BM_Predict_ArmNewton(benchmark::State& state) {
   ArmScene s;
-  const core::SolverOptions options = armOptions(true);
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kNewton);
   for (auto _ : state) benchmark::DoNotOptimize(predictArmOnce(s, options));
 }
 void BM_Derivatives_ArmNewton(benchmark::State& state) {
   ArmScene s;
-  const core::SolverOptions options = armOptions(true);
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kNewton);
   for (auto _ : state) benchmark::DoNotOptimize(differentiateArmOnce(s, options));
 }
 
@@ -202,6 +214,8 @@ void BM_Derivatives_ArmNewton(benchmark::State& state) {
 
 BENCHMARK(BM_Predict_ArmStronge);
 BENCHMARK(BM_Derivatives_ArmStronge);
+BENCHMARK(BM_Predict_ArmPoisson);
+BENCHMARK(BM_Derivatives_ArmPoisson);
 BENCHMARK(BM_Predict_ArmNewton);
 BENCHMARK(BM_Derivatives_ArmNewton);
 BENCHMARK(BM_Predict_SingleSliding);
@@ -216,11 +230,14 @@ BENCHMARK(BM_Derivatives_Cube4);
 int main(int argc, char** argv) {
   if (argc > 2 && std::strcmp(argv[1], "--callgrind") == 0) {
     const std::string which = argv[2];
-    if (which == "arm_stronge" || which == "arm_newton") {
+    if (which == "arm_stronge" || which == "arm_poisson" || which == "arm_newton") {
       ArmScene s;
-      const core::SolverOptions options = armOptions(which == "arm_newton");
-      // A first call of each outside the counted ones (thread-local workspaces, lazy tables):
-      // differentiateArmOnce() itself would be counted.
+      const core::SolverOptions options =
+          armOptions(which == "arm_newton"    ? core::ImpactLaw::kNewton
+                     : which == "arm_poisson" ? core::ImpactLaw::kPoisson
+                                              : core::ImpactLaw::kStronge);
+      // A first call outside the counted functions (lazy symbol binding, thread-local
+      // workspaces), so that the counts are of one warm call each.
       s.reset();
       const core::BodyImpactDerivatives first =
           core::computeBodyImpactDerivatives({&s.arm, &s.box}, s.contacts, options);

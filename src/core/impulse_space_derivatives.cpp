@@ -31,6 +31,7 @@
 #include "collision_response/core/friction_disk.h"
 #include "collision_response/core/hermite_root.h"
 #include "collision_response/core/least_norm.h"
+#include "collision_response/core/stick_approach.h"
 
 namespace collision_response::core {
 namespace {
@@ -52,6 +53,9 @@ constexpr double kStop = 1e-13;
 constexpr std::size_t kMaxSteps = 20000;
 // Distance (relative) below which the slip's stop and an event count as simultaneous (a switch).
 constexpr double kNear = 1e-8;
+// When the stick-approach series is tried: the integrator's kSeriesExponent and kSeriesReach.
+constexpr double kSeriesExponent = 2.0;
+constexpr double kSeriesReach = 0.5;
 
 // A value with its gradient with respect to theta.
 struct D {
@@ -155,6 +159,7 @@ struct Context {
   const Problem& pr;
   State st;
   ContactDerivativeMode& mode;
+  ImpulseSpaceSensitivityDetail& detail;
   bool sticking = false;
   void flag(const std::string& detail) {
     if (mode.switch_detail.find(detail) != std::string::npos) return;
@@ -354,6 +359,97 @@ void setState(State& st, const Y4& y) {
   st.W = y.y[3];
 }
 
+// The rest of a turning slip to its stop by the stick-approach series (stick_approach.h), as the
+// prediction takes it (the integrator's seriesToStop()), with its gradient, when no event lies on
+// the way. The series give p_rem(u_t; mu_d), the normal impulse to the stop, and
+// work_drop(u_t; mu_d), with W_rem = u_n,stop p_rem - work_drop, as functions of the slip u_t at
+// the series' start alone (K fixed). Their gradients with respect to u_t follow without
+// differentiating the series: p_rem is homogeneous of degree 1 in u_t and work_drop of degree 2
+// (the path scales with the slip), so grad . u_t = p_rem (2 work_drop), and along the flow
+// du_t/dp = F = K_tn - mu_d K_tt s both fall at known rates, grad p_rem . F = -1 and
+// grad work_drop . F = -(u_n,stop - u_n) (the rise of u_n still to come): two equations for the two
+// components. Their mu_d derivatives at fixed u_t come from the series' coefficients carried with
+// their mu_d derivatives (StickApproach::muDerivatives()). Chained with the sensitivity up to the
+// series' start (the gradients of u_t there), and put on the sticking manifold at the stop.
+// kTaken: the state is at the stop; kRetry: the series do not converge at this angle (try closer);
+// kGiveUp: an event on the way, sums that cancel, or a slip already within 1e-4 rad of s*
+// (integrate the rest).
+enum class SeriesOutcome { kTaken, kRetry, kGiveUp };
+SeriesOutcome seriesToStop(Context& cx, StickApproach& approach) {
+  const Problem& pr = cx.pr;
+  State& st = cx.st;
+  const D2 u = pr.slip(st.p, st.P_t);
+  const Vec2 u_v = u.value();
+  const double sigma = u_v.norm();
+  const Vec2 s = u_v / sigma;
+  const double y0 = approach.distance(s);
+  if (y0 < 0.0) return SeriesOutcome::kRetry;
+  const Vec2 F = pr.b - pr.mu_d.v * (pr.A * s);
+  // The two equations for the gradient in u_t below degenerate as the slip's direction nears s*
+  // (u_t and F parallel; the component across u_t is then a difference of two nearly equal terms
+  // over the angle): within 1e-4 of it, integrate instead.
+  if (!(std::abs(s.x() * F.y() - s.y() * F.x()) > 1e-4 * F.norm())) {
+    return SeriesOutcome::kGiveUp;
+  }
+  const double rate = s.dot(F);
+  // The series' shares of the tolerance, as the integrator's (there: seriesToStop()).
+  const double rise = pr.c + pr.mu_d.v * pr.b.norm();
+  const double p_guess = rate < 0.0 ? std::min(sigma / -rate, 1e6 * pr.J) : pr.J;
+  const double u_n_now = pr.normal(st.p, st.P_t).v;
+  const auto share = [&](double p_rem, double u_n_stop, double work_drop, double& rel_p,
+                         double& rel_w) {
+    const double budget = 0.05 * pr.tol;
+    rel_p = std::min(
+        {1e-3, budget * pr.J / p_rem, budget * pr.V_n * pr.J / (std::abs(u_n_stop) * p_rem)});
+    rel_w = std::min(1e-3, budget * pr.V_n * pr.J / work_drop);
+  };
+  double rel_p, rel_w;
+  share(p_guess, std::abs(u_n_now) + rise * p_guess, rise * p_guess * p_guess, rel_p, rel_w);
+  if (!approach.converged(y0, rel_p, rel_w)) return SeriesOutcome::kRetry;
+  StickApproach::Remaining rest = approach.remaining(y0, approach.logScale(y0, sigma));
+  double u_n_stop = u_n_now + rest.u_n_rise;
+  double need_p, need_w;
+  share(rest.p, u_n_stop, rest.work_drop, need_p, need_w);
+  if (need_p < rel_p || need_w < rel_w) {
+    if (!approach.converged(y0, need_p, need_w)) return SeriesOutcome::kRetry;
+    rest = approach.remaining(y0, approach.logScale(y0, sigma));
+    u_n_stop = u_n_now + rest.u_n_rise;
+  }
+  if (!((u_v + pr.A * rest.P_t + pr.b * rest.p).norm() <= pr.tol * pr.V_n)) {
+    return SeriesOutcome::kRetry;
+  }
+  const double magnitude =
+      std::max(rest.p / pr.J, (std::abs(u_n_stop) * rest.p + rest.work_drop) / (pr.V_n * pr.J));
+  if (!(1e-15 * magnitude <= 0.05 * pr.tol)) return SeriesOutcome::kGiveUp;
+  // An event on the way (maximum compression, the end of the impact): integrate instead.
+  const double W_stop = st.W.v + u_n_stop * rest.p - rest.work_drop;
+  const bool event = !st.restitution ? u_n_stop >= 0.0
+                     : pr.stronge    ? W_stop >= st.W_end.v
+                                     : st.p.v + rest.p >= st.p_end.v;
+  if (event) return SeriesOutcome::kGiveUp;
+
+  // grad_u p_rem and grad_u work_drop: [u_t^T; F^T] g = (p_rem, -1) and (2 work_drop, -rise).
+  Mat2 M;
+  M.row(0) = u_v.transpose();
+  M.row(1) = F.transpose();
+  const Mat2 M_inv = M.inverse();
+  const Vec2 g_p = M_inv * Vec2(rest.p, -1.0);
+  const Vec2 g_w = M_inv * Vec2(2.0 * rest.work_drop, -rest.u_n_rise);
+  const StickApproach::MuDerivatives by_mu = approach.muDerivatives(y0, sigma);
+  D p_rem(rest.p, g_p.x() * u.x.d + g_p.y() * u.y.d);
+  p_rem.d[kMuD] += by_mu.p;
+  D work_drop(rest.work_drop, g_w.x() * u.x.d + g_w.y() * u.y.d);
+  work_drop.d[kMuD] += by_mu.work_drop;
+  const D p_stop = st.p + p_rem;
+  const D2 P_stop = pr.A_inv * (D2{D(0.0), D(0.0)} - pr.u0_t - p_stop * constant(pr.b));
+  st.W = st.W + pr.normal(p_stop, P_stop) * p_rem - work_drop;
+  st.p = p_stop;
+  st.P_t = P_stop;
+  cx.detail.series = true;
+  cx.detail.series_order = approach.order();
+  return SeriesOutcome::kTaken;
+}
+
 // A sliding slip, integrated with its sensitivities until the impact ends or the slip stops
 // (`stopped`). False if the step budget runs out.
 bool integrateSlip(Context& cx, bool& stopped) {
@@ -364,13 +460,36 @@ bool integrateSlip(Context& cx, bool& stopped) {
   Y4 y{{st.p, st.P_t.x, st.P_t.y, st.W}};
   Y4 f = slipField(pr, y);
   double h = std::min(h_max, 0.05 * pr.J / std::max(f.y[0].v, kStickSpeed * pr.V));
+  // The stick-approach series where the prediction uses it (the integrator's integrateSlip()):
+  // on a slip with m >= kSeriesExponent, once within kSeriesReach of the series' radius of s*,
+  // and again each time it has turned 30 % closer.
+  StickApproach approach;
+  bool series =
+      pr.mu_d.v > 0.0 &&
+      approach.build(pr.A, pr.b, pr.c, pr.mu_d.v, pr.slip(st.p, st.P_t).value().normalized()) &&
+      approach.exponent() >= kSeriesExponent;
+  double retry_cos = series ? std::cos(std::min(3.0, kSeriesReach * approach.radius())) : 2.0;
   for (std::size_t steps = 0;;) {
+    if (series) {
+      const Vec2 u_t = pr.slip(y.y[0], D2{y.y[1], y.y[2]}).value();
+      if (approach.direction().dot(u_t) > retry_cos * u_t.norm()) {
+        setState(st, y);
+        const SeriesOutcome result = seriesToStop(cx, approach);
+        if (result == SeriesOutcome::kTaken) {
+          stopped = true;
+          return true;
+        }
+        series = result == SeriesOutcome::kRetry;
+        retry_cos = std::cos(0.7 * approach.distance(u_t.normalized()));
+      }
+    }
     if (pr.mu_d.v > 0.0 && f.y[0].v <= kStop * pr.V) {
       setState(st, y);
       stopped = true;
       return true;
     }
     if (++steps > kMaxSteps) return false;
+    ++cx.detail.steps;
     h = std::min(h, h_max);
     Y4 y1, f1;
     const double err = dopriStep(pr, y, f, h, y1, f1);
@@ -435,7 +554,7 @@ bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eig
                    double e, double mu_s, double mu_d, ImpactLaw law, double tolerance,
                    bool linear_frictionless, Eigen::Matrix3d& dP_du,
                    Eigen::Matrix3d& dP_dcoefficients, ContactDerivativeMode& mode,
-                   Eigen::Vector3d* impulse) {
+                   Eigen::Vector3d* impulse, ImpulseSpaceSensitivityDetail& detail) {
   dP_du.setZero();
   dP_dcoefficients.setZero();
   if (impulse) impulse->setZero();
@@ -480,7 +599,7 @@ bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eig
   pr.J = pr.V_n / (pr.c + std::max(mu_s, mu_d) * pr.b.norm());
   pr.tol = std::clamp(tolerance, 1e-14, 1e-10);
 
-  Context cx{pr, State{}, mode};
+  Context cx{pr, State{}, mode, detail};
   State& st = cx.st;
   bool ok = true;
   bool stopped = false;
@@ -555,17 +674,21 @@ bool differentiateImpulseSpace(const Eigen::Vector3d& n, const Eigen::Matrix3d& 
                                const Eigen::Vector3d& u, double e, double mu_s, double mu_d,
                                ImpactLaw law, double tolerance, Eigen::Matrix3d& dP_du,
                                Eigen::Matrix3d& dP_dcoefficients, ContactDerivativeMode& mode,
-                               Eigen::Vector3d* impulse) {
+                               Eigen::Vector3d* impulse, ImpulseSpaceSensitivityDetail* detail) {
+  ImpulseSpaceSensitivityDetail local;
+  ImpulseSpaceSensitivityDetail& how = detail ? *detail : local;
+  how = ImpulseSpaceSensitivityDetail{};
   if (!differentiate(n, K, u, e, mu_s, mu_d, law, tolerance, mu_d == 0.0, dP_du, dP_dcoefficients,
-                     mode, impulse)) {
+                     mode, impulse, how)) {
     return false;
   }
   if (mu_d == 0.0 && mode.mode != ImpactMode::kNoImpulse) {
     // The mu_d column (for increasing mu_d) through the integration of the frictionless slip.
     Eigen::Matrix3d du, dc;
     ContactDerivativeMode integrated;
-    if (!differentiate(n, K, u, e, mu_s, mu_d, law, tolerance, false, du, dc, integrated,
-                       nullptr)) {
+    ImpulseSpaceSensitivityDetail unused;
+    if (!differentiate(n, K, u, e, mu_s, mu_d, law, tolerance, false, du, dc, integrated, nullptr,
+                       unused)) {
       return false;
     }
     dP_dcoefficients.col(2) = dc.col(2);

@@ -87,11 +87,104 @@ Eigen::Vector2d rotated(const Eigen::Vector2d& s, double a) {
   return Eigen::Vector2d(cs * s.x() - sn * s.y(), sn * s.x() + cs * s.y());
 }
 
+/// A value with its derivative in mu_d (forward mode), for the sums of
+/// StickApproach::muDerivatives().
+struct Dual {
+  double v = 0.0, d = 0.0;
+  Dual(double value = 0.0, double derivative = 0.0) : v(value), d(derivative) {}  // NOLINT
+};
+inline Dual operator+(const Dual& a, const Dual& b) {
+  return {a.v + b.v, a.d + b.d};
+}
+inline Dual operator-(const Dual& a) {
+  return {-a.v, -a.d};
+}
+inline Dual operator*(const Dual& a, const Dual& b) {
+  return {a.v * b.v, a.d * b.v + a.v * b.d};
+}
+inline Dual operator*(double a, const Dual& b) {
+  return {a * b.v, a * b.d};
+}
+inline Dual operator/(const Dual& a, const Dual& b) {
+  const double q = a.v / b.v;
+  return {q, (a.d - q * b.d) / b.v};
+}
+
+void extendSeries(StickSeries& co) {
+  const int k = ++co.order;
+  if (k == 0) {
+    // Gamma_0 = gamma'(0) and f_0 = f(0): m = f_0 / Gamma_0 (and H_0 = -1 / Gamma_0 below).
+    const double gamma0 = co.gamma_s1 + 2.0 * co.gamma_s2;
+    co.inverse_gamma0 = 1.0 / gamma0;
+    co.m = (co.fb_star - co.mu * co.a_ss) / gamma0;
+  }
+  // The weights of the sums' coefficients, first: their divisions then run alongside the pass
+  // below instead of holding up the next order.
+  const double w = 1.0 / (co.m + k), w_work = 1.0 / (2.0 * co.m + k);
+  // The recurrence, from y Gamma H' = H phi with phi = f - m Gamma - y Gamma' and Gamma = gamma/y:
+  //   (H f)_k = (m + k) (H Gamma)_k = (m + k) (H gamma)_(k+1),
+  // whose H_k terms give k Gamma_0 H_k = [(H f)_k - (m + k) (H gamma)_(k+1)] over j < k. f and
+  // gamma are combinations of cos y, sin y, cos 2y, sin 2y, so both sums are combinations of four
+  // convolutions of H with trig series, taken over j < k at the indices k and k + 1. Those at k
+  // are the ones at k + 1 from the order before, plus its H_(k-1) term; those at k + 1 come from
+  // one pass over j < k, with E1 = cos + sin and E2 = cos 2y + sin 2y: their even orders are the
+  // cosine's and their odd ones the sine's, so the parity of j says which a term belongs to.
+  // (H cos y)_k, (H sin y)_k, (H cos 2y)_k, (H sin 2y)_k over j < k:
+  double pc = 0.0, ps = 0.0, qc = 0.0, qs = 0.0;
+  if (k > 0) {
+    pc = co.next_c1;
+    ps = co.next_s1 + co.H[k - 1];  // sin y's order 1
+    qc = co.next_c2;
+    qs = co.next_s2 + 2.0 * co.H[k - 1];  // sin 2y's order 1
+  }
+  // The pass over j < k: the convolutions with E1 and E2 at k + 1, and (D H)_k without its j = 0
+  // and j = k terms, two terms a step (j, then j - 1 of the other parity) in six independent sums
+  // that the processor overlaps.
+  co.H[k] = 0.0;  // the step at j = 1 reads D_0 H_k: that term is added below
+  double c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0, dh_a = 0.0, dh_b = 0.0;
+  int j = k - 1;
+  for (; j >= 1; j -= 2) {  // order k + 1 - j even (the cosines'), then odd for j - 1
+    const int i = k + 1 - j;
+    c1 += co.H[j] * kE1.v[i];
+    c2 += co.H[j] * kE2.v[i];
+    dh_a += co.D[j] * co.H[k - j];
+    s1 += co.H[j - 1] * kE1.v[i + 1];
+    s2 += co.H[j - 1] * kE2.v[i + 1];
+    dh_b += co.D[j - 1] * co.H[k - j + 1];
+  }
+  if (j == 0) {
+    c1 += co.H[0] * kE1.v[k + 1];
+    c2 += co.H[0] * kE2.v[k + 1];
+  }
+  co.next_c1 = c1;
+  co.next_s1 = s1;
+  co.next_c2 = c2;
+  co.next_s2 = s2;
+  if (k == 0) {
+    co.H[0] = -co.inverse_gamma0;
+  } else {
+    const double hf = co.fb_star * pc + co.eps * co.fb_perp * ps -
+                      co.mu * (0.5 * (co.a_ss - co.a_pp) * qc + co.eps * co.a_sp * qs);
+    const double hgamma = co.gamma_c1 * c1 + co.gamma_s1 * s1 + co.gamma_c2 * c2 + co.gamma_s2 * s2;
+    co.H[k] = (hf - (co.m + k) * hgamma) * (kInverse.v[k] * co.inverse_gamma0);
+  }
+  co.Pc[k] = pc;
+  co.Ps[k] = ps;
+  co.Qc[k] = qc;
+  co.Qs[k] = qs;
+  co.Ip[k] = co.H[k] * w;
+  co.Ic[k] = (pc + co.H[k]) * w;  // cos y's order 0
+  co.Is[k] = ps * w;
+  co.D[k] = co.c * co.Ip[k] - co.mu * (co.fb_star * co.Ic[k] + co.eps * co.fb_perp * co.Is[k]);
+  const double d_h = dh_a + dh_b + co.D[0] * co.H[k] + (k > 0 ? co.D[k] * co.H[0] : 0.0);
+  co.DH2[k] = d_h * w_work;
+}
+
 }  // namespace
 
 bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, double c, double mu_d,
                           const Eigen::Vector2d& s0) {
-  order_ = -1;
+  co_.order = -1;
   if (!(mu_d > 0.0) || !(c > mu_d * b.norm())) return false;
   // g = s_perp . (b - mu A s) and dg/dtheta at direction s; the slip direction turns towards the
   // first zero of g ahead of it, in the direction of g's sign.
@@ -149,19 +242,19 @@ bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, do
   g(s, dg);
   s_star_ = s;
   s_perp_ = Eigen::Vector2d(-s_star_.y(), s_star_.x());
-  eps_ = -dir;  // the start lies behind theta* in the direction of turning
-  mu_ = mu_d;
-  c_ = c;
-  fb_star_ = b.dot(s_star_);
-  fb_perp_ = b.dot(s_perp_);
-  a_ss_ = s_star_.dot(A * s_star_);
-  a_sp_ = s_star_.dot(A * s_perp_);
-  a_pp_ = s_perp_.dot(A * s_perp_);
-  gamma_c1_ = eps_ * fb_perp_;
-  gamma_s1_ = -fb_star_;
-  gamma_c2_ = -mu_ * eps_ * a_sp_;
-  gamma_s2_ = -0.5 * mu_ * (a_pp_ - a_ss_);
-  const double f_star = fb_star_ - mu_ * a_ss_;
+  co_.eps = -dir;  // the start lies behind theta* in the direction of turning
+  co_.mu = mu_d;
+  co_.c = c;
+  co_.fb_star = b.dot(s_star_);
+  co_.fb_perp = b.dot(s_perp_);
+  co_.a_ss = s_star_.dot(A * s_star_);
+  co_.a_sp = s_star_.dot(A * s_perp_);
+  co_.a_pp = s_perp_.dot(A * s_perp_);
+  co_.gamma_c1 = co_.eps * co_.fb_perp;
+  co_.gamma_s1 = -co_.fb_star;
+  co_.gamma_c2 = -co_.mu * co_.eps * co_.a_sp;
+  co_.gamma_s2 = -0.5 * co_.mu * (co_.a_pp - co_.a_ss);
+  const double f_star = co_.fb_star - co_.mu * co_.a_ss;
   // Attracting (g' < 0) and slowing the slip (f < 0): the slip stops along s*.
   if (!(dg < 0.0) || !(f_star < 0.0)) return false;
   extend();  // order 0: m, H_0
@@ -170,24 +263,24 @@ bool StickApproach::build(const Eigen::Matrix2d& A, const Eigen::Vector2d& b, do
 
 double StickApproach::distance(const Eigen::Vector2d& s) const {
   const double cross = s_star_.x() * s.y() - s_star_.y() * s.x();
-  const double y = eps_ * std::atan2(cross, s_star_.dot(s));
+  const double y = co_.eps * std::atan2(cross, s_star_.dot(s));
   return y >= 0.0 ? y : (y > -1e-13 ? 0.0 : -1.0);
 }
 
 double StickApproach::gammaAt(double y) const {
-  return gamma_c1_ * std::cos(y) + gamma_s1_ * std::sin(y) + gamma_c2_ * std::cos(2 * y) +
-         gamma_s2_ * std::sin(2 * y);
+  return co_.gamma_c1 * std::cos(y) + co_.gamma_s1 * std::sin(y) + co_.gamma_c2 * std::cos(2 * y) +
+         co_.gamma_s2 * std::sin(2 * y);
 }
 
 double StickApproach::radius() const {
   // With z = e^(iy), 2 z^2 gamma is the quartic a z^4 + b z^3 + conj(b) z + conj(a),
-  // a = gamma_c2_ - i gamma_s2_, b = gamma_c1_ - i gamma_s1_, and z = 1 (theta*) a root
-  // (gamma_c1_ + gamma_c2_ = gamma(0) = 0). Dividing it out leaves the cubic
+  // a = co_.gamma_c2 - i co_.gamma_s2, b = co_.gamma_c1 - i co_.gamma_s1, and z = 1 (theta*) a root
+  // (co_.gamma_c1 + co_.gamma_c2 = gamma(0) = 0). Dividing it out leaves the cubic
   //   a z^3 + (a + b) z^2 + (a + b) z + (a + b + conj(b)),
   // whose roots z give y = arg z - i ln|z|, at distance |y| = sqrt(arg^2 z + ln^2 |z|) from
   // theta* (arg in (-pi, pi]: the nearest of the 2 pi images). Called once per slip, so the
   // complex arithmetic is spelled out (no library complex division, power or hypot).
-  const Complex a(gamma_c2_, -gamma_s2_), b(gamma_c1_, -gamma_s1_);
+  const Complex a(co_.gamma_c2, -co_.gamma_s2), b(co_.gamma_c1, -co_.gamma_s1);
   const Complex q[4] = {a + b + std::conj(b), a + b, a + b, a};  // q[k]: coefficient of z^k
   const double scale = modulus(q[0]) + modulus(q[1]) + modulus(q[3]);
   Complex roots[3];
@@ -233,93 +326,32 @@ double StickApproach::radius() const {
 }
 
 void StickApproach::extend() {
-  const int k = ++order_;
-  if (k == 0) {
-    // Gamma_0 = gamma'(0) and f_0 = f(0): m = f_0 / Gamma_0 (and H_0 = -1 / Gamma_0 below).
-    const double gamma0 = gamma_s1_ + 2.0 * gamma_s2_;
-    inverse_gamma0_ = 1.0 / gamma0;
-    m_ = (fb_star_ - mu_ * a_ss_) / gamma0;
-  }
-  // The weights of the sums' coefficients, first: their divisions then run alongside the pass
-  // below instead of holding up the next order.
-  const double w = 1.0 / (m_ + k), w_work = 1.0 / (2.0 * m_ + k);
-  // The recurrence, from y Gamma H' = H phi with phi = f - m Gamma - y Gamma' and Gamma = gamma/y:
-  //   (H f)_k = (m + k) (H Gamma)_k = (m + k) (H gamma)_(k+1),
-  // whose H_k terms give k Gamma_0 H_k = [(H f)_k - (m + k) (H gamma)_(k+1)] over j < k. f and
-  // gamma are combinations of cos y, sin y, cos 2y, sin 2y, so both sums are combinations of four
-  // convolutions of H with trig series, taken over j < k at the indices k and k + 1. Those at k
-  // are the ones at k + 1 from the order before, plus its H_(k-1) term; those at k + 1 come from
-  // one pass over j < k, with E1 = cos + sin and E2 = cos 2y + sin 2y: their even orders are the
-  // cosine's and their odd ones the sine's, so the parity of j says which a term belongs to.
-  // (H cos y)_k, (H sin y)_k, (H cos 2y)_k, (H sin 2y)_k over j < k:
-  double pc = 0.0, ps = 0.0, qc = 0.0, qs = 0.0;
-  if (k > 0) {
-    pc = next_c1_;
-    ps = next_s1_ + H_[k - 1];  // sin y's order 1
-    qc = next_c2_;
-    qs = next_s2_ + 2.0 * H_[k - 1];  // sin 2y's order 1
-  }
-  // The pass over j < k: the convolutions with E1 and E2 at k + 1, and (D H)_k without its j = 0
-  // and j = k terms, two terms a step (j, then j - 1 of the other parity) in six independent sums
-  // that the processor overlaps.
-  H_[k] = 0.0;  // the step at j = 1 reads D_0 H_k: that term is added below
-  double c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0, dh_a = 0.0, dh_b = 0.0;
-  int j = k - 1;
-  for (; j >= 1; j -= 2) {  // order k + 1 - j even (the cosines'), then odd for j - 1
-    const int i = k + 1 - j;
-    c1 += H_[j] * kE1.v[i];
-    c2 += H_[j] * kE2.v[i];
-    dh_a += D_[j] * H_[k - j];
-    s1 += H_[j - 1] * kE1.v[i + 1];
-    s2 += H_[j - 1] * kE2.v[i + 1];
-    dh_b += D_[j - 1] * H_[k - j + 1];
-  }
-  if (j == 0) {
-    c1 += H_[0] * kE1.v[k + 1];
-    c2 += H_[0] * kE2.v[k + 1];
-  }
-  next_c1_ = c1;
-  next_s1_ = s1;
-  next_c2_ = c2;
-  next_s2_ = s2;
-  if (k == 0) {
-    H_[0] = -inverse_gamma0_;
-  } else {
-    const double hf = fb_star_ * pc + eps_ * fb_perp_ * ps -
-                      mu_ * (0.5 * (a_ss_ - a_pp_) * qc + eps_ * a_sp_ * qs);
-    const double hgamma = gamma_c1_ * c1 + gamma_s1_ * s1 + gamma_c2_ * c2 + gamma_s2_ * s2;
-    H_[k] = (hf - (m_ + k) * hgamma) * (kInverse.v[k] * inverse_gamma0_);
-  }
-  Ip_[k] = H_[k] * w;
-  Ic_[k] = (pc + H_[k]) * w;  // cos y's order 0
-  Is_[k] = ps * w;
-  D_[k] = c_ * Ip_[k] - mu_ * (fb_star_ * Ic_[k] + eps_ * fb_perp_ * Is_[k]);
-  const double d_h = dh_a + dh_b + D_[0] * H_[k] + (k > 0 ? D_[k] * H_[0] : 0.0);
-  DH2_[k] = d_h * w_work;
+  extendSeries(co_);
 }
 
 bool StickApproach::converged(double y, double relative_impulse, double relative_work) {
-  if (order_ < 0) return false;
+  if (co_.order < 0) return false;
   if (y == 0.0) return true;
-  while (order_ < 3) extend();
+  while (co_.order < 3) extend();
   // Terms at y: tp[k] the largest of the impulse series', tw[k] the work series'. They are judged
   // against the sums themselves (partial sums so far), not the leading terms: with alternating
   // coefficients a sum can be much smaller than its terms, and the share is of the sum.
   Series tp, tw;
   double power = 1.0, sum_p = 0.0, sum_w = 0.0;
   const auto term = [&](int k) {
-    tp[k] = std::max(std::max(std::abs(Ip_[k]), std::abs(Ic_[k])), std::abs(Is_[k])) * power;
-    tw[k] = std::abs(DH2_[k]) * power;
-    sum_p += Ip_[k] * power;
-    sum_w += DH2_[k] * power;
+    tp[k] =
+        std::max(std::max(std::abs(co_.Ip[k]), std::abs(co_.Ic[k])), std::abs(co_.Is[k])) * power;
+    tw[k] = std::abs(co_.DH2[k]) * power;
+    sum_p += co_.Ip[k] * power;
+    sum_w += co_.DH2[k] * power;
     power *= y;
   };
-  for (int k = 0; k <= order_; ++k) term(k);
+  for (int k = 0; k <= co_.order; ++k) term(k);
   // Geometric decay: the last four terms below the share of the tolerance, and falling at least
   // twofold over four orders (then the rest sums to less than they do; four, not two, so that
   // coefficients that oscillate, from complex singularities, cannot pass by a chance small pair).
   for (;;) {
-    const int k = order_;
+    const int k = co_.order;
     // The tests below normalise by the sums (two divisions); most orders need none of them: the
     // acceptance needs each of its two parts below half the share, which multiplications tell,
     // and the give-ups look only every fourth order.
@@ -351,33 +383,144 @@ bool StickApproach::converged(double y, double relative_impulse, double relative
       return false;
     }
     extend();
-    term(order_);
+    term(co_.order);
   }
+}
+
+StickApproach::MuDerivatives StickApproach::muDerivatives(double y, double sigma) {
+  // With A and b fixed, mu_d moves theta* (g(theta*) = s*_perp . (b - mu_d A s*) = 0):
+  // dtheta*/dmu_d = -(dg/dmu_d) / g'(theta*) = a_sp / Gamma(0), which turns s* and s*_perp and so
+  // the flow's constants: d(b.s*) = (b.s*_perp) dtheta*, d(b.s*_perp) = -(b.s*) dtheta*,
+  // d a_ss = 2 a_sp dtheta*, d a_sp = (a_pp - a_ss) dtheta*, d a_pp = -2 a_sp dtheta*. The
+  // recurrence of extend() is differentiated term by term (a d in front: the mu_d derivative),
+  // reading the values it stored; two orders beyond those converged() asked for, and the values
+  // one further (the trig sums at k + 1 of order k are those at order k + 1).
+  const int top = std::min(kMaxOrder - 1, co_.order);
+  while (co_.order < top + 1) extend();
+  const StickSeries& v = co_;
+  const double ig0 = v.inverse_gamma0;
+  const double dtheta = v.a_sp * ig0;
+  const double dfs = v.fb_perp * dtheta, dfp = -v.fb_star * dtheta;
+  const double dss = 2.0 * v.a_sp * dtheta, dsp = (v.a_pp - v.a_ss) * dtheta,
+               dpp = -2.0 * v.a_sp * dtheta;
+  const double dgc1 = v.eps * dfp, dgs1 = -dfs, dgc2 = -v.eps * (v.a_sp + v.mu * dsp),
+               dgs2 = -0.5 * ((v.a_pp - v.a_ss) + v.mu * (dpp - dss));
+  const double dgamma0 = dgs1 + 2.0 * dgs2;
+  const double dig0 = -ig0 * ig0 * dgamma0;
+  // m = (b.s* - mu a_ss) / Gamma(0)
+  const double dm = (dfs - v.a_ss - v.mu * dss - v.m * dgamma0) * ig0;
+  Series dH, dIp, dDH2, dD;
+  double next_c1 = 0.0, next_s1 = 0.0, next_c2 = 0.0, next_s2 = 0.0;
+  for (int k = 0; k <= top; ++k) {
+    const double w = 1.0 / (v.m + k), w_work = 1.0 / (2.0 * v.m + k);
+    const double dw = -w * w * dm, dw_work = -2.0 * w_work * w_work * dm;
+    double dpc = 0.0, dps = 0.0, dqc = 0.0, dqs = 0.0;
+    if (k > 0) {
+      dpc = next_c1;
+      dps = next_s1 + dH[k - 1];
+      dqc = next_c2;
+      dqs = next_s2 + 2.0 * dH[k - 1];
+    }
+    // The pass over j < k, as extend()'s: the trig sums at k + 1, and d(D H)_k over 0 < j < k
+    // (its j = 0 and j = k terms need dH_k and dD_k, added below), two terms a step.
+    double c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0, dh_a = 0.0, dh_b = 0.0;
+    int j = k - 1;
+    for (; j >= 2; j -= 2) {
+      const int i = k + 1 - j;
+      c1 += dH[j] * kE1.v[i];
+      c2 += dH[j] * kE2.v[i];
+      dh_a += dD[j] * v.H[k - j] + v.D[j] * dH[k - j];
+      s1 += dH[j - 1] * kE1.v[i + 1];
+      s2 += dH[j - 1] * kE2.v[i + 1];
+      dh_b += dD[j - 1] * v.H[k - j + 1] + v.D[j - 1] * dH[k - j + 1];
+    }
+    if (j == 1) {
+      c1 += dH[1] * kE1.v[k];
+      c2 += dH[1] * kE2.v[k];
+      dh_a += dD[1] * v.H[k - 1] + v.D[1] * dH[k - 1];
+      s1 += dH[0] * kE1.v[k + 1];
+      s2 += dH[0] * kE2.v[k + 1];
+    } else if (j == 0) {
+      c1 += dH[0] * kE1.v[k + 1];
+      c2 += dH[0] * kE2.v[k + 1];
+    }
+    next_c1 = c1;
+    next_s1 = s1;
+    next_c2 = c2;
+    next_s2 = s2;
+    if (k == 0) {
+      dH[0] = -dig0;
+    } else {
+      const double pc = v.Pc[k], ps = v.Ps[k], qc = v.Qc[k], qs = v.Qs[k];
+      // The trig sums at k + 1 of this order (values).
+      const double vc1 = v.Pc[k + 1], vs1 = v.Ps[k + 1] - v.H[k], vc2 = v.Qc[k + 1],
+                   vs2 = v.Qs[k + 1] - 2.0 * v.H[k];
+      const double dhf = dfs * pc + v.fb_star * dpc + v.eps * (dfp * ps + v.fb_perp * dps) -
+                         (0.5 * (v.a_ss - v.a_pp) * qc + v.eps * v.a_sp * qs) -
+                         v.mu * (0.5 * (dss - dpp) * qc + 0.5 * (v.a_ss - v.a_pp) * dqc +
+                                 v.eps * (dsp * qs + v.a_sp * dqs));
+      const double hgamma =
+          v.gamma_c1 * vc1 + v.gamma_s1 * vs1 + v.gamma_c2 * vc2 + v.gamma_s2 * vs2;
+      const double dhgamma = dgc1 * vc1 + v.gamma_c1 * c1 + dgs1 * vs1 + v.gamma_s1 * s1 +
+                             dgc2 * vc2 + v.gamma_c2 * c2 + dgs2 * vs2 + v.gamma_s2 * s2;
+      dH[k] =
+          (dhf - dm * hgamma - (v.m + k) * dhgamma) * (kInverse.v[k] * ig0) + v.H[k] * dig0 / ig0;
+    }
+    dIp[k] = dH[k] * w + v.H[k] * dw;
+    const double dIc = (dpc + dH[k]) * w + (v.Pc[k] + v.H[k]) * dw;
+    const double dIs = dps * w + v.Ps[k] * dw;
+    dD[k] = v.c * dIp[k] - (v.fb_star * v.Ic[k] + v.eps * v.fb_perp * v.Is[k]) -
+            v.mu * (dfs * v.Ic[k] + v.fb_star * dIc + v.eps * (dfp * v.Is[k] + v.fb_perp * dIs));
+    double dDH = dh_a + dh_b + dD[0] * v.H[k] + v.D[0] * dH[k];
+    if (k > 0) dDH += dD[k] * v.H[0] + v.D[k] * dH[0];
+    dDH2[k] = dDH * w_work + v.DH2[k] * (2.0 * v.m + k) * dw_work;
+  }
+  // The slip held fixed: y = eps (theta - theta*) moves by -eps dtheta*. The remaining quantities
+  // at y (remaining()): p_rem = sigma e^-S Ip(y), work_drop = (sigma e^-S)^2 DH2(y), with
+  // e^S = -H(y) Gamma(y) = -H(y) gamma(y) / y.
+  const Dual yd(y, -v.eps * dtheta);
+  Dual ip(v.Ip[top], dIp[top]), dh2(v.DH2[top], dDH2[top]), h(v.H[top], dH[top]);
+  for (int k = top - 1; k >= 0; --k) {
+    ip = ip * yd + Dual(v.Ip[k], dIp[k]);
+    dh2 = dh2 * yd + Dual(v.DH2[k], dDH2[k]);
+    h = h * yd + Dual(v.H[k], dH[k]);
+  }
+  const double c1 = std::cos(y), s1 = std::sin(y), c2 = std::cos(2.0 * y), s2 = std::sin(2.0 * y);
+  const double gamma = v.gamma_c1 * c1 + v.gamma_s1 * s1 + v.gamma_c2 * c2 + v.gamma_s2 * s2;
+  const double dgamma =
+      dgc1 * c1 + dgs1 * s1 + dgc2 * c2 + dgs2 * s2 +
+      yd.d * (-v.gamma_c1 * s1 + v.gamma_s1 * c1 - 2.0 * v.gamma_c2 * s2 + 2.0 * v.gamma_s2 * c2);
+  const Dual scale = (sigma * yd) / -(h * Dual(gamma, dgamma));
+  MuDerivatives out;
+  out.p = (scale * ip).d;
+  out.work_drop = (scale * scale * dh2).d;
+  return out;
 }
 
 double StickApproach::logScale(double y, double sigma) const {
   // e^S = -H Gamma, with Gamma(y) = gamma(y) / y in closed form.
   if (y <= 0.0) return std::log(sigma);
-  return std::log(sigma) - std::log(-sum(H_, order_, y) * gammaAt(y) / y);
+  return std::log(sigma) - std::log(-sum(co_.H, co_.order, y) * gammaAt(y) / y);
 }
 
 StickApproach::Remaining StickApproach::remaining(double y, double log_scale) const {
   Remaining out;
-  out.direction = s_star_ * std::cos(y) + eps_ * s_perp_ * std::sin(y);
+  out.direction = s_star_ * std::cos(y) + co_.eps * s_perp_ * std::sin(y);
   if (y <= 0.0) return out;
   const double scale = std::exp(log_scale);
   // The five sums by Horner's rule in one loop (five independent chains the processor overlaps).
-  double ip = Ip_[order_], ic = Ic_[order_], is = Is_[order_], dh2 = DH2_[order_], h = H_[order_];
-  for (int k = order_ - 1; k >= 0; --k) {
-    ip = ip * y + Ip_[k];
-    ic = ic * y + Ic_[k];
-    is = is * y + Is_[k];
-    dh2 = dh2 * y + DH2_[k];
-    h = h * y + H_[k];
+  double ip = co_.Ip[co_.order], ic = co_.Ic[co_.order], is = co_.Is[co_.order],
+         dh2 = co_.DH2[co_.order], h = co_.H[co_.order];
+  for (int k = co_.order - 1; k >= 0; --k) {
+    ip = ip * y + co_.Ip[k];
+    ic = ic * y + co_.Ic[k];
+    is = is * y + co_.Is[k];
+    dh2 = dh2 * y + co_.DH2[k];
+    h = h * y + co_.H[k];
   }
   out.p = scale * ip;
-  out.P_t = -mu_ * scale * (s_star_ * ic + eps_ * s_perp_ * is);
-  out.u_n_rise = scale * (c_ * ip - mu_ * (fb_star_ * ic + eps_ * fb_perp_ * is));
+  out.P_t = -co_.mu * scale * (s_star_ * ic + co_.eps * s_perp_ * is);
+  out.u_n_rise = scale * (co_.c * ip - co_.mu * (co_.fb_star * ic + co_.eps * co_.fb_perp * is));
   out.work_drop = scale * scale * dh2;
   out.rate = scale * h / y;
   return out;

@@ -756,6 +756,81 @@ TEST(ImpactDerivatives, ImpulseSpaceSensitivityOnGeneralContactsMatchesTheIntegr
   }
 }
 
+// A turning slip that the prediction ends by the stick-approach series (stick_approach.h): the
+// sensitivity ends it the same way (detail.series, asserted), with the series' gradient chained
+// with the sensitivity up to its start. Random symmetric positive definite K with a strong
+// tangential anisotropy (the slips whose exponent m >= 2 the series is used on), random
+// approaching u and coefficients; every column (u, e, mu_s, mu_d) against central differences of
+// integrateSingleContact() at 1e-14, each column to 1e-6 of its largest entry. The u columns of
+// contacts that stick after the stop are also the columns the series' homogeneity and flow
+// identities give; the mu_d column is the series' recurrence carried with its mu_d derivative.
+TEST(ImpactDerivatives, ImpulseSpaceSeriesToTheStopMatchesCentralDifferences) {
+  RandomSource random(2626);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int checked = 0, tried = 0;
+    for (int trial = 0; trial < 4000 && checked < 12; ++trial) {
+      const Matrix3d R = random.rotation().toRotationMatrix();
+      Vector3d eigen(random.uniform(0.05, 0.3), random.uniform(1.0, 4.0), random.uniform(0.5, 2.0));
+      cr::ProblemContact c;
+      c.delassus = R * eigen.asDiagonal() * R.transpose();
+      c.normal = random.vec(-1.0, 1.0).normalized();
+      cr::tangentBasis(c.normal, c.tangent1, c.tangent2);
+      c.restitution = random.uniform(0.1, 0.9);
+      c.static_friction = random.uniform(0.3, 1.5);
+      c.dynamic_friction = random.uniform(0.5, 1.0) * c.static_friction;
+      const Vector3d u = random.vec(-1.0, 1.0) - 0.7 * c.normal;
+      Matrix3d dP_du, dP_dc;
+      cr::ContactDerivativeMode mode;
+      cr::ImpulseSpaceSensitivityDetail detail;
+      Vector3d P;
+      if (!cr::differentiateImpulseSpace(c.normal, c.delassus, u, c.restitution, c.static_friction,
+                                         c.dynamic_friction, law, 1e-12, dP_du, dP_dc, mode, &P,
+                                         &detail)) {
+        continue;
+      }
+      if (!detail.series || mode.at_switch || mode.mode == cr::ImpactMode::kNoImpulse) continue;
+      ++tried;
+      const auto impulse = [&](const Vector3d& v, const cr::ProblemContact& contact) {
+        const cr::ContactImpulse i = cr::integrateSingleContact(contact, v, law, 1e-14);
+        return Vector3d(i.total(contact.normal));
+      };
+      EXPECT_LE((P - impulse(u, c)).norm(), 1e-8 * P.norm()) << cr::toString(law) << " " << trial;
+      Eigen::Matrix<double, 3, 6> got, reference;
+      got << dP_du, dP_dc;
+      const double h = 1e-5;
+      for (int k = 0; k < 3; ++k) {
+        const Vector3d step = h * Vector3d::Unit(k);
+        reference.col(k) = (impulse(u + step, c) - impulse(u - step, c)) / (2.0 * h);
+      }
+      for (int k = 0; k < 3; ++k) {
+        cr::ProblemContact up = c, down = c;
+        double* coefficient_up[3] = {&up.restitution, &up.static_friction, &up.dynamic_friction};
+        double* coefficient_down[3] = {&down.restitution, &down.static_friction,
+                                       &down.dynamic_friction};
+        *coefficient_up[k] += h;
+        *coefficient_down[k] -= h;
+        reference.col(3 + k) = (impulse(u, up) - impulse(u, down)) / (2.0 * h);
+      }
+      // Each column to 1e-6 of itself (of 1e-3 of the largest entry for columns near zero, such
+      // as mu_s's away from the stick/slip switch, or mu_d's under Poisson when the contact
+      // sticks before compression ends).
+      const double largest = reference.cwiseAbs().maxCoeff();
+      double worst = 0.0;
+      for (int k = 0; k < 6; ++k) {
+        const double scale = std::max(reference.col(k).cwiseAbs().maxCoeff(), 1e-3 * largest);
+        worst = std::max(worst, (got.col(k) - reference.col(k)).cwiseAbs().maxCoeff() / scale);
+      }
+      EXPECT_LE(worst, 1e-6) << cr::toString(law) << " trial " << trial << " ("
+                             << cr::toString(mode.mode) << ", series order " << detail.series_order
+                             << ", " << detail.steps << " steps)\n"
+                             << got << "\n\n"
+                             << reference;
+      ++checked;
+    }
+    EXPECT_GE(checked, 12) << cr::toString(law) << ": series taken on " << tried;
+  }
+}
+
 // ---- Labels, bodies without impact, bad input --------------------------------------------------
 
 TEST(ImpactDerivatives, LabelsAreTheRequestAndResponseFieldNames) {

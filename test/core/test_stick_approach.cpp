@@ -127,6 +127,43 @@ TEST(StickApproach, RemainingAgreesWithIndependentIntegration) {
   EXPECT_GE(compared, 20);
 }
 
+// muDerivatives() (the series' recurrence differentiated term by term) against central differences
+// of the series' own sums in mu_d, the slip held fixed (direction s0, speed 1): each side's series
+// built at mu_d +- h from the same s0, converged to 1e-14, and summed at its own angle distance
+// (theta* moves with mu_d); to 1e-6 of the derivative (and of the impulse scale where it is small).
+TEST(StickApproach, MuDerivativesMatchCentralDifferencesOfTheSeries) {
+  std::mt19937_64 rng(20261126);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int compared = 0;
+  for (int i = 0; i < 400 && compared < 30; ++i) {
+    const SlipCoefficients slip = randomSlip(rng, false);
+    const double c = 1.5, mu = slip.mu, h = 1e-5;
+    const double theta0 = kPi * unit(rng);
+    const Vector2d s0(std::cos(theta0), std::sin(theta0));
+    cr::StickApproach at[3];  // mu, mu + h, mu - h
+    const double mus[3] = {mu, mu + h, mu - h};
+    double p[3], work[3];
+    bool ok = true;
+    for (int k = 0; k < 3 && ok; ++k) {
+      ok = at[k].build(slip.A, slip.b, c, mus[k], s0);
+      const double y = ok ? at[k].distance(s0) : -1.0;
+      ok = ok && y >= 0.0 && at[k].converged(y, 1e-14, 1e-14);
+      if (!ok) break;
+      const cr::StickApproach::Remaining r = at[k].remaining(y, at[k].logScale(y, 1.0));
+      p[k] = r.p;
+      work[k] = r.work_drop;
+    }
+    if (!ok) continue;
+    const cr::StickApproach::MuDerivatives got = at[0].muDerivatives(at[0].distance(s0), 1.0);
+    const double want_p = (p[1] - p[2]) / (2.0 * h), want_w = (work[1] - work[2]) / (2.0 * h);
+    EXPECT_NEAR(got.p, want_p, 1e-6 * std::max(std::abs(want_p), 1e-3 * p[0])) << "case " << i;
+    EXPECT_NEAR(got.work_drop, want_w, 1e-6 * std::max(std::abs(want_w), 1e-3 * work[0]))
+        << "case " << i;
+    ++compared;
+  }
+  EXPECT_GE(compared, 20);
+}
+
 // radius() against the zeros of the angle equation found directly: g(theta) = s_perp . (b - mu A s)
 // with s = (cos theta, sin theta) continued to complex theta, its zeros by Newton's method from a
 // grid over one period and |Im theta| <= 4; the nearest other than theta* is the radius. And the

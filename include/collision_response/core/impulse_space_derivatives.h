@@ -1,19 +1,34 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 
 #include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/solver_options.h"
 
 namespace collision_response::core {
 
+/// How differentiateImpulseSpace() went (for tests and benchmarks).
+struct ImpulseSpaceSensitivityDetail {
+  /// Dormand-Prince steps taken with the gradients (a turning slip), rejected ones included.
+  std::size_t steps = 0;
+  /// A turning slip's end was taken by the stick-approach series (stick_approach.h) with its
+  /// gradient, as the prediction takes it, rather than integrated to the stop.
+  bool series = false;
+  /// The series' order (StickApproach::order()) when `series`.
+  int series_order = 0;
+};
+
 /// Analytic derivatives of the impulse of one isolated contact under the impulse-space laws
 /// (integrateSingleContact(), kPoisson or kStronge; docs/physics.md, "Derivatives of the impact
 /// map", "The impulse-space laws, one contact"), by a forward sensitivity carried through the same
 /// phases: the closed-form segments (constant rates: sticking, slip resumed after a stop,
 /// frictionless slip, the central stop) differentiated exactly, a rotating slip integrated with its
-/// sensitivities (Dormand-Prince 5(4) in xi, dp/dxi = |u_t|, on the same state), and each event
-/// (maximum compression, the end of the impact, the slip's stop) moving with the inputs by
+/// sensitivities (Dormand-Prince 5(4) in xi, dp/dxi = |u_t|, on the same state) until, as in the
+/// prediction, the stick-approach series (stick_approach.h) takes the rest of it to its stop in
+/// closed form (its gradient: with respect to the slip from its homogeneity and its invariance
+/// along the flow, with respect to mu_d through the series' recurrence), and each event (maximum
+/// compression, the end of the impact, the slip's stop) moving with the inputs by
 /// dxi_event = -(dg/dy . dy + dg/dtheta) / (dg/dxi).
 ///
 /// Inputs: the contact's normal n (unit, from a towards b), K its contact-space inverse mass
@@ -26,13 +41,15 @@ namespace collision_response::core {
 /// [N s / (m/s) = kg] and dP_dcoefficients (3x3: columns d P / d e, d mu_s, d mu_d [N s]);
 /// `mode` the contact's mode (sticking at the end of the impact, sliding, no impulse), method
 /// kAnalytic, and the switches near which the derivative is one-sided (flagged, with which side).
-/// `impulse`, if given, receives the impulse P the derivatives belong to [N s, world].
+/// `impulse`, if given, receives the impulse P the derivatives belong to [N s, world]; `detail`,
+/// if given, how the sensitivity went.
 /// Returns false (nothing usable: differentiate otherwise) for a singular K or K_tt, a law other
 /// than kPoisson and kStronge, or an integration that exceeds its step budget.
 bool differentiateImpulseSpace(const Eigen::Vector3d& n, const Eigen::Matrix3d& K,
                                const Eigen::Vector3d& u, double e, double mu_s, double mu_d,
                                ImpactLaw law, double tolerance, Eigen::Matrix3d& dP_du,
                                Eigen::Matrix3d& dP_dcoefficients, ContactDerivativeMode& mode,
-                               Eigen::Vector3d* impulse = nullptr);
+                               Eigen::Vector3d* impulse = nullptr,
+                               ImpulseSpaceSensitivityDetail* detail = nullptr);
 
 }  // namespace collision_response::core

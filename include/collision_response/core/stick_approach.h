@@ -5,6 +5,34 @@
 
 namespace collision_response::core {
 
+/// Highest order of the stick-approach series (StickApproach::kMaxOrder).
+constexpr int kStickSeriesMaxOrder = 64;
+
+/// The state of the stick-approach series (StickApproach's members).
+struct StickSeries {
+  double eps = 1.0;  ///< theta = theta* + eps y
+  double mu = 0.0, c = 0.0, m = 0.0;
+  double fb_star = 0.0, fb_perp = 0.0;        ///< b . s*, b . s*_perp
+  double a_ss = 0.0, a_sp = 0.0, a_pp = 0.0;  ///< s*^T A s*, s*^T A s*_perp, s*_perp^T A s*_perp
+  /// gamma(y) = gamma_c1 cos y + gamma_s1 sin y + gamma_c2 cos 2y + gamma_s2 sin 2y [1/kg]
+  /// (gamma(0) = 0), from the members above: gammaAt(), the recurrence and radius() read them.
+  double gamma_c1 = 0.0, gamma_s1 = 0.0, gamma_c2 = 0.0, gamma_s2 = 0.0;
+  // Taylor coefficients in y: H = -e^S / Gamma with Gamma = gamma / y (dp/dy's regular part,
+  // from y Gamma H' = H (f - m Gamma - y Gamma')), and the sums' coefficients Ip = H / (m + k),
+  // Ic = (H cos y)_k / (m + k), Is likewise, D = c Ip - mu (b.s*) Ic - mu eps (b.s*_perp) Is,
+  // DH2 = (D H)_k / (2m + k).
+  using Series = std::array<double, kStickSeriesMaxOrder + 1>;
+  int order = -1;
+  double inverse_gamma0 = 0.0;  ///< 1 / Gamma(0) = 1 / g'(theta*) < 0
+  /// (H cos y), (H sin y), (H cos 2y), (H sin 2y) at index order + 1 over j <= order - 1
+  /// (extend()'s sums at the next order, but for their last terms).
+  double next_c1 = 0.0, next_s1 = 0.0, next_c2 = 0.0, next_s2 = 0.0;
+  Series H, Ip, Ic, Is, D, DH2;
+  /// (H cos y)_k, (H sin y)_k, (H cos 2y)_k, (H sin 2y)_k over j < k, as the recurrence formed
+  /// them (kept for the mu_d derivatives' recurrence, StickApproach::muDerivatives()).
+  Series Pc, Ps, Qc, Qs;
+};
+
 /// Rotating slip that settles into stick, in closed form (docs/physics.md, "Approach to stick in
 /// closed form"). One frictional contact, in its contact basis (t1, t2, n) as in
 /// impulse_space_integrator.cpp: K = [A b; b^T c] (A = K_tt, b = K_tn, c = K_nn) [1/kg],
@@ -53,6 +81,18 @@ class StickApproach {
   };
   Remaining remaining(double y, double log_scale) const;
 
+  /// Derivatives with respect to mu_d of the remaining normal impulse p_rem [N s / 1] and of
+  /// work_drop [J / 1] (Remaining) of a slip of speed sigma [m/s] at angle distance y [rad] from
+  /// s*, the slip u_t itself held fixed (so y moves with theta*: dy/dmu_d = -eps dtheta*/dmu_d,
+  /// dtheta*/dmu_d = (s*^T A s*_perp) / g'(theta*)); A, b, c fixed. From the recurrence of the
+  /// series' coefficients differentiated term by term, to two orders beyond order() (the values
+  /// are extended to three beyond it): call after converged() at y.
+  struct MuDerivatives {
+    double p = 0.0;          ///< d p_rem / d mu_d [N s]
+    double work_drop = 0.0;  ///< d work_drop / d mu_d [J]
+  };
+  MuDerivatives muDerivatives(double y, double sigma);
+
   /// ln(sigma e^-S(y)) of the slip at y with speed sigma; the scale at another y' of the same
   /// path is this plus m ln(y' / y).
   double logScale(double y, double sigma) const;
@@ -65,11 +105,11 @@ class StickApproach {
   /// s*, the unit slip direction at the stop, in (t1, t2).
   const Eigen::Vector2d& direction() const { return s_star_; }
   /// The exponent m = f(theta*) / g'(theta*) > 0: sigma ~ y^m near the stop.
-  double exponent() const { return m_; }
+  double exponent() const { return co_.m; }
   /// Highest order of the series computed so far.
-  int order() const { return order_; }
+  int order() const { return co_.order; }
   /// The highest order converged() computes.
-  static constexpr int kMaxOrder = 64;
+  static constexpr int kMaxOrder = kStickSeriesMaxOrder;
 
  private:
   /// Appends order k = order() + 1 of every series.
@@ -78,24 +118,9 @@ class StickApproach {
   double gammaAt(double y) const;
 
   Eigen::Vector2d s_star_, s_perp_;  ///< s at theta*, and s rotated by +90 degrees
-  double eps_ = 1.0;                 ///< theta = theta* + eps y
-  double mu_ = 0.0, c_ = 0.0, m_ = 0.0;
-  double fb_star_ = 0.0, fb_perp_ = 0.0;         ///< b . s*, b . s*_perp
-  double a_ss_ = 0.0, a_sp_ = 0.0, a_pp_ = 0.0;  ///< s*^T A s*, s*^T A s*_perp, s*_perp^T A s*_perp
-  /// gamma(y) = gamma_c1_ cos y + gamma_s1_ sin y + gamma_c2_ cos 2y + gamma_s2_ sin 2y [1/kg]
-  /// (gamma(0) = 0), from the members above: gammaAt(), the recurrence and radius() read them.
-  double gamma_c1_ = 0.0, gamma_s1_ = 0.0, gamma_c2_ = 0.0, gamma_s2_ = 0.0;
-  // Taylor coefficients in y: H = -e^S / Gamma with Gamma = gamma / y (dp/dy's regular part,
-  // from y Gamma H' = H (f - m Gamma - y Gamma')), and the sums' coefficients Ip = H / (m + k),
-  // Ic = (H cos y)_k / (m + k), Is likewise, D = c Ip - mu (b.s*) Ic - mu eps (b.s*_perp) Is,
-  // DH2 = (D H)_k / (2m + k).
-  using Series = std::array<double, kMaxOrder + 1>;
-  int order_ = -1;
-  double inverse_gamma0_ = 0.0;  ///< 1 / Gamma(0) = 1 / g'(theta*) < 0
-  /// (H cos y), (H sin y), (H cos 2y), (H sin 2y) at index order() + 1 over j <= order() - 1
-  /// (extend()'s sums at the next order, but for their last terms).
-  double next_c1_ = 0.0, next_s1_ = 0.0, next_c2_ = 0.0, next_s2_ = 0.0;
-  Series H_, Ip_, Ic_, Is_, D_, DH2_;
+  /// The flow's constants and the series' coefficients.
+  using Series = StickSeries::Series;
+  StickSeries co_;
 };
 
 }  // namespace collision_response::core
