@@ -56,8 +56,10 @@ struct ModeContact {
 /// j), a separating contact not approaching. A mode that fails is repaired contact by contact (a
 /// contact pulling separates, a separating one that approaches becomes active, a sticking one
 /// outside its pyramid slides along the pyramid direction nearest its friction, a sliding one whose
-/// slip is reversed sticks, one whose slip has turned slides along the direction opposing it) and
-/// checked again, at most `max_modes` modes in all and never the same mode twice.
+/// slip is reversed sticks, one whose slip has turned slides along the direction opposing it, or
+/// on the facet between the two when that direction is the neighbour of its own; a facet-sliding
+/// one with a negative part slides along the other direction) and checked again, at most
+/// `max_modes` modes in all and never the same mode twice.
 ///
 /// Returns the number of modes checked, positive if the last one is a solution (then every
 /// contact's mode, direction and P are the answer: an exact solution of the pyramid LCP, to the
