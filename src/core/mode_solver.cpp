@@ -157,10 +157,15 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
     }
     seen[tried - 1] = mode;
 
-    // The equations (rows of K) and unknowns (columns), contact by contact, each a weight over
-    // its contact's frame rows (n, t1, t2): K(r, j) = e_r^T A_(contact r, contact j) c_j.
+    // The equations (rows of K) and unknowns (columns), contact by contact. An unknown is a
+    // frame component l of its contact's impulse (sticking), P_n with friction mu P_n along a
+    // direction (sliding: P = P_n (n + mu d)), or a tangential part along a direction; an
+    // equation is a frame row of its contact or a tangential combination (a facet's).
+    enum Kind : unsigned char { kUnit, kSlide, kTangent };
     int owner[kModeSolverMaxUnknowns];  // the contact of equation / unknown r
-    Eigen::Vector3d e[kModeSolverMaxUnknowns], cw[kModeSolverMaxUnknowns];
+    Kind unknown[kModeSolverMaxUnknowns], equation[kModeSolverMaxUnknowns];
+    int unit_row[kModeSolverMaxUnknowns], unit_column[kModeSolverMaxUnknowns];
+    Eigen::Vector2d row_mix[kModeSolverMaxUnknowns], column_dir[kModeSolverMaxUnknowns];
     int m = 0;
     for (int i = 0; i < count; ++i) {
       const ModeContact& c = contacts[i];
@@ -168,45 +173,55 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
       const Eigen::Vector2d& d = kPyramid.direction[c.direction];
       const Eigen::Vector2d& d_next = kPyramid.direction[(c.direction + 1) % kD];
       owner[m] = i;
-      e[m] = Eigen::Vector3d::UnitX();  // u'_n = target
+      equation[m] = kUnit, unit_row[m] = 0;  // u'_n = target
       if (c.mode == ContactMode::kSliding) {
-        cw[m++] = Eigen::Vector3d(1.0, c.mu * d.x(), c.mu * d.y());  // P = P_n (n + mu d_k)
+        unknown[m] = kSlide, column_dir[m++] = d;  // P = P_n (n + mu d_k)
       } else if (c.mode == ContactMode::kSlidingFacet) {
         // P = P_n (n + mu d_(k+1)) + beta_k (d_k - d_(k+1)); slip along the facet's bisector:
         // (d_k - d_(k+1)) . u'_t = 0.
-        const Eigen::Vector2d across = d - d_next;
-        cw[m++] = Eigen::Vector3d(1.0, c.mu * d_next.x(), c.mu * d_next.y());
+        unknown[m] = kSlide, column_dir[m++] = d_next;
         owner[m] = i;
-        e[m] = cw[m] = Eigen::Vector3d(0.0, across.x(), across.y());
-        ++m;
+        equation[m] = kTangent, row_mix[m] = d - d_next;
+        unknown[m] = kTangent, column_dir[m++] = d - d_next;
       } else {
-        cw[m++] = Eigen::Vector3d::UnitX();
+        unknown[m] = kUnit, unit_column[m++] = 0;
         if (c.frictional) {
-          for (int l = 1; l < 3; ++l) {
+          for (int l = 1; l < 3; ++l, ++m) {  // u'_t = 0
             owner[m] = i;
-            e[m] = cw[m] = Eigen::Vector3d::Unit(l);  // u'_t = 0
-            ++m;
+            equation[m] = kUnit, unit_row[m] = l;
+            unknown[m] = kUnit, unit_column[m] = l;
           }
         }
       }
     }
     ModeMatrix K(m, m);
     ModeVector rhs(m), x;
+    // Column j of K at frame row `row`.
+    const auto column = [&](int j, int row) {
+      const ModeContact& c = contacts[owner[j]];
+      const int f = c.first;
+      switch (unknown[j]) {
+        case kUnit:
+          return A(row, f + unit_column[j]);
+        case kSlide:
+          return A(row, f) +
+                 c.mu * (column_dir[j].x() * A(row, f + 1) + column_dir[j].y() * A(row, f + 2));
+        default:
+          return column_dir[j].x() * A(row, f + 1) + column_dir[j].y() * A(row, f + 2);
+      }
+    };
     for (int r = 0; r < m; ++r) {
-      const ModeContact& cr = contacts[owner[r]];
-      const int kr = cr.frictional ? 3 : 1;
-      Eigen::Vector3d wanted = -cr.u;
-      wanted.x() += cr.target;
-      rhs(r) = e[r].head(kr).dot(wanted.head(kr));
-      for (int j = 0; j < m; ++j) {
-        const ModeContact& cj = contacts[owner[j]];
-        const int kj = cj.frictional ? 3 : 1;
-        double sum = 0.0;
-        for (int a = 0; a < kr; ++a) {
-          if (e[r](a) == 0.0) continue;
-          for (int b = 0; b < kj; ++b) sum += e[r](a) * A(cr.first + a, cj.first + b) * cw[j](b);
+      const ModeContact& c = contacts[owner[r]];
+      if (equation[r] == kUnit) {
+        const int l = unit_row[r];
+        rhs(r) = (l == 0 ? c.target : 0.0) - c.u(l);
+        for (int j = 0; j < m; ++j) K(r, j) = column(j, c.first + l);
+      } else {
+        rhs(r) = -row_mix[r].dot(c.u.tail<2>());
+        for (int j = 0; j < m; ++j) {
+          K(r, j) =
+              row_mix[r].x() * column(j, c.first + 1) + row_mix[r].y() * column(j, c.first + 2);
         }
-        K(r, j) = sum;
       }
     }
     if (m > 0) solveLeastNorm(K, rhs, x);
@@ -215,7 +230,16 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
     ModeVector P = ModeVector::Zero(n);
     double largest = 0.0;
     for (int i = 0; i < count; ++i) contacts[i].P.setZero();
-    for (int j = 0; j < m; ++j) contacts[owner[j]].P += x(j) * cw[j];
+    for (int j = 0; j < m; ++j) {
+      ModeContact& c = contacts[owner[j]];
+      if (unknown[j] == kUnit) {
+        c.P(unit_column[j]) = x(j);
+      } else if (unknown[j] == kSlide) {
+        c.P += x(j) * Eigen::Vector3d(1.0, c.mu * column_dir[j].x(), c.mu * column_dir[j].y());
+      } else {
+        c.P.tail<2>() += x(j) * column_dir[j];
+      }
+    }
     for (int i = 0; i < count; ++i) {
       const ModeContact& c = contacts[i];
       if (c.mode == ContactMode::kSeparating) continue;
