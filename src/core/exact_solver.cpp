@@ -173,6 +173,13 @@ class IslandLcp {
   bool small_assembled_ = false;
   bool modes_warm_ = false;    // modes_ hold a warm start
   bool inconsistent_ = false;  // the last all-sticking impulses missed the targets in body space
+  // Small islands whose targets no rigid motion reaches together (redundant contacts with
+  // different restitutions: the 4 corners of a face, whose normal velocities after lie on one
+  // plane): the least-squares miss u'_n - target of each contact (stickingInBodySpace()), read by
+  // the first solveByModes(), which then starts with one of the contacts carried away faster than
+  // its target separating.
+  bool missed_targets_ = false;
+  std::array<double, kModeSolverMaxUnknowns> normal_miss_{};
   Index frame_unknowns_ = 0;
   ModeMatrix small_A_;
   std::array<ModeContact, kModeSolverMaxUnknowns> modes_;
@@ -193,10 +200,15 @@ class IslandLcp {
 /// lever arm L_b, for conditioning. `Columns`: 6 for one body (fixed-size), Eigen::Dynamic for
 /// several. `MaxRows`: a bound on the frame unknowns (kModeSolverMaxUnknowns for small islands:
 /// then J lives on the stack) or Eigen::Dynamic; `first[i]`: contact i's first frame unknown.
+/// `normal_miss` (if given, one entry per contact): the least-squares velocity changes' normal
+/// velocity minus the target, u'_n - target [m/s]: zero when the targets are reachable together;
+/// otherwise the least-squares residual (J D - rhs, orthogonal to the range of J whatever the
+/// column scaling), positive at the contacts the rigid motion carries away faster than their
+/// targets.
 template <int Columns, int MaxRows, class Rhs, class Out>
 bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
                          const std::vector<ProblemBody>& bodies, const Index* first, const Rhs& rhs,
-                         Out& P) {
+                         Out& P, double* normal_miss = nullptr) {
   using MatrixJ = Eigen::Matrix<double, Eigen::Dynamic, Columns, Eigen::ColMajor, MaxRows, Columns>;
   using MatrixG = Eigen::Matrix<double, Columns, Columns>;
   using VectorG = Eigen::Matrix<double, Columns, 1>;
@@ -248,7 +260,12 @@ bool stickingInBodySpace(const std::vector<LcpContact>& contacts,
   } else {
     Jt_rhs.noalias() = J.transpose().lazyProduct(rhs);
   }
-  const VectorG change = ldlt.solve(Jt_rhs);    // [dv_b; L_b dw_b]
+  const VectorG change = ldlt.solve(Jt_rhs);  // [dv_b; L_b dw_b]
+  if (normal_miss != nullptr) {
+    for (std::size_t i = 0; i < contacts.size(); ++i) {
+      normal_miss[i] = J.row(first[i]).dot(change) - rhs(first[i]);
+    }
+  }
   VectorG momentum = VectorG::Zero(6 * count);  // S M S [dv_b; L_b dw_b]
   for (Index b = 0; b < count; ++b) {
     const ProblemBody& body = bodies[b];
@@ -368,8 +385,39 @@ bool IslandLcp::solveByModes(std::size_t& work) {
     // No all-sticking impulses to start from: active if approaching or touching, sticking.
     m.mode = m.u.x() > m.target ? ContactMode::kSeparating : ContactMode::kSticking;
   }
-  const int tried = core::solveByModes(small_A_, modes_.data(), count, speed, 2 * count + 4);
-  work += static_cast<std::size_t>(std::abs(tried));
+  const int max_modes = 2 * count + 4;
+  int tried = 0;
+  if (missed_targets_) {
+    // No mode with every contact active fits (Newton's targets miss each other): start instead
+    // from the warm start with one contact separating, those the least-squares motion carries away
+    // fastest first (a diagonal pair for a face's 4 corners); each search is checked in full, so
+    // the order only decides the cost.
+    missed_targets_ = false;
+    std::array<ModeContact, kModeSolverMaxUnknowns> start;
+    std::array<int, kModeSolverMaxUnknowns> order;
+    int candidates = 0;
+    const double tolerance = 1e-10 * speed;
+    for (int i = 0; i < count; ++i) {
+      start[i] = modes_[i];
+      if (normal_miss_[i] > tolerance && modes_[i].mode != ContactMode::kSeparating)
+        order[candidates++] = i;
+    }
+    std::sort(order.begin(), order.begin() + candidates,
+              [this](int a, int b) { return normal_miss_[a] > normal_miss_[b]; });
+    for (int c = 0; c < candidates && tried <= 0; ++c) {
+      for (int i = 0; i < count; ++i) modes_[i] = start[i];
+      modes_[order[c]].mode = ContactMode::kSeparating;
+      tried = core::solveByModes(small_A_, modes_.data(), count, speed, max_modes);
+      work += static_cast<std::size_t>(std::abs(tried));
+    }
+    if (tried <= 0) {
+      for (int i = 0; i < count; ++i) modes_[i] = start[i];
+    }
+  }
+  if (tried <= 0) {
+    tried = core::solveByModes(small_A_, modes_.data(), count, speed, max_modes);
+    work += static_cast<std::size_t>(std::abs(tried));
+  }
   if (tried <= 0) return false;
   modes_warm_ = true;  // the next round (mu_d for contacts found sliding) starts here
   completePyramids();  // the pyramid's directions, for the residual check
@@ -382,6 +430,13 @@ bool IslandLcp::solveByModes(std::size_t& work) {
     if (!c.frictional) continue;
     if (m.mode == ContactMode::kSliding) {
       c.beta(m.direction) = c.mu() * c.P_n;
+    } else if (m.mode == ContactMode::kSlidingFacet) {
+      // The facet's two parts, >= 0 and summing to mu P_n exactly (round-off aside).
+      double beta_k, beta_next;
+      facetParts(m.P.tail<2>(), m.direction, beta_k, beta_next);
+      beta_k = std::clamp(beta_k, 0.0, c.mu() * c.P_n);
+      c.beta(m.direction) = beta_k;
+      c.beta((m.direction + 1) % kD) = c.mu() * c.P_n - beta_k;
     } else if (m.mode == ContactMode::kSticking) {
       int k;
       Eigen::Vector2d beta;
@@ -482,9 +537,11 @@ bool IslandLcp::solveAllSticking() {
     // More unknowns than the bodies' freedoms (redundant contacts, as under a box): the 6 x 6
     // body-space solve is cheaper than the frame matrix's (which is then assembled only if the
     // modes need it); otherwise the frame matrix.
-    if (!(n > problem_.unknowns() && problem_.bodies().size() == 1 &&
-          stickingInBodySpace<6, kModeSolverMaxUnknowns>(contacts_, problem_.bodies(), first, rhs,
-                                                         P))) {
+    const bool in_body_space =
+        n > problem_.unknowns() && problem_.bodies().size() == 1 &&
+        stickingInBodySpace<6, kModeSolverMaxUnknowns>(contacts_, problem_.bodies(), first, rhs, P,
+                                                       normal_miss_.data());
+    if (!in_body_space) {
       assembleSmall();
       ModeMatrix K = small_A_;
       ModeVector b = rhs;
@@ -507,10 +564,17 @@ bool IslandLcp::solveAllSticking() {
     }
     modes_warm_ = P.allFinite();
     inconsistent_ = false;
+    if (in_body_space) {
+      const double tolerance = 1e-10 * std::max(u_reference_, rhs.cwiseAbs().maxCoeff());
+      for (std::size_t i = 0; i < contacts_.size(); ++i) {
+        if (normal_miss_[i] > tolerance) missed_targets_ = true;
+      }
+    }
     if (acceptSticking(P.data(), first, rhs.data(), rhs.cwiseAbs().maxCoeff())) return true;
     // Admissible but short of the targets in body space: an ill-conditioned Delassus matrix
     // (mass ratios of 1e12) the frame solve lost digits on; the general path below decides.
-    if (!inconsistent_) return false;
+    // (Not when the body-space solve above gave them: the general path would repeat it.)
+    if (!inconsistent_ || in_body_space) return false;
   }
   // Unknowns: P_n per contact, and (t1, t2) components for frictional ones.
   std::vector<Index>& first = workspace_.first;

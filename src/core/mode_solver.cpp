@@ -115,13 +115,22 @@ std::uint64_t signature(const ModeContact* contacts, int count) {
     const ModeContact& c = contacts[i];
     const std::uint64_t code = c.mode == ContactMode::kSeparating ? 0
                                : c.mode == ContactMode::kSticking ? 1
-                                                                  : 2 + c.direction;
-    s = (s << 4) | code;
+                               : c.mode == ContactMode::kSliding  ? 2 + c.direction
+                                                                  : 2 + kD + c.direction;
+    s = (s << 5) | code;
   }
   return s;
 }
 
 }  // namespace
+
+void facetParts(const Eigen::Vector2d& P_t, int k, double& beta_k, double& beta_next) {
+  const Eigen::Vector2d& a = kPyramid.direction[k];
+  const Eigen::Vector2d& b = kPyramid.direction[(k + 1) % kD];
+  // P_t = beta_k a + beta_next b: Cramer's rule with a x b = sin(2 pi / D).
+  beta_k = (P_t.x() * b.y() - P_t.y() * b.x()) / kPyramid.sector_sine;
+  beta_next = (a.x() * P_t.y() - a.y() * P_t.x()) / kPyramid.sector_sine;
+}
 
 double pyramidGauge(const Eigen::Vector2d& P_t, int& k, Eigen::Vector2d& beta) {
   k = argmax(P_t, kPyramid.facet);
@@ -136,7 +145,8 @@ double pyramidGauge(const Eigen::Vector2d& P_t, int& k, Eigen::Vector2d& beta) {
 int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double speed, int max_modes,
                  double tolerance) {
   const double tolerance_v = tolerance * speed;
-  static_assert(kModeSolverMaxUnknowns * 4 <= 64, "a mode's signature holds 4 bits per contact");
+  static_assert(kModeSolverMaxUnknowns * 5 <= 64 && 2 + 2 * kD <= 32,
+                "a mode's signature holds 5 bits per contact");
   std::uint64_t seen[64];
   const int n = static_cast<int>(A.rows());
   max_modes = std::min(max_modes, 64);
@@ -147,37 +157,71 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
     }
     seen[tried - 1] = mode;
 
-    // The unknowns (columns of K) and equations (rows), contact by contact.
-    int columns[kModeSolverMaxUnknowns];  // the frame row of each equation
+    // The equations (rows of K) and unknowns (columns), contact by contact. An unknown is a
+    // frame component l of its contact's impulse (sticking), P_n with friction mu P_n along a
+    // direction (sliding: P = P_n (n + mu d)), or a tangential part along a direction; an
+    // equation is a frame row of its contact or a tangential combination (a facet's).
+    enum Kind : unsigned char { kUnit, kSlide, kTangent };
+    int owner[kModeSolverMaxUnknowns];  // the contact of equation / unknown r
+    Kind unknown[kModeSolverMaxUnknowns], equation[kModeSolverMaxUnknowns];
+    int unit_row[kModeSolverMaxUnknowns], unit_column[kModeSolverMaxUnknowns];
+    Eigen::Vector2d row_mix[kModeSolverMaxUnknowns], column_dir[kModeSolverMaxUnknowns];
     int m = 0;
     for (int i = 0; i < count; ++i) {
       const ModeContact& c = contacts[i];
       if (c.mode == ContactMode::kSeparating) continue;
-      columns[m++] = c.first;
-      if (c.mode == ContactMode::kSticking && c.frictional) {
-        columns[m++] = c.first + 1;
-        columns[m++] = c.first + 2;
+      const Eigen::Vector2d& d = kPyramid.direction[c.direction];
+      const Eigen::Vector2d& d_next = kPyramid.direction[(c.direction + 1) % kD];
+      owner[m] = i;
+      equation[m] = kUnit, unit_row[m] = 0;  // u'_n = target
+      if (c.mode == ContactMode::kSliding) {
+        unknown[m] = kSlide, column_dir[m++] = d;  // P = P_n (n + mu d_k)
+      } else if (c.mode == ContactMode::kSlidingFacet) {
+        // P = P_n (n + mu d_(k+1)) + beta_k (d_k - d_(k+1)); slip along the facet's bisector:
+        // (d_k - d_(k+1)) . u'_t = 0.
+        unknown[m] = kSlide, column_dir[m++] = d_next;
+        owner[m] = i;
+        equation[m] = kTangent, row_mix[m] = d - d_next;
+        unknown[m] = kTangent, column_dir[m++] = d - d_next;
+      } else {
+        unknown[m] = kUnit, unit_column[m++] = 0;
+        if (c.frictional) {
+          for (int l = 1; l < 3; ++l, ++m) {  // u'_t = 0
+            owner[m] = i;
+            equation[m] = kUnit, unit_row[m] = l;
+            unknown[m] = kUnit, unit_column[m] = l;
+          }
+        }
       }
     }
     ModeMatrix K(m, m);
     ModeVector rhs(m), x;
-    for (int i = 0, j = 0; i < count; ++i) {
-      const ModeContact& c = contacts[i];
-      if (c.mode == ContactMode::kSeparating) continue;
-      if (c.mode == ContactMode::kSliding) {
-        const Eigen::Vector2d& d = kPyramid.direction[c.direction];
-        for (int r = 0; r < m; ++r) {
-          const int row = columns[r];
-          K(r, j) =
-              A(row, c.first) + c.mu * (d.x() * A(row, c.first + 1) + d.y() * A(row, c.first + 2));
-        }
-        rhs(j++) = c.target - c.u.x();
-        continue;
+    // Column j of K at frame row `row`.
+    const auto column = [&](int j, int row) {
+      const ModeContact& c = contacts[owner[j]];
+      const int f = c.first;
+      switch (unknown[j]) {
+        case kUnit:
+          return A(row, f + unit_column[j]);
+        case kSlide:
+          return A(row, f) +
+                 c.mu * (column_dir[j].x() * A(row, f + 1) + column_dir[j].y() * A(row, f + 2));
+        default:
+          return column_dir[j].x() * A(row, f + 1) + column_dir[j].y() * A(row, f + 2);
       }
-      const int k = c.frictional ? 3 : 1;
-      for (int l = 0; l < k; ++l, ++j) {
-        for (int r = 0; r < m; ++r) K(r, j) = A(columns[r], c.first + l);
-        rhs(j) = (l == 0 ? c.target : 0.0) - c.u(l);
+    };
+    for (int r = 0; r < m; ++r) {
+      const ModeContact& c = contacts[owner[r]];
+      if (equation[r] == kUnit) {
+        const int l = unit_row[r];
+        rhs(r) = (l == 0 ? c.target : 0.0) - c.u(l);
+        for (int j = 0; j < m; ++j) K(r, j) = column(j, c.first + l);
+      } else {
+        rhs(r) = -row_mix[r].dot(c.u.tail<2>());
+        for (int j = 0; j < m; ++j) {
+          K(r, j) =
+              row_mix[r].x() * column(j, c.first + 1) + row_mix[r].y() * column(j, c.first + 2);
+        }
       }
     }
     if (m > 0) solveLeastNorm(K, rhs, x);
@@ -185,20 +229,20 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
     // The frame impulses and velocities of the mode.
     ModeVector P = ModeVector::Zero(n);
     double largest = 0.0;
-    for (int i = 0, j = 0; i < count; ++i) {
-      ModeContact& c = contacts[i];
-      c.P.setZero();
-      if (c.mode == ContactMode::kSeparating) continue;
-      if (c.mode == ContactMode::kSliding) {
-        const Eigen::Vector2d& d = kPyramid.direction[c.direction];
-        c.P = x(j) * Eigen::Vector3d(1.0, c.mu * d.x(), c.mu * d.y());
-        ++j;
-      } else if (c.frictional) {
-        c.P = x.segment<3>(j);
-        j += 3;
+    for (int i = 0; i < count; ++i) contacts[i].P.setZero();
+    for (int j = 0; j < m; ++j) {
+      ModeContact& c = contacts[owner[j]];
+      if (unknown[j] == kUnit) {
+        c.P(unit_column[j]) = x(j);
+      } else if (unknown[j] == kSlide) {
+        c.P += x(j) * Eigen::Vector3d(1.0, c.mu * column_dir[j].x(), c.mu * column_dir[j].y());
       } else {
-        c.P.x() = x(j++);
+        c.P.tail<2>() += x(j) * column_dir[j];
       }
+    }
+    for (int i = 0; i < count; ++i) {
+      const ModeContact& c = contacts[i];
+      if (c.mode == ContactMode::kSeparating) continue;
       P.segment(c.first, c.frictional ? 3 : 1) = c.P.head(c.frictional ? 3 : 1);
       largest = std::max(largest, std::abs(c.P.x()));
     }
@@ -247,13 +291,40 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
         c.direction = argmax(c.P.tail<2>(), kPyramid.direction);
         continue;
       }
-      // Sliding along d_k: the slip must be opposed by d_k, the most opposing direction.
       const Eigen::Vector2d& d = kPyramid.direction[c.direction];
       const int opposing = argmax(-u_t, kPyramid.direction);
+      if (c.mode == ContactMode::kSlidingFacet) {
+        // Friction on the facet between d_k and d_(k+1): both parts >= 0, the slip (along the
+        // bisector, by the equations) opposed by them.
+        const int next = (c.direction + 1) % kD;
+        double beta_k, beta_next;
+        facetParts(c.P.tail<2>(), c.direction, beta_k, beta_next);
+        if (beta_k < -tolerance_P || beta_next < -tolerance_P) {
+          fits = false;
+          c.mode = ContactMode::kSliding;
+          c.direction = beta_k < beta_next ? next : c.direction;
+          continue;
+        }
+        if (d.dot(u_t) <= kPyramid.direction[opposing].dot(u_t) + tolerance_v) continue;
+        fits = false;
+        if (d.dot(u_t) > 0.0) {
+          c.mode = ContactMode::kSticking;
+        } else {
+          c.mode = ContactMode::kSliding;
+          c.direction = opposing;
+        }
+        continue;
+      }
+      // Sliding along d_k: the slip must be opposed by d_k, the most opposing direction.
       if (d.dot(u_t) <= kPyramid.direction[opposing].dot(u_t) + tolerance_v) continue;
       fits = false;
       if (d.dot(u_t) > 0.0) {
         c.mode = ContactMode::kSticking;  // friction reversed the slip: too strong to slide
+      } else if (opposing == (c.direction + 1) % kD || c.direction == (opposing + 1) % kD) {
+        // The slip turned into the neighbouring sector: friction on the facet between them (which
+        // direction's friction turns the slip back across the bisector).
+        c.mode = ContactMode::kSlidingFacet;
+        c.direction = opposing == (c.direction + 1) % kD ? c.direction : opposing;
       } else {
         c.direction = opposing;
       }

@@ -7,6 +7,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <utility>
 #include <vector>
@@ -34,6 +35,7 @@ using Eigen::VectorXd;
 namespace {
 
 constexpr double kTol = 1e-9;
+constexpr int kD = cr::kPyramidDirections;
 using collision_response::core::kPi;
 
 void expectVecNear(const Vector3d& got, const Vector3d& want, double tol) {
@@ -814,4 +816,161 @@ TEST(ExactSolver, DescendingStackLandsAsOneWithLeastNormImpulses) {
     const MatrixXd equilibrated = Eigen::FullPivLU<MatrixXd>(JT).kernel();
     EXPECT_LT((equilibrated.transpose() * P).cwiseAbs().maxCoeff(), 1e-9 * P.norm());
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Exact solver against Lemke's method on box landings (the sampled uncertainty's scenes)
+
+// The answer of exact_solver.h's law for one free rigid body on the immovable ground, written out
+// here from the header's definition and solved by Lemke's method alone (solveLcp(), no all-sticking
+// guess, no modes): the pyramid of each contact turned to its pre-impact slip (d_0 along it, d_2 =
+// n x d_0), every contact on mu_s first, and every contact that comes out slipping moved to mu_d
+// and the LCP solved again, until none on mu_s slips. Returns the body's velocity change (dv, dw)
+// and, per contact, whether it stuck in the first (mu_s) round with friction above mu_d P_n.
+struct LemkeLanding {
+  bool solved = false;
+  Vector3d dv = Vector3d::Zero(), dw = Vector3d::Zero();
+  int rounds = 0;
+  std::vector<bool> in_band;  // sticking on mu_s with mu_d P_n < |P_t| (<= mu_s P_n)
+};
+
+LemkeLanding lemkeLanding(const cr::RigidBody& b, const std::vector<cr::ContactPoint>& rows) {
+  const int count = static_cast<int>(rows.size());
+  const int per = kD + 2;  // P_n, beta_0..D-1, lambda
+  std::vector<Vector3d> r(count), u(count);
+  std::vector<Eigen::Matrix<double, 3, kD + 1>> D(count);
+  double speed = 0.0;
+  for (int i = 0; i < count; ++i) {
+    r[i] = rows[i].point - b.com;
+    u[i] = b.linear_velocity + b.angular_velocity.cross(r[i]);
+    speed = std::max(speed, u[i].norm());
+    const Vector3d& n = rows[i].normal;
+    const Vector3d t1 = (u[i] - u[i].dot(n) * n).normalized(), t2 = n.cross(t1);
+    D[i].col(0) = n;
+    for (int k = 0; k < kD; ++k) {
+      const double angle = 2.0 * kPi * k / kD;
+      D[i].col(1 + k) = std::cos(angle) * t1 + std::sin(angle) * t2;
+    }
+  }
+  const auto skew = [](const Vector3d& v) {
+    Matrix3d m;
+    m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+    return m;
+  };
+  // Impulse P at r_j changes the velocity at r_i by W_ij P.
+  const auto W = [&](int i, int j) {
+    return Matrix3d(Matrix3d::Identity() * b.inverse_mass -
+                    skew(r[i]) * b.inverse_inertia * skew(r[j]));
+  };
+  MatrixXd M = MatrixXd::Zero(per * count, per * count);
+  VectorXd q = VectorXd::Zero(per * count);
+  for (int i = 0; i < count; ++i) {
+    for (int j = 0; j < count; ++j)
+      M.block(per * i, per * j, kD + 1, kD + 1) = D[i].transpose() * W(i, j) * D[j];
+    q.segment(per * i, kD + 1) = D[i].transpose() * u[i];
+    const double u_n = u[i].dot(rows[i].normal);
+    q(per * i) += u_n < 0.0 ? rows[i].restitution * u_n : 0.0;  // u'_n >= -e u_n
+    M.block(per * i + 1, per * i + kD + 1, kD, 1).setOnes();
+    M.block(per * i + kD + 1, per * i + 1, 1, kD).setConstant(-1.0);
+    M(per * i + kD + 1, per * i) = rows[i].static_friction;
+  }
+  LemkeLanding out;
+  out.in_band.assign(count, false);
+  std::vector<bool> dynamic(count, false);
+  while (true) {
+    ++out.rounds;
+    const cr::LcpResult lcp = cr::solveLcp(M, q);
+    if (lcp.status != cr::LcpStatus::kSolved) return out;
+    out.dv.setZero();
+    out.dw.setZero();
+    std::vector<Vector3d> P(count);
+    for (int i = 0; i < count; ++i) {
+      P[i] = D[i] * lcp.z.segment<kD + 1>(per * i);
+      out.dv += b.inverse_mass * P[i];
+      out.dw += b.inverse_inertia * r[i].cross(P[i]);
+    }
+    bool changed = false;
+    for (int i = 0; i < count; ++i) {
+      const Vector3d& n = rows[i].normal;
+      const Vector3d after = u[i] + out.dv + out.dw.cross(r[i]);
+      const double slip = (after - after.dot(n) * n).norm();
+      const double P_n = P[i].dot(n), P_t = (P[i] - P_n * n).norm();
+      if (out.rounds == 1 && slip <= 1e-9 * speed && P_t > rows[i].dynamic_friction * P_n)
+        out.in_band[i] = true;
+      if (slip > 1e-9 * speed && !dynamic[i] &&
+          rows[i].dynamic_friction != rows[i].static_friction) {
+        dynamic[i] = true;
+        M(per * i + kD + 1, per * i) = rows[i].dynamic_friction;
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  out.solved = true;
+  return out;
+}
+
+// A box landing on the 4 corners of its bottom face (a random plane), tilted velocity and spin,
+// each corner with its own e (so Newton's targets lie on no rigid motion: one corner leaves with
+// P = 0), mu_s > mu_d: the exact solver, which answers these without Lemke (all-sticking guess,
+// then its modes), must give the velocities of Lemke's method on the LCP written out above, both
+// where corners slip (the mu_d round) and where they stick with friction between mu_d P_n and
+// mu_s P_n (which a switch to mu_d too early would let slip).
+TEST(ExactSolver, BoxLandingsWithUnequalRestitutionsAreLemkesAnswer) {
+  std::mt19937 rng(26);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0), unit(0.0, 1.0);
+  int compared = 0, slipping = 0, in_band = 0, unsolved = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const Matrix3d Q = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+    const Matrix3d yaw =
+        Eigen::AngleAxisd(kPi * uniform(rng), Vector3d::UnitZ()).toRotationMatrix();
+    const Vector3d half(0.1 + unit(rng), 0.1 + unit(rng), 0.1 + unit(rng));
+    const double mass = 0.5 + 4.0 * unit(rng);
+    const Vector3d principal(mass / 3.0 * (half.y() * half.y() + half.z() * half.z()),
+                             mass / 3.0 * (half.x() * half.x() + half.z() * half.z()),
+                             mass / 3.0 * (half.x() * half.x() + half.y() * half.y()));
+    const Matrix3d R = Q * yaw;
+    const Vector3d normal = Q.col(2);  // the ground's, from the ground (a) to the box (b)
+    const Vector3d com = R * Vector3d(0, 0, half.z());
+    // Approaching at 0.3 to 2 m/s, sliding at up to 2 m/s, spinning at up to 2 rad/s (less on
+    // every third trial: more sticking).
+    const double spin = trial % 3 == 0 ? 0.2 : 2.0;
+    const Vector3d v = Q * Vector3d(2.0 * uniform(rng), 2.0 * uniform(rng), -0.3 - 1.7 * unit(rng));
+    const Vector3d w = spin * Vector3d(uniform(rng), uniform(rng), uniform(rng));
+    std::vector<cr::RigidBody> bodies = {
+        kGround, body(mass, R * principal.asDiagonal() * R.transpose(), com, v, w)};
+    std::vector<cr::ContactPoint> rows;
+    for (const double x : {-1.0, 1.0}) {
+      for (const double y : {-1.0, 1.0}) {
+        const double mu_s = 0.1 + 0.9 * unit(rng);
+        rows.emplace_back(0, 1, R * Vector3d(x * half.x(), y * half.y(), 0.0), normal,
+                          0.2 + 0.6 * unit(rng), mu_s, mu_s * (0.5 + 0.49 * unit(rng)));
+      }
+    }
+    const LemkeLanding lemke = lemkeLanding(bodies[1], rows);
+    const cr::RigidBody before = bodies[1];
+    std::vector<cr::ContactImpulse> impulses(rows.size());
+    const cr::SolveReport report =
+        cr::solveExact(bodies, rows, allRows(rows.size()), cr::SolverOptions{}, impulses);
+    if (!lemke.solved) {
+      ++unsolved;
+      continue;
+    }
+    ASSERT_TRUE(report.converged) << "trial " << trial;
+    const double speed = std::max(v.norm(), w.norm() * half.norm());
+    const Vector3d dv = bodies[1].linear_velocity - before.linear_velocity;
+    const Vector3d dw = bodies[1].angular_velocity - before.angular_velocity;
+    EXPECT_LT((dv - lemke.dv).norm(), 1e-9 * speed) << "trial " << trial;
+    EXPECT_LT(half.norm() * (dw - lemke.dw).norm(), 1e-9 * speed) << "trial " << trial;
+    ++compared;
+    if (lemke.rounds > 1) ++slipping;
+    if (std::count(lemke.in_band.begin(), lemke.in_band.end(), true) > 0) ++in_band;
+  }
+  std::printf(
+      "box landings: %d compared with Lemke (%d with a mu_d round, %d with a corner "
+      "sticking between mu_d P_n and mu_s P_n), %d Lemke did not solve\n",
+      compared, slipping, in_band, unsolved);
+  EXPECT_GE(compared, 390);
+  EXPECT_GE(slipping, 100);
+  EXPECT_GE(in_band, 50);
 }

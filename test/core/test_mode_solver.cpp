@@ -207,6 +207,17 @@ Island randomIsland(std::mt19937& rng, int trial) {
   return island;
 }
 
+// The pyramid's gauge of a friction impulse: max_j P_t . m_j / cos(pi / D), m_j the normals of
+// its facets (P_t is inside the pyramid of mu P_n iff this is <= mu P_n).
+double gaugeOf(const Vector2d& P_t) {
+  double gauge = 0.0;
+  for (int j = 0; j < kD; ++j) {
+    const double angle = (2 * j + 1) * kPi / kD;
+    gauge = std::max(gauge, P_t.dot(Vector2d(std::cos(angle), std::sin(angle))));
+  }
+  return gauge / std::cos(kPi / kD);
+}
+
 // Whether frame impulses P solve the island's pyramid LCP, checked from its definition: every
 // P_n >= 0 and u'_n >= target with one of them 0; a contact without slip has P_t inside the
 // pyramid of mu P_n (its gauge max_j P_t . m_j / cos(pi / D), m_j the facet normals); a slipping
@@ -227,23 +238,29 @@ bool solvesPyramidLcp(const Island& island, const cr::ModeMatrix& A, const std::
     const Vector2d P_t = P.segment<2>(first[i] + 1);
     const Vector2d u_t = island.u[i].tail<2>() + change.segment<2>(first[i] + 1);
     if (u_t.norm() <= tol_v) {
-      double gauge = 0.0;
-      for (int j = 0; j < kD; ++j) {
-        const double angle = (2 * j + 1) * kPi / kD;
-        gauge = std::max(gauge, P_t.dot(Vector2d(std::cos(angle), std::sin(angle))));
-      }
-      if (gauge / std::cos(kPi / kD) > c.mu * P_n + tol_P) return false;
+      if (gaugeOf(P_t) > c.mu * P_n + tol_P) return false;
       continue;
     }
+    const auto d = [](int j) {
+      const double angle = 2.0 * kPi * j / kD;
+      return Vector2d(std::cos(angle), std::sin(angle));
+    };
     int k = 0;
     for (int j = 1; j < kD; ++j) {
-      const double a = 2.0 * kPi * j / kD, b = 2.0 * kPi * k / kD;
-      if (Vector2d(std::cos(a), std::sin(a)).dot(u_t) < Vector2d(std::cos(b), std::sin(b)).dot(u_t))
-        k = j;
+      if (d(j).dot(u_t) < d(k).dot(u_t)) k = j;
     }
-    const double angle = 2.0 * kPi * k / kD;
-    if ((P_t - c.mu * P_n * Vector2d(std::cos(angle), std::sin(angle))).norm() > tol_P)
-      return false;
+    if ((P_t - c.mu * P_n * d(k)).norm() <= tol_P) continue;
+    // Or, the slip along the bisector of d_k and a neighbour d_l (both equally opposing it), on
+    // the facet between them: P_t = b_k d_k + b_l d_l, b >= 0, b_k + b_l = mu P_n.
+    bool on_facet = false;
+    for (const int l : {(k + 1) % kD, (k + kD - 1) % kD}) {
+      if (std::abs(d(l).dot(u_t) - d(k).dot(u_t)) > tol_v) continue;
+      Eigen::Matrix2d basis;
+      basis << d(k), d(l);
+      const Vector2d b = basis.inverse() * P_t;
+      on_facet = on_facet || (b.minCoeff() >= -tol_P && std::abs(b.sum() - c.mu * P_n) <= tol_P);
+    }
+    if (!on_facet) return false;
   }
   return true;
 }
@@ -360,8 +377,9 @@ TEST(ModeSolver, AgreesWithLemkeOnRandomSmallIslands) {
       EXPECT_LE(P_t.norm(), c.mu * c.P.x() * (1 + 1e-12)) << "trial " << trial;  // in the cone
       EXPECT_LE(P_t.dot(u_t), 1e-9 * speed * (largest + 1e-300)) << "trial " << trial;
       if (u_t.norm() > 1e-8 * speed && c.P.x() > 1e-9 * largest) {
-        // Sliding: friction saturated on the pyramid, mu P_n along a vertex.
-        EXPECT_NEAR(P_t.norm(), c.mu * c.P.x(), 1e-9 * largest) << "trial " << trial;
+        // Sliding: friction saturated on the pyramid (its gauge, from the facet normals, mu P_n):
+        // mu P_n along a vertex, or on a facet when the slip is along its bisector.
+        EXPECT_NEAR(gaugeOf(P_t), c.mu * c.P.x(), 1e-9 * largest) << "trial " << trial;
       }
     }
     if (lemke.size() == 0) continue;  // Lemke's path ended on a ray; the modes still answered

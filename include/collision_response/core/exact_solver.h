@@ -66,8 +66,11 @@ double pyramidFactor();
 /// pyramid, bounds them), with no pivot: a box landing flat, a row of touching bodies struck at
 /// one end. Otherwise Lemke; small islands (at most kModeSolverMaxUnknowns frame unknowns) first
 /// try their modes in closed form (mode_solver.h), each round's answer then being Lemke's where the
-/// round's LCP has one solution, and Lemke runs only if no mode fits. Where Coulomb friction admits
-/// several answers, this sticking one is the one given.
+/// round's LCP has one solution, and Lemke runs only if no mode fits. When the all-sticking
+/// impulses miss the targets because no rigid motion reaches them together (a face's 4 corners
+/// with different restitutions), the modes start with one contact separating, those the
+/// least-squares motion carries away fastest from their targets first. Where Coulomb friction
+/// admits several answers, this sticking one is the one given.
 ///
 /// On success the impulses are applied to the problem (ContactProblem::applyImpulse()) and
 /// impulses[i] (normal_impulse, friction_impulse, sticking) is written for problem contact i

@@ -21,6 +21,10 @@ enum class ContactMode : unsigned char {
   kSeparating,  ///< P = 0, u'_n >= target
   kSticking,    ///< u'_n = target, u'_t = 0, P_n >= 0, P_t inside the friction pyramid of mu P_n
   kSliding,     ///< u'_n = target, P_t = mu P_n d_k, P_n >= 0, -u'_t in the pyramid sector of d_k
+  /// u'_n = target, P_t = beta_k d_k + beta_(k+1) d_(k+1) on the pyramid's facet between them
+  /// (beta_k, beta_(k+1) >= 0, sum mu P_n), -u'_t along the facet's bisector, equally opposed by
+  /// both: the slip that friction along d_k would turn one way and along d_(k+1) the other.
+  kSlidingFacet,
 };
 
 /// One contact of the island as the mode solver sees it, in its frame (n, t1, t2): frame vectors
@@ -35,7 +39,7 @@ struct ModeContact {
   double mu = 0.0;                              ///< friction coefficient of this solve
   // Warm start (input) and answer (output).
   ContactMode mode = ContactMode::kSticking;
-  int direction = 0;  ///< k of a sliding contact's friction direction d_k
+  int direction = 0;  ///< k of a sliding contact's friction direction d_k (or facet's first d_k)
   // Output.
   Eigen::Vector3d P = Eigen::Vector3d::Zero();  ///< impulse, frame [N s] (+P on body b)
 };
@@ -52,8 +56,10 @@ struct ModeContact {
 /// j), a separating contact not approaching. A mode that fails is repaired contact by contact (a
 /// contact pulling separates, a separating one that approaches becomes active, a sticking one
 /// outside its pyramid slides along the pyramid direction nearest its friction, a sliding one whose
-/// slip is reversed sticks, one whose slip has turned slides along the direction opposing it) and
-/// checked again, at most `max_modes` modes in all and never the same mode twice.
+/// slip is reversed sticks, one whose slip has turned slides along the direction opposing it, or
+/// on the facet between the two when that direction is the neighbour of its own; a facet-sliding
+/// one with a negative part slides along the other direction) and checked again, at most
+/// `max_modes` modes in all and never the same mode twice.
 ///
 /// Returns the number of modes checked, positive if the last one is a solution (then every
 /// contact's mode, direction and P are the answer: an exact solution of the pyramid LCP, to the
@@ -76,5 +82,9 @@ void solveLeastNorm(ModeMatrix& K, ModeVector& rhs, ModeVector& x);
 /// pyramid of mu P_n iff it is <= mu P_n) and the sector's first direction k, (beta_k,
 /// beta_(k+1)) in `beta`.
 double pyramidGauge(const Eigen::Vector2d& P_t, int& k, Eigen::Vector2d& beta);
+
+/// The friction impulse P_t (t1, t2 components) written as beta_k d_k + beta_next d_(k+1) on the
+/// two pyramid directions of facet k (either part negative if P_t lies outside that sector).
+void facetParts(const Eigen::Vector2d& P_t, int k, double& beta_k, double& beta_next);
 
 }  // namespace collision_response::core
