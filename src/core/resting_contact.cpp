@@ -56,6 +56,13 @@ bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double
   }
   const ContactProblem::State initial = problem.state();
   std::vector<Eigen::Vector3d> F(size, Eigen::Vector3d::Zero());
+  // Each block's frame and pseudo-inverse once (the sweeps change only its right-hand side).
+  std::vector<FrictionConeBlock> blocks(size);
+  for (std::size_t i = 0; i < size; ++i) {
+    const ProblemContact& c = problem.contact(i);
+    blocks[i] =
+        prepareFrictionCone(c.delassus, c.normal, c.tangent1, c.tangent2, c.static_friction);
+  }
   bool converged = false;
   std::size_t& sweeps = report.iterations;
   for (sweeps = 1; sweeps <= options.max_iterations; ++sweeps) {
@@ -64,8 +71,7 @@ bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double
     for (std::size_t i = 0; i < size; ++i) {
       const ProblemContact& c = problem.contact(i);
       const Eigen::Vector3d b = problem.relativeMotion(i) - c.delassus * F[i];
-      const Eigen::Vector3d next =
-          solveFrictionCone(c.delassus, b, c.normal, c.tangent1, c.tangent2, c.static_friction);
+      const Eigen::Vector3d next = solveFrictionCone(blocks[i], b);
       problem.applyImpulse(i, next - F[i]);
       largest_change = std::max(largest_change, (next - F[i]).norm());
       largest_force = std::max(largest_force, next.norm());

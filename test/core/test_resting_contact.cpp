@@ -4,10 +4,12 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <random>
 #include <string>
 #include <utility>
 
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/friction_disk.h"
 
 namespace core = collision_response::core;
 
@@ -519,3 +521,55 @@ TEST(RestingBand, TopBlockSlidesWhileTheBottomOneSticksInItsBand) {
 }
 
 }  // namespace
+
+// The all-stick sweeps' block solve on a prepared block (prepareFrictionCone(), once per contact)
+// against the definition of its answer, the minimizer of f(x) = x.b + x^T A x / 2 over the cone
+// |x_t| <= mu x_n: checked by convexity, f(x) <= f(y) for every y sampled in the cone (far, and
+// near x along random directions brought back into the cone), on random blocks A = J J^T of rank
+// 3, 2 and 1 (a redundant contact's singular block; then b in A's range, where f is bounded
+// below) in random frames; and the answer is the same
+// to the last bit as the one-shot solveFrictionCone() the solver used before.
+TEST(RestingAllStick, PreparedConeBlockMinimizesOverTheCone) {
+  std::mt19937 random(20261126);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto vec = [&] { return Eigen::Vector3d(normal(random), normal(random), normal(random)); };
+  for (int trial = 0; trial < 300; ++trial) {
+    const int rank = 1 + trial % 3;
+    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    for (int k = 0; k < rank; ++k) J.col(k) = vec();
+    const Eigen::Matrix3d A = J * J.transpose();
+    const Eigen::Vector3d n = vec().normalized();
+    const Eigen::Vector3d t1 = n.unitOrthogonal();
+    const Eigen::Vector3d t2 = n.cross(t1);
+    const double mu = trial % 7 == 0 ? 0.0 : 0.05 + 1.5 * unit(random);
+    // Full rank: any b. Singular: b in A's range (otherwise f may fall without bound in the cone).
+    const Eigen::Vector3d b = rank == 3 ? Eigen::Vector3d(3.0 * vec()) : Eigen::Vector3d(A * vec());
+    const core::FrictionConeBlock block = core::prepareFrictionCone(A, n, t1, t2, mu);
+    const Eigen::Vector3d x = core::solveFrictionCone(block, b);
+    const Eigen::Vector3d once = core::solveFrictionCone(A, b, n, t1, t2, mu);
+    ASSERT_EQ(x, once) << "trial " << trial;
+    const auto f = [&](const Eigen::Vector3d& y) { return y.dot(b) + 0.5 * y.dot(A * y); };
+    // Into the cone: the nearest point of it (Euclidean projection).
+    const auto project = [&](const Eigen::Vector3d& y) -> Eigen::Vector3d {
+      const double y_n = y.dot(n);
+      const Eigen::Vector3d y_t = y - y_n * n;
+      const double r = y_t.norm();
+      if (r <= mu * y_n) return y;
+      if (mu * r <= -y_n) return Eigen::Vector3d::Zero();
+      const double s = (y_n + mu * r) / (1.0 + mu * mu);
+      return s * n + (r > 0.0 ? Eigen::Vector3d(mu * s * y_t / r) : Eigen::Vector3d::Zero());
+    };
+    const double x_n = x.dot(n);
+    const double scale = 1.0 + x.norm();
+    EXPECT_GE(x_n, -1e-12 * scale) << "trial " << trial;
+    EXPECT_LE((x - x_n * n).norm(), mu * x_n + 1e-9 * scale) << "trial " << trial;
+    const double fx = f(x);
+    const double slack = 1e-9 * (1.0 + std::abs(fx) + b.norm() * scale);
+    for (int k = 0; k < 400; ++k) {
+      const double reach = k < 200 ? 3.0 : 1e-3 * scale;
+      const Eigen::Vector3d y = project((k < 200 ? Eigen::Vector3d::Zero() : x) + reach * vec());
+      ASSERT_LE(fx, f(y) + slack) << "trial " << trial << " sample " << k;
+    }
+  }
+}
