@@ -20,6 +20,7 @@
 #include <string>
 
 #include "collision_response/core/errors.h"
+#include "collision_response/robot/algorithms.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "two_link_arm.h"
@@ -273,6 +274,49 @@ TEST(ArticulatedBody, Arm7DynamicsEqualKdlNewtonEuler) {
     EXPECT_LE((arm.gravityTorques() - gravity.data).cwiseAbs().maxCoeff(), 1e-11);
     const VectorXd qddot = arm.freeAcceleration();
     EXPECT_LE((kdlTorques(q, qdot, qddot) - tau).cwiseAbs().maxCoeff(), 1e-10) << "trial " << trial;
+  }
+}
+
+// The inverse dynamics reuse the world inertias the mass matrix computed at the same frames
+// (RobotData::link_inertias): after forwardKinematics() alone moves the frames (no new mass
+// matrix), they must be the new frames' inertias, not the kept ones. Against KDL's recursive
+// Newton-Euler at the new configuration.
+TEST(ArticulatedBody, InverseDynamicsAfterKinematicsAloneEqualKdlNewtonEuler) {
+  KDL::Tree full;
+  ASSERT_TRUE(kdl_parser::treeFromFile(kArm7, full));
+  KDL::Chain chain;
+  ASSERT_TRUE(full.getChain("base_link", "left_finger", chain));
+  KDL::Tree tree("base_link");
+  ASSERT_TRUE(tree.addChain(chain, "base_link"));
+  rb::ArticulatedBody arm(tree);
+  const Vector3d g(0.5, -1.2, -9.81);
+  KDL::ChainIdSolver_RNE newton_euler(chain, KDL::Vector(g.x(), g.y(), g.z()));
+  const KDL::Wrenches no_wrench(chain.getNrOfSegments(), KDL::Wrench::Zero());
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    VectorXd q(8), qdot(8), qddot(8);
+    for (int i = 0; i < 8; ++i) {
+      q(i) = M_PI * u(rng);
+      qdot(i) = 2.0 * u(rng);
+      qddot(i) = 5.0 * u(rng);
+    }
+    q(7) = 0.02 + 0.01 * u(rng);
+    arm.setState(q, qdot);  // frames, mass matrix (and its kept inertias) at q
+    arm.setLoads(VectorXd::Zero(8), g);
+    rb::RobotData data = arm.data();
+    for (int i = 0; i < 7; ++i) data.q(i) += 0.3 + 0.2 * u(rng);  // elsewhere, no mass matrix
+    rb::forwardKinematics(arm.model(), data);
+    VectorXd tau;
+    Eigen::Matrix<double, 6, 1> base;
+    rb::inverseDynamics(arm.model(), data, qddot, Eigen::Matrix<double, 6, 1>::Zero(), true, tau,
+                        base, nullptr);
+    KDL::JntArray kq(8), kqd(8), kqdd(8), expected(8);
+    kq.data = data.q;
+    kqd.data = qdot;
+    kqdd.data = qddot;
+    ASSERT_GE(newton_euler.CartToJnt(kq, kqd, kqdd, no_wrench, expected), 0);
+    EXPECT_LE((tau - expected.data).cwiseAbs().maxCoeff(), 1e-10) << "trial " << trial;
   }
 }
 
