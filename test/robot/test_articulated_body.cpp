@@ -22,6 +22,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/robot/algorithms.h"
 #include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/articulated_body_algorithm.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "two_link_arm.h"
 
@@ -506,4 +507,44 @@ TEST(ArticulatedBody, LocksInTheDataActAsLocksInTheModel) {
   one.setLockedJoints(flags);
   EXPECT_TRUE(one.isLocked(gripper.jointIndex("finger1_joint")));
   EXPECT_EQ(one.velocityCount(), 1);
+}
+
+// The articulated-body algorithm (articulated_body_algorithm.h) against the mass-matrix path
+// (M(q) by composite rigid bodies, its Cholesky factor, Newton-Euler for h: freeAcceleration()),
+// an independent computation of the same vdot = M^-1 (tau - h): the whole arm (a tree: both
+// fingers) at random states, under random torques and gravity, under gravity compensation, with a
+// locked joint moving at its velocity and with armature on two joints.
+TEST(ArticulatedBody, ArticulatedBodyAlgorithmEqualsTheMassMatrixPath) {
+  std::mt19937 rng(2411);
+  const Vector3d g(0.3, -0.8, -9.81);
+  for (int variant = 0; variant < 4; ++variant) {
+    rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
+    ASSERT_TRUE(rb::articulatedBodyApplies(arm.model()));
+    if (variant == 2) {
+      std::vector<bool> locked(9, false);
+      locked[3] = true;
+      arm.setLockedJoints(locked);
+    }
+    if (variant == 3) {
+      arm.setJointModel(1, rb::JointModel::kArmature, 0.4);
+      arm.setJointModel(5, rb::JointModel::kArmature, 0.05);
+    }
+    for (int trial = 0; trial < 10; ++trial) {
+      const ArmMotion motion = randomArmMotion(rng);
+      if (variant == 1) {
+        arm.setGravityCompensation(g);
+      } else {
+        arm.setLoads(motion.tau, g);
+      }
+      arm.setState(motion.q, motion.qdot);
+      const VectorXd expected = arm.freeAcceleration();
+      rb::ArticulatedBody flight = arm;
+      flight.setFlightState(motion.q, motion.qdot, Eigen::Isometry3d::Identity());
+      const VectorXd vdot = flight.flightAcceleration();
+      ASSERT_EQ(vdot.size(), expected.size());
+      EXPECT_LE((vdot - expected).cwiseAbs().maxCoeff(),
+                1e-10 * (1.0 + expected.cwiseAbs().maxCoeff()))
+          << "variant " << variant << " trial " << trial;
+    }
+  }
 }
