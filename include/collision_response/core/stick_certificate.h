@@ -19,18 +19,25 @@ namespace collision_response::core {
 ///     |a'_p| >= the least-squares residual of W_pp x = -a_p, the part of a_p along the
 ///     eigenvectors of W_pp whose eigenvalues are at most kSingularRelative times its trace
 ///     (the directions no force moves, e.g. the centripetal accelerations of a body turning on
-///     a table); every pair's residual above 2 tolerance rules the case out.
-///   |Z| = 1, contact k: F = W_kk^-1 (e - a_k) with |e| <= sqrt(2) tolerance (W_kk invertible,
-///     otherwise no certificate), so some other contact j has a'_n = n_j.(a_j - W_jk W_kk^-1
-///     a_k) + n_j.W_jk W_kk^-1 e <= tolerance for every such e.
+///     a table); every pair's residual above 2 tolerance rules the case out (a pair without a
+///     clear gap in its spectrum, pairResidual() kNotClear, gives no certificate).
+///   |Z| = 1, contact k: F = W_kk^-1 (e - a_k) with |e| <= sqrt(2) tolerance (W_kk's condition
+///     number below 1e6, otherwise no certificate), so some other contact j has a'_n =
+///     n_j.(a_j - W_jk W_kk^-1 a_k) + n_j.W_jk W_kk^-1 e <= tolerance for every such e.
+/// Each inequality keeps a rounding allowance of 1e-9 of the terms it compares.
 ///   Z empty: F = 0, some contact has a_n <= tolerance.
 /// Costs one 6x6 eigen-decomposition per pair until a pair is consistent (then false at once).
 /// False means "not proven": the stuck answer may or may not exist.
 bool noStuckAnswer(const ContactProblem& problem, const std::vector<Eigen::Vector3d>& free,
                    double tolerance);
 
+/// pairResidual()'s answer when W_pp has an eigenvalue between kSingularRelative and 1e-6 of its
+/// trace (no clear gap between its null space and its range: no reliable residual).
+constexpr double kNotClear = -1.0;
+
 /// The least-squares residual |(I - W_pp W_pp^+) a_p| of contacts i and j (the test in
-/// noStuckAnswer(), W_pp^+ dropping eigenvalues at most kSingularRelative times the trace).
+/// noStuckAnswer(), W_pp^+ dropping eigenvalues at most kSingularRelative times the trace), or
+/// kNotClear.
 double pairResidual(const ContactProblem& problem, const std::vector<Eigen::Vector3d>& free,
                     std::size_t i, std::size_t j);
 
