@@ -55,23 +55,44 @@ Eigen::Vector2d solveFrictionDisk(const Eigen::Matrix2d& K, const Eigen::Vector2
   return -radius * s;
 }
 
+FrictionConeBlock prepareFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3d& n,
+                                      const Eigen::Vector3d& t1, const Eigen::Vector3d& t2,
+                                      double mu) {
+  FrictionConeBlock block;
+  block.delassus = A;
+  block.normal = n;
+  block.mu = mu;
+  block.trace = A.trace();
+  if (!(block.trace > 0.0) || mu == 0.0) return block;
+  // Local frame (n, t1, t2).
+  block.frame << n, t1, t2;
+  block.local = block.frame.transpose() * A * block.frame;
+  block.local_pseudo_inverse = symmetricPseudoInverse(block.local);
+  return block;
+}
+
 Eigen::Vector3d solveFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3d& b,
                                   const Eigen::Vector3d& n, const Eigen::Vector3d& t1,
                                   const Eigen::Vector3d& t2, double mu) {
-  const double trace = A.trace();
+  return solveFrictionCone(prepareFrictionCone(A, n, t1, t2, mu), b);
+}
+
+Eigen::Vector3d solveFrictionCone(const FrictionConeBlock& block, const Eigen::Vector3d& b) {
+  const Eigen::Matrix3d& A = block.delassus;
+  const Eigen::Vector3d& n = block.normal;
+  const double mu = block.mu;
+  const double trace = block.trace;
   if (!(trace > 0.0)) return Eigen::Vector3d::Zero();
   if (mu == 0.0) {
     const double a_nn = n.dot(A * n);
     return a_nn > kSingularRelative * trace ? Eigen::Vector3d(std::max(0.0, -n.dot(b) / a_nn) * n)
                                             : Eigen::Vector3d::Zero();
   }
-  // Local frame (n, t1, t2).
-  Eigen::Matrix3d T;
-  T << n, t1, t2;
-  const Eigen::Matrix3d Al = T.transpose() * A * T;
+  const Eigen::Matrix3d& T = block.frame;
+  const Eigen::Matrix3d& Al = block.local;
   const Eigen::Vector3d bl = T.transpose() * b;
   // The unconstrained minimizer, if it reaches A x + b = 0 inside the cone.
-  const Eigen::Vector3d inside = -(symmetricPseudoInverse(Al) * bl);
+  const Eigen::Vector3d inside = -(block.local_pseudo_inverse * bl);
   if (inside.x() >= 0.0 && inside.tail<2>().norm() <= mu * inside.x() &&
       (Al * inside + bl).norm() <= 1e-12 * bl.norm()) {
     return T * inside;

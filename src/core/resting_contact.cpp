@@ -6,6 +6,7 @@
 #include "collision_response/core/friction_disk.h"
 #include "collision_response/core/iterative_solver.h"
 #include "collision_response/core/single_contact.h"
+#include "collision_response/core/stick_certificate.h"
 
 namespace collision_response::core {
 namespace {
@@ -13,6 +14,10 @@ namespace {
 // A contact sticks if its tangential relative acceleration is at most this fraction of the
 // island's largest free relative acceleration (the iterative solver's slip tolerance).
 constexpr double kStickTolerance = 1e-9;
+
+// The all-stick sweep after which, still not converged, the solve asks noStuckAnswer() once
+// (a solve that converges sooner pays nothing for it).
+constexpr std::size_t kCertificateSweep = 32;
 
 // One resting contact in closed form: sticking or starting to slide by the Newton closed form
 // with e = 0, or sliding along an existing slip with F = f_n (n - mu_d s) and a'_n = 0.
@@ -55,7 +60,15 @@ bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double
     if (!problem.contact(i).slip_direction.isZero(0.0)) return false;
   }
   const ContactProblem::State initial = problem.state();
+  const double tolerance = kStickTolerance * reference;
   std::vector<Eigen::Vector3d> F(size, Eigen::Vector3d::Zero());
+  // Each block's frame and pseudo-inverse once (the sweeps change only its right-hand side).
+  std::vector<FrictionConeBlock> blocks(size);
+  for (std::size_t i = 0; i < size; ++i) {
+    const ProblemContact& c = problem.contact(i);
+    blocks[i] =
+        prepareFrictionCone(c.delassus, c.normal, c.tangent1, c.tangent2, c.static_friction);
+  }
   bool converged = false;
   std::size_t& sweeps = report.iterations;
   for (sweeps = 1; sweeps <= options.max_iterations; ++sweeps) {
@@ -64,8 +77,7 @@ bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double
     for (std::size_t i = 0; i < size; ++i) {
       const ProblemContact& c = problem.contact(i);
       const Eigen::Vector3d b = problem.relativeMotion(i) - c.delassus * F[i];
-      const Eigen::Vector3d next =
-          solveFrictionCone(c.delassus, b, c.normal, c.tangent1, c.tangent2, c.static_friction);
+      const Eigen::Vector3d next = solveFrictionCone(blocks[i], b);
       problem.applyImpulse(i, next - F[i]);
       largest_change = std::max(largest_change, (next - F[i]).norm());
       largest_force = std::max(largest_force, next.norm());
@@ -77,10 +89,19 @@ bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double
       converged = true;
       break;
     }
+    if (sweeps == kCertificateSweep) {
+      // Proven without a stuck answer: the sweeps could only fail the test below (docs/physics.md,
+      // "No stuck answer"); stop here with the same outcome.
+      std::vector<Eigen::Vector3d> free(size);
+      const ContactProblem::State now = problem.state();
+      problem.restore(initial);
+      for (std::size_t i = 0; i < size; ++i) free[i] = problem.relativeMotion(i);
+      if (noStuckAnswer(problem, free, tolerance)) return false;
+      problem.restore(now);
+    }
   }
   sweeps = std::min(sweeps, options.max_iterations);
   // Stuck? Every loaded contact stopped, every unloaded one touching without slip or separating.
-  const double tolerance = kStickTolerance * reference;
   bool stuck = converged;
   for (std::size_t i = 0; stuck && i < size; ++i) {
     const ProblemContact& c = problem.contact(i);

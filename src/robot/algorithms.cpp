@@ -177,6 +177,7 @@ void updateUnknowns(const RobotModel& model, RobotData& data) {
 }
 
 void forwardKinematics(const RobotModel& model, RobotData& data) {
+  data.link_inertias_valid = false;
   data.frames[0] = data.base_pose;
   const KDL::Vector o = data.base_pose.p;
   for (int k = 0; k < 3; ++k) {
@@ -227,8 +228,12 @@ void computeMassMatrix(const RobotModel& model, RobotData& data) {
   if (n == 0) return;  // nothing moves: no inertia is needed
   // Composite inertias, children before parents (world frame, reference point the origin: sums).
   const int links = model.linkCount();
-  for (int i = 0; i < links; ++i)
-    data.composite[i] = worldInertia(model.link(i).local, data.frames[i]);
+  data.link_inertias.resize(links);
+  for (int i = 0; i < links; ++i) {
+    data.link_inertias[i] = worldInertia(model.link(i).local, data.frames[i]);
+    data.composite[i] = data.link_inertias[i];
+  }
+  data.link_inertias_valid = true;
   for (int i = links - 1; i > 0; --i) data.composite[model.link(i).parent] += data.composite[i];
   if (model.hasMimicJoints()) {
     computeMimicMassMatrix(model, data);
@@ -448,7 +453,10 @@ void inverseDynamicsUnder(const RobotModel& model, const RobotData& data,
   // Each link's rate of change of momentum, I (A - (0, g)) + V x* (I V): gravity as an upward
   // acceleration of the frame, so that the forces are what the joints must transmit.
   for (int i = 0; i < n; ++i) {
-    const SpatialInertia inertia = worldInertia(model.link(i).local, data.frames[i]);
+    // The mass matrix's own inertias at these frames where it kept them (the same numbers).
+    const SpatialInertia inertia = data.link_inertias_valid
+                                       ? data.link_inertias[i]
+                                       : worldInertia(model.link(i).local, data.frames[i]);
     force[i] = momentumOf(inertia, acceleration[i].angular, acceleration[i].linear - gravity);
     if (with_velocity) {
       const Eigen::Vector3d w = toEigen(data.twists[i].rot), v = toEigen(data.twists[i].vel);

@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "collision_response/core/errors.h"
+#include "collision_response/robot/articulated_body_algorithm.h"
 
 namespace collision_response::robot {
 namespace {
@@ -91,6 +92,22 @@ void ArticulatedBody::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& 
   computeMassMatrix(*model_, data_);
   factorizeMassMatrix(*model_, data_);
   robot::requireRegular(data_, "q");
+}
+
+void ArticulatedBody::setFlightState(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                                     const Eigen::Isometry3d& base_pose) {
+  if (q.size() != jointCount() || qdot.size() != jointCount()) {
+    throw core::InvalidInput("q", "joint positions and velocities need " +
+                                      std::to_string(jointCount()) + " entries each");
+  }
+  data_.q = q;
+  data_.qdot = qdot;
+  data_.base_pose = toKdl(base_pose);
+  forwardKinematics(*model_, data_);
+}
+
+Eigen::VectorXd ArticulatedBody::flightAcceleration() const {
+  return articulatedBodyAcceleration(*model_, data_);
 }
 
 Eigen::Isometry3d ArticulatedBody::linkPose(int link) const {

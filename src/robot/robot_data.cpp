@@ -10,6 +10,7 @@ RobotData::RobotData(const RobotModel& model)
       axes(model.linkCount(), KDL::Twist::Zero()),
       twists(model.linkCount(), KDL::Twist::Zero()),
       composite(model.linkCount()),
+      link_inertias(model.linkCount()),
       torques(Eigen::VectorXd::Zero(model.jointCount())) {}
 
 }  // namespace collision_response::robot

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "collision_response/core/errors.h"
+#include "collision_response/robot/articulated_body_algorithm.h"
 #include "collision_response/robot/link_bodies.h"
 
 namespace collision_response::robot {
@@ -93,10 +94,22 @@ const Eigen::VectorXd& RobotEpisodeBody::jointAccelerations() const {
 
 void RobotEpisodeBody::derivative(const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
   const int n = robot_.jointCount();
-  robot_.setState(y.head(n), y.tail(n), base_pose_);
-  accelerations_valid_ = false;
   dy.resize(2 * n);
   dy.head(n) = y.tail(n);
+  if (robot::articulatedBodyApplies(robot_.model())) {
+    // Kinematics and the articulated-body algorithm, O(links), without M(q) (advance() sets the
+    // full state at its end).
+    robot_.setFlightState(y.head(n), y.tail(n), base_pose_);
+    accelerations_valid_ = false;
+    const Eigen::VectorXd vdot = robot_.flightAcceleration();
+    for (int j = 0; j < n; ++j) {
+      const int u = robot_.unknownOfJoint(j);
+      dy(n + j) = u >= 0 ? vdot(u) : 0.0;
+    }
+    return;
+  }
+  robot_.setState(y.head(n), y.tail(n), base_pose_);
+  accelerations_valid_ = false;
   dy.tail(n) = jointAccelerations();
 }
 
@@ -177,6 +190,10 @@ void RobotEpisodeBody::advance(double dt) {
     robot_.setState(y.head(n), y.tail(n), base_pose_);
     accelerations_valid_ = false;
   } else {
+    // The last right-hand side was at y; the articulated-body path left M(q) stale there.
+    if (robot::articulatedBodyApplies(robot_.model())) {
+      robot_.setState(y.head(n), y.tail(n), base_pose_);
+    }
     accelerations_ = k1.tail(n);  // k7 of the last accepted step: qdd at y
     accelerations_valid_ = true;
   }

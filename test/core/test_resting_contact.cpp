@@ -4,10 +4,16 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <random>
 #include <string>
 #include <utility>
 
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/contact_problem.h"
+#include "collision_response/core/friction_disk.h"
+#include "collision_response/core/resting_contact.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/stick_certificate.h"
 
 namespace core = collision_response::core;
 
@@ -519,3 +525,188 @@ TEST(RestingBand, TopBlockSlidesWhileTheBottomOneSticksInItsBand) {
 }
 
 }  // namespace
+
+// The all-stick sweeps' block solve on a prepared block (prepareFrictionCone(), once per contact)
+// against the definition of its answer, the minimizer of f(x) = x.b + x^T A x / 2 over the cone
+// |x_t| <= mu x_n: checked by convexity, f(x) <= f(y) for every y sampled in the cone (far, and
+// near x along random directions brought back into the cone), on random blocks A = J J^T of rank
+// 3, 2 and 1 (a redundant contact's singular block; then b in A's range, where f is bounded
+// below) in random frames; and the answer is the same
+// to the last bit as the one-shot solveFrictionCone() the solver used before.
+TEST(RestingAllStick, PreparedConeBlockMinimizesOverTheCone) {
+  std::mt19937 random(20261126);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto vec = [&] { return Eigen::Vector3d(normal(random), normal(random), normal(random)); };
+  for (int trial = 0; trial < 300; ++trial) {
+    const int rank = 1 + trial % 3;
+    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    for (int k = 0; k < rank; ++k) J.col(k) = vec();
+    const Eigen::Matrix3d A = J * J.transpose();
+    const Eigen::Vector3d n = vec().normalized();
+    const Eigen::Vector3d t1 = n.unitOrthogonal();
+    const Eigen::Vector3d t2 = n.cross(t1);
+    const double mu = trial % 7 == 0 ? 0.0 : 0.05 + 1.5 * unit(random);
+    // Full rank: any b. Singular: b in A's range (otherwise f may fall without bound in the cone).
+    const Eigen::Vector3d b = rank == 3 ? Eigen::Vector3d(3.0 * vec()) : Eigen::Vector3d(A * vec());
+    const core::FrictionConeBlock block = core::prepareFrictionCone(A, n, t1, t2, mu);
+    const Eigen::Vector3d x = core::solveFrictionCone(block, b);
+    const Eigen::Vector3d once = core::solveFrictionCone(A, b, n, t1, t2, mu);
+    ASSERT_EQ(x, once) << "trial " << trial;
+    const auto f = [&](const Eigen::Vector3d& y) { return y.dot(b) + 0.5 * y.dot(A * y); };
+    // Into the cone: the nearest point of it (Euclidean projection).
+    const auto project = [&](const Eigen::Vector3d& y) -> Eigen::Vector3d {
+      const double y_n = y.dot(n);
+      const Eigen::Vector3d y_t = y - y_n * n;
+      const double r = y_t.norm();
+      if (r <= mu * y_n) return y;
+      if (mu * r <= -y_n) return Eigen::Vector3d::Zero();
+      const double s = (y_n + mu * r) / (1.0 + mu * mu);
+      return s * n + (r > 0.0 ? Eigen::Vector3d(mu * s * y_t / r) : Eigen::Vector3d::Zero());
+    };
+    const double x_n = x.dot(n);
+    const double scale = 1.0 + x.norm();
+    EXPECT_GE(x_n, -1e-12 * scale) << "trial " << trial;
+    EXPECT_LE((x - x_n * n).norm(), mu * x_n + 1e-9 * scale) << "trial " << trial;
+    const double fx = f(x);
+    const double slack = 1e-9 * (1.0 + std::abs(fx) + b.norm() * scale);
+    for (int k = 0; k < 400; ++k) {
+      const double reach = k < 200 ? 3.0 : 1e-3 * scale;
+      const Eigen::Vector3d y = project((k < 200 ? Eigen::Vector3d::Zero() : x) + reach * vec());
+      ASSERT_LE(fx, f(y) + slack) << "trial " << trial << " sample " << k;
+    }
+  }
+}
+
+// --- No stuck answer (docs/physics.md, "No stuck answer"; stick_certificate.h). A block
+// (m = 2 kg, 0.2 m cube, I = m s^2 / 6 about every axis) on four corners (+-0.1, +-0.1, 0),
+// centre at z = 0.1, under gravity, turning about the vertical at w, its corners' slip w r below
+// the resting threshold (so posed without a slip direction). Closed form: each corner's free
+// acceleration is -g z - w^2 r_h (isotropic inertia: no angular acceleration); the range of the
+// pair block W_pp = J_p M^-1 J_p^T is that of J_p, whose orthogonal complement for two points
+// d = r_i - r_j apart is the single direction (d, -d) / (sqrt(2) |d|) (the rigid motions cannot
+// change the points' distance), so the pair's least-squares residual is
+// |(a_i - a_j).d| / (sqrt(2) |d|) = w^2 |d| / sqrt(2): no force cancels it.
+struct TurningBlock {
+  std::vector<core::BodyState> states;
+  std::vector<core::RigidBody> bodies;
+  std::vector<core::ContactPoint> contacts;
+  std::vector<int> island{0, 1, 2, 3};
+  core::ContactProblem problem;
+  std::vector<Eigen::Vector3d> free;
+
+  // The four bottom corners on the floor (body 0), or the given contacts.
+  TurningBlock(double w, double vertical_force, std::vector<core::ContactPoint> given = {}) {
+    core::BodyState floor;
+    floor.id = "floor";
+    core::BodyState box;
+    box.id = "box";
+    box.mass = 2.0;
+    box.inertia = Eigen::Matrix3d::Identity() * 2.0 * 0.04 / 6.0;
+    box.position = {0.0, 0.0, 0.1};
+    box.angular_velocity = {0.0, 0.0, w};
+    box.force = {0.0, 0.0, vertical_force};
+    states = {floor, box};
+    bodies = {core::makeRigidBody(floor), core::makeRigidBody(box)};
+    for (const double x : {-0.1, 0.1}) {
+      for (const double y : {-0.1, 0.1}) {
+        contacts.emplace_back(0, 1, Eigen::Vector3d(x, y, 0.0), Eigen::Vector3d::UnitZ(), 0.0, 0.5,
+                              0.4);
+      }
+    }
+    if (!given.empty()) {
+      contacts = std::move(given);
+      island.resize(contacts.size());
+      for (std::size_t i = 0; i < island.size(); ++i) island[i] = static_cast<int>(i);
+    }
+    problem.buildResting(states, bodies, contacts, island, 0.05);  // slips of w r < 0.05 m/s rest
+    for (std::size_t i = 0; i < problem.size(); ++i) free.push_back(problem.relativeMotion(i));
+  }
+};
+
+TEST(RestingNoStuckAnswer, PairResidualIsTheCentripetalPartNoForceCancels) {
+  for (const double w : {0.0, 0.02, 0.3}) {
+    TurningBlock block(w, -2.0 * kG);
+    ASSERT_EQ(block.problem.size(), 4u);
+    for (std::size_t i = 0; i < 4; ++i) {
+      ASSERT_TRUE(block.problem.contact(i).slip_direction.isZero(0.0));
+      for (std::size_t j = i + 1; j < 4; ++j) {
+        const double d = (block.contacts[i].point - block.contacts[j].point).norm();
+        EXPECT_NEAR(core::pairResidual(block.problem, block.free, i, j), w * w * d / std::sqrt(2.0),
+                    1e-12)
+            << "w " << w << " pair " << i << ", " << j;
+      }
+    }
+  }
+}
+
+// The decision: turning on the table (any two corners would need the impossible, and one corner
+// alone cannot hold the block: its opposite corner falls) -> proven; at rest (the four corners
+// hold it) or turning while pulled off the table (every corner separates, F = 0 is stuck) -> not
+// proven, and those are the cases the sweeps answer as before.
+TEST(RestingNoStuckAnswer, ProvenOnlyWhenNoCornerSplitCanHoldTheTurningBlock) {
+  const double tolerance = 1e-9 * kG;
+  EXPECT_TRUE(core::noStuckAnswer(TurningBlock(0.02, -2.0 * kG).problem,
+                                  TurningBlock(0.02, -2.0 * kG).free, tolerance));
+  EXPECT_FALSE(core::noStuckAnswer(TurningBlock(0.0, -2.0 * kG).problem,
+                                   TurningBlock(0.0, -2.0 * kG).free, tolerance));
+  EXPECT_FALSE(core::noStuckAnswer(TurningBlock(0.02, 2.0 * kG).problem,
+                                   TurningBlock(0.02, 2.0 * kG).free, tolerance));
+  // Below the tolerance the residual proves nothing: w^2 |d| / sqrt(2) <= 2 tolerance.
+  const double w_small = std::sqrt(tolerance * std::sqrt(2.0) / 0.2);
+  EXPECT_FALSE(core::noStuckAnswer(TurningBlock(w_small, -2.0 * kG).problem,
+                                   TurningBlock(w_small, -2.0 * kG).free, tolerance));
+}
+
+// The resting analysis of the turning block: the all-stick sweeps stop at the certificate (32
+// sweeps instead of running to their cap) and the iterative solver answers as it did after the
+// cap (the problem is restored in both cases); the vertical balance (sum F_n = m g: the block's
+// centre neither rises nor falls) holds to the iterative solver's unconverged answer (its sweeps
+// chase the centripetal part no force cancels: 2.6e-6 of m g here), every force in its static
+// cone. At rest the answer is the all-stick one, converged, before the certificate's sweep.
+TEST(RestingNoStuckAnswer, TurningBlockSkipsTheAllStickSweeps) {
+  core::SolverOptions options;
+  TurningBlock turning(0.02, -2.0 * kG);
+  std::vector<core::ContactImpulse> forces;
+  const core::SolveReport report = core::solveRestingIsland(turning.problem, options, forces);
+  EXPECT_LE(report.iterations, 32 + options.max_iterations);
+  double normal = 0.0;
+  for (const core::ContactImpulse& f : forces) {
+    EXPECT_GE(f.normal_force, 0.0);
+    EXPECT_LE(f.friction_force.norm(), 0.5 * f.normal_force + 1e-9);
+    normal += f.normal_force;
+  }
+  EXPECT_NEAR(normal, 2.0 * kG, 1e-4);
+  TurningBlock still(0.0, -2.0 * kG);
+  const core::SolveReport rest = core::solveRestingIsland(still.problem, options, forces);
+  EXPECT_TRUE(rest.converged);
+  EXPECT_LT(rest.iterations, 32u);
+  for (const core::ContactImpulse& f : forces) EXPECT_TRUE(f.sticking);
+}
+
+// One contact alone can hold: the turning block on a single floor point under its centre (on the
+// turning axis: no centripetal part) touching a wall (immovable, normal -x) at the middle of its
+// +x face, (0.1, 0, 0.1). The pair is inconsistent (closed form as above, d = (-0.1, 0, -0.1):
+// residual w^2 |(0.1, 0, 0).d| / (sqrt(2) |d|) = w^2 / 20), but the floor force m g stops the
+// floor point and the wall point accelerates away from the wall at w^2 0.1: a stuck answer
+// exists (floor loaded, wall separating), so nothing is proven, and the analysis converges to
+// it: N = m g at the floor, no friction, nothing at the wall.
+TEST(RestingNoStuckAnswer, OneContactHoldingTheBlockIsNotRuledOut) {
+  const double w = 0.02;
+  const std::vector<core::ContactPoint> given = {
+      core::ContactPoint(0, 1, Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d::UnitZ(), 0.0, 0.5,
+                         0.4),
+      core::ContactPoint(0, 1, Eigen::Vector3d(0.1, 0.0, 0.1), -Eigen::Vector3d::UnitX(), 0.0, 0.5,
+                         0.4)};
+  TurningBlock block(w, -2.0 * kG, given);
+  ASSERT_EQ(block.problem.size(), 2u);
+  EXPECT_NEAR(core::pairResidual(block.problem, block.free, 0, 1), w * w / 20.0, 1e-12);
+  EXPECT_FALSE(core::noStuckAnswer(block.problem, block.free, 1e-9 * kG));
+  core::SolverOptions options;
+  std::vector<core::ContactImpulse> forces;
+  const core::SolveReport report = core::solveRestingIsland(block.problem, options, forces);
+  EXPECT_TRUE(report.converged);
+  EXPECT_NEAR(forces[0].normal_force, 2.0 * kG, 1e-9);
+  EXPECT_NEAR(forces[0].friction_force.norm(), 0.0, 1e-9);
+  EXPECT_NEAR(forces[1].normal_force, 0.0, 1e-9);
+}

@@ -20,7 +20,9 @@
 #include <string>
 
 #include "collision_response/core/errors.h"
+#include "collision_response/robot/algorithms.h"
 #include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/articulated_body_algorithm.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "two_link_arm.h"
 
@@ -276,6 +278,49 @@ TEST(ArticulatedBody, Arm7DynamicsEqualKdlNewtonEuler) {
   }
 }
 
+// The inverse dynamics reuse the world inertias the mass matrix computed at the same frames
+// (RobotData::link_inertias): after forwardKinematics() alone moves the frames (no new mass
+// matrix), they must be the new frames' inertias, not the kept ones. Against KDL's recursive
+// Newton-Euler at the new configuration.
+TEST(ArticulatedBody, InverseDynamicsAfterKinematicsAloneEqualKdlNewtonEuler) {
+  KDL::Tree full;
+  ASSERT_TRUE(kdl_parser::treeFromFile(kArm7, full));
+  KDL::Chain chain;
+  ASSERT_TRUE(full.getChain("base_link", "left_finger", chain));
+  KDL::Tree tree("base_link");
+  ASSERT_TRUE(tree.addChain(chain, "base_link"));
+  rb::ArticulatedBody arm(tree);
+  const Vector3d g(0.5, -1.2, -9.81);
+  KDL::ChainIdSolver_RNE newton_euler(chain, KDL::Vector(g.x(), g.y(), g.z()));
+  const KDL::Wrenches no_wrench(chain.getNrOfSegments(), KDL::Wrench::Zero());
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    VectorXd q(8), qdot(8), qddot(8);
+    for (int i = 0; i < 8; ++i) {
+      q(i) = M_PI * u(rng);
+      qdot(i) = 2.0 * u(rng);
+      qddot(i) = 5.0 * u(rng);
+    }
+    q(7) = 0.02 + 0.01 * u(rng);
+    arm.setState(q, qdot);  // frames, mass matrix (and its kept inertias) at q
+    arm.setLoads(VectorXd::Zero(8), g);
+    rb::RobotData data = arm.data();
+    for (int i = 0; i < 7; ++i) data.q(i) += 0.3 + 0.2 * u(rng);  // elsewhere, no mass matrix
+    rb::forwardKinematics(arm.model(), data);
+    VectorXd tau;
+    Eigen::Matrix<double, 6, 1> base;
+    rb::inverseDynamics(arm.model(), data, qddot, Eigen::Matrix<double, 6, 1>::Zero(), true, tau,
+                        base, nullptr);
+    KDL::JntArray kq(8), kqd(8), kqdd(8), expected(8);
+    kq.data = data.q;
+    kqd.data = qdot;
+    kqdd.data = qddot;
+    ASSERT_GE(newton_euler.CartToJnt(kq, kqd, kqdd, no_wrench, expected), 0);
+    EXPECT_LE((tau - expected.data).cwiseAbs().maxCoeff(), 1e-10) << "trial " << trial;
+  }
+}
+
 // A material point's free acceleration is the time derivative of its velocity along the motion
 // the free acceleration gives: central differences of partPointVelocity() over states 1e-5 s apart
 // (q +- qdot dt + qddot dt^2 / 2, qdot +- qddot dt: the point's velocity is then known to
@@ -462,4 +507,44 @@ TEST(ArticulatedBody, LocksInTheDataActAsLocksInTheModel) {
   one.setLockedJoints(flags);
   EXPECT_TRUE(one.isLocked(gripper.jointIndex("finger1_joint")));
   EXPECT_EQ(one.velocityCount(), 1);
+}
+
+// The articulated-body algorithm (articulated_body_algorithm.h) against the mass-matrix path
+// (M(q) by composite rigid bodies, its Cholesky factor, Newton-Euler for h: freeAcceleration()),
+// an independent computation of the same vdot = M^-1 (tau - h): the whole arm (a tree: both
+// fingers) at random states, under random torques and gravity, under gravity compensation, with a
+// locked joint moving at its velocity and with armature on two joints.
+TEST(ArticulatedBody, ArticulatedBodyAlgorithmEqualsTheMassMatrixPath) {
+  std::mt19937 rng(2411);
+  const Vector3d g(0.3, -0.8, -9.81);
+  for (int variant = 0; variant < 4; ++variant) {
+    rb::ArticulatedBody arm = rb::robotFromUrdfFile(kArm7);
+    ASSERT_TRUE(rb::articulatedBodyApplies(arm.model()));
+    if (variant == 2) {
+      std::vector<bool> locked(9, false);
+      locked[3] = true;
+      arm.setLockedJoints(locked);
+    }
+    if (variant == 3) {
+      arm.setJointModel(1, rb::JointModel::kArmature, 0.4);
+      arm.setJointModel(5, rb::JointModel::kArmature, 0.05);
+    }
+    for (int trial = 0; trial < 10; ++trial) {
+      const ArmMotion motion = randomArmMotion(rng);
+      if (variant == 1) {
+        arm.setGravityCompensation(g);
+      } else {
+        arm.setLoads(motion.tau, g);
+      }
+      arm.setState(motion.q, motion.qdot);
+      const VectorXd expected = arm.freeAcceleration();
+      rb::ArticulatedBody flight = arm;
+      flight.setFlightState(motion.q, motion.qdot, Eigen::Isometry3d::Identity());
+      const VectorXd vdot = flight.flightAcceleration();
+      ASSERT_EQ(vdot.size(), expected.size());
+      EXPECT_LE((vdot - expected).cwiseAbs().maxCoeff(),
+                1e-10 * (1.0 + expected.cwiseAbs().maxCoeff()))
+          << "variant " << variant << " trial " << trial;
+    }
+  }
 }

@@ -39,4 +39,24 @@ Eigen::Vector3d solveFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3
                                   const Eigen::Vector3d& n, const Eigen::Vector3d& t1,
                                   const Eigen::Vector3d& t2, double mu);
 
+/// What solveFrictionCone() computes from the block alone, once for many right-hand sides b (the
+/// all-stick sweeps solve each contact's block again at every sweep with a new b only): the
+/// contact's frame T = [n t1 t2], the block in it A_l = T^T A T [1/kg] and A_l's pseudo-inverse
+/// [kg] (least_norm.h), mu and trace(A).
+struct FrictionConeBlock {
+  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();             // T, columns n, t1, t2 (world)
+  Eigen::Matrix3d local = Eigen::Matrix3d::Zero();                 // A_l [1/kg]
+  Eigen::Matrix3d local_pseudo_inverse = Eigen::Matrix3d::Zero();  // A_l^+ [kg]
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Matrix3d delassus = Eigen::Matrix3d::Zero();  // A [1/kg], world
+  double trace = 0.0;
+  double mu = 0.0;
+};
+FrictionConeBlock prepareFrictionCone(const Eigen::Matrix3d& A, const Eigen::Vector3d& n,
+                                      const Eigen::Vector3d& t1, const Eigen::Vector3d& t2,
+                                      double mu);
+/// solveFrictionCone() on a prepared block: the same operations in the same order, so the same
+/// answer to the last bit.
+Eigen::Vector3d solveFrictionCone(const FrictionConeBlock& block, const Eigen::Vector3d& b);
+
 }  // namespace collision_response::core

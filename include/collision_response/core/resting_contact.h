@@ -28,12 +28,14 @@ namespace collision_response::core {
 /// solveFrictionCone()) is solved, and its answer kept if it is stuck (every loaded contact left
 /// with a' = 0, every unloaded one touching without slip or separating, to 1e-9 of the island's
 /// largest free relative acceleration): some split of the forces within the static cones holds
-/// the island. Otherwise the iterative solver (its singular-W rule applies), whose contacts move
-/// to mu_d only if they still slip on their static cone. `sticking`: no slip, not separating and
-/// a'_t = 0 to that tolerance. Writes forces[i] (resting, normal_force, friction_force, sticking)
-/// for problem contact i (resized to the problem); the forces are applied to the problem's
-/// accelerations, never to the bodies. Report: kRestingClosedForm or kRestingIterative (kNone if
-/// empty); a sliding single contact whose force cannot keep a'_n = 0 (Painleve) is not converged.
+/// the island (the sweeps stop after 32 if noStuckAnswer(), stick_certificate.h, proves that no
+/// stuck answer exists). Otherwise the iterative solver (its singular-W rule applies), whose
+/// contacts move to mu_d only if they still slip on their static cone. `sticking`: no slip, not
+/// separating and a'_t = 0 to that tolerance. Writes forces[i] (resting, normal_force,
+/// friction_force, sticking) for problem contact i (resized to the problem); the forces are applied
+/// to the problem's accelerations, never to the bodies. Report: kRestingClosedForm or
+/// kRestingIterative (kNone if empty); a sliding single contact whose force cannot keep a'_n = 0
+/// (Painleve) is not converged.
 SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& options,
                                std::vector<ContactImpulse>& forces);
 

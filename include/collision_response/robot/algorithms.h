@@ -21,13 +21,15 @@ namespace collision_response::robot {
 void updateUnknowns(const RobotModel& model, RobotData& data);
 /// The followers' q and qdot from their roots' (q = m q_root + o, qdot = m qdot_root).
 void deriveMimicState(const RobotModel& model, RobotData& data);
-/// Frames and joint axes of every link from q and the base pose, then updateTwists().
+/// Frames and joint axes of every link from q and the base pose, then updateTwists(); the world
+/// inertias computeMassMatrix() kept are no longer valid.
 void forwardKinematics(const RobotModel& model, RobotData& data);
 /// Link twists from qdot and the base twist (V_i = V_parent + S_i qdot_i); invalidates the free
 /// accelerations.
 void updateTwists(const RobotModel& model, RobotData& data);
 /// M(q) in the unknowns by the composite-rigid-body algorithm (armature on the diagonal, mimic
-/// groups folded: T^T M_all T). Needs forwardKinematics().
+/// groups folded: T^T M_all T). Needs forwardKinematics(). Keeps each link's world inertia
+/// (RobotData::link_inertias), which inverseDynamics() then reads instead of computing it again.
 void computeMassMatrix(const RobotModel& model, RobotData& data);
 /// M = L L^T into data.cholesky; a singular M is recorded in data.singular (naming the first
 /// joint whose pivot vanishes), not thrown.

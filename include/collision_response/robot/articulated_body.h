@@ -127,6 +127,14 @@ class ArticulatedBody final : public core::BodyModel {
                 const Eigen::Isometry3d& base_pose = Eigen::Isometry3d::Identity(),
                 const Eigen::Vector3d& base_linear_velocity = Eigen::Vector3d::Zero(),
                 const Eigen::Vector3d& base_angular_velocity = Eigen::Vector3d::Zero());
+  /// The flight's state (RobotEpisodeBody): as setState() for a fixed base without mimic joints
+  /// (articulatedBodyApplies()), kinematics only: M(q) and its factor are left stale, so only
+  /// flightAcceleration() and the kinematic queries may follow until the next setState().
+  void setFlightState(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                      const Eigen::Isometry3d& base_pose);
+  /// freeAcceleration() at a setFlightState() state, by the articulated-body algorithm
+  /// (articulated_body_algorithm.h).
+  Eigen::VectorXd flightAcceleration() const;
   const Eigen::VectorXd& jointPositions() const { return data_.q; }
   const Eigen::VectorXd& jointVelocities() const { return data_.qdot; }
   const Eigen::Vector3d& baseLinearVelocity() const { return data_.base_linear_velocity; }

@@ -61,9 +61,13 @@ struct RobotData {
 
   // --- Mass matrix
   std::vector<SpatialInertia> composite;  ///< each link's subtree (M(q) only)
-  Eigen::MatrixXd mass_matrix;            ///< M(q), unknowns square, armature included
-  Eigen::MatrixXd cholesky;               ///< M = L L^T, L in the lower triangle
-  std::string singular;                   ///< why M is singular, empty if it is not
+  /// Each link's own inertia in the world (worldInertia() at `frames`), kept by computeMassMatrix()
+  /// for the inverse dynamics at the same frames; valid until forwardKinematics() moves them.
+  std::vector<SpatialInertia> link_inertias;
+  bool link_inertias_valid = false;
+  Eigen::MatrixXd mass_matrix;  ///< M(q), unknowns square, armature included
+  Eigen::MatrixXd cholesky;     ///< M = L L^T, L in the lower triangle
+  std::string singular;         ///< why M is singular, empty if it is not
 
   // --- Loads (resting contacts)
   Eigen::VectorXd torques;                            ///< the actuators' tau [N m | N], joint order
