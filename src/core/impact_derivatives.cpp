@@ -1034,10 +1034,17 @@ ImpactDerivatives computeValidatedImpactDerivatives(
     }
   }
   const Index velocity_count = out.velocityCount();
-  out.jacobian.setZero(velocity_count + out.impulseCount(),
-                       velocity_count + out.coefficientCount());
-  // Bodies the impacts leave alone (and every body before its island is differentiated): v' = v.
-  if (columns.velocities) out.jacobian.topLeftCorner(velocity_count, velocity_count).setIdentity();
+  if (columns.velocities) {
+    out.jacobian.setZero(velocity_count + out.impulseCount(),
+                         velocity_count + out.coefficientCount());
+    // Bodies the impacts leave alone (and every body before its island is differentiated): v' = v.
+    out.jacobian.topLeftCorner(velocity_count, velocity_count).setIdentity();
+  } else {
+    // The velocity columns are set to 0 at the end (the closed forms write them).
+    out.jacobian.resize(velocity_count + out.impulseCount(),
+                        velocity_count + out.coefficientCount());
+    out.jacobian.rightCols(out.coefficientCount()).setZero();
+  }
 
   std::vector<int> local_of(scene.bodies.size(), -1);
   std::vector<std::size_t> numerical;

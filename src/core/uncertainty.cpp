@@ -327,31 +327,37 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
   return standardNormalCdf(margin / std::sqrt(variance));
 }
 
-// The lower triangle of S S^T into `out` (m x m, column-major), S = `s` (m x used, column-major),
-// mirrored into the upper one. Rows x a few columns: column c of the triangle is a sum of S's
-// columns (rows c..m-1) weighted by their entries in row c, taken four columns at a time so that
-// each output is loaded and stored once per four (plain loops the compiler vectorises; cheaper
-// than a product kernel's set-up at this size).
-void lowerProduct(const double* s, Eigen::Index m, Eigen::Index used, double* out) {
+// S S^T into `out` (m x m, column-major), S = `s` (m x used, column-major). Rows x a few columns:
+// column c is a sum of S's columns weighted by their entries in row c, taken four at a time so
+// that each output is stored once per four (plain loops the compiler vectorises; cheaper than a
+// product kernel's set-up at this size). Entries (r, c) and (c, r) sum the same products in the
+// same order: the result is exactly symmetric.
+void outerProduct(const double* s, Eigen::Index m, Eigen::Index used, double* out) {
   for (Eigen::Index c = 0; c < m; ++c) {
     double* __restrict column = out + c * m;
-    for (Eigen::Index r = c; r < m; ++r) column[r] = 0.0;
     Eigen::Index j = 0;
+    if (used < 4) {
+      for (Eigen::Index r = 0; r < m; ++r) column[r] = 0.0;
+    }
     for (; j + 4 <= used; j += 4) {
       const double* __restrict s0 = s + j * m;
       const double* __restrict s1 = s0 + m;
       const double* __restrict s2 = s1 + m;
       const double* __restrict s3 = s2 + m;
       const double a0 = s0[c], a1 = s1[c], a2 = s2[c], a3 = s3[c];
-      for (Eigen::Index r = c; r < m; ++r)
-        column[r] += a0 * s0[r] + a1 * s1[r] + a2 * s2[r] + a3 * s3[r];
+      if (j == 0) {
+        for (Eigen::Index r = 0; r < m; ++r)
+          column[r] = a0 * s0[r] + a1 * s1[r] + a2 * s2[r] + a3 * s3[r];
+      } else {
+        for (Eigen::Index r = 0; r < m; ++r)
+          column[r] += a0 * s0[r] + a1 * s1[r] + a2 * s2[r] + a3 * s3[r];
+      }
     }
     for (; j < used; ++j) {
       const double* __restrict s0 = s + j * m;
       const double a0 = s0[c];
-      for (Eigen::Index r = c; r < m; ++r) column[r] += a0 * s0[r];
+      for (Eigen::Index r = 0; r < m; ++r) column[r] += a0 * s0[r];
     }
-    for (Eigen::Index r = c + 1; r < m; ++r) out[r * m + c] = column[r];
   }
 }
 
@@ -394,7 +400,7 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     scaled.col(used++) = column * std::sqrt(prepared.variances[j]);
   }
   outcome.covariance.resize(m, m);
-  lowerProduct(scaled.data(), m, used, outcome.covariance.data());
+  outerProduct(scaled.data(), m, used, outcome.covariance.data());
   outcome.q05.resize(m);
   outcome.q95.resize(m);
   for (Eigen::Index r = 0; r < m; ++r) {
