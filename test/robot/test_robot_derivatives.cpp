@@ -406,63 +406,64 @@ TEST(RobotDerivatives, NewtonWithFrictionIsAnalyticAndMatchesCentralDifferences)
     EXPECT_GE(sliding[several], 2);
   }
   EXPECT_GE(band, 2);
+}
 
-  // The benchmark's scene (benchmark/robot_scene.h, bench_derivatives' arm): the shipped arm
-  // strikes a free 1.5 kg box with its hand's origin, one frictional contact whose slip turns and
-  // stops. The sensitivity takes the slip's end by the stick-approach series, as the prediction
-  // does (asserted on the contact's own W = J M^-1 J^T and u = J v, built here from the arm's and
-  // the box's Jacobians), and every column of the Jacobian (the 9 joint velocities, the box's
-  // twist, e, mu_s, mu_d) matches central differences of the solver (at 1e-14) to 1e-6 of the
-  // column.
-  TEST(RobotDerivatives, ShippedArmStrikingABoxTakesTheSeriesAndMatchesCentralDifferences) {
-    for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
-      Eigen::Matrix<double, 9, 1> q, qdot;
-      q << 0.3, -0.8, 0.2, 1.4, -0.3, 0.9, 0.1, 0.02, 0.02;
-      qdot << 0.5, 0.2, -0.3, 0.4, 0.1, -0.2, 0.3, 0.0, 0.0;
-      const Vector3d normal = Vector3d(1, 0.3, -0.2).normalized();
-      Scene s{rb::robotFromUrdfFile(kArm7)};
-      s.arm.setState(q, qdot);
-      const int hand = s.arm.linkIndex("hand");
-      const Vector3d p = s.arm.linkPose(hand).translation();
-      const double mass = 1.5;
-      const Vector3d size(0.2, 0.1, 0.3), s2 = size.cwiseProduct(size);
-      const Vector3d inertia =
-          mass / 12.0 * Vector3d(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y());
-      s.ball.inverse_mass = 1.0 / mass;
-      s.ball.inverse_inertia = inertia.cwiseInverse().asDiagonal();
-      s.ball.com = p + 0.05 * normal;
-      s.ball.linear_velocity = -2.0 * normal + Vector3d(0.3, -0.2, 0.1);
-      cr::ContactPoint contact(0, 1, p, normal, 0.5, 0.6, 0.5);  // hand -> box
-      contact.part_a = hand;
-      s.contacts = {contact};
-      cr::SolverOptions options = withLaw(law);
-      options.integration_tolerance = 1e-14;
-      SCOPED_TRACE(cr::toString(law));
+// The benchmark's scene (benchmark/robot_scene.h, bench_derivatives' arm): the shipped arm
+// strikes a free 1.5 kg box with its hand's origin, one frictional contact whose slip turns and
+// stops. The sensitivity takes the slip's end by the stick-approach series, as the prediction
+// does (asserted on the contact's own W = J M^-1 J^T and u = J v, built here from the arm's and
+// the box's Jacobians), and every column of the Jacobian (the 9 joint velocities, the box's
+// twist, e, mu_s, mu_d) matches central differences of the solver (at 1e-14) to 1e-6 of the
+// column.
+TEST(RobotDerivatives, ShippedArmStrikingABoxTakesTheSeriesAndMatchesCentralDifferences) {
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    Eigen::Matrix<double, 9, 1> q, qdot;
+    q << 0.3, -0.8, 0.2, 1.4, -0.3, 0.9, 0.1, 0.02, 0.02;
+    qdot << 0.5, 0.2, -0.3, 0.4, 0.1, -0.2, 0.3, 0.0, 0.0;
+    const Vector3d normal = Vector3d(1, 0.3, -0.2).normalized();
+    Scene s{rb::robotFromUrdfFile(kArm7)};
+    s.arm.setState(q, qdot);
+    const int hand = s.arm.linkIndex("hand");
+    const Vector3d p = s.arm.linkPose(hand).translation();
+    const double mass = 1.5;
+    const Vector3d size(0.2, 0.1, 0.3), s2 = size.cwiseProduct(size);
+    const Vector3d inertia =
+        mass / 12.0 * Vector3d(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y());
+    s.ball.inverse_mass = 1.0 / mass;
+    s.ball.inverse_inertia = inertia.cwiseInverse().asDiagonal();
+    s.ball.com = p + 0.05 * normal;
+    s.ball.linear_velocity = -2.0 * normal + Vector3d(0.3, -0.2, 0.1);
+    cr::ContactPoint contact(0, 1, p, normal, 0.5, 0.6, 0.5);  // hand -> box
+    contact.part_a = hand;
+    s.contacts = {contact};
+    cr::SolverOptions options = withLaw(law);
+    options.integration_tolerance = 1e-14;
+    SCOPED_TRACE(cr::toString(law));
 
-      // The contact's W and u, from each side's Jacobians (b minus a).
-      const Eigen::MatrixXd Ja = s.arm.partPointJacobian(hand, p);
-      const Eigen::MatrixXd Jb = s.ball.partPointJacobian(0, p);
-      const Eigen::Matrix3d W = Ja * s.arm.partInverseMassJacobianTranspose(hand, p) +
-                                Jb * s.ball.partInverseMassJacobianTranspose(0, p);
-      const Vector3d u = Jb * s.ball.velocity() - Ja * s.arm.velocity();
-      Eigen::Matrix3d dP_du, dP_dc;
-      cr::ContactDerivativeMode mode;
-      cr::ImpulseSpaceSensitivityDetail detail;
-      ASSERT_TRUE(cr::differentiateImpulseSpace(normal, W, u, 0.5, 0.6, 0.5, law,
-                                                options.integration_tolerance, dP_du, dP_dc, mode,
-                                                nullptr, &detail));
-      EXPECT_TRUE(detail.series);
+    // The contact's W and u, from each side's Jacobians (b minus a).
+    const Eigen::MatrixXd Ja = s.arm.partPointJacobian(hand, p);
+    const Eigen::MatrixXd Jb = s.ball.partPointJacobian(0, p);
+    const Eigen::Matrix3d W = Ja * s.arm.partInverseMassJacobianTranspose(hand, p) +
+                              Jb * s.ball.partInverseMassJacobianTranspose(0, p);
+    const Vector3d u = Jb * s.ball.velocity() - Ja * s.arm.velocity();
+    Eigen::Matrix3d dP_du, dP_dc;
+    cr::ContactDerivativeMode mode;
+    cr::ImpulseSpaceSensitivityDetail detail;
+    ASSERT_TRUE(cr::differentiateImpulseSpace(normal, W, u, 0.5, 0.6, 0.5, law,
+                                              options.integration_tolerance, dP_du, dP_dc, mode,
+                                              nullptr, &detail));
+    EXPECT_TRUE(detail.series);
 
-      const cr::BodyImpactDerivatives d = s.derivatives(options);
-      ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
-      ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
-      const int N = static_cast<int>(d.velocity_count);
-      const MatrixXd want = s.differences(options, N + 3, 1e-5);
-      const double largest = want.cwiseAbs().maxCoeff();
-      for (int k = 0; k < N + 3; ++k) {
-        const double scale = std::max(want.col(k).cwiseAbs().maxCoeff(), 1e-3 * largest);
-        EXPECT_LE((d.jacobian.col(k) - want.col(k)).cwiseAbs().maxCoeff(), 1e-6 * scale)
-            << "column " << k;
-      }
+    const cr::BodyImpactDerivatives d = s.derivatives(options);
+    ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
+    ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    const int N = static_cast<int>(d.velocity_count);
+    const MatrixXd want = s.differences(options, N + 3, 1e-5);
+    const double largest = want.cwiseAbs().maxCoeff();
+    for (int k = 0; k < N + 3; ++k) {
+      const double scale = std::max(want.col(k).cwiseAbs().maxCoeff(), 1e-3 * largest);
+      EXPECT_LE((d.jacobian.col(k) - want.col(k)).cwiseAbs().maxCoeff(), 1e-6 * scale)
+          << "column " << k;
     }
   }
+}
