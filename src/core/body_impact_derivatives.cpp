@@ -97,6 +97,7 @@ NewtonIsland contactSpace(const std::vector<BodyModel*>& bodies,
   const Index m = static_cast<Index>(island.size());
   s.J.setZero(3 * m, N);
   s.MinvJt.setZero(N, 3 * m);
+  s.state.resize(island.size());
   for (Index i = 0; i < m; ++i) {
     const int c = island[i];
     const ContactPoint& contact = contacts[c];
@@ -113,13 +114,13 @@ NewtonIsland contactSpace(const std::vector<BodyModel*>& bodies,
       s.MinvJt.block(offset[body], 3 * i, n, 3) +=
           sign * bodies[body]->partInverseMassJacobianTranspose(part, contact.point);
     }
-    s.normal.push_back(contact.normal);
-    s.u.push_back(s.J.middleRows<3>(3 * i) * before + prescribed);
-    s.u_after.push_back(s.J.middleRows<3>(3 * i) * after + prescribed);
+    NewtonContactState& state = s.state[static_cast<std::size_t>(i)];
+    state.normal = contact.normal;
+    state.u = s.J.middleRows<3>(3 * i) * before + prescribed;
+    state.u_after = s.J.middleRows<3>(3 * i) * after + prescribed;
     const ContactImpulse& impulse = result.impulses[c];
-    s.P.push_back(impulse.normal_impulse * contact.normal + impulse.friction_impulse);
-    s.coefficients.push_back(
-        {contact.restitution, contact.static_friction, contact.dynamic_friction});
+    state.P = impulse.normal_impulse * contact.normal + impulse.friction_impulse;
+    state.coefficients = {contact.restitution, contact.static_friction, contact.dynamic_friction};
   }
   return s;
 }
@@ -143,7 +144,7 @@ void scatter(const NewtonIsland& s, const MatrixXd& dP_dv, const MatrixXd& dP_dt
     }
   }
   for (Index i = 0; i < m; ++i) {
-    const Eigen::Vector3d& n = s.normal[i];
+    const Eigen::Vector3d& n = s.state[static_cast<std::size_t>(i)].normal;
     Eigen::Matrix<double, 4, 3> impulse_of_P;
     impulse_of_P.row(0) = n.transpose();
     impulse_of_P.bottomRows<3>() = Eigen::Matrix3d::Identity() - n * n.transpose();
@@ -185,13 +186,14 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
     const ContactPoint& contact = contacts[c];
     const Eigen::Matrix3d W = s.J.lazyProduct(s.MinvJt);
     Eigen::Matrix3d dP_du, dP_dtheta3;
-    const bool done = kind == AnalyticIsland::kNewtonClosedForm
-                          ? differentiateNewtonContact(contact.normal, W, s.u[0], s.coefficients[0],
-                                                       dP_du, dP_dtheta3, out.contacts[c])
-                          : differentiateImpulseSpace(
-                                contact.normal, W, s.u[0], contact.restitution,
-                                contact.static_friction, contact.dynamic_friction, options.law,
-                                options.integration_tolerance, dP_du, dP_dtheta3, out.contacts[c]);
+    const bool done =
+        kind == AnalyticIsland::kNewtonClosedForm
+            ? differentiateNewtonContact(contact.normal, W, s.state[0].u, s.state[0].coefficients,
+                                         dP_du, dP_dtheta3, out.contacts[c])
+            : differentiateImpulseSpace(contact.normal, W, s.state[0].u, contact.restitution,
+                                        contact.static_friction, contact.dynamic_friction,
+                                        options.law, options.integration_tolerance, dP_du,
+                                        dP_dtheta3, out.contacts[c]);
     if (!done) return false;
     dP_dv = dP_du.lazyProduct(s.J);
     dP_dtheta = dP_dtheta3;

@@ -42,16 +42,24 @@ CheckedDistribution::CheckedDistribution(const CoefficientDistribution& distribu
                                          double upper, const std::string& field,
                                          std::optional<Warning>* warning)
     : distribution_(distribution), lower_(lower), upper_(upper) {
+  check([](const void* name) { return *static_cast<const std::string*>(name); }, &field, warning);
+}
+
+void CheckedDistribution::check(std::string (*name)(const void*), const void* context,
+                                std::optional<Warning>* warning) {
+  const CoefficientDistribution& distribution = distribution_;
+  const double lower = lower_, upper = upper_;
+  auto field = [&] { return name(context); };
   if (distribution.type == CoefficientDistribution::Type::kInterval) {
     if (!std::isfinite(distribution.min))
-      throw InvalidInput(field + ".min", "must be a finite number");
+      throw InvalidInput(field() + ".min", "must be a finite number");
     if (!std::isfinite(distribution.max))
-      throw InvalidInput(field + ".max", "must be a finite number");
+      throw InvalidInput(field() + ".max", "must be a finite number");
     if (distribution.min > distribution.max)
-      throw InvalidInput(field + ".min", "an interval needs min <= max");
+      throw InvalidInput(field() + ".min", "an interval needs min <= max");
     if (distribution.min < lower || distribution.max > upper)
       throw InvalidInput(
-          field + (distribution.min < lower ? ".min" : ".max"),
+          field() + (distribution.min < lower ? ".min" : ".max"),
           "the interval must lie in the coefficient's range " + rangeText(lower, upper));
     mean_ = 0.5 * (distribution.min + distribution.max);
     const double width = distribution.max - distribution.min;
@@ -59,13 +67,13 @@ CheckedDistribution::CheckedDistribution(const CoefficientDistribution& distribu
     return;
   }
   if (!std::isfinite(distribution.mean))
-    throw InvalidInput(field + ".mean", "must be a finite number");
+    throw InvalidInput(field() + ".mean", "must be a finite number");
   if (!std::isfinite(distribution.std_dev))
-    throw InvalidInput(field + ".std_dev", "must be a finite number");
+    throw InvalidInput(field() + ".std_dev", "must be a finite number");
   if (distribution.std_dev < 0.0)
-    throw InvalidInput(field + ".std_dev", "a standard deviation must be >= 0");
+    throw InvalidInput(field() + ".std_dev", "a standard deviation must be >= 0");
   if (distribution.mean < lower || distribution.mean > upper)
-    throw InvalidInput(field + ".mean",
+    throw InvalidInput(field() + ".mean",
                        "the mean must lie in the coefficient's range " + rangeText(lower, upper));
   const double s = distribution.std_dev;
   if (s == 0.0) {
@@ -91,7 +99,7 @@ CheckedDistribution::CheckedDistribution(const CoefficientDistribution& distribu
            << ") has probability " << 1.0 - kept_mass_ << " outside the coefficient's range "
            << rangeText(lower, upper) << ": sampled as the normal truncated to the range (mean "
            << mean_ << ", std_dev " << std::sqrt(variance_) << ")";
-    *warning = Warning{field, reason.str(), Warning::Kind::kInput};
+    *warning = Warning{field(), reason.str(), Warning::Kind::kInput};
   }
 }
 

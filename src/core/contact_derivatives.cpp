@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "collision_response/core/constants.h"
@@ -187,15 +188,22 @@ namespace {
 // tangentBasis(n) (T1 = 0).
 struct Pyramid {
   Vector3d t1, t2;
-  Matrix3d T1 = Matrix3d::Zero();
+  double slip_norm = 0.0;  // |pre-impact slip| when t1 follows it, else 0 (T1 = 0)
   Vector3d direction(int k) const {
     const double angle = 2.0 * kPi * k / kD;
     return std::cos(angle) * t1 + std::sin(angle) * t2;
   }
+  // d t1 / du = (I - t1 t1^T)(I - n n^T) / |slip| (built where it is read: only a sliding
+  // contact's rows need it).
+  Matrix3d T1(const Vector3d& n) const {
+    if (slip_norm == 0.0) return Matrix3d::Zero();
+    return (Matrix3d::Identity() - t1 * t1.transpose()) *
+           (Matrix3d::Identity() - n * n.transpose()) / slip_norm;
+  }
   // d d_k / du: (cos I + sin [n]x) T1, t2 = n x t1.
   Matrix3d derivative(int k, const Vector3d& n) const {
     const double angle = 2.0 * kPi * k / kD;
-    return (std::cos(angle) * Matrix3d::Identity() + std::sin(angle) * skew(n)) * T1;
+    return (std::cos(angle) * Matrix3d::Identity() + std::sin(angle) * skew(n)) * T1(n);
   }
 };
 
@@ -206,8 +214,7 @@ Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
   if (slip_norm > kAlignedSlip * u.norm()) {
     p.t1 = slip / slip_norm;
     p.t2 = n.cross(p.t1);
-    p.T1 = (Matrix3d::Identity() - p.t1 * p.t1.transpose()) *
-           (Matrix3d::Identity() - n * n.transpose()) / slip_norm;
+    p.slip_norm = slip_norm;
   } else {
     tangentBasis(n, p.t1, p.t2);
   }
@@ -251,29 +258,47 @@ template <int N>
 bool solveStickingBodySpace(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd& solution) {
   using Square = Eigen::Matrix<double, N, N>;
   using Tall = Eigen::Matrix<double, N, Eigen::Dynamic>;
-  const Index L = s.J.cols();
-  const Eigen::LLT<Square> G(Square(s.J.transpose().lazyProduct(s.J)));
-  if (!regular(G)) return false;
+  const Index L = s.J.cols(), m = s.J.rows() / 3, columns = rhs.cols();
+  // G = J^T J and x = J^T rhs, contact by contact (3-row blocks: fixed-size kernels for one body).
+  Square G = Square::Zero(L, L);
+  Tall x = Tall::Zero(L, columns);
+  for (Index i = 0; i < m; ++i) {
+    const auto J_i = s.J.template block<3, N>(3 * i, 0, 3, L);
+    G.noalias() += J_i.transpose() * J_i;
+    for (Index t = 0; t < columns; ++t) {
+      const Eigen::Vector3d b = rhs.template block<3, 1>(3 * i, t);
+      if (!b.isZero(0.0)) x.col(t).noalias() += J_i.transpose() * b;
+    }
+  }
+  const Eigen::LLT<Square> G_llt(G);
+  if (!regular(G_llt)) return false;
   // x = G^-1 J^T rhs (the bodies' velocity change, up to sign), then J G^-1 M x.
-  Tall x = s.J.transpose().lazyProduct(rhs);
-  solveColumns(G, x);
-  Tall Mx(L, x.cols());
+  solveColumns(G_llt, x);
+  Tall& Mx = x;  // M x, in place (M block diagonal: mass, inertia per rigid body)
   for (Index l = 0; l < L / 6; ++l) {
     const auto b = static_cast<std::size_t>(l);
-    Mx.template middleRows<3>(6 * l).noalias() = s.mass[b] * x.template middleRows<3>(6 * l);
-    Mx.template middleRows<3>(6 * l + 3).noalias() =
-        s.inertia[b] * x.template middleRows<3>(6 * l + 3);
+    Mx.template middleRows<3>(6 * l) *= s.rigid[b].mass;
+    for (Index t = 0; t < columns; ++t) {
+      const Eigen::Vector3d w = x.template block<3, 1>(6 * l + 3, t);
+      Mx.template block<3, 1>(6 * l + 3, t).noalias() = s.rigid[b].inertia * w;
+    }
   }
   if (!Mx.allFinite()) return false;  // a singular inertia: decomposed instead
-  solveColumns(G, Mx);
-  solution = s.J.lazyProduct(Mx);
+  solveColumns(G_llt, Mx);
+  solution.resize(3 * m, columns);
+  for (Index i = 0; i < m; ++i) {
+    const auto J_i = s.J.template block<3, N>(3 * i, 0, 3, L);
+    for (Index t = 0; t < columns; ++t) {
+      solution.template block<3, 1>(3 * i, t).noalias() = J_i * Mx.col(t);
+    }
+  }
   return true;
 }
 
 bool solveSticking(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd& solution) {
   const Index rows = s.J.rows(), L = s.J.cols();
   if (rows > L) {
-    if (s.mass.empty()) return false;  // not rigid bodies: W is decomposed
+    if (s.rigid.empty()) return false;  // not rigid bodies: W is decomposed
     return L == 6 ? solveStickingBodySpace<6>(s, rhs, solution)
                   : solveStickingBodySpace<Eigen::Dynamic>(s, rhs, solution);
   }
@@ -289,26 +314,33 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
                                const DerivativeColumns& columns, MatrixXd& dP_dv,
                                MatrixXd& dP_dtheta, std::vector<ContactDerivativeMode>& modes) {
   const Index m = static_cast<Index>(s.contacts.size());
-  MatrixXd F_P = MatrixXd::Zero(3 * m, 3 * m), F_u = MatrixXd::Zero(3 * m, 3 * m),
-           F_theta = MatrixXd::Zero(3 * m, 3 * m);
+  // F_u and F_theta are block diagonal (a contact's rows depend on its own u and coefficients):
+  // their 3 x 3 diagonal blocks are stacked, rows 3i..3i+2 of each holding contact i's.
+  // F_P is built on first use: an all-sticking island that solveSticking() solves does without it.
+  MatrixXd F_P;
+  auto FP = [&]() -> MatrixXd& {
+    if (F_P.size() == 0) F_P.setZero(3 * m, 3 * m);
+    return F_P;
+  };
+  using Blocks = Eigen::Matrix<double, Eigen::Dynamic, 3>;
+  Blocks F_u = Blocks::Zero(3 * m, 3), F_theta = Blocks::Zero(3 * m, 3);
   double u_reference = 0.0, P_scale = 0.0;
   for (Index i = 0; i < m; ++i) {
-    u_reference = std::max(u_reference, s.u[i].norm());
-    P_scale = std::max(P_scale, s.P[i].norm());
+    u_reference = std::max(u_reference, s.state[i].u.norm());
+    P_scale = std::max(P_scale, s.state[i].P.norm());
   }
   const double facet = 1.0 + std::cos(2.0 * kPi / kD);
-  bool frictional_sliding = false;   // F_P then depends on the inputs (pyramid, mu)
-  bool every_row_sticking = true;    // F_P = W
-  std::vector<Index> sticking_rows;  // first rows of the sticking contacts
-  sticking_rows.reserve(static_cast<std::size_t>(m));
+  bool frictional_sliding = false;  // F_P then depends on the inputs (pyramid, mu)
+  bool every_row_sticking = true;   // F_P = W
   for (Index i = 0; i < m; ++i) {
-    const NewtonCoefficients& contact = s.coefficients[i];
+    const NewtonContactState& state = s.state[i];
+    const NewtonCoefficients& contact = state.coefficients;
     ContactDerivativeMode& mode = modes[s.contacts[i]];
     mode.method = DerivativeMethod::kAnalytic;
-    const Vector3d& n = s.normal[i];
-    const Vector3d& u = s.u[i];
-    const Vector3d& u_after = s.u_after[i];
-    const Vector3d& P = s.P[i];
+    const Vector3d& n = state.normal;
+    const Vector3d& u = state.u;
+    const Vector3d& u_after = state.u_after;
+    const Vector3d& P = state.P;
     const double e = contact.restitution, mu_s = contact.static_friction,
                  mu_d = contact.dynamic_friction;
     const double u_n = n.dot(u), P_n = n.dot(P);
@@ -321,22 +353,31 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     const Vector3d P_t = P - P_n * n;
     const Vector3d slip_after = u_after - u_after.dot(n) * n;
     const double slip = slip_after.norm();
-    const Pyramid pyramid = pyramidOf(n, u);
-    Vector3d E1, E2;
-    tangentBasis(n, E1, E2);
-    Eigen::Matrix<double, 2, 3> E;
-    E.row(0) = E1.transpose();
-    E.row(1) = E2.transpose();
+    // (Built where it is read: the contacts of an all-sticking answer do without it.)
+    std::optional<Pyramid> built_pyramid;
+    auto pyramid = [&]() -> const Pyramid& {
+      if (!built_pyramid) built_pyramid = pyramidOf(n, u);
+      return *built_pyramid;
+    };
+    // The fixed tangents (rows), for the rows of a sliding or frictionless contact.
+    auto tangents = [&n] {
+      Vector3d E1, E2;
+      tangentBasis(n, E1, E2);
+      Eigen::Matrix<double, 2, 3> E;
+      E.row(0) = E1.transpose();
+      E.row(1) = E2.transpose();
+      return E;
+    };
     // The normal row of an active contact: n^T u' - target = 0.
     auto normalRow = [&]() {
-      F_P.block(r, 0, 1, 3 * m) = n.transpose() * s.W().middleRows<3>(r);
-      F_u.block<1, 3>(r, r) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
-      if (approaching) F_theta(r, r + kRestitution) = u_n;
+      FP().block(r, 0, 1, 3 * m) = n.transpose() * s.W().middleRows<3>(r);
+      F_u.block<1, 3>(r, 0) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
+      if (approaching) F_theta(r, kRestitution) = u_n;
     };
     if (!(P_n > kPyramidRoundOff * P_scale) && P_t.norm() <= kPyramidRoundOff * P_scale) {
       mode.mode = ImpactMode::kNoImpulse;
       every_row_sticking = false;
-      F_P.block<3, 3>(r, r).setIdentity();
+      FP().block<3, 3>(r, r).setIdentity();
       if (u_after.dot(n) - target <= kSwitchTolerance * u_reference) {
         flagSwitch(mode, "u'_n at its target with P_n = 0: separating/active; no-impulse side");
       }
@@ -345,7 +386,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     if (P_n <= kSwitchTolerance * P_scale) flagSwitch(mode, "P_n = 0 while active; active side");
     // Index of the edge the friction impulse (or, frictionless, the slip's opposite) is nearest.
     auto sector = [&](const Vector3d& t) {
-      double angle = std::atan2(t.dot(pyramid.t2), t.dot(pyramid.t1));
+      double angle = std::atan2(t.dot(pyramid().t2), t.dot(pyramid().t1));
       if (angle < 0.0) angle += 2.0 * kPi;
       return static_cast<int>(std::floor(angle * kD / (2.0 * kPi))) % kD;
     };
@@ -353,16 +394,17 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       mode.mode = ImpactMode::kSliding;
       every_row_sticking = false;
       normalRow();
-      F_P.block<2, 3>(r + 1, r) = E;  // P_t = 0
+      const Eigen::Matrix<double, 2, 3> E = tangents();
+      FP().block<2, 3>(r + 1, r) = E;  // P_t = 0
       // Friction from mu = 0 up: along the pyramid edge most opposed to the slip.
       if (slip > kSlipTolerance * u_reference) {
         int best = 0;
         for (int k = 1; k < kD; ++k) {
-          if (pyramid.direction(k).dot(slip_after) < pyramid.direction(best).dot(slip_after)) {
+          if (pyramid().direction(k).dot(slip_after) < pyramid().direction(best).dot(slip_after)) {
             best = k;
           }
         }
-        F_theta.block<2, 1>(r + 1, r + kDynamic) = -P_n * E * pyramid.direction(best);
+        F_theta.block<2, 1>(r + 1, kDynamic) = -P_n * E * pyramid().direction(best);
       }
       flagSwitch(mode,
                  "frictionless: the friction columns are one-sided, for increasing coefficients");
@@ -380,20 +422,20 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       FrictionSector f;
       f.k = sector(P_t);
       f.k1 = (f.k + 1) % kD;
-      f.d_k = pyramid.direction(f.k);
-      f.d_k1 = pyramid.direction(f.k1);
+      const Pyramid& p = pyramid();
+      f.d_k = p.direction(f.k);
+      f.d_k1 = p.direction(f.k1);
       Eigen::Matrix2d B;
-      B << f.d_k.dot(pyramid.t1), f.d_k1.dot(pyramid.t1), f.d_k.dot(pyramid.t2),
-          f.d_k1.dot(pyramid.t2);
-      f.beta = B.inverse() * Eigen::Vector2d(P_t.dot(pyramid.t1), P_t.dot(pyramid.t2));
+      B << f.d_k.dot(p.t1), f.d_k1.dot(p.t1), f.d_k.dot(p.t2), f.d_k1.dot(p.t2);
+      f.beta = B.inverse() * Eigen::Vector2d(P_t.dot(p.t1), P_t.dot(p.t2));
       f.gauge = f.beta.sum();
       return f;
     };
     if (slip <= kSlipTolerance * u_reference) {
       mode.mode = ImpactMode::kSticking;
-      sticking_rows.push_back(r);  // F_P's rows: W's, filled if F_P is decomposed
-      F_u.block<3, 3>(r, r) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
-      if (approaching) F_theta.block<3, 1>(r, r + kRestitution) = u_n * n;
+      // (F_P's rows: W's, filled if F_P is decomposed.)
+      F_u.block<3, 3>(r, 0) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
+      if (approaching) F_theta.block<3, 1>(r, kRestitution) = u_n * n;
       // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
       // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
       auto on_pyramid_boundary = [&] {
@@ -426,13 +468,14 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     if (beta_min <= kPyramidRoundOff * gauge) {
       // Along one edge: P_t = mu P_n d, expressed in the fixed tangents E.
       const int edge = beta(0) >= beta(1) ? k : k1;
-      const Vector3d d = pyramid.direction(edge);
-      F_P.block<2, 3>(r + 1, r) = E * (Matrix3d::Identity() - (n + mu * d) * n.transpose());
-      F_u.block<2, 3>(r + 1, r) = -mu * P_n * E * pyramid.derivative(edge, n);
-      F_theta.block<2, 1>(r + 1, r + kDynamic) = -P_n * E * d;
+      const Vector3d d = pyramid().direction(edge);
+      const Eigen::Matrix<double, 2, 3> E = tangents();
+      FP().block<2, 3>(r + 1, r) = E * (Matrix3d::Identity() - (n + mu * d) * n.transpose());
+      F_u.block<2, 3>(r + 1, 0) = -mu * P_n * E * pyramid().derivative(edge, n);
+      F_theta.block<2, 1>(r + 1, kDynamic) = -P_n * E * d;
       const double opposing = d.dot(slip_after);
       for (const int j : {(edge + 1) % kD, (edge + kD - 1) % kD}) {
-        if (pyramid.direction(j).dot(slip_after) - opposing <= kSwitchTolerance * slip) {
+        if (pyramid().direction(j).dot(slip_after) - opposing <= kSwitchTolerance * slip) {
           flagSwitch(mode, "slip between two pyramid edges; sliding side of the reported edge");
         }
       }
@@ -444,12 +487,12 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       // (1 + cos(2 pi / D)) (c.d_k = c.d_k+1 = 1).
       const Vector3d g = d_k - d_k1;
       const Vector3d c = (d_k + d_k1) / facet;
-      const Matrix3d D_k = pyramid.derivative(k, n), D_k1 = pyramid.derivative(k1, n);
-      F_P.block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W().middleRows<3>(r);
-      F_u.block<1, 3>(r + 1, r) = g.transpose() + u_after.transpose() * (D_k - D_k1);
-      F_P.block<1, 3>(r + 2, r) = c.transpose() - mu * n.transpose();
-      F_u.block<1, 3>(r + 2, r) = P.transpose() * (D_k + D_k1) / facet;
-      F_theta(r + 2, r + kDynamic) = -P_n;
+      const Matrix3d D_k = pyramid().derivative(k, n), D_k1 = pyramid().derivative(k1, n);
+      FP().block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W().middleRows<3>(r);
+      F_u.block<1, 3>(r + 1, 0) = g.transpose() + u_after.transpose() * (D_k - D_k1);
+      FP().block<1, 3>(r + 2, r) = c.transpose() - mu * n.transpose();
+      F_u.block<1, 3>(r + 2, 0) = P.transpose() * (D_k + D_k1) / facet;
+      F_theta(r + 2, kDynamic) = -P_n;
     }
   }
   // One decomposition for both right-hand sides, F_u J (F_u is block diagonal) and F_theta, of
@@ -463,27 +506,38 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   theta_columns.reserve(static_cast<std::size_t>(3 * m));
   for (Index k = 0; k < 3 * m; ++k) {
     if (columns.wantsCoefficient(3 * static_cast<Index>(s.contacts[k / 3]) + k % 3) &&
-        !F_theta.col(k).isZero(0.0)) {
+        !F_theta.block<3, 1>(k - k % 3, k % 3).isZero(0.0)) {
       theta_columns.push_back(k);
     }
   }
   const Index T = static_cast<Index>(theta_columns.size());
-  dP_dv.setZero(3 * m, L);
+  if (V > 0) {
+    dP_dv.setZero(3 * m, L);
+  } else {
+    dP_dv.resize(0, 0);  // not asked for: empty
+  }
   dP_dtheta.setZero(3 * m, 3 * m);
   if (V + T == 0) return true;
   MatrixXd rhs(3 * m, V + T);
   if (V > 0) {
     for (Index i = 0; i < m; ++i) {
-      rhs.block(3 * i, 0, 3, L).noalias() =
-          F_u.block<3, 3>(3 * i, 3 * i) * s.J.middleRows<3>(3 * i);
+      rhs.block(3 * i, 0, 3, L).noalias() = F_u.block<3, 3>(3 * i, 0) * s.J.middleRows<3>(3 * i);
     }
   }
-  for (Index t = 0; t < T; ++t)
-    rhs.col(V + t) = F_theta.col(theta_columns[static_cast<std::size_t>(t)]);
+  for (Index t = 0; t < T; ++t) {
+    // Column k of the block diagonal F_theta: contact k / 3's block, column k % 3.
+    const Index k = theta_columns[static_cast<std::size_t>(t)];
+    rhs.col(V + t).setZero();
+    rhs.block<3, 1>(k - k % 3, V + t) = F_theta.block<3, 1>(k - k % 3, k % 3);
+  }
   MatrixXd solution;
   if (!every_row_sticking || !solveSticking(s, rhs, solution)) {
-    for (const Index r : sticking_rows) F_P.block(r, 0, 3, 3 * m) = s.W().middleRows<3>(r);
-    const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(F_P);
+    for (Index i = 0; i < m; ++i) {  // the sticking contacts' rows: W's
+      if (modes[s.contacts[i]].mode == ImpactMode::kSticking) {
+        FP().block(3 * i, 0, 3, 3 * m) = s.W().middleRows<3>(3 * i);
+      }
+    }
+    const Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(FP());
     if (cod.rank() < 3 * m && frictional_sliding) {
       // Redundant contacts sliding with friction (a face sliding on 4 points): how the normal
       // impulse is shared is not fixed by the equations, and through friction neither are the

@@ -3,9 +3,12 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
+#include <string_view>
 
 #include "collision_response/core/constants.h"
 #include "collision_response/core/contact_derivatives.h"
@@ -53,8 +56,7 @@ IslandSystem buildSystem(const std::vector<int>& contacts, const Scene& scene,
                          std::vector<int>& local_of) {
   IslandSystem s;
   s.contacts = contacts;
-  for (auto* list : {&s.normal, &s.u, &s.u_after, &s.P}) list->reserve(contacts.size());
-  s.coefficients.reserve(contacts.size());
+  s.state.reserve(contacts.size());
   for (const int c : contacts) {
     for (const int b : {contact_bodies[c].first, contact_bodies[c].second}) {
       if (before[b].movable() && local_of[b] < 0) {
@@ -81,18 +83,17 @@ IslandSystem buildSystem(const std::vector<int>& contacts, const Scene& scene,
       if (local_of[side] >= 0)
         s.J.block<3, 6>(3 * i, 6 * local_of[side]) += sign * pointJacobian(r);
     }
-    s.normal.push_back(n);
-    s.u.push_back(u);
-    s.u_after.push_back(u_after);
     const ContactImpulse& impulse = result.impulses[c];
-    s.P.push_back(impulse.normal_impulse * n + impulse.friction_impulse);
-    s.coefficients.push_back(
-        {contact.restitution, contact.static_friction, contact.dynamic_friction});
+    s.state.push_back({n,
+                       u,
+                       u_after,
+                       impulse.normal_impulse * n + impulse.friction_impulse,
+                       {contact.restitution, contact.static_friction, contact.dynamic_friction}});
   }
+  s.rigid.reserve(static_cast<std::size_t>(L));
   for (Index l = 0; l < L; ++l) {
     const RigidBody& body = before[s.bodies[l]];
-    s.mass.push_back(1.0 / body.inverse_mass);
-    s.inertia.push_back(body.inverse_inertia.inverse());
+    s.rigid.push_back({1.0 / body.inverse_mass, body.inverse_inertia.inverse()});
     const auto Jt = s.J.middleCols<6>(6 * l).transpose();
     s.MinvJt.middleRows<3>(6 * l) = body.inverse_mass * Jt.topRows<3>();
     s.MinvJt.middleRows<3>(6 * l + 3) = body.inverse_inertia * Jt.bottomRows<3>();
@@ -108,36 +109,50 @@ void scatter(const IslandSystem& s, const MatrixXd& dP_dv, const MatrixXd& dP_dt
              bool velocities, const std::vector<Index>& body_column, Index velocity_count,
              MatrixXd& jacobian) {
   const Index m = static_cast<Index>(s.contacts.size()), L = static_cast<Index>(s.bodies.size());
-  const MatrixXd dv_dv = velocities ? MatrixXd(s.MinvJt.lazyProduct(dP_dv)) : MatrixXd();
-  MatrixXd dv_dtheta = MatrixXd::Zero(s.MinvJt.rows(), dP_dtheta.cols());
-  for (Index k = 0; k < dP_dtheta.cols(); ++k) {  // the columns not computed are 0
-    if (!dP_dtheta.col(k).isZero(0.0)) dv_dtheta.col(k).noalias() = s.MinvJt * dP_dtheta.col(k);
-  }
-  for (Index l = 0; l < L; ++l) {
-    const Index row = body_column[s.bodies[l]];
-    for (Index k = 0; k < (velocities ? L : 0); ++k) {
-      jacobian.block<6, 6>(row, body_column[s.bodies[k]]) += dv_dv.block<6, 6>(6 * l, 6 * k);
-    }
-    for (Index j = 0; j < m; ++j) {
-      jacobian.block<6, 3>(row, velocity_count + 3 * s.contacts[j]) =
-          dv_dtheta.block<6, 3>(6 * l, 3 * j);
-    }
-  }
-  const Index impulse_rows = velocity_count;
-  const Index coefficient_columns = velocity_count;
-  for (Index i = 0; i < m; ++i) {
-    // normal_impulse = n.P, friction_impulse = (I - n n^T) P.
-    const Vector3d& n = s.normal[i];
+  // (normal_impulse, friction_impulse) of contact i = impulseOfP(i) * P_i: normal_impulse = n.P,
+  // friction_impulse = (I - n n^T) P.
+  auto impulseOfP = [&s](Index i) {
+    const Vector3d& n = s.state[static_cast<std::size_t>(i)].normal;
     Eigen::Matrix<double, 4, 3> out;
     out.row(0) = n.transpose();
     out.bottomRows<3>() = Matrix3d::Identity() - n * n.transpose();
-    const Index row = impulse_rows + 4 * static_cast<Index>(s.contacts[i]);
-    for (Index l = 0; l < (velocities ? L : 0); ++l) {
-      jacobian.block<4, 6>(row, body_column[s.bodies[l]]) = out * dP_dv.block<3, 6>(3 * i, 6 * l);
+    return out;
+  };
+  const Index impulse_rows = velocity_count;
+  const Index coefficient_columns = velocity_count;
+  if (velocities) {
+    const MatrixXd dv_dv = s.MinvJt.lazyProduct(dP_dv);
+    for (Index l = 0; l < L; ++l) {
+      const Index row = body_column[s.bodies[l]];
+      for (Index k = 0; k < L; ++k) {
+        jacobian.block<6, 6>(row, body_column[s.bodies[k]]) += dv_dv.block<6, 6>(6 * l, 6 * k);
+      }
     }
-    for (Index j = 0; j < m; ++j) {
-      jacobian.block<4, 3>(row, coefficient_columns + 3 * s.contacts[j]) =
-          out * dP_dtheta.block<3, 3>(3 * i, 3 * j);
+    for (Index i = 0; i < m; ++i) {
+      const Index row = impulse_rows + 4 * static_cast<Index>(s.contacts[i]);
+      for (Index l = 0; l < L; ++l) {
+        jacobian.block<4, 6>(row, body_column[s.bodies[l]]) =
+            impulseOfP(i) * dP_dv.block<3, 6>(3 * i, 6 * l);
+      }
+    }
+  }
+  // Coefficient columns that are 0 (not computed, or no effect: a sticking contact's friction)
+  // are left as they are: 0 (the caller's jacobian starts at 0). The others column by column, in
+  // fixed-size blocks: dv_l = (M^-1 J^T)_l dP, impulses_i = impulseOfP(i) dP_i.
+  for (Index k = 0; k < dP_dtheta.cols(); ++k) {
+    const auto dP = dP_dtheta.col(k);
+    if (dP.isZero(0.0)) continue;
+    const Index column = coefficient_columns + 3 * static_cast<Index>(s.contacts[k / 3]) + k % 3;
+    for (Index l = 0; l < L; ++l) {
+      Eigen::Matrix<double, 6, 1> dv = Eigen::Matrix<double, 6, 1>::Zero();
+      for (Index i = 0; i < m; ++i) {
+        dv.noalias() += s.MinvJt.block<6, 3>(6 * l, 3 * i) * dP.segment<3>(3 * i);
+      }
+      jacobian.block<6, 1>(body_column[s.bodies[l]], column) = dv;
+    }
+    for (Index i = 0; i < m; ++i) {
+      jacobian.block<4, 1>(impulse_rows + 4 * static_cast<Index>(s.contacts[i]), column).noalias() =
+          impulseOfP(i) * dP.segment<3>(3 * i);
     }
   }
 }
@@ -421,58 +436,50 @@ const char* toString(ImpactMode mode) {
 }
 
 namespace {
-// Label "prefix[index].part" built in a buffer and allocated once: the labels are built per call
-// of the linear uncertainty, where their allocations are a visible part of the cost.
+// Labels "prefix[index].part" built in a buffer, each allocated once with its exact length: the
+// labels are built per call of the linear uncertainty, where their allocations are a visible part
+// of the cost.
 class LabelWriter {
  public:
-  void start(const char* prefix, std::size_t index) {
-    length_ = 0;
-    append(prefix);
-    char digits[24];
-    int count = 0;
-    do {
-      digits[count++] = static_cast<char>('0' + index % 10);
-      index /= 10;
-    } while (index > 0);
-    buffer_[length_++] = '[';
-    while (count > 0) buffer_[length_++] = digits[--count];
-    buffer_[length_++] = ']';
-    buffer_[length_++] = '.';
-    stem_ = length_;
+  // Starts the labels of "prefix[index].".
+  void start(std::string_view prefix, std::size_t index) {
+    std::memcpy(buffer_, prefix.data(), prefix.size());
+    char* at = buffer_ + prefix.size();
+    *at++ = '[';
+    at = std::to_chars(at, buffer_ + kIndexEnd, index).ptr;
+    *at++ = ']';
+    *at++ = '.';
+    stem_ = static_cast<std::size_t>(at - buffer_);
   }
-  std::string label(const char* part, const char* axis = "") {
-    length_ = stem_;
-    append(part);
-    append(axis);
-    return std::string(buffer_, length_);
+  // Appends "prefix[index]." + part to `labels`.
+  void add(std::string_view part, std::vector<std::string>& labels) {
+    std::memcpy(buffer_ + stem_, part.data(), part.size());
+    labels.emplace_back(buffer_, stem_ + part.size());
   }
 
  private:
-  void append(const char* text) {
-    while (*text != '\0' && length_ < sizeof buffer_) buffer_[length_++] = *text++;
-  }
-  char buffer_[96];
-  std::size_t length_ = 0;
+  static constexpr std::size_t kIndexEnd = 40;  // prefixes are short: room for 20 digits
+  char buffer_[kIndexEnd + 2 + 32];             // "]." and the longest part
   std::size_t stem_ = 0;
 };
 }  // namespace
 
 std::vector<std::string> ImpactDerivatives::rowLabels() const {
+  static constexpr std::array<std::string_view, 6> kTwist = {"twist.linear.x",  "twist.linear.y",
+                                                             "twist.linear.z",  "twist.angular.x",
+                                                             "twist.angular.y", "twist.angular.z"};
+  static constexpr std::array<std::string_view, 4> kImpulse = {
+      "normal_impulse", "friction_impulse.x", "friction_impulse.y", "friction_impulse.z"};
   std::vector<std::string> labels;
   labels.reserve(static_cast<std::size_t>(jacobian.rows()));
   LabelWriter writer;
   for (const int b : movable_bodies) {
     writer.start("bodies", static_cast<std::size_t>(b));
-    for (const char* part : {"twist.linear.", "twist.angular."}) {
-      for (const char* axis : {"x", "y", "z"}) labels.push_back(writer.label(part, axis));
-    }
+    for (const std::string_view part : kTwist) writer.add(part, labels);
   }
   for (std::size_t c = 0; c < contact_count; ++c) {
     writer.start("impulses", c);
-    labels.push_back(writer.label("normal_impulse"));
-    for (const char* axis : {"x", "y", "z"}) {
-      labels.push_back(writer.label("friction_impulse.", axis));
-    }
+    for (const std::string_view part : kImpulse) writer.add(part, labels);
   }
   return labels;
 }
@@ -526,10 +533,17 @@ ImpactDerivatives computeValidatedImpactDerivatives(
     }
   }
   const Index velocity_count = out.velocityCount();
-  out.jacobian.setZero(velocity_count + out.impulseCount(),
-                       velocity_count + out.coefficientCount());
-  // Bodies the impacts leave alone (and every body before its island is differentiated): v' = v.
-  if (columns.velocities) out.jacobian.topLeftCorner(velocity_count, velocity_count).setIdentity();
+  if (columns.velocities) {
+    out.jacobian.setZero(velocity_count + out.impulseCount(),
+                         velocity_count + out.coefficientCount());
+    // Bodies the impacts leave alone (and every body before its island is differentiated): v' = v.
+    out.jacobian.topLeftCorner(velocity_count, velocity_count).setIdentity();
+  } else {
+    // The velocity columns are set to 0 at the end (the closed forms write them).
+    out.jacobian.resize(velocity_count + out.impulseCount(),
+                        velocity_count + out.coefficientCount());
+    out.jacobian.rightCols(out.coefficientCount()).setZero();
+  }
 
   std::vector<int> local_of(scene.bodies.size(), -1);
   std::vector<std::size_t> numerical;

@@ -8,10 +8,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <initializer_list>
 #include <limits>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
@@ -72,30 +74,31 @@ double& coefficient(Contact& contact, int which) {
 Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& uncertainties) {
   Prepared prepared;
   prepared.mean_scene = scene;
-  std::vector<bool> named(scene.contacts.size(), false);
+  // The contacts named by earlier entries, one bit each (on the stack up to 1024 contacts).
+  std::array<std::uint64_t, 16> named_small{};
+  std::vector<std::uint64_t> named_large;
+  std::uint64_t* named = named_small.data();
+  if (scene.contacts.size() > 64 * named_small.size()) {
+    named_large.assign((scene.contacts.size() + 63) / 64, 0);
+    named = named_large.data();
+  }
   prepared.contacts.reserve(uncertainties.size());
   prepared.dimensions.reserve(3 * uncertainties.size());
   prepared.variances.reserve(3 * uncertainties.size());
-  // Field names built with one allocation each (the linear method's cost is a few of them).
-  auto join = [](const std::string& a, const char* b, const char* c = "") {
-    std::string out;
-    out.reserve(a.size() + std::strlen(b) + std::strlen(c));
-    out += a;
-    out += b;
-    out += c;
-    return out;
-  };
   for (std::size_t k = 0; k < uncertainties.size(); ++k) {
     const ContactUncertainty& entry = uncertainties[k];
-    const std::string field = join("uncertainties[", std::to_string(k).c_str(), "]");
+    // Field names are built only for an error or a warning (the linear method's cost is a few
+    // dozen allocations).
+    auto field = [k] { return "uncertainties[" + std::to_string(k) + "]"; };
     if (entry.contact >= scene.contacts.size())
-      throw InvalidInput(field + ".contact", "no contact " + std::to_string(entry.contact) +
-                                                 " (the request has " +
-                                                 std::to_string(scene.contacts.size()) + ")");
-    if (named[entry.contact])
-      throw InvalidInput(field + ".contact", "contact " + std::to_string(entry.contact) +
-                                                 " is named by an earlier entry");
-    named[entry.contact] = true;
+      throw InvalidInput(field() + ".contact", "no contact " + std::to_string(entry.contact) +
+                                                   " (the request has " +
+                                                   std::to_string(scene.contacts.size()) + ")");
+    const std::uint64_t bit = std::uint64_t{1} << (entry.contact % 64);
+    if (named[entry.contact / 64] & bit)
+      throw InvalidInput(field() + ".contact", "contact " + std::to_string(entry.contact) +
+                                                   " is named by an earlier entry");
+    named[entry.contact / 64] |= bit;
     const std::array<const std::optional<CoefficientDistribution>*, 3> given = {
         &entry.restitution, &entry.static_friction, &entry.dynamic_friction};
     if (!*given[0] && !*given[1] && !*given[2]) continue;
@@ -113,8 +116,9 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
                                    field);
       }
       std::optional<Warning> warning;
-      CheckedDistribution distribution(**given[which], 0.0, uppers[which],
-                                       join(field, ".", kCoefficientNames[which]), &warning);
+      CheckedDistribution distribution(
+          **given[which], 0.0, uppers[which],
+          [&] { return field() + "." + kCoefficientNames[which]; }, &warning);
       if (warning) prepared.warnings.push_back(*warning);
       return distribution;
     };
@@ -137,19 +141,54 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
       reason << "the mean of dynamic_friction (" << contact.dynamic_friction
              << ") exceeds that of static_friction (" << contact.static_friction
              << "): Coulomb's law needs mu_d <= mu_s";
-      throw InvalidInput(field + "." + kCoefficientNames[which], reason.str());
+      throw InvalidInput(field() + "." + kCoefficientNames[which], reason.str());
     }
     prepared.contacts.push_back(std::move(uncertain));
   }
   return prepared;
 }
 
+// Pieces joined with one allocation (the linear method builds a few messages per call).
+std::string joined(std::initializer_list<std::string_view> parts) {
+  std::size_t size = 0;
+  for (const std::string_view part : parts) size += part.size();
+  std::string out;
+  out.reserve(size);
+  for (const std::string_view part : parts) out.append(part);
+  return out;
+}
+
+// A number's decimal digits (std::to_chars, no allocation), or "12.3 %" for a fraction (percent()).
+class NumberText {
+ public:
+  explicit NumberText(std::size_t value) {
+    size_ = static_cast<std::size_t>(std::to_chars(text_, text_ + sizeof text_, value).ptr - text_);
+  }
+  // Three significant digits, as printf's %.3g (no locale, no format parsing).
+  static NumberText percent(double fraction) {
+    NumberText out;
+    char* last = std::to_chars(out.text_, out.text_ + sizeof out.text_ - 2, 100.0 * fraction,
+                               std::chars_format::general, 3)
+                     .ptr;
+    *last++ = ' ';
+    *last++ = '%';
+    out.size_ = static_cast<std::size_t>(last - out.text_);
+    return out;
+  }
+  operator std::string_view() const { return {text_, size_}; }
+
+ private:
+  NumberText() = default;
+  char text_[40];
+  std::size_t size_ = 0;
+};
+
 // The field a mu_d > mu_s draw is reported under: dynamic_friction when it has a spread (it is
 // the one capped), else static_friction (only mu_s varies: its low draws fall below mu_d).
 std::string overlapField(const UncertainContact& contact) {
-  return "uncertainties[" + std::to_string(contact.entry) + "]." +
-         (contact.dimension[kDynamicFriction] >= 0 ? kCoefficientNames[kDynamicFriction]
-                                                   : kCoefficientNames[kStaticFriction]);
+  return joined({"uncertainties[", NumberText(contact.entry), "].",
+                 contact.dimension[kDynamicFriction] >= 0 ? kCoefficientNames[kDynamicFriction]
+                                                          : kCoefficientNames[kStaticFriction]});
 }
 
 // P(mu_d > mu_s) from the normal approximation of mu_s - mu_d (same means and variances): cheap
@@ -198,23 +237,18 @@ std::vector<std::string> outcomeLabels(const std::vector<int>& movable, std::siz
   return layout.rowLabels();
 }
 
-// "12.3 %": three significant digits, as printf's %.3g (std::to_chars: no locale, no format
-// parsing; a few of these are in every linear answer).
+// "12.3 %": three significant digits, as printf's %.3g.
 std::string percentText(double fraction) {
-  char text[40];
-  const std::to_chars_result end =
-      std::to_chars(text, text + sizeof text - 2, 100.0 * fraction, std::chars_format::general, 3);
-  char* last = end.ptr;
-  *last++ = ' ';
-  *last++ = '%';
-  return std::string(text, last);
+  return std::string(NumberText::percent(fraction));
 }
 
 // The probability that contact c sticks, from the linearised margin of its mode at the means
 // (docs/uncertainty.md): sticking, mu_s P_n - |P_t|; sliding, mu_s minus the mu_d at which the
 // linearised slip speed would vanish.
+// `gradient`: a workspace (resized here).
 double linearStickProbability(const ImpactDerivatives& derivatives, const Prepared& prepared,
-                              std::size_t c, const std::vector<int>& column_of_dimension) {
+                              std::size_t c, const std::vector<int>& column_of_dimension,
+                              Eigen::VectorXd& gradient) {
   const CollisionResult& result = derivatives.result;
   const ContactImpulse& impulse = result.impulses[c];
   const Contact& contact = prepared.mean_scene.contacts[c];
@@ -226,7 +260,7 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
   int mu_s_dimension = -1;
   for (const UncertainContact& uncertain : prepared.contacts)
     if (uncertain.contact == c) mu_s_dimension = uncertain.dimension[kStaticFriction];
-  Eigen::VectorXd gradient = Eigen::VectorXd::Zero(dims);
+  gradient.setZero(dims);
   double margin = 0.0;
   const Eigen::Index row = derivatives.velocityCount() + 4 * static_cast<Eigen::Index>(c);
   if (mode == ImpactMode::kSticking) {
@@ -293,6 +327,40 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
   return standardNormalCdf(margin / std::sqrt(variance));
 }
 
+// S S^T into `out` (m x m, column-major), S = `s` (m x used, column-major). Rows x a few columns:
+// column c is a sum of S's columns weighted by their entries in row c, taken four at a time so
+// that each output is stored once per four (plain loops the compiler vectorises; cheaper than a
+// product kernel's set-up at this size). Entries (r, c) and (c, r) sum the same products in the
+// same order: the result is exactly symmetric.
+void outerProduct(const double* s, Eigen::Index m, Eigen::Index used, double* out) {
+  for (Eigen::Index c = 0; c < m; ++c) {
+    double* __restrict column = out + c * m;
+    Eigen::Index j = 0;
+    if (used < 4) {
+      for (Eigen::Index r = 0; r < m; ++r) column[r] = 0.0;
+    }
+    for (; j + 4 <= used; j += 4) {
+      const double* __restrict s0 = s + j * m;
+      const double* __restrict s1 = s0 + m;
+      const double* __restrict s2 = s1 + m;
+      const double* __restrict s3 = s2 + m;
+      const double a0 = s0[c], a1 = s1[c], a2 = s2[c], a3 = s3[c];
+      if (j == 0) {
+        for (Eigen::Index r = 0; r < m; ++r)
+          column[r] = a0 * s0[r] + a1 * s1[r] + a2 * s2[r] + a3 * s3[r];
+      } else {
+        for (Eigen::Index r = 0; r < m; ++r)
+          column[r] += a0 * s0[r] + a1 * s1[r] + a2 * s2[r] + a3 * s3[r];
+      }
+    }
+    for (; j < used; ++j) {
+      const double* __restrict s0 = s + j * m;
+      const double a0 = s0[c];
+      for (Eigen::Index r = 0; r < m; ++r) column[r] += a0 * s0[r];
+    }
+  }
+}
+
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
                                        const RequestLimits& limits) {
   // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
@@ -331,56 +399,55 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     if (column.isZero(0.0)) continue;
     scaled.col(used++) = column * std::sqrt(prepared.variances[j]);
   }
-  // Rows x a few columns: one triangle by plain loops, mirrored (cheaper than a product kernel's
-  // set-up at this size).
   outcome.covariance.resize(m, m);
-  for (Eigen::Index c = 0; c < m; ++c) {
-    for (Eigen::Index r = c; r < m; ++r) {
-      double sum = 0.0;
-      for (Eigen::Index j = 0; j < used; ++j) sum += scaled(r, j) * scaled(c, j);
-      outcome.covariance(r, c) = sum;
-      outcome.covariance(c, r) = sum;
-    }
+  outerProduct(scaled.data(), m, used, outcome.covariance.data());
+  outcome.q05.resize(m);
+  outcome.q95.resize(m);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const double spread = std::sqrt(outcome.covariance(r, r));
+    outcome.q05(r) = outcome.mean(r) - kZ95 * spread;
+    outcome.q95(r) = outcome.mean(r) + kZ95 * spread;
   }
-  const Eigen::VectorXd spread = outcome.covariance.diagonal().cwiseSqrt();
-  outcome.q05 = outcome.mean - kZ95 * spread;
-  outcome.q95 = outcome.mean + kZ95 * spread;
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   outcome.stick_probability.resize(contacts);
+  Eigen::VectorXd gradient;
   for (std::size_t c = 0; c < contacts; ++c)
     outcome.stick_probability[c] =
-        linearStickProbability(derivatives, prepared, c, column_of_dimension);
+        linearStickProbability(derivatives, prepared, c, column_of_dimension, gradient);
+  outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
     const double overlap = approximateOverlapProbability(uncertain);
     if (overlap > kTruncationWarningMass) {
       outcome.warnings.push_back(
           {overlapField(uncertain),
-           "dynamic_friction exceeds static_friction with probability about " +
-               percentText(overlap) +
-               " (normal approximation of mu_s - mu_d;"
-               " such draws are solved with mu_d = mu_s by the sampled method; the linear "
-               "method does not see the cap)",
+           joined({"dynamic_friction exceeds static_friction with probability about ",
+                   NumberText::percent(overlap),
+                   " (normal approximation of mu_s - mu_d;"
+                   " such draws are solved with mu_d = mu_s by the sampled method; the linear "
+                   "method does not see the cap)"}),
            Warning::Kind::kInput});
     }
   }
+  auto contactField = [](std::size_t c) { return joined({"contacts[", NumberText(c), "]"}); };
   for (std::size_t c = 0; c < contacts; ++c) {
     const double p = outcome.stick_probability[c];
     if (p < kSwitchReachWarning || p > 1.0 - kSwitchReachWarning) continue;
     outcome.warnings.push_back(
-        {"contacts[" + std::to_string(c) + "]",
-         "the spread reaches its stick/slip switch (stick probability " + percentText(p) +
-             "): the linear distribution covers one mode only; use the sampled method",
+        {contactField(c),
+         joined({"the spread reaches its stick/slip switch (stick probability ",
+                 NumberText::percent(p),
+                 "): the linear distribution covers one mode only; use the sampled method"}),
          Warning::Kind::kInput});
   }
   for (std::size_t c = 0; c < contacts; ++c) {
     const ContactDerivativeMode& mode = derivatives.contacts[c];
     if (!mode.at_switch) continue;
-    outcome.warnings.push_back({"contacts[" + std::to_string(c) + "]",
-                                "linearised at a mode switch (" + mode.switch_detail +
-                                    "): the linear distribution holds on one side only; use the "
-                                    "sampled method",
-                                Warning::Kind::kInput});
+    outcome.warnings.push_back(
+        {contactField(c),
+         joined({"linearised at a mode switch (", mode.switch_detail,
+                 "): the linear distribution holds on one side only; use the sampled method"}),
+         Warning::Kind::kInput});
   }
   return outcome;
 }

@@ -12,6 +12,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "collision_response/core/compute_response.h"
@@ -516,4 +517,118 @@ TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInE) {
   const auto smp =
       core::computeOutcomeDistribution(sphere(m, mu_s, 0.01), {u}, newton(), sampled(4096));
   EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
+}
+
+// The linear distribution of a multi-contact scene against its definition computed here: a box
+// landing on an edge (2 contacts, one island of the exact solver) and a sphere landing apart (its
+// own island, Newton's closed form), every contact sliding. Reference: the prediction at the means
+// (computeResponse()), the Jacobian of its outputs w.r.t. each uncertain coefficient by central
+// differences of computeResponse(), covariance = sum_k J_k J_k^T var_k with the variances of the
+// distributions in closed form (normal: s^2, its truncation far out of reach; interval: w^2 / 12),
+// quantiles mean -/+ 1.645 sd. With e and mu_d uncertain at the 3 contacts, 6 columns enter the
+// covariance (more than the 4 its kernel sums at once).
+TEST(Uncertainty, LinearDistributionOfSeveralContactsIsJSJtOfCentralDifferences) {
+  core::BodyState ground;
+  ground.id = "ground";
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 1.0;
+  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
+  box.position = {0.0, 0.0, 0.25};
+  box.linear_velocity = {1.0, 0.5, -2.0};
+  box.angular_velocity = {0.3, -0.2, 0.1};
+  core::BodyState ball;
+  ball.id = "ball";
+  ball.mass = 2.0;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.4 * 2.0 * 0.1 * 0.1;
+  ball.position = {3.0, 0.0, 0.1};
+  ball.linear_velocity = {2.5, -0.8, -1.5};
+  core::Scene scene;
+  scene.bodies = {ground, box, ball};
+  auto contact = [](const char* body, const Eigen::Vector3d& point, double mu_s, double mu_d) {
+    core::Contact c;
+    c.body_a = "ground";
+    c.body_b = body;
+    c.point = point;
+    c.normal = {0.0, 0.0, 1.0};
+    c.restitution = 0.5;
+    c.static_friction = mu_s;
+    c.dynamic_friction = mu_d;
+    return c;
+  };
+  scene.contacts = {contact("box", {-0.3, 0.0, 0.0}, 0.2, 0.16),
+                    contact("box", {0.3, 0.0, 0.0}, 0.2, 0.16),
+                    contact("ball", {3.0, 0.0, 0.0}, 0.15, 0.12)};
+  // Outputs in the layout of OutcomeDistribution: the movable bodies' twists, then 4 per contact.
+  auto outputs = [](const core::Scene& s) {
+    const core::CollisionResult r = core::computeResponse(s, newton());
+    Eigen::VectorXd y(12 + 4 * static_cast<Eigen::Index>(s.contacts.size()));
+    for (int b = 0; b < 2; ++b) {
+      y.segment<3>(6 * b) = r.bodies[b + 1].linear_velocity;
+      y.segment<3>(6 * b + 3) = r.bodies[b + 1].angular_velocity;
+    }
+    for (std::size_t c = 0; c < s.contacts.size(); ++c) {
+      const auto row = 12 + 4 * static_cast<Eigen::Index>(c);
+      y(row) = r.impulses[c].normal_impulse;
+      y.segment<3>(row + 1) = r.impulses[c].friction_impulse;
+      EXPECT_FALSE(r.impulses[c].sticking) << c;  // sliding, far from the switch
+    }
+    return y;
+  };
+  for (const bool friction : {false, true}) {
+    SCOPED_TRACE(friction ? "e, mu_s, mu_d" : "e");
+    std::vector<ContactUncertainty> all;
+    // (contact, which coefficient: 0 e, 1 mu_s, 2 mu_d, variance), the reference's columns.
+    std::vector<std::tuple<std::size_t, int, double>> columns;
+    for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
+      ContactUncertainty u;
+      u.contact = c;
+      const double e = 0.45 + 0.05 * static_cast<double>(c);  // a different mean per contact
+      const double e_sd = 0.02 + 0.01 * static_cast<double>(c);
+      u.restitution = CoefficientDistribution::normal(e, e_sd);
+      scene.contacts[c].restitution = e;
+      columns.emplace_back(c, 0, e_sd * e_sd);
+      if (friction) {
+        const double mu_s = scene.contacts[c].static_friction;
+        const double mu_d = scene.contacts[c].dynamic_friction;
+        u.static_friction = CoefficientDistribution::interval(mu_s - 0.01, mu_s + 0.01);
+        u.dynamic_friction = CoefficientDistribution::normal(mu_d, 0.01);
+        columns.emplace_back(c, 1, 0.02 * 0.02 / 12.0);
+        columns.emplace_back(c, 2, 0.01 * 0.01);
+      }
+      all.push_back(u);
+    }
+    const core::OutcomeDistribution lin =
+        core::computeOutcomeDistribution(scene, all, newton(), linear());
+    const Eigen::VectorXd mean = outputs(scene);
+    const Eigen::Index m = mean.size();
+    ASSERT_EQ(lin.mean.size(), m);
+    Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(m, m);
+    const double h = 1e-6;
+    for (const auto& [c, which, variance] : columns) {
+      core::Scene plus = scene, minus = scene;
+      double* value_plus[] = {&plus.contacts[c].restitution, &plus.contacts[c].static_friction,
+                              &plus.contacts[c].dynamic_friction};
+      double* value_minus[] = {&minus.contacts[c].restitution, &minus.contacts[c].static_friction,
+                               &minus.contacts[c].dynamic_friction};
+      *value_plus[which] += h;
+      *value_minus[which] -= h;
+      const Eigen::VectorXd column = (outputs(plus) - outputs(minus)) / (2.0 * h);
+      covariance += variance * column * column.transpose();
+    }
+    const Eigen::VectorXd sd = covariance.diagonal().cwiseSqrt();
+    ASSERT_GT(sd.segment<6>(0).maxCoeff(), 1e-3);  // both bodies spread
+    ASSERT_GT(sd.segment<6>(6).maxCoeff(), 1e-3);
+    const double scale = sd.maxCoeff();
+    for (Eigen::Index r = 0; r < m; ++r) {
+      SCOPED_TRACE(lin.labels[static_cast<std::size_t>(r)]);
+      EXPECT_NEAR(lin.mean(r), mean(r), 1e-12);
+      EXPECT_NEAR(lin.q05(r), mean(r) - 1.6448536269514722 * sd(r), 1e-6 * scale);
+      EXPECT_NEAR(lin.q95(r), mean(r) + 1.6448536269514722 * sd(r), 1e-6 * scale);
+      for (Eigen::Index k = 0; k < m; ++k) {
+        EXPECT_NEAR(lin.covariance(r, k), covariance(r, k), 1e-6 * scale * scale);
+        EXPECT_EQ(lin.covariance(r, k), lin.covariance(k, r));
+      }
+    }
+  }
 }

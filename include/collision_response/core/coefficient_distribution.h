@@ -2,6 +2,7 @@
 
 #include <optional>
 #include <string>
+#include <type_traits>
 
 #include "collision_response/core/warning.h"
 
@@ -45,6 +46,17 @@ class CheckedDistribution {
   /// it. `warning` (if given) receives the truncation warning, if any, naming `field`.
   CheckedDistribution(const CoefficientDistribution& distribution, double lower, double upper,
                       const std::string& field, std::optional<Warning>* warning = nullptr);
+  /// The same, with the field's name given by `field()` (a callable returning std::string), called
+  /// only when it is needed: an error or a warning (callers that check many distributions build
+  /// no names for the valid ones).
+  template <class FieldName,
+            class = std::enable_if_t<std::is_invocable_r_v<std::string, const FieldName&>>>
+  CheckedDistribution(const CoefficientDistribution& distribution, double lower, double upper,
+                      const FieldName& field, std::optional<Warning>* warning = nullptr)
+      : distribution_(distribution), lower_(lower), upper_(upper) {
+    check([](const void* name) { return (*static_cast<const FieldName*>(name))(); }, &field,
+          warning);
+  }
 
   double mean() const { return mean_; }
   double variance() const { return variance_; }
@@ -56,6 +68,10 @@ class CheckedDistribution {
   double truncatedMass() const { return 1.0 - kept_mass_; }
 
  private:
+  // The checks and moments of the constructors; name(context) is the field's name.
+  void check(std::string (*name)(const void*), const void* context,
+             std::optional<Warning>* warning);
+
   CoefficientDistribution distribution_;
   double lower_ = 0.0;
   double upper_ = 0.0;

@@ -67,20 +67,32 @@ bool differentiateNewtonContact(const Eigen::Vector3d& n, const Eigen::Matrix3d&
                                 Eigen::Matrix3d& dP_du, Eigen::Matrix3d& dP_dtheta,
                                 ContactDerivativeMode& mode);
 
+/// One contact of a NewtonIsland, in world coordinates.
+struct NewtonContactState {
+  Eigen::Vector3d normal;      ///< unit normal, from a to b
+  Eigen::Vector3d u, u_after;  ///< u = v_b - v_a at the point, before and after [m/s]
+  Eigen::Vector3d P;           ///< the impulse on b [N s]
+  NewtonCoefficients coefficients;
+};
+
+/// A free rigid body's mass [kg] and world inertia about its centre of mass [kg m^2].
+struct RigidMass {
+  double mass = 0.0;
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+};
+
 /// An island as the exact solver answered it, in contact space: m contacts, rows 3i..3i+2 of J
 /// those of contact i (world x, y, z of u_i = v_b - v_a at its point).
 struct NewtonIsland {
   std::vector<int> contacts;  ///< the caller's contact indices (of `modes`, of `columns`)
   Eigen::MatrixXd J;          ///< 3m x L: u = J v (+ the part of bodies without unknowns)
   Eigen::MatrixXd MinvJt;     ///< L x 3m: M^-1 J^T
-  /// Per contact (world): the unit normal, u before and after [m/s], the impulse P on b [N s].
-  std::vector<Eigen::Vector3d> normal, u, u_after, P;
-  std::vector<NewtonCoefficients> coefficients;  ///< per contact
-  /// Free rigid bodies only, v their twists, 6 unknowns each (v [m/s], w [rad/s]): per body its
-  /// mass [kg] and world inertia [kg m^2], for the body-space solve of a face's redundant
-  /// sticking contacts (W^+ = J G^-1 M G^-1 J^T). Empty for other bodies (W is decomposed).
-  std::vector<double> mass;
-  std::vector<Eigen::Matrix3d> inertia;
+  /// Per contact, in the order of `contacts` (one vector: one allocation per island).
+  std::vector<NewtonContactState> state;
+  /// Free rigid bodies only, v their twists, 6 unknowns each (v [m/s], w [rad/s]): per body, for
+  /// the body-space solve of a face's redundant sticking contacts (W^+ = J G^-1 M G^-1 J^T).
+  /// Empty for other bodies (W is decomposed).
+  std::vector<RigidMass> rigid;
 
   /// W = J M^-1 J^T (3m x 3m), formed on first use.
   const Eigen::MatrixXd& W() const;
@@ -93,8 +105,8 @@ struct NewtonIsland {
 /// contributes three equations of its final mode (no impulse, sticking, sliding on a pyramid edge
 /// or facet), F(P, u, theta) = 0, and F_P dP = -(F_u du + F_theta dtheta). `all_sticking`: the
 /// answer came without a pivot (SolveReport::iterations 0: every contact sticking inside its
-/// static cone). Computes dP/dv (3m x L; when columns.velocities, else 0) and dP/dtheta (3m x 3m,
-/// per contact e, mu_s, mu_d; only the coefficient columns `columns` asks for, by the caller's
+/// static cone). Computes dP/dv (3m x L; when columns.velocities, else empty) and dP/dtheta (3m x
+/// 3m, per contact e, mu_s, mu_d; only the coefficient columns `columns` asks for, by the caller's
 /// contact index, the rest 0) and sets modes[contacts[i]] (mode, kAnalytic, switch flags). False
 /// for redundant contacts sliding with friction (impulses not unique: the caller differences;
 /// the contacts are flagged).
