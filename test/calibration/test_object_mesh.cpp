@@ -270,6 +270,28 @@ TEST_F(ObjectMeshFiles, BadMeshesNameTheFileAndKey) {
             std::string::npos);
 }
 
+// The shipped meshes/hand.stl (ASCII, mm): a prism 140 mm along y over a hexagon, the 80 x 60 mm
+// rectangle (x in +-40, z in +-30) without two 15 mm corner triangles at z = -30: area 4575 mm^2,
+// centroid z = 2 * 112.5 * 25 / 4575 mm (the rectangle's at 0, each triangle's at -25).
+TEST_F(ObjectMeshFiles, ShippedHandStl) {
+  const detection::Shape hand = readStl(std::string(MESHES_DIR) + "/hand.stl", 0.001);
+  EXPECT_EQ(hand.vertices.size(), 12u);
+  EXPECT_EQ(hand.triangles.size(), 20u);
+  EXPECT_EQ(meshProblem(hand), "");
+  const MeshVolume v = meshVolume(hand);
+  EXPECT_NEAR(v.volume, 4575e-6 * 0.14, 1e-15);
+  EXPECT_NEAR(v.centroid.z(), 2 * 112.5 * 25 / 4575 * 1e-3, 1e-15);
+  EXPECT_NEAR(v.centroid.x(), 0.0, 1e-15);
+  EXPECT_NEAR(v.centroid.y(), 0.0, 1e-15);
+  // Its centroid is 1.2 mm off its origin: uniform density would move the centre of mass.
+  const std::string yaml =
+      "shape: {type: mesh, file: " + std::string(MESHES_DIR) + "/hand.stl, scale: 0.001}\n";
+  EXPECT_NE(error(write("hand.yaml", yaml + kRest)).find(", 0.00122951) m is not the origin"),
+            std::string::npos)
+      << error((dir_ / "hand.yaml").string());
+  EXPECT_EQ(error(write("hand2.yaml", yaml + "inertia: [1e-3, 1e-3, 1e-3]\n" + kRest)), "");
+}
+
 /// The cube of the synthetic recordings, as a box and as a mesh.
 std::pair<ObjectModel, ObjectModel> boxAndMeshCube() {
   const ObjectModel box = syntheticCube();
