@@ -159,7 +159,11 @@ std::string meshProblem(const Shape& mesh) {
              std::to_string(edge.second) + " belongs to one triangle only";
   }
   const double length = lengthScale(mesh);
-  if (!(meshVolume(mesh).volume > 1e-9 * length * length * length))
+  const MeshVolume solid = meshVolume(mesh);
+  if (!std::isfinite(length * length * length) || !std::isfinite(solid.volume) ||
+      !solid.centroid.allFinite() || !uniformInertia(mesh, 1.0).allFinite())
+    return "shape.vertices: too large (the solid's volume integrals overflow)";
+  if (!(solid.volume > 1e-9 * length * length * length))
     return "shape.triangles: the mesh encloses no volume";
   return "";
 }

@@ -236,6 +236,12 @@ TEST_F(ObjectMeshFiles, BadMeshesNameTheFileAndKey) {
       "shape.triangles[0][2]: must be an integer vertex index, not '2.5'");
   expect("shape: {type: mesh, vertices: [[0, 0, 0], [1, 0]], triangles: []}\n",
          "shape.vertices[1]: must be [a, b, c]");
+  m = good;
+  m.vertices[0] *= 1e200;
+  expect(flow(m), "shape.vertices: too large (the solid's volume integrals overflow)");
+  m = good;
+  for (auto& v : m.vertices) v.z() *= 1e-12;  // flat: a square of two sheets
+  expect(flow(m), "shape.triangles: the mesh encloses no volume");
   // Uniform density needs the centroid at the origin; with inertia given it is the user's word.
   m = good;
   for (auto& v : m.vertices) v.x() += 0.01;
