@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -98,6 +99,9 @@ void readAscii(const std::string& data, const std::string& path, MeshBuilder& me
 detection::Shape readStl(const std::string& path, double scale) {
   if (!(scale > 0.0) || !std::isfinite(scale))
     throw std::runtime_error(path + ": the scale must be finite and > 0");
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error))  // not a directory, a FIFO, /dev/zero...
+    throw std::runtime_error(path + ": cannot read (not a regular file)");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot read");
   std::stringstream buffer;

@@ -252,6 +252,11 @@ TEST_F(ObjectMeshFiles, BadMeshesNameTheFileAndKey) {
   EXPECT_NE(error(write("x.yaml", "shape: {type: mesh, file: parts/none.stl}\n" + kRest))
                 .find("parts/none.stl: cannot read"),
             std::string::npos);
+  EXPECT_NE(error(write("d.yaml", "shape: {type: mesh, file: parts}\n" + kRest))
+                .find("d.yaml: shape.file: "),
+            std::string::npos);
+  EXPECT_NE(error((dir_ / "d.yaml").string()).find("parts: cannot read (not a regular file)"),
+            std::string::npos);
   expect("shape: {type: mesh, file: a.stl, vertices: [[0, 0, 0]]}\n",
          "shape.file: give either file or vertices and triangles, not both");
   // A truncated binary STL is not binary, and not ASCII either; an ASCII one with a bad vertex.

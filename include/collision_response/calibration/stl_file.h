@@ -13,8 +13,9 @@ namespace collision_response::calibration {
 /// coordinates times `scale` (> 0; e.g. 0.001 for a file in millimetres) [m], vertices at equal
 /// coordinates merged into one (STL repeats them per triangle), triangles in file order with the
 /// file's winding. Facet normals are ignored. Throws std::runtime_error "<path>: <what>" (with
-/// the line for ASCII) if the file cannot be read, is truncated or malformed, holds a non-finite
-/// coordinate or no triangle. The mesh is not otherwise checked (meshProblem() does that).
+/// the line for ASCII) if the file is not a regular file or cannot be read, is truncated or
+/// malformed, holds a non-finite coordinate or no triangle. The mesh is not otherwise checked
+/// (meshProblem() does that).
 detection::Shape readStl(const std::string& path, double scale = 1.0);
 
 }  // namespace collision_response::calibration
