@@ -36,7 +36,7 @@ double lowestPointHeight(const Shape& shape, const Eigen::Vector3d& position,
       return position.z() + lowest;
     }
     default:
-      throw std::invalid_argument("calibration: only box, sphere and cylinder shapes");
+      throw std::invalid_argument("calibration: only box, sphere, cylinder and mesh shapes");
   }
 }
 
@@ -58,7 +58,7 @@ double lengthScale(const Shape& shape) {
       return 0.5 * (hi - lo).maxCoeff();
     }
     default:
-      throw std::invalid_argument("calibration: only box, sphere and cylinder shapes");
+      throw std::invalid_argument("calibration: only box, sphere, cylinder and mesh shapes");
   }
 }
 
@@ -98,7 +98,7 @@ Eigen::Matrix3d uniformInertia(const Shape& shape, double mass) {
       return mass * (per_mass.trace() * Eigen::Matrix3d::Identity() - per_mass);
     }
     default:
-      throw std::invalid_argument("calibration: only box, sphere and cylinder shapes");
+      throw std::invalid_argument("calibration: only box, sphere, cylinder and mesh shapes");
   }
 }
 
@@ -160,11 +160,12 @@ std::string meshProblem(const Shape& mesh) {
   }
   const double length = lengthScale(mesh);
   const MeshVolume solid = meshVolume(mesh);
-  if (!std::isfinite(length * length * length) || !std::isfinite(solid.volume) ||
-      !solid.centroid.allFinite() || !uniformInertia(mesh, 1.0).allFinite())
+  if (!std::isfinite(length * length * length) || !std::isfinite(solid.volume))
     return "shape.vertices: too large (the solid's volume integrals overflow)";
   if (!(solid.volume > 1e-9 * length * length * length))
     return "shape.triangles: the mesh encloses no volume";
+  if (!solid.centroid.allFinite() || !uniformInertia(mesh, 1.0).allFinite())
+    return "shape.vertices: too large (the solid's volume integrals overflow)";
   return "";
 }
 

@@ -243,6 +243,8 @@ TEST_F(ObjectMeshFiles, BadMeshesNameTheFileAndKey) {
   m = good;
   for (auto& v : m.vertices) v.z() *= 1e-12;  // flat: a square of two sheets
   expect(flow(m), "shape.triangles: the mesh encloses no volume");
+  for (auto& v : m.vertices) v.z() = 0.0;  // exactly flat: no volume at all
+  expect(flow(m), "shape.triangles: the mesh encloses no volume");
   // Uniform density needs the centroid at the origin; with inertia given it is the user's word.
   m = good;
   for (auto& v : m.vertices) v.x() += 0.01;
