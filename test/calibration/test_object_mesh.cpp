@@ -15,6 +15,7 @@
 
 #include "collision_response/calibration/csv_tracks.h"
 #include "collision_response/calibration/identification.h"
+#include "collision_response/calibration/identify_program.h"
 #include "collision_response/calibration/landing_extraction.h"
 #include "collision_response/calibration/landing_prediction.h"
 #include "collision_response/calibration/object_file.h"
@@ -304,6 +305,61 @@ TEST_F(ObjectMeshFiles, ShippedHandStl) {
             std::string::npos)
       << error((dir_ / "hand.yaml").string());
   EXPECT_EQ(error(write("hand2.yaml", yaml + "inertia: [1e-3, 1e-3, 1e-3]\n" + kRest)), "");
+}
+
+// identify end to end (object file -> CSV recordings -> ~materials YAML): the synthetic cube as a
+// box and as a binary STL give the same file, apart from the object file's name.
+TEST_F(ObjectMeshFiles, IdentifyProgramWithAnStlObject) {
+  std::mt19937 rng(31), noise(32);
+  std::vector<std::string> csv;
+  while (csv.size() < 8) {
+    const PoseTrack truth = trueToss(rng, 0.4, 0.25, core::ImpactLaw::kStronge);
+    if (truth.size() < 30) continue;
+    const PoseTrack track = noisy(truth, noise, 3e-4, 3e-3);
+    if (!extractLandings(track, syntheticCube().shape, 0.0).front().ok) continue;
+    std::ostringstream out;
+    out.precision(10);
+    out << "t,x,y,z,qw,qx,qy,qz\n";
+    for (int k = 0; k < track.size(); ++k) {
+      const auto& p = track.position[k];
+      const auto& q = track.orientation[k];
+      out << track.time[k] << "," << p.x() << "," << p.y() << "," << p.z() << "," << q.w() << ","
+          << q.x() << "," << q.y() << "," << q.z() << "\n";
+    }
+    csv.push_back(write("toss_" + std::to_string(csv.size()) + ".csv", out.str()));
+  }
+  write("parts/cube.stl", binaryStl(boxMesh(Eigen::Vector3d::Constant(0.1048)), 1.0));
+  const std::string rest = kRest + "floor_height: 0.0\n";
+  std::string text[2];
+  int i = 0;
+  for (const std::string& object :
+       {write("box.yaml", "shape: {type: box, size: [0.1048, 0.1048, 0.1048]}\n" + rest),
+        write("mesh.yaml", "shape: {type: mesh, file: parts/cube.stl}\n" + rest)}) {
+    IdentifyArguments a;
+    a.inputs.push_back({object, csv, {}});
+    a.output = (dir_ / ("out_" + std::to_string(i) + ".yaml")).string();
+    a.folds = 0;
+    a.threads = 2;
+    a.quiet = true;
+    runIdentify(a, BagReader(), [](const std::string&) {});
+    std::ifstream in(a.output);
+    std::stringstream s;
+    s << in.rdbuf();
+    text[i++] = s.str();
+  }
+  const auto entry = text[1].find("  - {a: \"cube\", b: \"floor\", restitution: ");
+  ASSERT_NE(entry, std::string::npos) << text[1];
+  double e = 0.0, mu = 0.0;
+  ASSERT_EQ(std::sscanf(text[1].c_str() + entry + 41, "%lf, static_friction: %lf", &e, &mu), 2)
+      << text[1];
+  EXPECT_NEAR(e, 0.4, 0.03);  // the truth, from 8 noisy landings
+  EXPECT_NEAR(mu, 0.25, 0.03);
+  const auto line = [](const std::string& s, std::size_t at) {
+    return s.substr(at, s.find('\n', at) - at);
+  };
+  EXPECT_EQ(line(text[0], text[0].find("  - {a:")), line(text[1], entry));
+  EXPECT_EQ(line(text[0], text[0].find("#   restitution")),
+            line(text[1], text[1].find("#   restitution")));
 }
 
 /// The cube of the synthetic recordings, as a box and as a mesh.
