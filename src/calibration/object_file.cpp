@@ -1,13 +1,18 @@
 #include "collision_response/calibration/object_file.h"
 
 #include <Eigen/Eigenvalues>
+#include <array>
+#include <climits>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 
+#include "collision_response/calibration/object_model.h"
 #include "collision_response/calibration/simple_yaml.h"
+#include "collision_response/calibration/stl_file.h"
 
 namespace collision_response::calibration {
 namespace {
@@ -41,6 +46,25 @@ struct Reader {
     if (node.kind != YamlNode::Kind::kScalar || node.scalar.empty())
       fail(field, "must be a non-empty name");
     return node.scalar;
+  }
+  int index(const YamlNode& node, const std::string& field) const {
+    if (node.kind != YamlNode::Kind::kScalar) fail(field, "must be a vertex index");
+    char* end = nullptr;
+    const long value = std::strtol(node.scalar.c_str(), &end, 10);
+    if (end == node.scalar.c_str() || *end != '\0' || value < INT_MIN || value > INT_MAX)
+      fail(field, "must be an integer vertex index, not '" + node.scalar + "'");
+    return static_cast<int>(value);
+  }
+  /// A sequence of [a, b, c] under `key` of `map`.
+  const YamlNode& triples(const YamlNode& map, const std::string& key,
+                          const std::string& field) const {
+    const YamlNode& list = member(map, key, field);
+    if (list.kind != YamlNode::Kind::kSequence) fail(field, "must be a list [[a, b, c], ...]");
+    for (std::size_t k = 0; k < list.items.size(); ++k) {
+      if (list.items[k].kind != YamlNode::Kind::kSequence || list.items[k].items.size() != 3)
+        fail(field + "[" + std::to_string(k) + "]", "must be [a, b, c]");
+    }
+    return list;
   }
   void onlyKeys(const YamlNode& map, const std::string& field,
                 std::initializer_list<const char*> keys) const {
@@ -85,8 +109,46 @@ ObjectModel parseObjectModel(const std::string& text, const std::string& source)
     object.shape.dimensions = {
         r.positive(r.member(shape, "length", "shape.length"), "shape.length"),
         r.positive(r.member(shape, "radius", "shape.radius"), "shape.radius")};
+  } else if (type == "mesh") {
+    r.onlyKeys(shape, "shape", {"type", "vertices", "triangles", "file", "scale"});
+    if (const YamlNode* file = shape.find("file")) {
+      if (shape.find("vertices") != nullptr || shape.find("triangles") != nullptr)
+        r.fail("shape.file", "give either file or vertices and triangles, not both");
+      const double scale =
+          shape.find("scale") != nullptr ? r.positive(*shape.find("scale"), "shape.scale") : 1.0;
+      std::filesystem::path path = r.text(*file, "shape.file");
+      if (path.is_relative()) path = std::filesystem::path(source).parent_path() / path;
+      try {
+        object.shape = readStl(path.string(), scale);
+      } catch (const std::exception& e) {
+        r.fail("shape.file", e.what());
+      }
+      if (const std::string problem = meshProblem(object.shape); !problem.empty())
+        r.fail("shape.file", path.string() + ": " + problem);
+    } else {
+      if (shape.find("scale") != nullptr) r.fail("shape.scale", "only with shape.file");
+      object.shape.type = detection::Shape::Type::kMesh;
+      const YamlNode& vertices = r.triples(shape, "vertices", "shape.vertices");
+      for (std::size_t k = 0; k < vertices.items.size(); ++k) {
+        Eigen::Vector3d v;
+        for (int i = 0; i < 3; ++i)
+          v[i] = r.number(vertices.items[k].items[i],
+                          "shape.vertices[" + std::to_string(k) + "][" + std::to_string(i) + "]");
+        object.shape.vertices.push_back(v);
+      }
+      const YamlNode& triangles = r.triples(shape, "triangles", "shape.triangles");
+      for (std::size_t k = 0; k < triangles.items.size(); ++k) {
+        std::array<int, 3> t;
+        for (int i = 0; i < 3; ++i)
+          t[i] = r.index(triangles.items[k].items[i],
+                         "shape.triangles[" + std::to_string(k) + "][" + std::to_string(i) + "]");
+        object.shape.triangles.push_back(t);
+      }
+      if (const std::string problem = meshProblem(object.shape); !problem.empty())
+        throw std::runtime_error(source + ": " + problem);
+    }
   } else {
-    r.fail("shape.type", "must be box, sphere or cylinder (not '" + type + "')");
+    r.fail("shape.type", "must be box, sphere, cylinder or mesh (not '" + type + "')");
   }
   object.mass = r.positive(r.member(root, "mass", "mass"), "mass");
   if (const YamlNode* inertia = root.find("inertia")) {
@@ -107,6 +169,18 @@ ObjectModel parseObjectModel(const std::string& text, const std::string& source)
           0.0))
       r.fail("inertia", "must be positive definite");
   } else {
+    if (object.shape.type == detection::Shape::Type::kMesh) {
+      // Uniform density puts the centre of mass at the solid's centroid: it must be the origin.
+      const Eigen::Vector3d centroid = meshVolume(object.shape).centroid;
+      if (!(centroid.norm() <= 1e-3 * lengthScale(object.shape))) {
+        std::ostringstream at;
+        at << "the mesh's centroid (" << centroid.x() << ", " << centroid.y() << ", "
+           << centroid.z()
+           << ") m is not the origin, which is the centre of mass: move the vertices, or give "
+              "inertia";
+        r.fail("shape", at.str());
+      }
+    }
     object.inertia = uniformInertia(object.shape, object.mass);
   }
   object.material_a = r.text(r.member(root, "material_a", "material_a"), "material_a");

@@ -3,6 +3,9 @@
 //
 //   shape: {type: box, size: [0.1048, 0.1048, 0.1048]}   # [m]; or {type: sphere, radius: R},
 //                                                        # {type: cylinder, radius: R, length: L}
+//                                 # or {type: mesh, vertices: [[x, y, z], ...],
+//                                 #     triangles: [[i, j, k], ...]} or {type: mesh,
+//                                 #     file: part.stl, scale: 0.001} (path relative to this file)
 //   mass: 0.37                     # [kg]
 //   inertia: [ixx, iyy, izz]       # optional [kg m^2], body axes (or 9 numbers, row-major);
 //                                  # default: uniform density
