@@ -132,6 +132,65 @@ struct Scene {
                                        &wall};
     return cr::computeBodyImpactDerivatives(bodies, contacts, options);
   }
+  // The prediction computeBodyImpactDerivatives() returns (and leaves the bodies at) against the
+  // plain solver's, computeBodyResponse() on copies of the same bodies, to 1e-12 relative: the
+  // derivative call may take a lone impulse-space contact's answer from its sensitivity instead of
+  // the solver (body_impact_derivatives.cpp), and it must be the same answer.
+  void expectThePredictionOfTheSolver(const cr::SolverOptions& options) const {
+    rb::ArticulatedBody a1 = arm, a2 = arm;
+    cr::RigidBody b1 = ball, b2 = ball;
+    cr::RigidBody wall;
+    wall.linear_velocity = wall_velocity;
+    std::vector<cr::BodyModel*> bodies1{&a1, with_ball ? static_cast<cr::BodyModel*>(&b1) : &wall,
+                                        &wall};
+    std::vector<cr::BodyModel*> bodies2{&a2, with_ball ? static_cast<cr::BodyModel*>(&b2) : &wall,
+                                        &wall};
+    const cr::BodyResponse got =
+        cr::computeBodyImpactDerivatives(bodies1, contacts, options).result;
+    const cr::BodyResponse want = cr::computeBodyResponse(bodies2, contacts, options);
+    const auto near = [](double x, double y) {
+      return std::abs(x - y) <= 1e-12 * std::max({std::abs(x), std::abs(y), 1e-300});
+    };
+    // Largest magnitude of a velocity vector (0 for a body without unknowns).
+    const auto largest = [](const VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; };
+    EXPECT_LE(largest(a1.velocity() - a2.velocity()),
+              1e-12 * std::max(1.0, largest(a2.velocity())));
+    ASSERT_EQ(b1.velocity().size(), b2.velocity().size());
+    EXPECT_LE(largest(b1.velocity() - b2.velocity()),
+              1e-12 * std::max(1.0, largest(b2.velocity())));
+    ASSERT_EQ(got.impulses.size(), want.impulses.size());
+    for (std::size_t c = 0; c < want.impulses.size(); ++c) {
+      const cr::ContactImpulse &g = got.impulses[c], &w = want.impulses[c];
+      const double impulse = std::max(std::abs(w.normal_impulse), w.friction_impulse.norm());
+      EXPECT_LE(std::abs(g.normal_impulse - w.normal_impulse), 1e-12 * impulse) << c;
+      EXPECT_LE((g.friction_impulse - w.friction_impulse).norm(), 1e-12 * impulse) << c;
+      const double speed =
+          std::max(std::abs(w.normal_velocity_before), std::abs(w.normal_velocity_after));
+      EXPECT_LE(std::abs(g.normal_velocity_before - w.normal_velocity_before), 1e-12 * speed);
+      EXPECT_LE(std::abs(g.normal_velocity_after - w.normal_velocity_after), 1e-12 * speed);
+      EXPECT_EQ(g.sticking, w.sticking) << c;
+      EXPECT_TRUE(near(got.effective_masses[c], want.effective_masses[c])) << c;
+    }
+    ASSERT_EQ(got.islands.size(), want.islands.size());
+    for (std::size_t i = 0; i < want.islands.size(); ++i) {
+      const cr::SolveReport &g = got.islands[i], &w = want.islands[i];
+      EXPECT_EQ(g.method, w.method);
+      EXPECT_EQ(g.contacts, w.contacts);
+      EXPECT_EQ(g.iterations, w.iterations);
+      EXPECT_EQ(g.converged, w.converged);
+      ASSERT_EQ(g.impulse_space.has_value(), w.impulse_space.has_value());
+      if (w.impulse_space) {
+        EXPECT_EQ(g.impulse_space->segments, w.impulse_space->segments);
+        EXPECT_EQ(g.impulse_space->steps, w.impulse_space->steps);
+        EXPECT_EQ(g.impulse_space->series_order, w.impulse_space->series_order);
+        EXPECT_EQ(g.impulse_space->fallback, w.impulse_space->fallback);
+        EXPECT_TRUE(
+            near(g.impulse_space->compression_impulse, w.impulse_space->compression_impulse));
+        EXPECT_TRUE(near(g.impulse_space->compression_work, w.impulse_space->compression_work));
+      }
+    }
+    EXPECT_EQ(got.warnings.size(), want.warnings.size());
+  }
 };
 
 double relativeError(const MatrixXd& got, const MatrixXd& want) {
@@ -283,6 +342,16 @@ TEST(RobotDerivatives, ImpulseSpaceOneContactIsAnalyticAndMatchesCentralDifferen
         contact.part_b = link;
         s.contacts = {contact};
       }
+      {
+        SCOPED_TRACE(std::string(cr::toString(law)) + " trial " + std::to_string(trial) +
+                     ", integration tolerance 1e-14");
+        s.expectThePredictionOfTheSolver(options);
+      }
+      {
+        SCOPED_TRACE(std::string(cr::toString(law)) + " trial " + std::to_string(trial) +
+                     ", the default integration tolerance");
+        s.expectThePredictionOfTheSolver(withLaw(law));
+      }
       const cr::BodyImpactDerivatives d = s.derivatives(options);
       ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
       ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
@@ -406,63 +475,66 @@ TEST(RobotDerivatives, NewtonWithFrictionIsAnalyticAndMatchesCentralDifferences)
     EXPECT_GE(sliding[several], 2);
   }
   EXPECT_GE(band, 2);
+}
 
-  // The benchmark's scene (benchmark/robot_scene.h, bench_derivatives' arm): the shipped arm
-  // strikes a free 1.5 kg box with its hand's origin, one frictional contact whose slip turns and
-  // stops. The sensitivity takes the slip's end by the stick-approach series, as the prediction
-  // does (asserted on the contact's own W = J M^-1 J^T and u = J v, built here from the arm's and
-  // the box's Jacobians), and every column of the Jacobian (the 9 joint velocities, the box's
-  // twist, e, mu_s, mu_d) matches central differences of the solver (at 1e-14) to 1e-6 of the
-  // column.
-  TEST(RobotDerivatives, ShippedArmStrikingABoxTakesTheSeriesAndMatchesCentralDifferences) {
-    for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
-      Eigen::Matrix<double, 9, 1> q, qdot;
-      q << 0.3, -0.8, 0.2, 1.4, -0.3, 0.9, 0.1, 0.02, 0.02;
-      qdot << 0.5, 0.2, -0.3, 0.4, 0.1, -0.2, 0.3, 0.0, 0.0;
-      const Vector3d normal = Vector3d(1, 0.3, -0.2).normalized();
-      Scene s{rb::robotFromUrdfFile(kArm7)};
-      s.arm.setState(q, qdot);
-      const int hand = s.arm.linkIndex("hand");
-      const Vector3d p = s.arm.linkPose(hand).translation();
-      const double mass = 1.5;
-      const Vector3d size(0.2, 0.1, 0.3), s2 = size.cwiseProduct(size);
-      const Vector3d inertia =
-          mass / 12.0 * Vector3d(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y());
-      s.ball.inverse_mass = 1.0 / mass;
-      s.ball.inverse_inertia = inertia.cwiseInverse().asDiagonal();
-      s.ball.com = p + 0.05 * normal;
-      s.ball.linear_velocity = -2.0 * normal + Vector3d(0.3, -0.2, 0.1);
-      cr::ContactPoint contact(0, 1, p, normal, 0.5, 0.6, 0.5);  // hand -> box
-      contact.part_a = hand;
-      s.contacts = {contact};
-      cr::SolverOptions options = withLaw(law);
-      options.integration_tolerance = 1e-14;
-      SCOPED_TRACE(cr::toString(law));
+// The benchmark's scene (benchmark/robot_scene.h, bench_derivatives' arm): the shipped arm
+// strikes a free 1.5 kg box with its hand's origin, one frictional contact whose slip turns and
+// stops. The sensitivity takes the slip's end by the stick-approach series, as the prediction
+// does (asserted on the contact's own W = J M^-1 J^T and u = J v, built here from the arm's and
+// the box's Jacobians), and every column of the Jacobian (the 9 joint velocities, the box's
+// twist, e, mu_s, mu_d) matches central differences of the solver (at 1e-14) to 1e-6 of the
+// column.
+TEST(RobotDerivatives, ShippedArmStrikingABoxTakesTheSeriesAndMatchesCentralDifferences) {
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    Eigen::Matrix<double, 9, 1> q, qdot;
+    q << 0.3, -0.8, 0.2, 1.4, -0.3, 0.9, 0.1, 0.02, 0.02;
+    qdot << 0.5, 0.2, -0.3, 0.4, 0.1, -0.2, 0.3, 0.0, 0.0;
+    const Vector3d normal = Vector3d(1, 0.3, -0.2).normalized();
+    Scene s{rb::robotFromUrdfFile(kArm7)};
+    s.arm.setState(q, qdot);
+    const int hand = s.arm.linkIndex("hand");
+    const Vector3d p = s.arm.linkPose(hand).translation();
+    const double mass = 1.5;
+    const Vector3d size(0.2, 0.1, 0.3), s2 = size.cwiseProduct(size);
+    const Vector3d inertia =
+        mass / 12.0 * Vector3d(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y());
+    s.ball.inverse_mass = 1.0 / mass;
+    s.ball.inverse_inertia = inertia.cwiseInverse().asDiagonal();
+    s.ball.com = p + 0.05 * normal;
+    s.ball.linear_velocity = -2.0 * normal + Vector3d(0.3, -0.2, 0.1);
+    cr::ContactPoint contact(0, 1, p, normal, 0.5, 0.6, 0.5);  // hand -> box
+    contact.part_a = hand;
+    s.contacts = {contact};
+    cr::SolverOptions options = withLaw(law);
+    options.integration_tolerance = 1e-14;
+    SCOPED_TRACE(cr::toString(law));
 
-      // The contact's W and u, from each side's Jacobians (b minus a).
-      const Eigen::MatrixXd Ja = s.arm.partPointJacobian(hand, p);
-      const Eigen::MatrixXd Jb = s.ball.partPointJacobian(0, p);
-      const Eigen::Matrix3d W = Ja * s.arm.partInverseMassJacobianTranspose(hand, p) +
-                                Jb * s.ball.partInverseMassJacobianTranspose(0, p);
-      const Vector3d u = Jb * s.ball.velocity() - Ja * s.arm.velocity();
-      Eigen::Matrix3d dP_du, dP_dc;
-      cr::ContactDerivativeMode mode;
-      cr::ImpulseSpaceSensitivityDetail detail;
-      ASSERT_TRUE(cr::differentiateImpulseSpace(normal, W, u, 0.5, 0.6, 0.5, law,
-                                                options.integration_tolerance, dP_du, dP_dc, mode,
-                                                nullptr, &detail));
-      EXPECT_TRUE(detail.series);
+    // The contact's W and u, from each side's Jacobians (b minus a).
+    const Eigen::MatrixXd Ja = s.arm.partPointJacobian(hand, p);
+    const Eigen::MatrixXd Jb = s.ball.partPointJacobian(0, p);
+    const Eigen::Matrix3d W = Ja * s.arm.partInverseMassJacobianTranspose(hand, p) +
+                              Jb * s.ball.partInverseMassJacobianTranspose(0, p);
+    const Vector3d u = Jb * s.ball.velocity() - Ja * s.arm.velocity();
+    Eigen::Matrix3d dP_du, dP_dc;
+    cr::ContactDerivativeMode mode;
+    cr::ImpulseSpaceSensitivityDetail detail;
+    ASSERT_TRUE(cr::differentiateImpulseSpace(normal, W, u, 0.5, 0.6, 0.5, law,
+                                              options.integration_tolerance, dP_du, dP_dc, mode,
+                                              nullptr, &detail));
+    EXPECT_TRUE(detail.series);
+    s.expectThePredictionOfTheSolver(options);
+    s.expectThePredictionOfTheSolver(withLaw(law));  // the benchmark's tolerance
 
-      const cr::BodyImpactDerivatives d = s.derivatives(options);
-      ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
-      ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
-      const int N = static_cast<int>(d.velocity_count);
-      const MatrixXd want = s.differences(options, N + 3, 1e-5);
-      const double largest = want.cwiseAbs().maxCoeff();
-      for (int k = 0; k < N + 3; ++k) {
-        const double scale = std::max(want.col(k).cwiseAbs().maxCoeff(), 1e-3 * largest);
-        EXPECT_LE((d.jacobian.col(k) - want.col(k)).cwiseAbs().maxCoeff(), 1e-6 * scale)
-            << "column " << k;
-      }
+    const cr::BodyImpactDerivatives d = s.derivatives(options);
+    ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);
+    ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    const int N = static_cast<int>(d.velocity_count);
+    const MatrixXd want = s.differences(options, N + 3, 1e-5);
+    const double largest = want.cwiseAbs().maxCoeff();
+    for (int k = 0; k < N + 3; ++k) {
+      const double scale = std::max(want.col(k).cwiseAbs().maxCoeff(), 1e-3 * largest);
+      EXPECT_LE((d.jacobian.col(k) - want.col(k)).cwiseAbs().maxCoeff(), 1e-6 * scale)
+          << "column " << k;
     }
   }
+}
