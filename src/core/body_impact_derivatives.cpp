@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <tuple>
 
+#include "collision_response/core/approach_warnings.h"
 #include "collision_response/core/contact_derivatives.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/impulse_space_derivatives.h"
@@ -157,6 +159,96 @@ void scatter(const NewtonIsland& s, const MatrixXd& dP_dv, const MatrixXd& dP_dt
   }
 }
 
+// The sensitivity of a lone contact under Poisson or Stronge, taken before the prediction
+// (predictLoneContact()): its contact space (J, M^-1 J^T taken once) and derivatives.
+struct LoneContact {
+  bool valid = false;
+  NewtonIsland s;
+  Eigen::Matrix3d dP_du, dP_dtheta;
+  ContactDerivativeMode mode;
+};
+
+// A call with one contact under Poisson or Stronge that the automatic solver integrates alone
+// (solveIsland(): one contact, contact by contact) and that approaches: its sensitivity
+// (differentiateImpulseSpace()) carries the impulse itself, so the solver need not integrate the
+// contact first. Where the sensitivity took no Dormand-Prince step (closed-form segments and the
+// stick-approach series, the same closed forms as integrateSingleContact() at the same tolerance,
+// in [1e-12, 1e-10], hence the prediction's answer to round-off), the prediction is written from it
+// as solveIslands() writes it (impulses, effective mass, island report, warnings; the bodies'
+// velocities) and true is returned. Otherwise (an integrated slip or one ended at the sensitivity's
+// own threshold: the prediction's path differs; a contact that does not qualify) false: the caller
+// predicts with computeBodyResponse(), and `lone` keeps the derivatives if they were taken.
+bool predictLoneContact(const std::vector<BodyModel*>& bodies,
+                        const std::vector<ContactPoint>& contacts, const SolverOptions& options,
+                        const VectorXd& before, BodyImpactDerivatives& out, LoneContact& lone) {
+  if (contacts.size() != 1 || options.method != SolverMethod::kAuto ||
+      (options.law != ImpactLaw::kPoisson && options.law != ImpactLaw::kStronge)) {
+    return false;
+  }
+  validateContactPoints(bodies, contacts);
+  const ContactPoint& contact = contacts[0];
+  if (out.velocity_offset[contact.body_a] < 0 && out.velocity_offset[contact.body_b] < 0) {
+    return false;  // nothing moves: computeBodyResponse() reports it
+  }
+  const Index N = out.velocity_count;
+  BodyResponse none;
+  none.impulses.resize(1);
+  lone.s = contactSpace(bodies, contacts, {0}, out.velocity_offset, N, before, before, none);
+  NewtonIsland& s = lone.s;
+  const Eigen::Vector3d u = s.u[0];
+  const double u_n = contact.normal.dot(u);
+  // Approaching beyond round-off (a touching contact goes to the resting solver).
+  if (!(u_n < -1e-12 * u.norm())) return false;
+  const Eigen::Matrix3d W = s.J.lazyProduct(s.MinvJt);
+  Eigen::Vector3d P;
+  ImpulseSpaceSensitivityDetail detail;
+  if (!differentiateImpulseSpace(contact.normal, W, u, contact.restitution, contact.static_friction,
+                                 contact.dynamic_friction, options.law,
+                                 options.integration_tolerance, lone.dP_du, lone.dP_dtheta,
+                                 lone.mode, &P, &detail) ||
+      lone.mode.mode == ImpactMode::kNoImpulse) {
+    return false;
+  }
+  lone.valid = true;
+  const double tolerance = options.integration_tolerance;
+  // Tolerances below 1e-12 bring the series' acceptance tests (the stop cancelling the slip to
+  // tol |u_n|) within a few hundred ulps, where the two implementations' round-off can decide
+  // them differently (the same answer to the tolerance, reached by different steps).
+  if (detail.steps > 0 || detail.threshold_stop || !(tolerance >= 1e-12 && tolerance <= 1e-10)) {
+    return false;
+  }
+
+  // The prediction, as solveIslands() and integrateSingleContact() write it.
+  BodyResponse& result = out.result;
+  result.impulses.assign(1, ContactImpulse{});
+  ContactImpulse& impulse = result.impulses[0];
+  impulse.normal_velocity_before = u_n;
+  impulse.normal_impulse = P.dot(contact.normal);
+  impulse.friction_impulse = P - impulse.normal_impulse * contact.normal;
+  impulse.sticking = lone.mode.mode == ImpactMode::kSticking;
+  const VectorXd after = before + s.MinvJt * P;
+  setVelocities(bodies, out.velocity_offset, after);
+  s.u_after.assign(1, u + s.J * (after - before));
+  s.P.assign(1, P);
+  impulse.normal_velocity_after = contact.normal.dot(s.u_after[0]);
+  const double w = contact.normal.dot(W * contact.normal);
+  result.effective_masses.assign(1, w > 0.0 ? 1.0 / w : std::numeric_limits<double>::infinity());
+  SolveReport report;
+  report.method = SolvedBy::kImpulseSpace;
+  report.contacts = {0};
+  report.iterations = detail.steps + detail.segments;
+  ImpulseSpaceDetail how;
+  how.segments = detail.segments;
+  how.compression_impulse = detail.compression_impulse;
+  how.compression_work = detail.compression_work;
+  how.series_order = static_cast<std::size_t>(detail.series_order);
+  report.impulse_space = how;
+  result.islands.assign(1, std::move(report));
+  warnApproachingContacts(result.impulses, result.effective_masses, result.islands, options,
+                          result.warnings);
+  return true;
+}
+
 // The analytic derivative of one island (docs/physics.md, "General bodies (robots)"), written
 // into out.jacobian and out.contacts: Newton's closed form (one contact) or the exact solver's
 // final mode, or one contact integrated in impulse space (Poisson, Stronge). False where the
@@ -165,10 +257,16 @@ void scatter(const NewtonIsland& s, const MatrixXd& dP_dv, const MatrixXd& dP_dt
 bool analyticIsland(const std::vector<BodyModel*>& bodies,
                     const std::vector<ContactPoint>& contacts, const SolveReport& report,
                     const SolverOptions& options, const VectorXd& before, const VectorXd& after,
-                    BodyImpactDerivatives& out) {
+                    const LoneContact& lone, BodyImpactDerivatives& out) {
   const Index N = out.velocity_count;
   const AnalyticIsland kind = analyticIslandOf(report, options.law);
   if (kind == AnalyticIsland::kNone) return false;
+  if (kind == AnalyticIsland::kImpulseSpaceContact && lone.valid) {
+    // Taken before the prediction (predictLoneContact()), on the same contact space.
+    out.contacts[report.contacts[0]] = lone.mode;
+    scatter(lone.s, lone.dP_du.lazyProduct(lone.s.J), lone.dP_dtheta, N, out.jacobian);
+    return true;
+  }
   const NewtonIsland s = contactSpace(bodies, contacts, report.contacts, out.velocity_offset, N,
                                       before, after, out.result);
   MatrixXd dP_dv, dP_dtheta;
@@ -222,7 +320,10 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
                        std::chrono::duration<double>(options.time_budget));
   const Index N = out.velocity_count, C = static_cast<Index>(contacts.size());
   const VectorXd before = velocities(bodies, out.velocity_offset, N);
-  out.result = computeBodyResponse(bodies, contacts, options);  // validates
+  LoneContact lone;
+  if (!predictLoneContact(bodies, contacts, options, before, out, lone)) {
+    out.result = computeBodyResponse(bodies, contacts, options);  // validates
+  }
   const VectorXd after = velocities(bodies, out.velocity_offset, N);
   out.contact_count = contacts.size();
   out.jacobian.setZero(N + 4 * C, N + 3 * C);
@@ -236,7 +337,7 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
   bool analytic = true;
   for (const SolveReport& report : out.result.islands) {
     if (markNoImpulseIsland(report, out.result.impulses, out.contacts)) continue;
-    if (!analyticIsland(bodies, contacts, report, options, before, after, out)) {
+    if (!analyticIsland(bodies, contacts, report, options, before, after, lone, out)) {
       analytic = false;
       break;
     }

@@ -435,6 +435,8 @@ SeriesOutcome seriesToStop(Context& cx, StickApproach& approach) {
   const Mat2 M_inv = M.inverse();
   const Vec2 g_p = M_inv * Vec2(rest.p, -1.0);
   const Vec2 g_w = M_inv * Vec2(2.0 * rest.work_drop, -rest.u_n_rise);
+  // The order the values were summed to (muDerivatives() may extend the series).
+  const int order = approach.order();
   const StickApproach::MuDerivatives by_mu = approach.muDerivatives(y0, sigma);
   D p_rem(rest.p, g_p.x() * u.x.d + g_p.y() * u.y.d);
   p_rem.d[kMuD] += by_mu.p;
@@ -446,7 +448,7 @@ SeriesOutcome seriesToStop(Context& cx, StickApproach& approach) {
   st.p = p_stop;
   st.P_t = P_stop;
   cx.detail.series = true;
-  cx.detail.series_order = approach.order();
+  cx.detail.series_order = order;
   return SeriesOutcome::kTaken;
 }
 
@@ -486,6 +488,7 @@ bool integrateSlip(Context& cx, bool& stopped) {
     if (pr.mu_d.v > 0.0 && f.y[0].v <= kStop * pr.V) {
       setState(st, y);
       stopped = true;
+      cx.detail.threshold_stop = true;
       return true;
     }
     if (++steps > kMaxSteps) return false;
@@ -613,8 +616,13 @@ bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eig
           "from the start (a slip may slide instead: one-sided)");
     }
   }
-  if (slip0 > kStickSpeed * pr.V && centralStop(cx)) cx.sticking = true;
-  for (std::size_t segments = 0; !st.done && ok;) {
+  // A central stop is two segments (slip to the stop, then stick), as the integrator counts it.
+  std::size_t segments = 0;
+  if (slip0 > kStickSpeed * pr.V && centralStop(cx)) {
+    cx.sticking = true;
+    segments = 2;
+  }
+  while (!st.done && ok) {
     if (++segments > kMaxSegments) {
       ok = false;
       break;
@@ -655,7 +663,10 @@ bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eig
       }
     }
   }
+  detail.segments = segments;
   if (!ok) return false;
+  detail.compression_impulse = st.p_c.v;
+  detail.compression_work = st.W_c.v;
   if (mu_d == 0.0) cx.flag("mu_d = 0: the dynamic friction column is one-sided (increasing)");
 
   Eigen::Matrix<double, 3, 6> dP =

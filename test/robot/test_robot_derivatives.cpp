@@ -132,6 +132,65 @@ struct Scene {
                                        &wall};
     return cr::computeBodyImpactDerivatives(bodies, contacts, options);
   }
+  // The prediction computeBodyImpactDerivatives() returns (and leaves the bodies at) against the
+  // plain solver's, computeBodyResponse() on copies of the same bodies, to 1e-12 relative: the
+  // derivative call may take a lone impulse-space contact's answer from its sensitivity instead of
+  // the solver (body_impact_derivatives.cpp), and it must be the same answer.
+  void expectThePredictionOfTheSolver(const cr::SolverOptions& options) const {
+    rb::ArticulatedBody a1 = arm, a2 = arm;
+    cr::RigidBody b1 = ball, b2 = ball;
+    cr::RigidBody wall;
+    wall.linear_velocity = wall_velocity;
+    std::vector<cr::BodyModel*> bodies1{&a1, with_ball ? static_cast<cr::BodyModel*>(&b1) : &wall,
+                                        &wall};
+    std::vector<cr::BodyModel*> bodies2{&a2, with_ball ? static_cast<cr::BodyModel*>(&b2) : &wall,
+                                        &wall};
+    const cr::BodyResponse got =
+        cr::computeBodyImpactDerivatives(bodies1, contacts, options).result;
+    const cr::BodyResponse want = cr::computeBodyResponse(bodies2, contacts, options);
+    const auto near = [](double x, double y) {
+      return std::abs(x - y) <= 1e-12 * std::max({std::abs(x), std::abs(y), 1e-300});
+    };
+    // Largest magnitude of a velocity vector (0 for a body without unknowns).
+    const auto largest = [](const VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; };
+    EXPECT_LE(largest(a1.velocity() - a2.velocity()),
+              1e-12 * std::max(1.0, largest(a2.velocity())));
+    ASSERT_EQ(b1.velocity().size(), b2.velocity().size());
+    EXPECT_LE(largest(b1.velocity() - b2.velocity()),
+              1e-12 * std::max(1.0, largest(b2.velocity())));
+    ASSERT_EQ(got.impulses.size(), want.impulses.size());
+    for (std::size_t c = 0; c < want.impulses.size(); ++c) {
+      const cr::ContactImpulse &g = got.impulses[c], &w = want.impulses[c];
+      const double impulse = std::max(std::abs(w.normal_impulse), w.friction_impulse.norm());
+      EXPECT_LE(std::abs(g.normal_impulse - w.normal_impulse), 1e-12 * impulse) << c;
+      EXPECT_LE((g.friction_impulse - w.friction_impulse).norm(), 1e-12 * impulse) << c;
+      const double speed =
+          std::max(std::abs(w.normal_velocity_before), std::abs(w.normal_velocity_after));
+      EXPECT_LE(std::abs(g.normal_velocity_before - w.normal_velocity_before), 1e-12 * speed);
+      EXPECT_LE(std::abs(g.normal_velocity_after - w.normal_velocity_after), 1e-12 * speed);
+      EXPECT_EQ(g.sticking, w.sticking) << c;
+      EXPECT_TRUE(near(got.effective_masses[c], want.effective_masses[c])) << c;
+    }
+    ASSERT_EQ(got.islands.size(), want.islands.size());
+    for (std::size_t i = 0; i < want.islands.size(); ++i) {
+      const cr::SolveReport &g = got.islands[i], &w = want.islands[i];
+      EXPECT_EQ(g.method, w.method);
+      EXPECT_EQ(g.contacts, w.contacts);
+      EXPECT_EQ(g.iterations, w.iterations);
+      EXPECT_EQ(g.converged, w.converged);
+      ASSERT_EQ(g.impulse_space.has_value(), w.impulse_space.has_value());
+      if (w.impulse_space) {
+        EXPECT_EQ(g.impulse_space->segments, w.impulse_space->segments);
+        EXPECT_EQ(g.impulse_space->steps, w.impulse_space->steps);
+        EXPECT_EQ(g.impulse_space->series_order, w.impulse_space->series_order);
+        EXPECT_EQ(g.impulse_space->fallback, w.impulse_space->fallback);
+        EXPECT_TRUE(
+            near(g.impulse_space->compression_impulse, w.impulse_space->compression_impulse));
+        EXPECT_TRUE(near(g.impulse_space->compression_work, w.impulse_space->compression_work));
+      }
+    }
+    EXPECT_EQ(got.warnings.size(), want.warnings.size());
+  }
 };
 
 double relativeError(const MatrixXd& got, const MatrixXd& want) {
@@ -282,6 +341,16 @@ TEST(RobotDerivatives, ImpulseSpaceOneContactIsAnalyticAndMatchesCentralDifferen
         cr::ContactPoint contact(1, 0, p, n, restitution(rng), mu_s, mu_d);
         contact.part_b = link;
         s.contacts = {contact};
+      }
+      {
+        SCOPED_TRACE(std::string(cr::toString(law)) + " trial " + std::to_string(trial) +
+                     ", integration tolerance 1e-14");
+        s.expectThePredictionOfTheSolver(options);
+      }
+      {
+        SCOPED_TRACE(std::string(cr::toString(law)) + " trial " + std::to_string(trial) +
+                     ", the default integration tolerance");
+        s.expectThePredictionOfTheSolver(withLaw(law));
       }
       const cr::BodyImpactDerivatives d = s.derivatives(options);
       ASSERT_EQ(d.method, cr::DerivativeMethod::kAnalytic);
@@ -453,6 +522,8 @@ TEST(RobotDerivatives, ShippedArmStrikingABoxTakesTheSeriesAndMatchesCentralDiff
                                               options.integration_tolerance, dP_du, dP_dc, mode,
                                               nullptr, &detail));
     EXPECT_TRUE(detail.series);
+    s.expectThePredictionOfTheSolver(options);
+    s.expectThePredictionOfTheSolver(withLaw(law));  // the benchmark's tolerance
 
     const cr::BodyImpactDerivatives d = s.derivatives(options);
     ASSERT_EQ(d.contacts[0].method, cr::DerivativeMethod::kAnalytic);

@@ -55,7 +55,10 @@ struct BodyImpactDerivatives {
 ///   mode (no impulse, sticking, sliding on a pyramid edge or facet per contact;
 ///   differentiateNewtonIsland());
 /// - one contact under Poisson or Stronge integrated to its end: the integration's sensitivity
-///   (differentiateImpulseSpace());
+///   (differentiateImpulseSpace()). A call with that one contact alone (automatic solver,
+///   integration tolerance in [1e-12, 1e-10]) takes the sensitivity first and, where it took only
+///   closed forms and the stick-approach series, writes the prediction from it (the same answer
+///   to round-off, report included) instead of running the solver;
 /// - islands without an impulse (nothing approaching, resting contacts): the identity.
 /// Everything else (the iterative solver or the exact solver's iterative fallback, several
 /// contacts under Poisson or Stronge, the one-pass law, a singular K, redundant contacts sliding

@@ -17,6 +17,16 @@ struct ImpulseSpaceSensitivityDetail {
   bool series = false;
   /// The series' order (StickApproach::order()) when `series`.
   int series_order = 0;
+  /// A turning slip was ended where it fell below 1e-13 of |u| (the sensitivity's own stop; the
+  /// prediction ends such a slip by its closed-form last piece or integrates on).
+  bool threshold_stop = false;
+  /// Pieces of constant contact mode, counted as integrateSingleContact() counts them
+  /// (ImpulseSpaceDetail::segments).
+  std::size_t segments = 0;
+  /// p_c, the normal impulse at maximum compression [N s], and W_c, the work of the normal
+  /// impulse to it [J] (<= 0), as ImpulseSpaceDetail has them (0 without an impulse).
+  double compression_impulse = 0.0;
+  double compression_work = 0.0;
 };
 
 /// Analytic derivatives of the impulse of one isolated contact under the impulse-space laws
