@@ -195,7 +195,7 @@ bool predictLoneContact(const std::vector<BodyModel*>& bodies,
   none.impulses.resize(1);
   lone.s = contactSpace(bodies, contacts, {0}, out.velocity_offset, N, before, before, none);
   NewtonIsland& s = lone.s;
-  const Eigen::Vector3d u = s.u[0];
+  const Eigen::Vector3d u = s.state[0].u;
   const double u_n = contact.normal.dot(u);
   // Approaching beyond round-off (a touching contact goes to the resting solver).
   if (!(u_n < -1e-12 * u.norm())) return false;
@@ -228,9 +228,9 @@ bool predictLoneContact(const std::vector<BodyModel*>& bodies,
   impulse.sticking = lone.mode.mode == ImpactMode::kSticking;
   const VectorXd after = before + s.MinvJt * P;
   setVelocities(bodies, out.velocity_offset, after);
-  s.u_after.assign(1, u + s.J * (after - before));
-  s.P.assign(1, P);
-  impulse.normal_velocity_after = contact.normal.dot(s.u_after[0]);
+  s.state[0].u_after = u + s.J * (after - before);
+  s.state[0].P = P;
+  impulse.normal_velocity_after = contact.normal.dot(s.state[0].u_after);
   const double w = contact.normal.dot(W * contact.normal);
   result.effective_masses.assign(1, w > 0.0 ? 1.0 / w : std::numeric_limits<double>::infinity());
   SolveReport report;
