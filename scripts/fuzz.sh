@@ -143,7 +143,7 @@ core_sources=(src/core/*.cpp src/detection/*.cpp)
 # What identify reads before it fits: the object file, the CSV recordings, the landings.
 identify_sources=(src/calibration/csv_tracks.cpp src/calibration/flight_fit.cpp
   src/calibration/landing_extraction.cpp src/calibration/object_file.cpp
-  src/calibration/object_model.cpp src/calibration/simple_yaml.cpp)
+  src/calibration/object_model.cpp src/calibration/simple_yaml.cpp src/calibration/stl_file.cpp)
 robot_libs=(-lfcl -lccd -lorocos-kdl -lkdl_parser -lurdf -lurdfdom_model -lresource_retriever
   -lgeometric_shapes -lroslib -lrostime -lroscpp_serialization -lconsole_bridge)
 robot_sources=(src/robot/*.cpp src/ros/message_conversion.cpp src/ros/joint_state_cache.cpp
