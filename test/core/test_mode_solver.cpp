@@ -340,7 +340,8 @@ TEST(ModeSolver, PyramidGaugeRebuildsTheFrictionImpulse) {
 TEST(ModeSolver, AgreesWithLemkeOnRandomSmallIslands) {
   std::mt19937 rng(20260417);
   int answered = 0, compared = 0, fell_back = 0, several = 0, lemke_unchecked = 0;
-  int modes[3] = {0, 0, 0};  // separating, sticking, sliding contacts in the answers
+  // separating, sticking, sliding on a pyramid edge, sliding on a facet: contacts in the answers
+  int modes[4] = {0, 0, 0, 0};
   for (int trial = 0; trial < 3000; ++trial) {
     const Island island = randomIsland(rng, trial);
     std::vector<int> first;
@@ -395,8 +396,9 @@ TEST(ModeSolver, AgreesWithLemkeOnRandomSmallIslands) {
   std::printf(
       "mode solver: %d of 3000 answered (%d compared with Lemke, %d of them another of several "
       "LCP solutions; of those Lemke's failing the check at 1e-6: %d), %d fell back; contacts "
-      "separating %d, sticking %d, sliding %d\n",
-      answered, compared, several, lemke_unchecked, fell_back, modes[0], modes[1], modes[2]);
+      "separating %d, sticking %d, sliding %d (on a facet %d)\n",
+      answered, compared, several, lemke_unchecked, fell_back, modes[0], modes[1], modes[2],
+      modes[3]);
   EXPECT_LE(several, compared / 100);
   EXPECT_GE(answered, 2000);
   EXPECT_GE(compared, 1900);
