@@ -132,7 +132,7 @@ class EmbeddingTest : public ::testing::Test {
                                             const cr::ComputeResponse::Request& request) {
     cr::ComputeResponse srv;
     srv.request = request;
-    EXPECT_TRUE(ros::service::call(ns + "/compute", srv)) << ns << ": the call itself failed";
+    EXPECT_TRUE(callService(ns + "/compute", srv)) << ns << ": the call itself failed";
     return srv.response;
   }
 
@@ -140,7 +140,7 @@ class EmbeddingTest : public ::testing::Test {
                                               const cr::ComputeBatch::Request& request) {
     cr::ComputeBatch srv;
     srv.request = request;
-    EXPECT_TRUE(ros::service::call(ns + "/compute_batch", srv)) << ns << ": the call failed";
+    EXPECT_TRUE(callService(ns + "/compute_batch", srv)) << ns << ": the call failed";
     return srv.response;
   }
 
@@ -340,7 +340,7 @@ TEST_F(EmbeddingTest, DynamicReconfigureChangesTheDefaultLaw) {
     parameter.name = "law";
     parameter.value = law;
     srv.request.config.strs.push_back(parameter);
-    EXPECT_TRUE(ros::service::call(kNodelet + "/set_parameters", srv));
+    EXPECT_TRUE(callService(kNodelet + "/set_parameters", srv));
     for (const auto& p : srv.response.config.strs)
       if (p.name == "law") return p.value;
     return std::string("(no law in the answer)");

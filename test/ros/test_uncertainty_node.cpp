@@ -164,7 +164,7 @@ TEST(UncertaintyBatchTest, BatchSceneCarriesTheDistributionOfAnUncertainRestitut
   uncertain.uncertainties = {u};
   const double e_plain = 0.8;
   srv.request.scenes = {uncertain, headOnSpheres(e_plain)};
-  ASSERT_TRUE(ros::service::call("/collision_response/compute_batch", srv));
+  ASSERT_TRUE(callService("/collision_response/compute_batch", srv));
   ASSERT_TRUE(srv.response.success) << srv.response.message;
   ASSERT_EQ(srv.response.results.size(), 2u);
 
