@@ -141,7 +141,7 @@ compile() {  # source -> object; prints the object
 }
 core_sources=(src/core/*.cpp src/detection/*.cpp)
 # What identify reads before it fits: the object file, the CSV recordings, the landings.
-identify_sources=(src/calibration/csv_tracks.cpp src/calibration/flight_fit.cpp
+identify_sources=(src/calibration/csv_lines.cpp src/calibration/csv_tracks.cpp src/calibration/flight_fit.cpp
   src/calibration/landing_extraction.cpp src/calibration/object_file.cpp
   src/calibration/object_model.cpp src/calibration/simple_yaml.cpp src/calibration/stl_file.cpp)
 robot_libs=(-lfcl -lccd -lorocos-kdl -lkdl_parser -lurdf -lurdfdom_model -lresource_retriever

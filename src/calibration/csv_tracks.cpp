@@ -1,6 +1,6 @@
 #include "collision_response/calibration/csv_tracks.h"
 
-#include <zlib.h>
+#include "collision_response/calibration/csv_lines.h"
 
 #include <algorithm>
 #include <cmath>
@@ -25,30 +25,13 @@ int numberInName(const std::string& path) {
 }
 
 void readFile(const std::string& path, int fallback_number, std::vector<NumberedTrack>& out) {
-  gzFile file = gzopen(path.c_str(), "rb");  // reads plain files too
-  if (file == nullptr) throw std::runtime_error(path + ": cannot open");
-  struct Closer {
-    gzFile f;
-    ~Closer() { gzclose(f); }
-  } closer{file};
-  std::string line;
-  char buffer[4096];
-  int line_number = 0;
+  CsvLines lines(path);
   bool numbered = false;  // the toss column is present
   const size_t first_out = out.size();
-  auto fail = [&](const std::string& what) {
-    throw std::runtime_error(path + ":" + std::to_string(line_number) + ": " + what);
-  };
-  while (gzgets(file, buffer, sizeof buffer) != nullptr) {
-    line = buffer;
-    while (!line.empty() && line.back() != '\n' && !gzeof(file)) {
-      if (gzgets(file, buffer, sizeof buffer) == nullptr) break;
-      line += buffer;
-    }
-    ++line_number;
-    while (!line.empty() && (line.back() == '\n' || line.back() == '\r' || line.back() == ' '))
-      line.pop_back();
-    if (line_number == 1) {
+  auto fail = [&](const std::string& what) { lines.fail(what); };
+  while (lines.next()) {
+    const std::string& line = lines.line();
+    if (lines.number() == 1) {
       if (line == "toss,t,x,y,z,qw,qx,qy,qz")
         numbered = true;
       else if (line != "t,x,y,z,qw,qx,qy,qz")
@@ -58,21 +41,8 @@ void readFile(const std::string& path, int fallback_number, std::vector<Numbered
     if (line.empty()) continue;
     const int count = numbered ? 9 : 8;
     double v[9];
-    const char* p = line.c_str();
-    for (int i = 0; i < count; ++i) {
-      char* end = nullptr;
-      v[i] = std::strtod(p, &end);
-      if (end == p) fail("not " + std::to_string(count) + " comma-separated numbers");
-      if (!std::isfinite(v[i]))
-        fail(std::string("non-finite value in column ") + kColumns[i + (numbered ? 0 : 1)]);
-      p = end;
-      if (i + 1 < count) {
-        if (*p != ',') fail("not " + std::to_string(count) + " comma-separated numbers");
-        ++p;
-      }
-    }
-    while (*p == ' ') ++p;
-    if (*p != '\0') fail("not " + std::to_string(count) + " comma-separated numbers");
+    lines.numbers(
+        count, [&](int i) { return std::string(kColumns[i + (numbered ? 0 : 1)]); }, v);
     // row[1] is t, with or without the toss column (row[0] unused without it).
     double row[9];
     std::copy(v, v + count, row + (numbered ? 0 : 1));
@@ -96,8 +66,6 @@ void readFile(const std::string& path, int fallback_number, std::vector<Numbered
     track.position.emplace_back(row[2], row[3], row[4]);
     track.orientation.push_back(q.normalized());
   }
-  if (gzeof(file) == 0) throw std::runtime_error(path + ": read error (corrupt gzip?)");
-  if (line_number == 0) throw std::runtime_error(path + ": empty file");
 }
 
 bool isCsv(const std::string& name) {

@@ -114,6 +114,39 @@ TEST_F(IdentifyInputs, ReadsBothCsvLayouts) {
   EXPECT_EQ(c.size(), 3u);
 }
 
+// The line reader both recordings' readers share (CsvLines): a line longer than its 4 KiB read
+// buffer, CRLF line ends, a gzip file cut short, an empty file.
+TEST_F(IdentifyInputs, CsvLinesReadsLongCrlfLinesAndNamesBrokenFiles) {
+  const std::string long_x = std::string(5000, '0') + "1.5";  // 1.5 in 5,003 characters
+  const std::string text =
+      "t,x,y,z,qw,qx,qy,qz\r\n0," + long_x + ",2,3,1,0,0,0\r\n0.5,1,2,4,1,0,0,0\r\n";
+  const auto tracks = readCsvTracks(write("long.csv", text));
+  ASSERT_EQ(tracks.size(), 1u);
+  ASSERT_EQ(tracks[0].track.size(), 2);
+  EXPECT_EQ(tracks[0].track.position[0].x(), 1.5);
+  EXPECT_EQ(tracks[0].track.position[1].z(), 4.0);
+
+  // The same text gzip-compressed, then cut to half its length: a read error, not a short track.
+  const std::string plain = write("cut.csv", text + text.substr(text.find('\n') + 1));
+  ASSERT_EQ(std::system(("gzip -kf " + plain).c_str()), 0);
+  const std::string gz = plain + ".gz";
+  fs::resize_file(gz, fs::file_size(gz) / 2);
+  try {
+    readCsvTracks(gz);
+    ADD_FAILURE() << "a truncated gzip file was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(gz + ":", 0), 0u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("read error"), std::string::npos) << e.what();
+  }
+  const std::string empty = write("empty.csv", "");
+  try {
+    readCsvTracks(empty);
+    ADD_FAILURE() << "an empty file was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(empty + ": empty file"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(IdentifyInputs, NonFiniteSampleNamesFileLineAndColumn) {
   const std::string path =
       write("bad.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,1,1,0,0,0\n0.1,0,0,1,1,nan,0,0\n");
