@@ -56,12 +56,19 @@ std::vector<ContactPoint> normalized(const std::vector<ContactPoint>& given) {
   return contacts;
 }
 
+ImpactMode modeOf(const ContactImpulse& impulse) {
+  if (!(impulse.normal_impulse > 0.0)) return ImpactMode::kNoImpulse;
+  return impulse.sticking ? ImpactMode::kSticking : ImpactMode::kSliding;
+}
+
 // The outputs (rows of the layout) of one solve from the velocities `before`.
 // `end`: when the call's one time budget (options.time_budget, from the start of
 // computeBodyImpactDerivatives()) runs out; each perturbed solve gets what is left of it.
+// `modes` (if given) receives each contact's mode in that solve.
 VectorXd evaluate(const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& contacts,
                   const SolverOptions& options, std::chrono::steady_clock::time_point end,
-                  const VectorXd& before, const std::vector<int>& offset, Index velocity_count) {
+                  const VectorXd& before, const std::vector<int>& offset, Index velocity_count,
+                  std::vector<ImpactMode>* modes = nullptr) {
   SolverOptions remaining = options;
   remaining.time_budget =
       std::chrono::duration<double>(end - std::chrono::steady_clock::now()).count();
@@ -78,12 +85,11 @@ VectorXd evaluate(const std::vector<BodyModel*>& bodies, const std::vector<Conta
     out(row) = result.impulses[c].normal_impulse;
     out.segment<3>(row + 1) = result.impulses[c].friction_impulse;
   }
+  if (modes != nullptr) {
+    modes->clear();
+    for (const ContactImpulse& impulse : result.impulses) modes->push_back(modeOf(impulse));
+  }
   return out;
-}
-
-ImpactMode modeOf(const ContactImpulse& impulse) {
-  if (!(impulse.normal_impulse > 0.0)) return ImpactMode::kNoImpulse;
-  return impulse.sticking ? ImpactMode::kSticking : ImpactMode::kSliding;
 }
 
 // The contacts of one island in contact space over all the bodies' unknowns (N columns, the
@@ -300,11 +306,64 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
   return true;
 }
 
+// The configuration coordinates' columns (the last K of out.jacobian): central differences of
+// solve(contacts, modes) with each coordinate at value +- h, one-sided where one side changes a
+// contact's mode (docs/robots.md, "Derivatives of robot impacts"), against the outputs at the
+// coordinates' values (solved again, once, when a column needs them); every coordinate ends at its
+// value. `solve` starts each solve from the velocities before the impact.
+template <class Solve>
+void differenceCoordinates(const std::vector<ConfigurationCoordinate>& coordinates,
+                           const std::vector<ContactPoint>& contacts, const Solve& solve,
+                           BodyImpactDerivatives& out) {
+  if (coordinates.empty()) return;
+  const Index N = out.velocity_count, C = static_cast<Index>(contacts.size());
+  std::vector<ImpactMode> nominal_modes;
+  VectorXd nominal;  // the outputs at the coordinates' values, solved once if a column needs them
+  std::vector<ImpactMode> plus_modes, minus_modes;
+  for (std::size_t k = 0; k < coordinates.size(); ++k) {
+    const ConfigurationCoordinate& coordinate = coordinates[k];
+    const double h = kStep * std::max(1.0, std::abs(coordinate.value));
+    coordinate.set(coordinate.value + h);
+    const VectorXd plus = solve(contacts, &plus_modes);
+    coordinate.set(coordinate.value - h);
+    const VectorXd minus = solve(contacts, &minus_modes);
+    coordinate.set(coordinate.value);
+    std::vector<std::size_t> switched;  // contacts whose mode changed on either side
+    bool plus_same = true, minus_same = true;
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      const bool p = plus_modes[c] == out.contacts[c].mode,
+                 m = minus_modes[c] == out.contacts[c].mode;
+      plus_same = plus_same && p;
+      minus_same = minus_same && m;
+      if (!p || !m) switched.push_back(c);
+    }
+    const Index column = N + 3 * C + static_cast<Index>(k);
+    if (plus_same == minus_same) {
+      out.jacobian.col(column) = (plus - minus) / (2.0 * h);
+    } else {
+      if (nominal.size() == 0) nominal = solve(contacts, &nominal_modes);
+      out.jacobian.col(column) =
+          plus_same ? VectorXd((plus - nominal) / h) : VectorXd((nominal - minus) / h);
+    }
+    for (const std::size_t c : switched) {
+      ContactDerivativeMode& mode = out.contacts[c];
+      mode.at_switch = true;
+      const char* detail = plus_same == minus_same
+                               ? "a configuration coordinate's column crosses a mode switch"
+                               : "a configuration coordinate's column is one-sided (a mode switch)";
+      if (mode.switch_detail.find(detail) == std::string::npos) {
+        if (!mode.switch_detail.empty()) mode.switch_detail += "; ";
+        mode.switch_detail += detail;
+      }
+    }
+  }
+}
+
 }  // namespace
 
-BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>& bodies,
-                                                   const std::vector<ContactPoint>& given,
-                                                   const SolverOptions& options) {
+BodyImpactDerivatives computeBodyImpactDerivatives(
+    const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& given,
+    const SolverOptions& options, const std::vector<ConfigurationCoordinate>& coordinates) {
   const std::vector<ContactPoint> contacts = normalized(given);
   BodyImpactDerivatives out;
   out.velocity_offset.assign(bodies.size(), -1);
@@ -326,7 +385,8 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
   }
   const VectorXd after = velocities(bodies, out.velocity_offset, N);
   out.contact_count = contacts.size();
-  out.jacobian.setZero(N + 4 * C, N + 3 * C);
+  out.coordinate_count = static_cast<Index>(coordinates.size());
+  out.jacobian.setZero(N + 4 * C, N + 3 * C + out.coordinate_count);
   out.jacobian.topLeftCorner(N, N).setIdentity();
   out.contacts.resize(contacts.size());
   for (std::size_t c = 0; c < contacts.size(); ++c)
@@ -410,8 +470,15 @@ BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>
       }
     }
   }
+  differenceCoordinates(
+      coordinates, contacts,
+      [&](const std::vector<ContactPoint>& cs, std::vector<ImpactMode>* modes) {
+        return evaluate(bodies, cs, options, end, before, out.velocity_offset, N, modes);
+      },
+      out);
   // The prediction's velocities, as computeBodyResponse() leaves them (the differences moved them).
-  if (!fd_columns.empty()) setVelocities(bodies, out.velocity_offset, after);
+  if (!fd_columns.empty() || !coordinates.empty())
+    setVelocities(bodies, out.velocity_offset, after);
   return out;
 }
 

@@ -17,6 +17,7 @@
 #include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/validation.h"
+#include "collision_response/robot/joint_position_coordinates.h"
 #include "collision_response/ros/message_conversion.h"
 #include "collision_response/ros/robot_conversion.h"
 #include "collision_response/ros/robot_uncertainty.h"
@@ -326,6 +327,10 @@ void CollisionResponseServer::solveRigid(const ComputeResponse::Request& request
   }
   const auto start = std::chrono::steady_clock::now();
   core::CollisionResult result;
+  if (request.options.joint_position_derivatives) {
+    response.warnings.push_back(
+        "options.joint_position_derivatives: ignored: the request has no robot");
+  }
   if (request.options.derivatives) {
     // The prediction comes with its Jacobians (validated once more by the library: cheap next to
     // the 2 to 4 solves per column its finite differences may take).
@@ -451,11 +456,27 @@ void CollisionResponseServer::solveBodyModels(const ComputeResponse::Request& re
   core::BodyResponse result;
   if (request.options.derivatives) {
     // With its Jacobians (docs/robots.md, "Derivatives of robot impacts").
+    // The joint positions' columns on request (options.joint_position_derivatives).
+    std::vector<core::ConfigurationCoordinate> coordinates;
+    std::vector<std::pair<int, int>> coordinate_joints;  // (robot, joint) per coordinate
+    if (request.options.joint_position_derivatives) {
+      for (std::size_t r = 0; r < robots.size(); ++r) {
+        std::vector<int> joints;
+        for (core::ConfigurationCoordinate& coordinate :
+             robot::jointPositionCoordinates(*robots[r].model, &joints))
+          coordinates.push_back(std::move(coordinate));
+        for (const int joint : joints) coordinate_joints.emplace_back(static_cast<int>(r), joint);
+      }
+    }
     core::BodyImpactDerivatives derivatives =
-        core::computeBodyImpactDerivatives(models, points, options);
-    response.derivatives = toMsg(derivatives, rigid_count, robots);
+        core::computeBodyImpactDerivatives(models, points, options, coordinates);
+    response.derivatives = toMsg(derivatives, rigid_count, robots, coordinate_joints);
     result = std::move(derivatives.result);
   } else {
+    if (request.options.joint_position_derivatives) {
+      response.warnings.push_back(
+          "options.joint_position_derivatives: ignored without options.derivatives");
+    }
     result = core::computeBodyResponse(models, points, options);
   }
   response.solve_time =

@@ -17,6 +17,11 @@ void checkEpisodeRequest(const ComputeEpisode::Request& request) {
                              "episodes do not differentiate their impacts: ask ~compute for one "
                              "impact with derivatives");
   }
+  if (request.options.joint_position_derivatives) {
+    throw core::InvalidInput("options.joint_position_derivatives",
+                             "episodes do not differentiate their impacts: ask ~compute for one "
+                             "impact with derivatives");
+  }
   if (request.options.uncertainty != SolverOptions::UNCERTAINTY_NONE) {
     throw core::InvalidInput("options.uncertainty",
                              "episodes do not propagate uncertain coefficients: ask ~compute for "

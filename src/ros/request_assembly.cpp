@@ -316,7 +316,8 @@ std::vector<std::string> velocityLabels(const std::vector<int>& velocity_offset,
 }
 
 ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
-                        const std::vector<RequestRobot>& robots) {
+                        const std::vector<RequestRobot>& robots,
+                        const std::vector<std::pair<int, int>>& coordinate_joints) {
   std::vector<std::string> rows = velocityLabels(derivatives.velocity_offset, rigid_count, robots);
   std::vector<std::string> columns = rows;
   for (std::size_t c = 0; c < derivatives.contact_count; ++c) {
@@ -326,6 +327,10 @@ ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigi
     const std::string contact = "contacts[" + std::to_string(c) + "].";
     for (const char* field : {"restitution", "static_friction", "dynamic_friction"})
       columns.push_back(contact + field);
+  }
+  for (const auto& [robot, joint] : coordinate_joints) {
+    columns.push_back("robots[" + std::to_string(robot) + "].joint_state.position[" +
+                      std::to_string(joint) + "]");
   }
   return derivativesMsg(derivatives.method, derivatives.jacobian, std::move(rows),
                         std::move(columns), derivatives.contacts);

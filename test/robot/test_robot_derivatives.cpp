@@ -16,7 +16,9 @@
 #include "collision_response/core/impulse_space_derivatives.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/joint_position_coordinates.h"
 #include "collision_response/robot/urdf_loader.h"
+#include "two_link_arm.h"
 
 namespace cr = collision_response::core;
 namespace rb = collision_response::robot;
@@ -536,5 +538,179 @@ TEST(RobotDerivatives, ShippedArmStrikingABoxTakesTheSeriesAndMatchesCentralDiff
       EXPECT_LE((d.jacobian.col(k) - want.col(k)).cwiseAbs().maxCoeff(), 1e-6 * scale)
           << "column " << k;
     }
+  }
+}
+
+// Derivatives with respect to the joint positions (robot/joint_position_coordinates.h), the contact
+// point and normal held in the world. The 2R arm of two_link.urdf at q = (0.4, 1.1), qdot = (0.5,
+// -0.3), struck at the world point p where its tip is at that q, frictionless, e = 0.5, against an
+// immovable wall with normal n. Closed form written here: the Jacobian of link 2's material point
+// at world p is [z x p, z x (p - o2(q1))], o2 = l1 (cos q1, sin q1) (the elbow); M(q) from the
+// textbook (two_link_arm.h); P = -(1 + e) n.J qdot / (n^T J M^-1 J^T n), qdot' = qdot + M^-1 J^T n
+// P. Its central differences in q (step 1e-5: the closed form is smooth) are the reference.
+namespace {
+struct TwoLinkAtAWorldPoint {
+  Eigen::Vector2d p, n;
+  Eigen::Vector2d qdot{0.5, -0.3};
+  double e = 0.5;
+  // (qdot1', qdot2', P) at q.
+  Eigen::Vector3d outcome(const Eigen::Vector2d& q) const {
+    const auto zCross = [](const Eigen::Vector2d& r) { return Eigen::Vector2d(-r.y(), r.x()); };
+    const Eigen::Vector2d elbow = two_link::l1 * Eigen::Vector2d(std::cos(q(0)), std::sin(q(0)));
+    Eigen::Matrix2d J;
+    J.col(0) = zCross(p);
+    J.col(1) = zCross(p - elbow);
+    const Eigen::Matrix2d M = two_link::massMatrix(q(1));
+    const Eigen::Vector2d Jtn = J.transpose() * n;
+    const double P = -(1 + e) * n.dot(J * qdot) / Jtn.dot(M.inverse() * Jtn);
+    Eigen::Vector3d out;
+    out << qdot + M.inverse() * Jtn * P, P;
+    return out;
+  }
+  // d outcome / d q by central differences.
+  Eigen::Matrix<double, 3, 2> reference(const Eigen::Vector2d& q) const {
+    Eigen::Matrix<double, 3, 2> d;
+    for (int k = 0; k < 2; ++k) {
+      Eigen::Vector2d plus = q, minus = q;
+      plus(k) += 1e-5;
+      minus(k) -= 1e-5;
+      d.col(k) = (outcome(plus) - outcome(minus)) / 2e-5;
+    }
+    return d;
+  }
+  // The arm of two_link.urdf at q, qdot and the contact at p, n (the wall body 0, the arm's link 2
+  // body 1); the contact is written to `contact`.
+  rb::ArticulatedBody arm(const Eigen::Vector2d& q, cr::ContactPoint& contact) const {
+    rb::ArticulatedBody out = rb::robotFromUrdfFile(std::string(ROBOT_TEST_DIR) + "/two_link.urdf");
+    out.setState(q, qdot);
+    contact =
+        cr::ContactPoint(0, 1, Vector3d(p.x(), p.y(), 0), Vector3d(n.x(), n.y(), 0), e, 0.0, 0.0);
+    contact.part_b = out.linkIndex("fore");
+    return out;
+  }
+};
+}  // namespace
+
+TEST(RobotDerivatives, JointPositionColumnsMatchTheTwoLinkClosedForm) {
+  const Eigen::Vector2d q(0.4, 1.1);
+  TwoLinkAtAWorldPoint scene;
+  scene.p = two_link::tip(q(0), q(1));
+  scene.n = -(two_link::tipJacobian(q(0), q(1)) * scene.qdot).normalized();  // into the wall
+  const Eigen::Matrix<double, 3, 2> want = scene.reference(q);
+  ASSERT_GT(want.cwiseAbs().maxCoeff(), 0.1);  // q matters here
+
+  cr::ContactPoint contact;
+  rb::ArticulatedBody arm = scene.arm(q, contact);
+  cr::RigidBody wall;
+  std::vector<int> joints;
+  const std::vector<cr::ConfigurationCoordinate> coordinates =
+      rb::jointPositionCoordinates(arm, &joints);
+  ASSERT_EQ(joints, (std::vector<int>{0, 1}));
+  const cr::BodyImpactDerivatives d =
+      cr::computeBodyImpactDerivatives({&wall, &arm}, {contact}, {}, coordinates);
+  ASSERT_EQ(d.coordinate_count, 2);
+  ASSERT_EQ(d.jacobian.cols(), 2 + 3 + 2);
+  // (mu = 0 sits at its bound: that column's flag, not a configuration's)
+  EXPECT_EQ(d.contacts[0].switch_detail.find("configuration"), std::string::npos)
+      << d.contacts[0].switch_detail;
+  const MatrixXd got = d.jacobian.block(0, 5, 3, 2);  // qdot1', qdot2', P by q1, q2
+  EXPECT_LE((got - want).cwiseAbs().maxCoeff(), 1e-6 * want.cwiseAbs().maxCoeff())
+      << "got\n"
+      << got << "\nwant\n"
+      << want;
+  EXPECT_LE((d.velocitiesByCoordinates() - want.topRows(2)).cwiseAbs().maxCoeff(),
+            1e-6 * want.cwiseAbs().maxCoeff());
+  // The arm ends at its q and at the prediction's velocities (the closed form's).
+  EXPECT_EQ(arm.jointPositions(), VectorXd(q));
+  EXPECT_LE((arm.jointVelocities() - scene.outcome(q).head(2)).cwiseAbs().maxCoeff(), 1e-12);
+  // The velocity and coefficient columns are unchanged by the extra columns.
+  arm.setState(q, scene.qdot);
+  const cr::BodyImpactDerivatives plain =
+      cr::computeBodyImpactDerivatives({&wall, &arm}, {contact});
+  EXPECT_EQ(plain.jacobian, d.jacobian.leftCols(5));
+}
+
+// At a mode switch: the tip barely approaches the wall (n.J qdot = -1e-9 m/s), so that moving q1 by
+// the difference step one way makes it separate (no impulse). The column is then one-sided on the
+// impulse's side, equal to the closed form's derivative there, and the contact says so.
+TEST(RobotDerivatives, JointPositionColumnAtASeparationSwitchIsOneSided) {
+  const Eigen::Vector2d q(0.4, 1.1);
+  TwoLinkAtAWorldPoint scene;
+  scene.p = two_link::tip(q(0), q(1));
+  const Eigen::Matrix2d J = two_link::tipJacobian(q(0), q(1));
+  // n along the tip's velocity turned by 90 degrees, tilted so that n.J qdot = -1e-9.
+  const Eigen::Vector2d v = J * scene.qdot;
+  const Eigen::Vector2d side(-v.y(), v.x());
+  scene.n = (side.normalized() - 1e-9 / v.norm() * v.normalized()).normalized();
+  ASSERT_LT(scene.n.dot(v), 0.0);
+  ASSERT_GT(scene.n.dot(v), -2e-9);
+  const Eigen::Matrix<double, 3, 2> want = scene.reference(q);  // the impulse side's (smooth)
+
+  cr::ContactPoint contact;
+  rb::ArticulatedBody arm = scene.arm(q, contact);
+  cr::RigidBody wall;
+  const cr::BodyImpactDerivatives d = cr::computeBodyImpactDerivatives(
+      {&wall, &arm}, {contact}, {}, rb::jointPositionCoordinates(arm));
+  EXPECT_TRUE(d.contacts[0].at_switch);
+  EXPECT_NE(d.contacts[0].switch_detail.find("one-sided"), std::string::npos)
+      << d.contacts[0].switch_detail;
+  const MatrixXd got = d.jacobian.block(0, 5, 3, 2);
+  EXPECT_LE((got - want).cwiseAbs().maxCoeff(), 1e-4 * want.cwiseAbs().maxCoeff())
+      << "got\n"
+      << got << "\nwant\n"
+      << want;
+}
+
+// The shipped arm struck on the hand by a sphere with friction (Newton: analytic; Stronge: the
+// series), the joint-position columns against the test's own central differences of
+// computeBodyResponse() with the arm set to q +- h (setState) here, 1e-6 relative.
+TEST(RobotDerivatives, ShippedArmJointPositionColumnsMatchCentralDifferences) {
+  std::mt19937 rng(11);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kNewton, cr::ImpactLaw::kStronge}) {
+    rb::ArticulatedBody arm = randomArm(rng);
+    const int hand = arm.linkIndex("hand");
+    const Vector3d p = arm.linkPose(hand).translation();
+    const Vector3d normal = (Vector3d(0.3, -0.2, 1.0)).normalized();  // from the hand to the ball
+    cr::RigidBody ball = sphere(0.5, 0.05, p + 0.05 * normal, -1.5 * normal + Vector3d(0.4, 0, 0));
+    cr::ContactPoint contact(0, 1, p, normal, 0.5, 0.6, 0.5);
+    contact.part_a = hand;
+    cr::SolverOptions options = withLaw(law);
+    options.integration_tolerance = 1e-14;
+    const VectorXd q = arm.jointPositions(), qdot = arm.jointVelocities();
+    const int n = arm.velocityCount();
+    const auto outputs = [&](const VectorXd& at) {
+      rb::ArticulatedBody a = arm;
+      a.setState(at, qdot);
+      cr::RigidBody b = ball;
+      const cr::BodyResponse r = cr::computeBodyResponse({&a, &b}, {contact}, options);
+      VectorXd out(n + 6 + 4);
+      out << a.velocity(), b.velocity(), r.impulses[0].normal_impulse,
+          r.impulses[0].friction_impulse;
+      return out;
+    };
+    std::vector<int> joints;
+    rb::ArticulatedBody differentiated = arm;
+    cr::RigidBody struck = ball;
+    const cr::BodyImpactDerivatives d =
+        cr::computeBodyImpactDerivatives({&differentiated, &struck}, {contact}, options,
+                                         rb::jointPositionCoordinates(differentiated, &joints));
+    ASSERT_EQ(static_cast<int>(joints.size()), arm.jointCount());  // no mimic joints
+    ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    MatrixXd want(n + 10, arm.jointCount());
+    for (int k = 0; k < arm.jointCount(); ++k) {
+      VectorXd plus = q, minus = q;
+      plus(k) += 1e-6;
+      minus(k) -= 1e-6;
+      want.col(k) = (outputs(plus) - outputs(minus)) / 2e-6;
+    }
+    const MatrixXd got = d.jacobian.rightCols(arm.jointCount());
+    const double largest = want.cwiseAbs().maxCoeff();
+    ASSERT_GT(largest, 0.1);
+    for (int k = 0; k < arm.jointCount(); ++k) {
+      const double scale = std::max(want.col(k).cwiseAbs().maxCoeff(), 1e-3 * largest);
+      EXPECT_LE((got.col(k) - want.col(k)).cwiseAbs().maxCoeff(), 1e-6 * scale)
+          << cr::toString(law) << " joint " << k;
+    }
+    EXPECT_EQ(differentiated.jointPositions(), q);
   }
 }

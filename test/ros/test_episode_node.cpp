@@ -383,6 +383,10 @@ TEST_F(EpisodeNodeTest, BadInputIsNamed) {
   request.options.derivatives = true;  // only ~compute differentiates an impact
   expectRejected(request, "options.derivatives");
 
+  request = drop(0.2, 0.5);
+  request.options.joint_position_derivatives = true;
+  expectRejected(request, "options.joint_position_derivatives");
+
   // Values the bodies' checks of ~compute refuse are refused here alike.
   request = drop(0.2, 0.5);
   request.bodies[1].inertia.m = -1.0;

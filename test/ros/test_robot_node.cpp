@@ -21,8 +21,10 @@
 #include <string>
 
 #include "arm_strike.h"
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/robot/joint_position_coordinates.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "collision_response/ros/message_conversion.h"
 #include "node_test_messages.h"
@@ -437,6 +439,64 @@ TEST_F(RobotNodeTest, DerivativesWithRobotsThroughTheService) {
   EXPECT_EQ(frictional.derivatives.column_labels, d.column_labels);
   ASSERT_EQ(frictional.derivatives.contacts.size(), 1u);
   EXPECT_EQ(frictional.derivatives.contacts[0].method, "analytic");
+
+  // The joint positions' columns on request (options.joint_position_derivatives), appended after
+  // the coefficients' (the others unchanged): against the library's own call here on the same
+  // arm and box (robot/joint_position_coordinates.h; the physics is checked in
+  // test_robot_derivatives against closed forms).
+  srv.request.options.joint_position_derivatives = true;
+  const auto with_q = call(srv);
+  ASSERT_TRUE(with_q.success) << with_q.message;
+  const cr::ImpactDerivatives& dq = with_q.derivatives;
+  ASSERT_EQ(dq.rows, frictional.derivatives.rows);
+  ASSERT_EQ(dq.columns, static_cast<uint32_t>(6 + joints + 3 + joints));
+  for (int k = 0; k < joints; ++k) {
+    EXPECT_EQ(dq.column_labels[6 + joints + 3 + k],
+              "robots[0].joint_state.position[" + std::to_string(k) + "]");
+  }
+  for (uint32_t r = 0; r < dq.rows; ++r) {
+    for (uint32_t k = 0; k < frictional.derivatives.columns; ++k) {
+      EXPECT_EQ(dq.jacobian[r * dq.columns + k],
+                frictional.derivatives.jacobian[r * frictional.derivatives.columns + k]);
+    }
+  }
+  cr::robot::ArticulatedBody library_arm = publishedArm();
+  cr::core::RigidBody box;
+  box.inverse_mass = 0.5;
+  box.inverse_inertia = Eigen::Matrix3d::Identity() * 6.0 / (2.0 * 0.01);
+  box.com = strike.point + 0.05 * strike.normal;
+  cr::core::ContactPoint contact(0, 1, strike.point, strike.normal, 0.4, 0.5, 0.4);
+  contact.part_a = library_arm.linkIndex("hand");
+  cr::core::SolverOptions newton;
+  newton.law = cr::core::ImpactLaw::kNewton;
+  const cr::core::BodyImpactDerivatives library = cr::core::computeBodyImpactDerivatives(
+      {&library_arm, &box}, {contact}, newton, cr::robot::jointPositionCoordinates(library_arm));
+  // Library rows: the arm's unknowns, the box's twist, the impulse; the service's: the box first.
+  for (int k = 0; k < joints; ++k) {
+    const uint32_t column = 6 + joints + 3 + k;
+    const Eigen::Index library_column = joints + 6 + 3 + k;
+    const double scale = std::max(1.0, library.jacobian.col(library_column).cwiseAbs().maxCoeff());
+    for (int r = 0; r < joints; ++r) {
+      EXPECT_NEAR(dq.jacobian[(6 + r) * dq.columns + column], library.jacobian(r, library_column),
+                  1e-6 * scale)
+          << "joint velocity " << r << " by position " << k;
+    }
+    for (int r = 0; r < 6; ++r) {
+      EXPECT_NEAR(dq.jacobian[r * dq.columns + column],
+                  library.jacobian(joints + r, library_column), 1e-6 * scale)
+          << "box twist " << r << " by position " << k;
+    }
+  }
+
+  // Without derivatives, the flag is ignored and said so.
+  srv.request.options.derivatives = false;
+  const auto ignored = call(srv);
+  ASSERT_TRUE(ignored.success) << ignored.message;
+  EXPECT_TRUE(ignored.derivatives.jacobian.empty());
+  bool warned = false;
+  for (const std::string& warning : ignored.warnings)
+    warned = warned || warning.find("options.joint_position_derivatives") != std::string::npos;
+  EXPECT_TRUE(warned);
 }
 
 // The fraction of e in [a, b] (t = (e - a) / (b - a) in [0, 1]) with |x0 + t (x1 - x0)| > limit.

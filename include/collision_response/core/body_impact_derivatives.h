@@ -5,6 +5,7 @@
 
 #include "collision_response/core/body_model.h"
 #include "collision_response/core/body_response.h"
+#include "collision_response/core/configuration_coordinate.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/solver_options.h"
@@ -19,13 +20,15 @@ namespace collision_response::core {
 /// then its free joints' velocities, a rigid body's twist), body after body from
 /// `velocity_offset[b]` (bodies without unknowns have none), velocity_count rows in all; then per
 /// contact 4 rows: the normal impulse and the friction impulse x, y, z [N s, world].
-/// Columns: the same unknowns before the impact, then per contact e, mu_s, mu_d.
+/// Columns: the same unknowns before the impact, then per contact e, mu_s, mu_d, then the
+/// configuration coordinates the call was given (a robot's joint positions), in their order.
 struct BodyImpactDerivatives {
   BodyResponse result;               ///< the prediction (computeBodyResponse())
   std::vector<int> velocity_offset;  ///< per body: its first row / column, -1 without unknowns
   Eigen::Index velocity_count = 0;   ///< the unknowns of all bodies
   std::size_t contact_count = 0;
-  Eigen::MatrixXd jacobian;  ///< (velocity_count + 4C) x (velocity_count + 3C)
+  Eigen::Index coordinate_count = 0;  ///< K, the configuration coordinates' columns
+  Eigen::MatrixXd jacobian;           ///< (velocity_count + 4C) x (velocity_count + 3C + K)
   /// kAnalytic when every impacting contact was differentiated in closed form, else
   /// kFiniteDifference.
   DerivativeMethod method = DerivativeMethod::kAnalytic;
@@ -37,7 +40,12 @@ struct BodyImpactDerivatives {
   }
   /// d (velocities after) / d (e, mu_s, mu_d of each contact).
   Eigen::MatrixXd velocitiesByCoefficients() const {
-    return jacobian.topRightCorner(velocity_count, jacobian.cols() - velocity_count);
+    return jacobian.block(0, velocity_count, velocity_count,
+                          jacobian.cols() - velocity_count - coordinate_count);
+  }
+  /// d (velocities after) / d (each configuration coordinate).
+  Eigen::MatrixXd velocitiesByCoordinates() const {
+    return jacobian.topRightCorner(velocity_count, coordinate_count);
   }
 };
 
@@ -65,10 +73,19 @@ struct BodyImpactDerivatives {
 /// with friction) makes every column a central difference of computeBodyResponse() itself
 /// (one-sided where a coefficient sits at its bound), each contact reported kFiniteDifference;
 /// the differences are not mode-checked (a column across a stick/slip switch mixes both sides).
+/// The columns of `coordinates` (a robot's joint positions, robot/joint_position_coordinates.h)
+/// are central differences of computeBodyResponse() with the coordinate moved by +-h (h = 1e-6
+/// max(1, |value|)) and the contacts' points and normals held where they are in the world: the
+/// derivative of the impact at that contact when the bodies' models (M(q), the links' Jacobians at
+/// the point) change, not of where the bodies would touch. A column whose perturbed solve changes
+/// a contact's mode (no impulse, sticking, sliding) on one side is one-sided on the other (the
+/// contact reported at_switch); on both sides, central, mixing both modes, also reported. The
+/// coordinates end at their values.
 /// options.time_budget bounds the whole call (the prediction and every perturbed solve):
 /// SolverTimeout when it runs out. Throws what computeBodyResponse() throws.
-BodyImpactDerivatives computeBodyImpactDerivatives(const std::vector<BodyModel*>& bodies,
-                                                   const std::vector<ContactPoint>& contacts,
-                                                   const SolverOptions& options = {});
+BodyImpactDerivatives computeBodyImpactDerivatives(
+    const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& contacts,
+    const SolverOptions& options = {},
+    const std::vector<ConfigurationCoordinate>& coordinates = {});
 
 }  // namespace collision_response::core

@@ -167,8 +167,10 @@ std::vector<std::string> velocityLabels(const std::vector<int>& velocity_offset,
 /// "bodies[i].twist.linear.x" .. (the models before `rigid_count`, those with unknowns), each
 /// robot's unknowns "robots[r].base_twist.linear.x" .. (floating) and
 /// "robots[r].joint_state.velocity[j]" (a free joint, or a mimic group's root), the impulses and
-/// coefficients per contact as for rigid bodies.
+/// coefficients per contact as for rigid bodies, then one column per configuration coordinate,
+/// "robots[r].joint_state.position[j]" for coordinate_joints[k] = (r, j).
 ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigid_count,
-                        const std::vector<RequestRobot>& robots);
+                        const std::vector<RequestRobot>& robots,
+                        const std::vector<std::pair<int, int>>& coordinate_joints = {});
 
 }  // namespace collision_response
