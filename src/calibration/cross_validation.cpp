@@ -10,6 +10,7 @@ CrossValidation crossValidate(const std::vector<ObjectLandings>& objects,
                               core::WorkerPool& pool, const std::function<void(int fold)>& progress,
                               const Coefficients* warm_start) {
   IdentificationOptions fold_options = options;
+  fold_options.loss_scale_uncertainty = false;  // the folds report no interval
   if (warm_start != nullptr) {
     fold_options.grid_start = false;
     fold_options.initial = *warm_start;
@@ -56,6 +57,7 @@ CrossValidation crossValidateCases(const std::vector<CaseResidual>& cases,
                                    const std::function<void(int fold)>& progress,
                                    const Coefficients* warm_start) {
   IdentificationOptions fold_options = options;
+  fold_options.loss_scale_uncertainty = false;  // the folds report no interval
   if (warm_start != nullptr) {
     fold_options.grid_start = false;
     fold_options.initial = *warm_start;

@@ -18,6 +18,9 @@ constexpr double kMinimumLossScale = 1e-4;
 /// steps (0.005 apart at most).
 constexpr double kStaticScanHalfWidth = 0.1;
 constexpr int kStaticScanPoints = 40;
+/// The scan of e and one mu around the fit: this many steps of this size either side.
+constexpr int kPlateauScanPoints = 8;
+constexpr double kPlateauScanStep = 0.0025;
 
 /// The fitted parameters x and the coefficients they stand for: x = (e, mu[, r][, s]) with
 /// mu_s = mu, mu_d = r mu (r = 1 with one mu).
@@ -374,19 +377,45 @@ IdentificationResult identifyCases(const std::vector<CaseResidual>& case_residua
     }
   }
   std::copy(best.begin(), best.end(), x.begin());
+  std::vector<double> norms;  // the first stage's |r| of each case, sorted (automatic scale)
   if (automatic) {
     // The second stage: the scale from the first fit's landings (twice the median |r|; a
     // landing that far off weighs half), then the fit again from the first one's optimum.
     const std::vector<Eigen::VectorXd> first =
         caseResiduals(case_residuals, p.coefficients(x.data()), pool);
-    std::vector<double> norms;
     for (const auto& r : first) norms.push_back(r.norm());
-    std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
+    std::sort(norms.begin(), norms.end());
     scale = std::max(kMinimumLossScale, 2.0 * norms[norms.size() / 2]);
     loss.Reset(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
     ceres::Solve(solver, &problem, &summary);
     iterations += static_cast<int>(summary.iterations.size());
   }
+
+  // The objective is ragged on real data: a landing whose impact sequence changes with the
+  // coefficients steps its residual, and the fit can stop in a local minimum beside a lower one
+  // (docs/calibration.md, "How sure"). Scan e (and one mu) at fixed other parameters around the
+  // fit, move to the lowest point if it is lower and fit again (twice at most).
+  auto scanPlateau = [&](double c) {
+    for (int pass = 0; pass < 2; ++pass) {
+      const double here = robustCost(x, c);
+      double lowest = here;
+      std::vector<double> best_y;
+      for (int j = 0; j < (p.split ? 1 : 2); ++j)
+        for (int k = -kPlateauScanPoints; k <= kPlateauScanPoints; ++k) {
+          if (k == 0) continue;
+          std::vector<double> y = x;
+          y[j] = x[j] + kPlateauScanStep * k;
+          if (y[j] < bounds.lower[j] || y[j] > bounds.upper[j]) continue;
+          const double cost = robustCost(y, c);
+          if (cost < lowest) lowest = cost, best_y = y;
+        }
+      if (best_y.empty() || !(lowest < here - 1e-12 * std::max(1.0, here))) break;
+      std::copy(best_y.begin(), best_y.end(), x.begin());
+      ceres::Solve(solver, &problem, &summary);
+      iterations += static_cast<int>(summary.iterations.size());
+    }
+  };
+  scanPlateau(scale);
 
   // mu_s (two friction coefficients) acts only through the stick tests: between two landings'
   // stick thresholds it changes no prediction, across one it switches that landing from sliding
@@ -431,8 +460,7 @@ IdentificationResult identifyCases(const std::vector<CaseResidual>& case_residua
   result.coefficients = p.coefficients(x.data());
   result.parameter_names = p.names();
   result.landings = static_cast<int>(cases.size());
-  result.iterations = iterations;
-  result.loss_scale = scale;
+  result.loss_scale = result.loss_scale_low = result.loss_scale_high = scale;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.summary = summary.BriefReport();
   result.case_residuals = caseResiduals(case_residuals, result.coefficients, pool);
@@ -466,6 +494,41 @@ IdentificationResult identifyCases(const std::vector<CaseResidual>& case_residua
     if (covariance.GetCovarianceBlock(x.data(), x.data(), c.data()))
       result.covariance = result.residual_sigma * result.residual_sigma * c;
   }
+
+  // The automatic scale is itself an estimate: twice the median of the first stage's |r|, which
+  // the landings' sampling (and round-off in the first fit) moves. Its one-standard-deviation
+  // range, distribution-free: the rank of the population median among n cases is binomial(n,
+  // 1/2), of deviation sqrt(n) / 2, so the order statistics that many ranks either side of the
+  // median bracket it by one deviation. Refit at both ends (warm from the optimum, the landings'
+  // predictors reused, with the scan above) and add the optimum's change, d = (x(c_high) -
+  // x(c_low)) / 2, the parameters' deviation due to the scale if x(c) is about linear over the
+  // range, to the covariance as d d^T (independent of the noise part to first order: the scale is
+  // a median of the residuals, the covariance's part the fit's slope at a fixed scale).
+  if (automatic && options.loss_scale_uncertainty && norms.size() >= 2) {
+    const int m = static_cast<int>(norms.size());
+    const double ranks = 0.5 * std::sqrt(static_cast<double>(m));
+    const int low_rank = std::max(0, static_cast<int>(std::lround(m / 2 - ranks)));
+    const int high_rank = std::min(m - 1, static_cast<int>(std::lround(m / 2 + ranks)));
+    result.loss_scale_low = std::max(kMinimumLossScale, 2.0 * norms[low_rank]);
+    result.loss_scale_high = std::max(kMinimumLossScale, 2.0 * norms[high_rank]);
+    const std::vector<double> optimum = x;
+    auto refit = [&](double c) {
+      std::copy(optimum.begin(), optimum.end(), x.begin());
+      loss.Reset(new ceres::CauchyLoss(c), ceres::TAKE_OWNERSHIP);
+      ceres::Solve(solver, &problem, &summary);
+      iterations += static_cast<int>(summary.iterations.size());
+      scanPlateau(c);
+      return x;
+    };
+    const std::vector<double> low = refit(result.loss_scale_low);
+    const std::vector<double> high = refit(result.loss_scale_high);
+    std::copy(optimum.begin(), optimum.end(), x.begin());
+    loss.Reset(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
+    result.loss_scale_shift.resize(n);
+    for (int j = 0; j < n; ++j) result.loss_scale_shift[j] = 0.5 * (high[j] - low[j]);
+    result.covariance += result.loss_scale_shift * result.loss_scale_shift.transpose();
+  }
+  result.iterations = iterations;
 
   // The coefficients' estimates: mu_d = r mu_s by the delta method.
   auto estimate = [&](const std::string& name, double value, double variance, bool at_bound) {

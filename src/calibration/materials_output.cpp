@@ -43,7 +43,12 @@ std::string materialsYaml(const std::vector<MaterialsEntry>& entries) {
     for (const auto& [reason, count] : e.skipped) out << "; " << count << " " << reason;
     out << "\n";
     for (const auto& s : e.sources) out << "  #   from " << s << "\n";
-    out << "  # 95% intervals (value +- 1.96 sd from the covariance at the optimum):\n";
+    if (f.loss_scale_shift.size() > 0)
+      out << "  # 95% intervals (value +- 1.96 sd from the covariance at the optimum, plus the "
+             "automatic loss scale's part: refits at "
+          << number(f.loss_scale_low) << " and " << number(f.loss_scale_high) << "):\n";
+    else
+      out << "  # 95% intervals (value +- 1.96 sd from the covariance at the optimum):\n";
     for (const auto& est : f.estimates)
       out << "  #   " << est.name << " " << number(est.value) << " sd " << number(est.std_dev)
           << " [" << number(est.lower) << ", " << number(est.upper) << "]"

@@ -116,7 +116,7 @@ TEST(Identification, SpreadOfEstimatesAgreesWithTheReportedDeviation) {
   // Fewer tosses make each estimate less certain, not the comparison: that rests on the draws.
   const auto tosses = trueTosses(sized(14, 8), 13);
   std::vector<double> es, mus;
-  double sd_e = 0.0, sd_mu = 0.0;
+  double sd_e = 0.0, sd_mu = 0.0, scale_e = 0.0, scale_mu = 0.0;
   constexpr int kDraws = 16;
   for (int draw = 0; draw < kDraws; ++draw) {
     const IdentificationResult fit =
@@ -125,6 +125,10 @@ TEST(Identification, SpreadOfEstimatesAgreesWithTheReportedDeviation) {
     mus.push_back(fit.coefficients.static_friction);
     sd_e += estimate(fit, "restitution").std_dev / kDraws;
     sd_mu += estimate(fit, "static_friction").std_dev / kDraws;
+    // The automatic loss scale's part of the deviation (identification.h, loss_scale_shift).
+    ASSERT_EQ(fit.loss_scale_shift.size(), 2);
+    scale_e += std::abs(fit.loss_scale_shift[0]) / kDraws;
+    scale_mu += std::abs(fit.loss_scale_shift[1]) / kDraws;
   }
   auto spread = [](const std::vector<double>& x) {
     double mean = 0.0, sum = 0.0;
@@ -139,6 +143,13 @@ TEST(Identification, SpreadOfEstimatesAgreesWithTheReportedDeviation) {
   EXPECT_LT(spread_e / sd_e, 2.0) << "spread " << spread_e << " reported " << sd_e;
   EXPECT_GT(spread_mu / sd_mu, 0.5) << "spread " << spread_mu << " reported " << sd_mu;
   EXPECT_LT(spread_mu / sd_mu, 2.0) << "spread " << spread_mu << " reported " << sd_mu;
+  // The reported deviation includes the loss scale's part; the lower bounds above keep the whole
+  // within twice the spread over draws. The model is right here, so moving the scale by its own
+  // deviation moves the optimum by less than the noise does: the scale's part stays below the
+  // spread over draws.
+  std::printf("loss scale's part of the deviation: e %.5f, mu %.5f\n", scale_e, scale_mu);
+  EXPECT_LT(scale_e, spread_e);
+  EXPECT_LT(scale_mu, spread_mu);
 }
 
 // Cross-validation on landings made with the true coefficients: every fold finds them (within a

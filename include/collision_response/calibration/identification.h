@@ -37,6 +37,11 @@ struct IdentificationOptions {
   /// c = twice the median |r| of its landings and the fit again (so that the scale follows the
   /// data's noise, whatever it is).
   double loss_scale = 0.0;
+  /// With the automatic loss scale, carry its own uncertainty into the covariance
+  /// (docs/calibration.md, "How sure"): refit (from the optimum) at the scales one standard
+  /// deviation of the median below and above it, and add the spread of the optimum between them.
+  /// Two more fits; false skips them (the cross-validation's folds, which report no interval).
+  bool loss_scale_uncertainty = true;
   /// The step of the differences [-] (absolute in e, mu, r; relative in s): see docs/calibration.md
   /// why a large one (the prediction is piecewise smooth in the coefficients).
   double difference_step = 0.03;
@@ -63,9 +68,18 @@ struct IdentificationResult {
   Coefficients coefficients;
   std::vector<CoefficientEstimate> estimates;  ///< e, mu_s, mu_d (derived for one mu), [s]
   std::vector<std::string> parameter_names;    ///< the fitted parameters, in covariance order
-  Eigen::MatrixXd covariance;                  ///< of the fitted parameters
+  /// Of the fitted parameters: the linearised one at the optimum, plus (automatic loss scale)
+  /// loss_scale_shift loss_scale_shift^T, the loss scale's part.
+  Eigen::MatrixXd covariance;
   double residual_sigma = 0.0;  ///< the residuals' estimated standard deviation (covariance scale)
   double loss_scale = 0.0;      ///< the Cauchy scale of the final fit
+  /// The automatic scale's one-standard-deviation range [-] (twice the order statistics of the
+  /// first stage's |r| sqrt(n) / 2 ranks either side of the median), and half the change of the
+  /// fitted parameters (covariance order) between the refits there: the parameters' standard
+  /// deviation due to the scale. Both scales equal loss_scale and the shift is empty for a fixed
+  /// scale or without IdentificationOptions::loss_scale_uncertainty.
+  double loss_scale_low = 0.0, loss_scale_high = 0.0;
+  Eigen::VectorXd loss_scale_shift;
   std::vector<LandingResidual> residuals;  ///< per landing, objects' landings in order
   /// Each case's residual at the fit (identifyCases(); for landings the same as `residuals`).
   std::vector<Eigen::VectorXd> case_residuals;
