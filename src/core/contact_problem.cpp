@@ -31,8 +31,11 @@ void setRestingFields(const Eigen::Vector3d& u, double resting_velocity, Problem
   entry.free_velocity.setZero();
   entry.target_normal_velocity = 0.0;
   const Eigen::Vector3d u_t = u - u.dot(entry.normal) * entry.normal;
-  if (!entry.frictionless() && u_t.norm() > resting_velocity) {
+  if (entry.frictionless()) return;
+  if (u_t.norm() > resting_velocity) {
     entry.slip_direction = u_t.normalized();
+  } else {
+    entry.slow_slip = u_t;
   }
 }
 

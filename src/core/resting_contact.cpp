@@ -125,6 +125,23 @@ bool solveAllStick(ContactProblem& problem, const SolverOptions& options, double
   return true;
 }
 
+// No stuck answer (docs/physics.md, "Slow slips"): a contact whose slip was too slow to count
+// (|u_t| within the resting velocity) may no longer count as not slipping, since not slipping is
+// what the island cannot do. It slips at u_t != 0, and Coulomb's law at any nonzero slip puts its
+// friction at -mu_d F_n along u_t / |u_t| (maximal dissipation: against the slip). Without this the
+// contacts of a block turning slowly on a table have no slip of their own but the centripetal
+// w^2 r that no force cancels; friction then opposes that acceleration (radially outward, at right
+// angles to the corners' motion, dissipating nothing) and the sweeps chase its direction to their
+// cap. Contacts with u_t = 0 exactly keep their disk.
+void poseSlowSlips(ContactProblem& problem) {
+  for (std::size_t i = 0; i < problem.size(); ++i) {
+    const ProblemContact& c = problem.contact(i);
+    if (c.slip_direction.isZero(0.0) && !c.slow_slip.isZero(0.0)) {
+      problem.setSlipDirection(i, c.slow_slip.normalized());
+    }
+  }
+}
+
 }  // namespace
 
 SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& options,
@@ -146,6 +163,7 @@ SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& opt
     // sweeps on Coulomb's law, static cones first, sliding contacts moved to mu_d.
     SolveReport stick;
     if (!solveAllStick(problem, options, reference, answer, stick)) {
+      poseSlowSlips(problem);
       report = solveIterative(problem, options, answer);
       report.iterations += stick.iterations;
     } else {

@@ -153,7 +153,12 @@ TEST(Identification, SpreadOfEstimatesAgreesWithTheReportedDeviation) {
 }
 
 // Cross-validation on landings made with the true coefficients: every fold finds them (within a
-// few of the full fit's deviations) and the held-out error is close to the training error.
+// few of the full fit's deviations) and the held-out error is close to the training error. The
+// deviation is the fit's linearisation, within a factor 2 of the estimates' actual spread
+// (SpreadOfEstimatesAgreesWithTheReportedDeviation measures 1.76 for mu): 4 of them with that
+// factor. (Since slow slips are braked in the resting analysis, docs/physics.md "Slow slips", the
+// fit reports mu's deviation as 0.00060 instead of 0.00082, its estimate 0.2984 as before, and one
+// fold's 0.2965 lies 4.6 reported deviations from 0.3.)
 TEST(Identification, CrossValidationOfAConsistentModel) {
   core::WorkerPool pool(2);
   const auto data = landings(trueTosses(sized(20, 14), 14), 400);
@@ -162,9 +167,10 @@ TEST(Identification, CrossValidationOfAConsistentModel) {
   ASSERT_EQ(cv.fitted.size(), 4u);
   ASSERT_EQ(cv.held_out.size(), data[0].landings.size());
   for (const auto& c : cv.fitted) {
-    EXPECT_NEAR(c.restitution, kE, 4.0 * estimate(fit, "restitution").std_dev * std::sqrt(4.0 / 3));
+    EXPECT_NEAR(c.restitution, kE,
+                4.0 * 2.0 * estimate(fit, "restitution").std_dev * std::sqrt(4.0 / 3));
     EXPECT_NEAR(c.static_friction, kMu,
-                4.0 * estimate(fit, "static_friction").std_dev * std::sqrt(4.0 / 3));
+                4.0 * 2.0 * estimate(fit, "static_friction").std_dev * std::sqrt(4.0 / 3));
   }
   EXPECT_GE(cv.rms_linear, 0.9 * fit.rms_linear);
   EXPECT_LT(cv.rms_linear, 1.5 * fit.rms_linear);

@@ -659,11 +659,10 @@ TEST(RestingNoStuckAnswer, ProvenOnlyWhenNoCornerSplitCanHoldTheTurningBlock) {
 }
 
 // The resting analysis of the turning block: the all-stick sweeps stop at the certificate (32
-// sweeps instead of running to their cap) and the iterative solver answers as it did after the
-// cap (the problem is restored in both cases); the vertical balance (sum F_n = m g: the block's
-// centre neither rises nor falls) holds to the iterative solver's unconverged answer (its sweeps
-// chase the centripetal part no force cancels: 2.6e-6 of m g here), every force in its static
-// cone. At rest the answer is the all-stick one, converged, before the certificate's sweep.
+// sweeps instead of running to their cap) and the iterative solver answers from the restored
+// problem; the vertical balance (sum F_n = m g: the block's centre neither rises nor falls),
+// every force in its static cone (RestingSlowSlip below checks the answer itself). At rest the
+// answer is the all-stick one, converged, before the certificate's sweep.
 TEST(RestingNoStuckAnswer, TurningBlockSkipsTheAllStickSweeps) {
   core::SolverOptions options;
   TurningBlock turning(0.02, -2.0 * kG);
@@ -709,4 +708,58 @@ TEST(RestingNoStuckAnswer, OneContactHoldingTheBlockIsNotRuledOut) {
   EXPECT_NEAR(forces[0].normal_force, 2.0 * kG, 1e-9);
   EXPECT_NEAR(forces[0].friction_force.norm(), 0.0, 1e-9);
   EXPECT_NEAR(forces[1].normal_force, 0.0, 1e-9);
+}
+
+// --- Slow slips (docs/physics.md, "Slow slips"). The turning block above, w = 0.02 and 0.2 rad/s:
+// its corners slip at w |r| = 2.8 and 28 mm/s, below the resting velocity (0.05 m/s), and no stuck
+// answer exists (the centripetal parts). Coulomb's law at that nonzero slip: each corner's friction
+// -mu_d N_i along its own motion w z x r_i. Closed form: the friction forces circulate (no net
+// force, and their moments about the horizontal axes through the centre cancel: sum F = 0 at the
+// common depth), so the corners carry m g in total (any split of equal moments, e.g. m g / 4 each)
+// and the block's only acceleration is the angular alpha_z = -mu_d m g |r| / I (every corner at |r|
+// = 0.1 sqrt 2), I = m s^2 / 6: each corner's acceleration a'_i = alpha_z z x r_i - w^2 r_i, a'_n =
+// 0. Friction at mu_d N (below the static band's top mu_s N: the corners slide). The answer is the
+// solver's converged one: far below the sweep cap (52 sweeps at w = 0.02), and the same under a
+// doubled cap. (Before: 10,032 sweeps at the cap; at w = 0.2 the radial answer after 19,461.)
+TEST(RestingSlowSlip, TurningBlockSlidesAgainstItsCornersMotion) {
+  const double m = 2.0, mu_d = 0.4, inertia = 2.0 * 0.04 / 6.0;
+  const double r = 0.1 * std::sqrt(2.0);
+  const double alpha = -mu_d * m * kG * r / inertia;
+  for (const double w : {0.02, 0.2}) {  // corner slips 2.8 and 28 mm/s, both below 0.05 m/s
+    std::vector<core::ContactImpulse> answers[2];
+    for (const std::size_t cap : {std::size_t{10000}, std::size_t{20000}}) {
+      SCOPED_TRACE("w " + std::to_string(w) + " cap " + std::to_string(cap));
+      TurningBlock block(w, -m * kG);
+      core::SolverOptions options;
+      options.max_iterations = cap;
+      std::vector<core::ContactImpulse>& forces = answers[cap == 10000 ? 0 : 1];
+      const core::SolveReport report = core::solveRestingIsland(block.problem, options, forces);
+      EXPECT_TRUE(report.converged);
+      EXPECT_LT(report.iterations, 100u);  // 32 all-stick sweeps + about 20
+      double normal = 0.0;
+      for (std::size_t i = 0; i < 4; ++i) {
+        const core::ContactImpulse& f = forces[i];
+        const Eigen::Vector3d p = block.contacts[i].point;  // r_i: the centre is above the origin
+        const Eigen::Vector3d motion = Eigen::Vector3d(0.0, 0.0, w).cross(p);
+        normal += f.normal_force;
+        EXPECT_GE(f.normal_force, 0.0);
+        EXPECT_FALSE(f.sticking);
+        // Coulomb at the slip: -mu_d N along the corner's motion.
+        EXPECT_NEAR((f.friction_force + mu_d * f.normal_force * motion.normalized()).norm(), 0.0,
+                    1e-9 * m * kG)
+            << "corner " << i;
+        // The corner's acceleration after the forces, against the closed form.
+        const Eigen::Vector3d expected =
+            alpha * Eigen::Vector3d::UnitZ().cross(p) - w * w * Eigen::Vector3d(p.x(), p.y(), 0.0);
+        EXPECT_NEAR((block.problem.relativeMotion(i) - expected).norm(), 0.0,
+                    1e-9 * std::abs(alpha))
+            << "corner " << i;
+      }
+      EXPECT_NEAR(normal, m * kG, 1e-9 * m * kG);
+    }
+    for (std::size_t i = 0; i < 4; ++i) {
+      EXPECT_EQ(answers[0][i].normal_force, answers[1][i].normal_force);
+      EXPECT_EQ(answers[0][i].friction_force, answers[1][i].friction_force);
+    }
+  }
 }

@@ -315,6 +315,40 @@ TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
   EXPECT_LT(r.end_time, s.options.horizon + 1e-12);
 }
 
+// The same box sliding slowly while it turns slowly: v = 0.02 m/s and w = 0.02 rad/s about the
+// vertical, its corners' slips (|v + w x r| <= 0.0215 m/s) below the episode's resting threshold
+// (sqrt(2 g tolerance) = 0.044 m/s) and the turning leaving no stuck answer (the centripetal w^2 r
+// no force cancels). Coulomb's law at those slips: each corner's friction -mu_d N_i against its own
+// slip: the box slides to rest about v^2 / (2 mu_d g) = 51 um away (closed form, bounds below),
+// not on at v (friction that opposed only the corners'
+// centripetal accelerations, summing to nothing, let it slide 2.4 mm to the horizon).
+TEST(RobotEpisode, SlowlyTurningBoxSlidesToRestUnderDynamicFriction) {
+  using collision_response::testing::armBoxScene;
+  auto s = armBoxScene(kArm7, /*lift=*/0.35);
+  const double v = 0.02, w = 0.02, mu_d = 0.4, g = 9.81;
+  cr::BodyState box = s.box->state();
+  const Vector3d start = box.position;
+  box.linear_velocity = Vector3d(v, 0.0, 0.0);
+  box.angular_velocity = Vector3d(0.0, 0.0, w);
+  *s.box = cr::RigidEpisodeBody(box);
+  s.bodies[1] = s.box.get();
+  s.options.horizon = 0.12;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
+  const cr::BodyState& end = s.box->state();
+  const double distance = v * v / (2.0 * mu_d * g);
+  // Along x: the corners' friction forces sum to at most mu_d m g (sum |F_t| = mu_d sum N), so
+  // the box slides at least `distance`; their slips turn from x by at most about w (s / 2) / v
+  // (s = 0.1 m the box's side), which bounds both the shortfall of the braking and the sideways
+  // drift (the corners ahead, loaded more by the friction's tipping moment, slip towards +y).
+  const double turned = w * 0.05 / v;
+  EXPECT_GE(end.position.x() - start.x(), distance * (1.0 - 1e-9));
+  EXPECT_LE(end.position.x() - start.x(), distance * (1.0 + turned * turned));
+  EXPECT_LE(std::abs(end.position.y() - start.y()), turned * distance);
+  EXPECT_NEAR(end.position.z(), start.z(), 1e-9);
+  EXPECT_LT(end.linear_velocity.norm(), 1e-6);
+}
+
 // A random suite of strikes (joint2's lift and speed, the other joints' speeds, the box's place,
 // Newton or Stronge): every episode ends within its horizon with finite states and impacts in
 // order, the box stays on the table, no contact is passed through before the first impact along a

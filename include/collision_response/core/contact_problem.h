@@ -102,6 +102,11 @@ class ContactProblem {
   std::size_t size() const { return contacts_.size(); }
   bool empty() const { return contacts_.empty(); }
   const ProblemContact& contact(std::size_t i) const { return contacts_[i]; }
+  /// Resting problems: poses contact i as sliding along the unit tangential `direction`
+  /// (ProblemContact::slip_direction: friction -mu_d F_n along it).
+  void setSlipDirection(std::size_t i, const Eigen::Vector3d& direction) {
+    contacts_[i].slip_direction = direction;
+  }
   const std::vector<ProblemContact>& contacts() const { return contacts_; }
   /// The bodies with velocity unknowns, in the order of their first contact.
   const std::vector<ProblemBody>& bodies() const { return bodies_; }

@@ -30,12 +30,14 @@ namespace collision_response::core {
 /// largest free relative acceleration): some split of the forces within the static cones holds
 /// the island (the sweeps stop after 32 if noStuckAnswer(), stick_certificate.h, proves that no
 /// stuck answer exists). Otherwise the iterative solver (its singular-W rule applies), whose
-/// contacts move to mu_d only if they still slip on their static cone. `sticking`: no slip, not
-/// separating and a'_t = 0 to that tolerance. Writes forces[i] (resting, normal_force,
-/// friction_force, sticking) for problem contact i (resized to the problem); the forces are applied
-/// to the problem's accelerations, never to the bodies. Report: kRestingClosedForm or
-/// kRestingIterative (kNone if empty); a sliding single contact whose force cannot keep a'_n = 0
-/// (Painleve) is not converged.
+/// contacts move to mu_d only if they still slip on their static cone; a contact whose slip was
+/// below the resting velocity (ProblemContact::slow_slip) is posed sliding along it first (no
+/// stuck answer: it does slip, and Coulomb's law at u_t != 0 puts -mu_d F_n against it).
+/// `sticking`: no slip, not separating and a'_t = 0 to that tolerance. Writes forces[i] (resting,
+/// normal_force, friction_force, sticking) for problem contact i (resized to the problem); the
+/// forces are applied to the problem's accelerations, never to the bodies. Report:
+/// kRestingClosedForm or kRestingIterative (kNone if empty); a sliding single contact whose force
+/// cannot keep a'_n = 0 (Painleve) is not converged.
 SolveReport solveRestingIsland(ContactProblem& problem, const SolverOptions& options,
                                std::vector<ContactImpulse>& forces);
 
