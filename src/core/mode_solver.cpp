@@ -150,12 +150,23 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
   std::uint64_t seen[64];
   const int n = static_cast<int>(A.rows());
   max_modes = std::min(max_modes, 64);
+  // Repairs: every failing contact at once; after a cycle, one contact per mode (the first one
+  // the checks would change, as in Murty's least-index rule), the modes seen counted afresh.
+  bool one_at_a_time = false;
+  int first_seen = 0;
+  ContactMode previous_mode[kModeSolverMaxUnknowns];
+  int previous_direction[kModeSolverMaxUnknowns];
   for (int tried = 1; tried <= max_modes; ++tried) {
     const std::uint64_t mode = signature(contacts, count);
-    for (int s = 0; s < tried - 1; ++s) {
-      if (seen[s] == mode) return -(tried - 1);  // a cycle: no mode found this way
-    }
+    bool cycle = false;
+    for (int s = first_seen; s < tried - 1 && !cycle; ++s) cycle = seen[s] == mode;
+    if (cycle && one_at_a_time) return -(tried - 1);  // no mode found either way
+    if (cycle) one_at_a_time = true, first_seen = tried - 1;
     seen[tried - 1] = mode;
+    for (int i = 0; i < count; ++i) {
+      previous_mode[i] = contacts[i].mode;
+      previous_direction[i] = contacts[i].direction;
+    }
 
     // The equations (rows of K) and unknowns (columns), contact by contact. An unknown is a
     // frame component l of its contact's impulse (sticking), P_n with friction mu P_n along a
@@ -252,6 +263,8 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
 
     // Check every contact; repair those that fail.
     bool fits = true;
+    int weakest = -1;     // the active contact with the smallest P_n
+    bool missed = false;  // an active contact's normal target missed
     for (int i = 0; i < count; ++i) {
       ModeContact& c = contacts[i];
       Eigen::Vector3d u = c.u;
@@ -275,6 +288,8 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
           (c.mode == ContactMode::kSticking && u_t.norm() > tolerance_v)) {
         fits = false;
       }
+      if (weakest < 0 || c.P.x() < contacts[weakest].P.x()) weakest = i;
+      if (std::abs(u.x() - c.target) > tolerance_v) missed = true;
       if (c.P.x() < -tolerance_P) {
         fits = false;
         c.mode = ContactMode::kSeparating;
@@ -329,7 +344,26 @@ int solveByModes(const ModeMatrix& A, ModeContact* contacts, int count, double s
         c.direction = opposing;
       }
     }
-    if (!fits) continue;
+    if (!fits) {
+      bool repaired = false;
+      for (int i = 0; i < count; ++i) {
+        ModeContact& c = contacts[i];
+        if (c.mode == previous_mode[i] && c.direction == previous_direction[i]) continue;
+        if (repaired && one_at_a_time)
+          c.mode = previous_mode[i], c.direction = previous_direction[i];
+        repaired = true;
+      }
+      // Nothing to repair (a singular K solved in least squares: redundant contacts whose targets
+      // no motion reaches together, as a face's 4 corners with unequal restitutions), or, after a
+      // cycle, a normal target missed: the active contact pushing least separates instead (the
+      // mode would otherwise repeat, or the friction repairs go round it).
+      if ((!repaired || (one_at_a_time && missed)) && weakest >= 0) {
+        for (int i = 0; i < count; ++i)
+          contacts[i].mode = previous_mode[i], contacts[i].direction = previous_direction[i];
+        contacts[weakest].mode = ContactMode::kSeparating;
+      }
+      continue;
+    }
     // A solution: impulses within round-off of the bounds are put on them exactly.
     for (int i = 0; i < count; ++i) {
       ModeContact& c = contacts[i];

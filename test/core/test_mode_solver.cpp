@@ -433,3 +433,79 @@ TEST(ModeSolver, FallsBackWhenNoModeFits) {
   EXPECT_NEAR(c.P.y(), -0.75, 1e-14);
   EXPECT_NEAR(c.P.z(), 0.0, 1e-14);
 }
+
+// A cube landing flat on the ground: its face's 4 corners touch at once (redundant contacts: A
+// singular), each with its own restitution, so that the Newton targets -e_i u_n,i lie off the
+// plane of normal velocities a rigid motion gives and no mode with every contact active reaches
+// them; one corner must leave. Such modes used to repeat themselves (a least-squares answer with
+// nothing to repair) and fall back on Lemke's method; now the corner pushing least separates and
+// the search goes on. Every answer is checked against the pyramid LCP's definition and, where
+// Lemke solves it, against Lemke's velocities (independent: the LCP written out above).
+TEST(ModeSolver, FaceLandingsWithUnequalRestitutionAgreeWithLemke) {
+  std::mt19937 rng(20261126);
+  std::uniform_real_distribution<double> positive(0.0, 1.0);
+  constexpr double kMass = 0.37, kSide = 0.1048;
+  int answered = 0, compared = 0, lemke_solved = 0;
+  const int trials = 500;
+  for (int trial = 0; trial < trials; ++trial) {
+    Island island;
+    const double I = kMass * kSide * kSide / 6.0;
+    island.bodies.push_back({1.0 / kMass, Matrix3d::Identity() / I,
+                             Vector3d(unit(rng), unit(rng), -0.2 - 1.8 * positive(rng)),
+                             10.0 * Vector3d(unit(rng), unit(rng), unit(rng))});
+    const Vector3d n = Vector3d::UnitZ();
+    const double mu = 0.05 + 0.95 * positive(rng);
+    for (int k = 0; k < 4; ++k) {
+      Contact c;
+      c.a = -1;
+      c.b = 0;
+      c.rb = 0.5 * kSide * Vector3d(k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, -1.0);
+      c.frame = frameOf(n, rng);
+      c.mu = mu;
+      island.contacts.push_back(c);
+    }
+    for (const Contact& c : island.contacts) {
+      const Body& b = island.bodies[0];
+      const Vector3d u = c.frame.transpose() * (b.v + b.w.cross(c.rb));
+      island.u.push_back(u);
+      island.target.push_back(u.x() < 0.0 ? -0.8 * positive(rng) * u.x() : 0.0);
+    }
+    std::vector<int> first;
+    const cr::ModeMatrix A = frameDelassus(island, first);
+    std::vector<cr::ModeContact> contacts = modeContacts(island, first);
+    const double speed = speedOf(island);
+    if (cr::solveByModes(A, contacts.data(), 4, speed, 2 * 4 + 4) <= 0) continue;
+    ++answered;
+    cr::ModeVector P = cr::ModeVector::Zero(A.rows());
+    for (const cr::ModeContact& c : contacts) P.segment<3>(c.first) = c.P;
+    EXPECT_TRUE(solvesPyramidLcp(island, A, first, P, speed, 1e-9)) << "trial " << trial;
+    const VectorXd lemke = lemkeImpulses(island, A, first);
+    if (lemke.size() == 0) continue;
+    ++lemke_solved;
+    // The body's velocity change (what the episode carries on with) from each answer.
+    const Body& b = island.bodies[0];
+    Vector3d dv_modes = Vector3d::Zero(), dw_modes = Vector3d::Zero();
+    Vector3d dv_lemke = Vector3d::Zero(), dw_lemke = Vector3d::Zero();
+    for (std::size_t i = 0; i < island.contacts.size(); ++i) {
+      const Contact& c = island.contacts[i];
+      const Vector3d p_modes = c.frame * Vector3d(P.segment<3>(first[i]));
+      const Vector3d p_lemke = c.frame * Vector3d(lemke.segment<3>(first[i]));
+      dv_modes += b.inverse_mass * p_modes;
+      dw_modes += b.inverse_inertia * c.rb.cross(p_modes);
+      dv_lemke += b.inverse_mass * p_lemke;
+      dw_lemke += b.inverse_inertia * c.rb.cross(p_lemke);
+    }
+    if ((dv_modes - dv_lemke).norm() <= 1e-8 * speed &&
+        (dw_modes - dw_lemke).norm() * kSide <= 1e-8 * speed)
+      ++compared;
+  }
+  std::printf(
+      "face landings: %d of %d answered by modes, %d of them solved by Lemke, %d of those "
+      "with Lemke's velocities\n",
+      answered, trials, lemke_solved, compared);
+  // The search's reach (a bound, not a physical quantity): before a stuck mode separated its
+  // weakest corner, 135 of these 500 were answered; Lemke took the rest.
+  EXPECT_GE(answered, 240);
+  EXPECT_GE(lemke_solved, answered * 9 / 10);
+  EXPECT_EQ(compared, lemke_solved);
+}

@@ -59,7 +59,12 @@ struct ModeContact {
 /// slip is reversed sticks, one whose slip has turned slides along the direction opposing it, or
 /// on the facet between the two when that direction is the neighbour of its own; a facet-sliding
 /// one with a negative part slides along the other direction) and checked again, at most
-/// `max_modes` modes in all and never the same mode twice.
+/// `max_modes` modes in all. A mode that fails with nothing to repair (targets missed by a
+/// least-squares answer) has its active contact of least P_n separate. After a cycle (a mode seen
+/// before) the search goes on repairing one contact per mode (the first the checks change; the
+/// weakest one separating instead while a normal target is missed), and stops at its next cycle.
+/// Any search that found a mode before these two rules were added finds the same one: they act
+/// only where the search used to stop.
 ///
 /// Returns the number of modes checked, positive if the last one is a solution (then every
 /// contact's mode, direction and P are the answer: an exact solution of the pyramid LCP, to the
