@@ -26,6 +26,9 @@ CoefficientDistribution CoefficientDistribution::interval(double min, double max
 }
 
 namespace {
+// Standard deviations from the mean beyond which a truncation bound changes no moment (check()).
+constexpr double kNegligibleTail = 9.0;
+
 std::string rangeText(double lower, double upper) {
   std::ostringstream out;
   out << "[" << lower << ", ";
@@ -84,6 +87,18 @@ void CheckedDistribution::check(std::string (*name)(const void*), const void* co
   const double alpha = (lower - distribution.mean) / s;
   const double beta = (upper - distribution.mean) / s;
   cdf_lower_ = standardNormalCdf(alpha);
+  if (alpha <= -kNegligibleTail && beta >= kNegligibleTail && std::abs(distribution.mean) >= s) {
+    // Both bounds 9 or more standard deviations away: the moments below round to those of the
+    // normal itself, bit for bit, and are not computed (docs/uncertainty.md, "Cost"). Phi(beta)
+    // rounds to 1 (its tail, under 1.2e-19, is below half the gap 5.6e-17 under 1), and so does
+    // 1 - Phi(alpha); the variance factor 1 + (alpha phi(alpha) - beta phi(beta)) / kept - shift^2
+    // rounds to 1 (|x| phi(x) <= 9.3e-18 each); the mean's shift s (phi(alpha) - phi(beta)) / kept
+    // is under 2.1e-18 s, below half an ulp of the mean (at least 5.5e-17 |mean|, |mean| >= s).
+    kept_mass_ = 1.0 - cdf_lower_;
+    mean_ = distribution.mean;
+    variance_ = s * s;
+    return;
+  }
   kept_mass_ = standardNormalCdf(beta) - cdf_lower_;
   // Moments of the truncated normal.
   const double pa = standardNormalPdf(alpha);

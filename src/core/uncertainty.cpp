@@ -20,6 +20,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/halton_sequence.h"
 #include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/percent_text.h"
 #include "collision_response/core/standard_normal.h"
 #include "collision_response/core/validation.h"
 
@@ -164,22 +165,17 @@ class NumberText {
   explicit NumberText(std::size_t value) {
     size_ = static_cast<std::size_t>(std::to_chars(text_, text_ + sizeof text_, value).ptr - text_);
   }
-  // Three significant digits, as printf's %.3g (no locale, no format parsing).
+  // Three significant digits, as printf's %.3g (writePercent()).
   static NumberText percent(double fraction) {
     NumberText out;
-    char* last = std::to_chars(out.text_, out.text_ + sizeof out.text_ - 2, 100.0 * fraction,
-                               std::chars_format::general, 3)
-                     .ptr;
-    *last++ = ' ';
-    *last++ = '%';
-    out.size_ = static_cast<std::size_t>(last - out.text_);
+    out.size_ = writePercent(fraction, out.text_);
     return out;
   }
   operator std::string_view() const { return {text_, size_}; }
 
  private:
   NumberText() = default;
-  char text_[40];
+  char text_[kPercentTextSize];
   std::size_t size_ = 0;
 };
 
@@ -387,14 +383,19 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   std::vector<int> column_of_dimension(prepared.dimensions.size());
   // J columns times the standard deviations; a coefficient the outcome does not depend on (a
-  // sticking contact's friction: a zero column) adds nothing to the covariance and is left out.
-  Eigen::MatrixXd scaled(m, dims);
+  // sticking contact's friction: a zero column) adds nothing to the covariance and is left out
+  // (and takes no room: `scaled` is allocated for the columns used only).
   Eigen::Index used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     const auto& [index, which] = prepared.dimensions[j];
     column_of_dimension[j] =
         static_cast<int>(derivatives.velocityCount() +
                          3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
+    if (!derivatives.jacobian.col(column_of_dimension[j]).isZero(0.0)) ++used;
+  }
+  Eigen::MatrixXd scaled(m, used);
+  used = 0;
+  for (Eigen::Index j = 0; j < dims; ++j) {
     const auto column = derivatives.jacobian.col(column_of_dimension[j]);
     if (column.isZero(0.0)) continue;
     scaled.col(used++) = column * std::sqrt(prepared.variances[j]);
