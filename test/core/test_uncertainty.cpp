@@ -495,12 +495,27 @@ TEST(CoefficientDistribution, FarTruncationBoundsGiveTheFullFormulasMomentsBitFo
           EXPECT_NEAR(d.variance(), reference_variance, 1e-15 * s * s);
           EXPECT_NEAR(d.truncatedMass(), 1.0 - kept, 1e-15);
         }
-        // The quantile function and the CDF keep the bound's tail mass (the sampled method's
-        // draws): u = Phi((x - mean) / s) renormalised, for x at a few standard deviations.
-        for (const double z : {-3.0, -0.5, 0.0, 1.0, 2.5}) {
+        // The quantile function and the CDF keep the lower bound's tail mass Phi(a) (the sampled
+        // method's draws), however small: at probabilities it shifts and at ones it cannot.
+        for (const double u : {0.0, 1e-22, 1e-19, 1e-12, 1e-3, 1.0 / 512, 1.0 / 256, 0.3, 1.0}) {
+          const double x =
+              std::clamp(mean + s * core::standardNormalQuantile(Phi(a) + u * kept), 0.0, upper);
+          // (Equal infinities, and the NaN both give at u = 0 when Phi(a) is subnormal.)
+          const double q = d.quantile(u);
+          if ((std::isnan(q) && std::isnan(x)) || q == x) continue;
+          if (a <= -9.0 && b >= 9.0)
+            EXPECT_EQ(q, x) << "u " << u;
+          else
+            EXPECT_NEAR(q, x, 1e-12 * s) << "u " << u;
+        }
+        for (const double z : {-8.5, -7.0, -6.0, -3.0, -0.5, 0.0, 1.0, 2.5}) {
           const double x = mean + z * s;
-          EXPECT_NEAR(d.cdf(x), (Phi(z) - Phi(a)) / kept, 1e-12);
-          EXPECT_NEAR(d.quantile((Phi(z) - Phi(a)) / kept), x, 1e-9 * s);
+          const double p = (Phi((x - mean) / s) - Phi(a)) / kept;
+          if (x <= 0.0 || x >= upper) continue;
+          if (a <= -9.0 && b >= 9.0)
+            EXPECT_EQ(d.cdf(x), p) << "z " << z;
+          else
+            EXPECT_NEAR(d.cdf(x), p, 1e-15) << "z " << z;
         }
       }
     }
