@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -506,15 +507,21 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   // (the velocities' derivatives are the same for every solution).
   const Index L = s.J.cols();
   const Index V = columns.velocities ? L : 0;
-  std::vector<Index> theta_columns;  // island coefficient columns solved
-  theta_columns.reserve(static_cast<std::size_t>(3 * m));
+  // Island coefficient columns solved (on the stack for islands of up to 16 contacts).
+  std::array<Index, 48> small_theta;
+  std::vector<Index> large_theta;
+  Index* theta_columns = small_theta.data();
+  if (3 * m > static_cast<Index>(small_theta.size())) {
+    large_theta.resize(static_cast<std::size_t>(3 * m));
+    theta_columns = large_theta.data();
+  }
+  Index T = 0;
   for (Index k = 0; k < 3 * m; ++k) {
     if (columns.wantsCoefficient(3 * static_cast<Index>(s.contacts[k / 3]) + k % 3) &&
         !F_theta.block<3, 1>(k - k % 3, k % 3).isZero(0.0)) {
-      theta_columns.push_back(k);
+      theta_columns[T++] = k;
     }
   }
-  const Index T = static_cast<Index>(theta_columns.size());
   if (V > 0) {
     dP_dv.setZero(3 * m, L);
   } else {
@@ -530,7 +537,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   }
   for (Index t = 0; t < T; ++t) {
     // Column k of the block diagonal F_theta: contact k / 3's block, column k % 3.
-    const Index k = theta_columns[static_cast<std::size_t>(t)];
+    const Index k = theta_columns[t];
     rhs.col(V + t).setZero();
     rhs.block<3, 1>(k - k % 3, V + t) = F_theta.block<3, 1>(k - k % 3, k % 3);
   }
@@ -558,7 +565,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   }
   if (V > 0) dP_dv = -solution.leftCols(L);
   for (Index t = 0; t < T; ++t) {
-    dP_dtheta.col(theta_columns[static_cast<std::size_t>(t)]) = -solution.col(V + t);
+    dP_dtheta.col(theta_columns[t]) = -solution.col(V + t);
   }
   return true;
 }
