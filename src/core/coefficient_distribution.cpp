@@ -26,6 +26,11 @@ CoefficientDistribution CoefficientDistribution::interval(double min, double max
 }
 
 namespace {
+// Standard deviations from the mean beyond which a truncation bound changes no moment (check()).
+constexpr double kNegligibleTail = 9.0;
+// From this value up (2^-8), Phi(-9) is under a quarter of an ulp: lowerMass() returns 0.
+constexpr double kUnseenBesideLowerMass = 1.0 / 256.0;
+
 std::string rangeText(double lower, double upper) {
   std::ostringstream out;
   out << "[" << lower << ", ";
@@ -83,6 +88,22 @@ void CheckedDistribution::check(std::string (*name)(const void*), const void* co
   }
   const double alpha = (lower - distribution.mean) / s;
   const double beta = (upper - distribution.mean) / s;
+  if (alpha <= -kNegligibleTail && beta >= kNegligibleTail && std::abs(distribution.mean) >= s) {
+    // Both bounds 9 or more standard deviations away: the moments below round to those of the
+    // normal itself, bit for bit, and are not computed (docs/uncertainty.md). Phi(beta) rounds to
+    // 1 (its tail, under 1.2e-19, is below half the gap 5.6e-17 under 1), and so does
+    // 1 - Phi(alpha); the variance factor 1 + (alpha phi(alpha) - beta phi(beta)) / kept - shift^2
+    // rounds to 1 (|x| phi(x) <= 9.3e-18 each); the mean's shift s (phi(alpha) - phi(beta)) / kept
+    // is under 2.1e-18 s, below half an ulp of the mean (at least 5.5e-17 |mean|, |mean| >= s).
+    // Phi(alpha) itself is left for quantile() and cdf() to take where it shows (lowerMass()).
+    alpha_ = alpha;
+    cdf_lower_known_ = false;
+    cdf_lower_ = 0.0;
+    kept_mass_ = 1.0;
+    mean_ = distribution.mean;
+    variance_ = s * s;
+    return;
+  }
   cdf_lower_ = standardNormalCdf(alpha);
   kept_mass_ = standardNormalCdf(beta) - cdf_lower_;
   // Moments of the truncated normal.
@@ -107,8 +128,9 @@ double CheckedDistribution::quantile(double u) const {
   if (distribution_.type == CoefficientDistribution::Type::kInterval)
     return distribution_.min + u * (distribution_.max - distribution_.min);
   if (distribution_.std_dev == 0.0) return distribution_.mean;
-  const double x = distribution_.mean +
-                   distribution_.std_dev * standardNormalQuantile(cdf_lower_ + u * kept_mass_);
+  const double x =
+      distribution_.mean +
+      distribution_.std_dev * standardNormalQuantile(lowerMass(u * kept_mass_) + u * kept_mass_);
   return std::clamp(x, lower_, upper_);  // rounding only: the quantile lies in the range
 }
 
@@ -120,8 +142,15 @@ double CheckedDistribution::cdf(double x) const {
   if (distribution_.std_dev == 0.0) return x >= distribution_.mean ? 1.0 : 0.0;
   if (x <= lower_) return 0.0;
   if (x >= upper_) return 1.0;
-  return (standardNormalCdf((x - distribution_.mean) / distribution_.std_dev) - cdf_lower_) /
-         kept_mass_;
+  const double below = standardNormalCdf((x - distribution_.mean) / distribution_.std_dev);
+  return (below - lowerMass(below)) / kept_mass_;
+}
+
+double CheckedDistribution::lowerMass(double beside) const {
+  // Phi(alpha) < 1.2e-19 when not known (alpha <= -9): below a quarter of an ulp of any value
+  // from 2^-8 up, to which adding it or from which subtracting it changes nothing.
+  if (cdf_lower_known_ || beside >= kUnseenBesideLowerMass) return cdf_lower_;
+  return standardNormalCdf(alpha_);
 }
 
 }  // namespace collision_response::core

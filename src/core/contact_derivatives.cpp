@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -323,7 +324,9 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     return F_P;
   };
   using Blocks = Eigen::Matrix<double, Eigen::Dynamic, 3>;
-  Blocks F_u = Blocks::Zero(3 * m, 3), F_theta = Blocks::Zero(3 * m, 3);
+  // F_u is read only for the velocity columns: without them it is neither allocated nor filled.
+  const bool velocities = columns.velocities;
+  Blocks F_u = velocities ? Blocks::Zero(3 * m, 3) : Blocks(), F_theta = Blocks::Zero(3 * m, 3);
   double u_reference = 0.0, P_scale = 0.0;
   for (Index i = 0; i < m; ++i) {
     u_reference = std::max(u_reference, s.state[i].u.norm());
@@ -371,7 +374,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     // The normal row of an active contact: n^T u' - target = 0.
     auto normalRow = [&]() {
       FP().block(r, 0, 1, 3 * m) = n.transpose() * s.W().middleRows<3>(r);
-      F_u.block<1, 3>(r, 0) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
+      if (velocities) F_u.block<1, 3>(r, 0) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
       if (approaching) F_theta(r, kRestitution) = u_n;
     };
     if (!(P_n > kPyramidRoundOff * P_scale) && P_t.norm() <= kPyramidRoundOff * P_scale) {
@@ -434,7 +437,8 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     if (slip <= kSlipTolerance * u_reference) {
       mode.mode = ImpactMode::kSticking;
       // (F_P's rows: W's, filled if F_P is decomposed.)
-      F_u.block<3, 3>(r, 0) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
+      if (velocities)
+        F_u.block<3, 3>(r, 0) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
       if (approaching) F_theta.block<3, 1>(r, kRestitution) = u_n * n;
       // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
       // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
@@ -471,7 +475,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       const Vector3d d = pyramid().direction(edge);
       const Eigen::Matrix<double, 2, 3> E = tangents();
       FP().block<2, 3>(r + 1, r) = E * (Matrix3d::Identity() - (n + mu * d) * n.transpose());
-      F_u.block<2, 3>(r + 1, 0) = -mu * P_n * E * pyramid().derivative(edge, n);
+      if (velocities) F_u.block<2, 3>(r + 1, 0) = -mu * P_n * E * pyramid().derivative(edge, n);
       F_theta.block<2, 1>(r + 1, kDynamic) = -P_n * E * d;
       const double opposing = d.dot(slip_after);
       for (const int j : {(edge + 1) % kD, (edge + kD - 1) % kD}) {
@@ -489,9 +493,10 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       const Vector3d c = (d_k + d_k1) / facet;
       const Matrix3d D_k = pyramid().derivative(k, n), D_k1 = pyramid().derivative(k1, n);
       FP().block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W().middleRows<3>(r);
-      F_u.block<1, 3>(r + 1, 0) = g.transpose() + u_after.transpose() * (D_k - D_k1);
+      if (velocities)
+        F_u.block<1, 3>(r + 1, 0) = g.transpose() + u_after.transpose() * (D_k - D_k1);
       FP().block<1, 3>(r + 2, r) = c.transpose() - mu * n.transpose();
-      F_u.block<1, 3>(r + 2, 0) = P.transpose() * (D_k + D_k1) / facet;
+      if (velocities) F_u.block<1, 3>(r + 2, 0) = P.transpose() * (D_k + D_k1) / facet;
       F_theta(r + 2, kDynamic) = -P_n;
     }
   }
@@ -502,15 +507,21 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   // (the velocities' derivatives are the same for every solution).
   const Index L = s.J.cols();
   const Index V = columns.velocities ? L : 0;
-  std::vector<Index> theta_columns;  // island coefficient columns solved
-  theta_columns.reserve(static_cast<std::size_t>(3 * m));
+  // Island coefficient columns solved (on the stack for islands of up to 16 contacts).
+  std::array<Index, 48> small_theta;
+  std::vector<Index> large_theta;
+  Index* theta_columns = small_theta.data();
+  if (3 * m > static_cast<Index>(small_theta.size())) {
+    large_theta.resize(static_cast<std::size_t>(3 * m));
+    theta_columns = large_theta.data();
+  }
+  Index T = 0;
   for (Index k = 0; k < 3 * m; ++k) {
     if (columns.wantsCoefficient(3 * static_cast<Index>(s.contacts[k / 3]) + k % 3) &&
         !F_theta.block<3, 1>(k - k % 3, k % 3).isZero(0.0)) {
-      theta_columns.push_back(k);
+      theta_columns[T++] = k;
     }
   }
-  const Index T = static_cast<Index>(theta_columns.size());
   if (V > 0) {
     dP_dv.setZero(3 * m, L);
   } else {
@@ -526,7 +537,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   }
   for (Index t = 0; t < T; ++t) {
     // Column k of the block diagonal F_theta: contact k / 3's block, column k % 3.
-    const Index k = theta_columns[static_cast<std::size_t>(t)];
+    const Index k = theta_columns[t];
     rhs.col(V + t).setZero();
     rhs.block<3, 1>(k - k % 3, V + t) = F_theta.block<3, 1>(k - k % 3, k % 3);
   }
@@ -554,7 +565,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   }
   if (V > 0) dP_dv = -solution.leftCols(L);
   for (Index t = 0; t < T; ++t) {
-    dP_dtheta.col(theta_columns[static_cast<std::size_t>(t)]) = -solution.col(V + t);
+    dP_dtheta.col(theta_columns[t]) = -solution.col(V + t);
   }
   return true;
 }

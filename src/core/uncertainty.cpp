@@ -20,6 +20,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/halton_sequence.h"
 #include "collision_response/core/impact_derivatives.h"
+#include "collision_response/core/percent_text.h"
 #include "collision_response/core/standard_normal.h"
 #include "collision_response/core/validation.h"
 
@@ -59,7 +60,6 @@ struct Prepared {
   Scene mean_scene;  // the coefficients at their means
   std::vector<UncertainContact> contacts;
   std::vector<std::pair<std::size_t, int>> dimensions;  // (index in contacts, coefficient)
-  std::vector<double> variances;                        // per dimension
   std::vector<Warning> warnings;
   std::vector<std::pair<int, int>> contact_bodies;  // kSampled: validate()'s
 };
@@ -84,7 +84,6 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
   }
   prepared.contacts.reserve(uncertainties.size());
   prepared.dimensions.reserve(3 * uncertainties.size());
-  prepared.variances.reserve(3 * uncertainties.size());
   for (std::size_t k = 0; k < uncertainties.size(); ++k) {
     const ContactUncertainty& entry = uncertainties[k];
     // Field names are built only for an error or a warning (the linear method's cost is a few
@@ -130,7 +129,6 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
       if (uncertain.distributions[which].variance() > 0.0) {
         uncertain.dimension[which] = static_cast<int>(prepared.dimensions.size());
         prepared.dimensions.emplace_back(prepared.contacts.size(), which);
-        prepared.variances.push_back(uncertain.distributions[which].variance());
       }
     }
     // (Friction given as it is, an invalid pair is the contact's: validate() names it.)
@@ -152,9 +150,13 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
 std::string joined(std::initializer_list<std::string_view> parts) {
   std::size_t size = 0;
   for (const std::string_view part : parts) size += part.size();
-  std::string out;
-  out.reserve(size);
-  for (const std::string_view part : parts) out.append(part);
+  // Sized at once, the parts copied in (cheaper than append()'s checks per part).
+  std::string out(size, '\0');
+  char* at = out.data();
+  for (const std::string_view part : parts) {
+    std::memcpy(at, part.data(), part.size());
+    at += part.size();
+  }
   return out;
 }
 
@@ -164,22 +166,17 @@ class NumberText {
   explicit NumberText(std::size_t value) {
     size_ = static_cast<std::size_t>(std::to_chars(text_, text_ + sizeof text_, value).ptr - text_);
   }
-  // Three significant digits, as printf's %.3g (no locale, no format parsing).
+  // Three significant digits, as printf's %.3g (writePercent()).
   static NumberText percent(double fraction) {
     NumberText out;
-    char* last = std::to_chars(out.text_, out.text_ + sizeof out.text_ - 2, 100.0 * fraction,
-                               std::chars_format::general, 3)
-                     .ptr;
-    *last++ = ' ';
-    *last++ = '%';
-    out.size_ = static_cast<std::size_t>(last - out.text_);
+    out.size_ = writePercent(fraction, out.text_);
     return out;
   }
   operator std::string_view() const { return {text_, size_}; }
 
  private:
   NumberText() = default;
-  char text_[40];
+  char text_[kPercentTextSize];
   std::size_t size_ = 0;
 };
 
@@ -200,6 +197,18 @@ double approximateOverlapProbability(const UncertainContact& contact) {
   const double variance = mu_s.variance() + mu_d.variance();
   if (variance == 0.0) return mu_d.mean() > mu_s.mean() ? 1.0 : 0.0;
   return standardNormalCdf((mu_d.mean() - mu_s.mean()) / std::sqrt(variance));
+}
+
+// The variance of sampling dimension j.
+double dimensionVariance(const Prepared& prepared, std::size_t j) {
+  const auto& [index, which] = prepared.dimensions[j];
+  return prepared.contacts[index].distributions[static_cast<std::size_t>(which)].variance();
+}
+
+Eigen::Index movableCount(const Scene& scene) {
+  Eigen::Index count = 0;
+  for (const BodyState& body : scene.bodies) count += body.immovable() ? 0 : 1;
+  return count;
 }
 
 std::vector<int> movableBodies(const Scene& scene) {
@@ -245,10 +254,11 @@ std::string percentText(double fraction) {
 // The probability that contact c sticks, from the linearised margin of its mode at the means
 // (docs/uncertainty.md): sticking, mu_s P_n - |P_t|; sliding, mu_s minus the mu_d at which the
 // linearised slip speed would vanish.
-// `gradient`: a workspace (resized here).
+// `column_used[j]`: whether the Jacobian's column of dimension j has a nonzero entry. `gradient`: a
+// workspace of one entry per dimension.
 double linearStickProbability(const ImpactDerivatives& derivatives, const Prepared& prepared,
-                              std::size_t c, const std::vector<int>& column_of_dimension,
-                              Eigen::VectorXd& gradient) {
+                              std::size_t c, const int* column_of_dimension,
+                              const unsigned char* column_used, double* gradient) {
   const CollisionResult& result = derivatives.result;
   const ContactImpulse& impulse = result.impulses[c];
   const Contact& contact = prepared.mean_scene.contacts[c];
@@ -260,7 +270,7 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
   int mu_s_dimension = -1;
   for (const UncertainContact& uncertain : prepared.contacts)
     if (uncertain.contact == c) mu_s_dimension = uncertain.dimension[kStaticFriction];
-  gradient.setZero(dims);
+  std::fill(gradient, gradient + dims, 0.0);
   double margin = 0.0;
   const Eigen::Index row = derivatives.velocityCount() + 4 * static_cast<Eigen::Index>(c);
   if (mode == ImpactMode::kSticking) {
@@ -270,11 +280,12 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
                                           : Eigen::Vector3d::Zero();
     margin = contact.static_friction * impulse.normal_impulse - tangential;
     for (Eigen::Index j = 0; j < dims; ++j) {
+      if (!column_used[j]) continue;  // a zero column: its gradient entry stays 0
       const Eigen::Index k = column_of_dimension[j];
-      gradient(j) = contact.static_friction * derivatives.jacobian(row, k) -
+      gradient[j] = contact.static_friction * derivatives.jacobian(row, k) -
                     direction.dot(derivatives.jacobian.block<3, 1>(row + 1, k));
     }
-    if (mu_s_dimension >= 0) gradient(mu_s_dimension) += impulse.normal_impulse;
+    if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
   } else {
     // Slip velocity of b relative to a at the point, tangential part, and its derivatives.
     auto index = [&](const std::string& id) {
@@ -316,13 +327,16 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
     for (Eigen::Index j = 0; j < dims; ++j) {
       const Eigen::Index k = column_of_dimension[j];
       if (k == mu_d_column) continue;  // mu_d decides how it slides, not whether it sticks
-      gradient(j) = speed_rate(k) / by_mu_d;
+      gradient[j] = speed_rate(k) / by_mu_d;
     }
-    if (mu_s_dimension >= 0) gradient(mu_s_dimension) += 1.0;
+    if (mu_s_dimension >= 0) gradient[mu_s_dimension] += 1.0;
   }
   double variance = 0.0;
-  for (Eigen::Index j = 0; j < dims; ++j)
-    variance += gradient(j) * gradient(j) * prepared.variances[j];
+  for (Eigen::Index j = 0; j < dims; ++j) {
+    if (gradient[j] == 0.0) continue;  // adds +0 (the variances are finite)
+    variance +=
+        gradient[j] * gradient[j] * dimensionVariance(prepared, static_cast<std::size_t>(j));
+  }
   if (variance == 0.0) return margin >= 0.0 ? 1.0 : 0.0;
   return standardNormalCdf(margin / std::sqrt(variance));
 }
@@ -330,10 +344,47 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
 // S S^T into `out` (m x m, column-major), S = `s` (m x used, column-major). Rows x a few columns:
 // column c is a sum of S's columns weighted by their entries in row c, taken four at a time so
 // that each output is stored once per four (plain loops the compiler vectorises; cheaper than a
-// product kernel's set-up at this size). Entries (r, c) and (c, r) sum the same products in the
-// same order: the result is exactly symmetric.
+// product kernel's set-up at this size), two output columns per pass (each load of S serves
+// both). Entries (r, c) and (c, r) sum the same products in the same order: the result is exactly
+// symmetric.
 void outerProduct(const double* s, Eigen::Index m, Eigen::Index used, double* out) {
-  for (Eigen::Index c = 0; c < m; ++c) {
+  Eigen::Index c = 0;
+  for (; c + 2 <= m; c += 2) {
+    double* __restrict first = out + c * m;
+    double* __restrict second = first + m;
+    Eigen::Index j = 0;
+    if (used < 4) {
+      for (Eigen::Index r = 0; r < m; ++r) first[r] = second[r] = 0.0;
+    }
+    for (; j + 4 <= used; j += 4) {
+      const double* __restrict s0 = s + j * m;
+      const double* __restrict s1 = s0 + m;
+      const double* __restrict s2 = s1 + m;
+      const double* __restrict s3 = s2 + m;
+      const double a0 = s0[c], a1 = s1[c], a2 = s2[c], a3 = s3[c];
+      const double b0 = s0[c + 1], b1 = s1[c + 1], b2 = s2[c + 1], b3 = s3[c + 1];
+      if (j == 0) {
+        for (Eigen::Index r = 0; r < m; ++r) {
+          first[r] = a0 * s0[r] + a1 * s1[r] + a2 * s2[r] + a3 * s3[r];
+          second[r] = b0 * s0[r] + b1 * s1[r] + b2 * s2[r] + b3 * s3[r];
+        }
+      } else {
+        for (Eigen::Index r = 0; r < m; ++r) {
+          first[r] += a0 * s0[r] + a1 * s1[r] + a2 * s2[r] + a3 * s3[r];
+          second[r] += b0 * s0[r] + b1 * s1[r] + b2 * s2[r] + b3 * s3[r];
+        }
+      }
+    }
+    for (; j < used; ++j) {
+      const double* __restrict s0 = s + j * m;
+      const double a0 = s0[c], b0 = s0[c + 1];
+      for (Eigen::Index r = 0; r < m; ++r) {
+        first[r] += a0 * s0[r];
+        second[r] += b0 * s0[r];
+      }
+    }
+  }
+  for (; c < m; ++c) {  // an odd last column
     double* __restrict column = out + c * m;
     Eigen::Index j = 0;
     if (used < 4) {
@@ -385,19 +436,46 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   fillOutcome(derivatives.result, derivatives.movable_bodies,
               [&](Eigen::Index r) -> double& { return outcome.mean(r); });
   const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
-  std::vector<int> column_of_dimension(prepared.dimensions.size());
+  // Per dimension: its Jacobian column, whether that column has a nonzero entry, and the stick
+  // probabilities' gradient entry (on the stack up to 96 dimensions: 32 uncertain contacts).
+  constexpr std::size_t kSmallDimensions = 96;
+  std::array<int, kSmallDimensions> small_columns;
+  std::array<unsigned char, kSmallDimensions> small_used;
+  std::array<double, kSmallDimensions> small_gradient;
+  std::vector<int> large_columns;
+  std::vector<unsigned char> large_used;
+  std::vector<double> large_gradient;
+  int* column_of_dimension = small_columns.data();
+  unsigned char* column_used = small_used.data();
+  double* gradient = small_gradient.data();
+  if (prepared.dimensions.size() > kSmallDimensions) {
+    large_columns.resize(prepared.dimensions.size());
+    large_used.resize(prepared.dimensions.size());
+    large_gradient.resize(prepared.dimensions.size());
+    column_of_dimension = large_columns.data();
+    column_used = large_used.data();
+    gradient = large_gradient.data();
+  }
   // J columns times the standard deviations; a coefficient the outcome does not depend on (a
-  // sticking contact's friction: a zero column) adds nothing to the covariance and is left out.
-  Eigen::MatrixXd scaled(m, dims);
+  // sticking contact's friction: a zero column) adds nothing to the covariance and is left out
+  // (and takes no room: `scaled` is allocated for the columns used only). One pass finds them
+  // (a plain scan: cheaper than isZero()).
   Eigen::Index used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     const auto& [index, which] = prepared.dimensions[j];
     column_of_dimension[j] =
         static_cast<int>(derivatives.velocityCount() +
                          3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
-    const auto column = derivatives.jacobian.col(column_of_dimension[j]);
-    if (column.isZero(0.0)) continue;
-    scaled.col(used++) = column * std::sqrt(prepared.variances[j]);
+    const double* column = derivatives.jacobian.col(column_of_dimension[j]).data();
+    column_used[j] = std::any_of(column, column + m, [](double x) { return x != 0.0; });
+    used += column_used[j];
+  }
+  Eigen::MatrixXd scaled(m, used);
+  used = 0;
+  for (Eigen::Index j = 0; j < dims; ++j) {
+    if (column_used[j])
+      scaled.col(used++) = derivatives.jacobian.col(column_of_dimension[j]) *
+                           std::sqrt(dimensionVariance(prepared, static_cast<std::size_t>(j)));
   }
   outcome.covariance.resize(m, m);
   outerProduct(scaled.data(), m, used, outcome.covariance.data());
@@ -410,10 +488,9 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   }
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   outcome.stick_probability.resize(contacts);
-  Eigen::VectorXd gradient;
   for (std::size_t c = 0; c < contacts; ++c)
-    outcome.stick_probability[c] =
-        linearStickProbability(derivatives, prepared, c, column_of_dimension, gradient);
+    outcome.stick_probability[c] = linearStickProbability(
+        derivatives, prepared, c, column_of_dimension, column_used, gradient);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -658,7 +735,7 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
                            std::to_string(uncertainty.samples));
   Prepared prepared = prepare(scene, uncertainties);
   if (uncertainty.method == UncertaintyMethod::kLinear) {
-    checkOutcomeSize(6 * static_cast<Eigen::Index>(movableBodies(prepared.mean_scene).size()) +
+    checkOutcomeSize(6 * movableCount(prepared.mean_scene) +
                          4 * static_cast<Eigen::Index>(prepared.mean_scene.contacts.size()),
                      1);
     return linearDistribution(prepared, options, limits);

@@ -7,8 +7,10 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <random>
 #include <string>
@@ -18,6 +20,7 @@
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/halton_sequence.h"
+#include "collision_response/core/percent_text.h"
 #include "collision_response/core/standard_normal.h"
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
@@ -454,6 +457,115 @@ TEST(CoefficientDistribution, TruncatedNormalMomentsMatchQuadrature) {
   }
   EXPECT_NEAR(below / mass, 0.5, 1e-4);
   EXPECT_NEAR(d.truncatedMass(), 0.5 * std::erfc(1.0 / std::sqrt(2.0)), 1e-12);  // P(Z > 1)
+}
+
+// Far truncation bounds (9 or more standard deviations from the mean) skip the truncated normal's
+// moment formulas: the answers must be those formulas' own, bit for bit. Reference: the formulas
+// written here (the density of the normal renormalised on [lower, upper], erfc-based Phi), at
+// means and spreads whose bounds lie from 6 to 60 standard deviations away, on [0, 1] (e) and
+// [0, infinity) (friction). Nearer bounds (not skipped) agree to round-off.
+TEST(CoefficientDistribution, FarTruncationBoundsGiveTheFullFormulasMomentsBitForBit) {
+  auto Phi = [](double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); };
+  auto phi = [](double x) {
+    return std::isinf(x) ? 0.0 : std::exp(-0.5 * x * x) / std::sqrt(2.0 * M_PI);
+  };
+  int far = 0;
+  for (const double upper : {1.0, std::numeric_limits<double>::infinity()}) {
+    for (const double mean : {0.3, 0.4, 0.5, 0.55, 0.7}) {
+      for (const double sigmas : {6.0, 8.0, 8.99, 9.0, 9.01, 10.0, 13.3, 20.0, 38.0, 60.0}) {
+        const double s = std::min(mean, upper - mean) / sigmas;
+        const core::CheckedDistribution d(CoefficientDistribution::normal(mean, s), 0.0, upper,
+                                          "f");
+        const double a = (0.0 - mean) / s, b = (upper - mean) / s;
+        const double kept = Phi(b) - Phi(a);
+        const double shift = (phi(a) - phi(b)) / kept;
+        const double a_term = a * phi(a), b_term = std::isinf(b) ? 0.0 : b * phi(b);
+        const double reference_mean = mean + s * shift;
+        const double reference_variance =
+            s * s * std::max(0.0, 1.0 + (a_term - b_term) / kept - shift * shift);
+        SCOPED_TRACE(testing::Message()
+                     << "mean " << mean << " sigmas " << sigmas << " upper " << upper);
+        if (a <= -9.0 && b >= 9.0) {
+          ++far;
+          EXPECT_EQ(d.mean(), reference_mean);
+          EXPECT_EQ(d.variance(), reference_variance);
+          EXPECT_EQ(d.truncatedMass(), 1.0 - kept);
+        } else {
+          EXPECT_NEAR(d.mean(), reference_mean, 1e-15);
+          EXPECT_NEAR(d.variance(), reference_variance, 1e-15 * s * s);
+          EXPECT_NEAR(d.truncatedMass(), 1.0 - kept, 1e-15);
+        }
+        // The quantile function and the CDF keep the lower bound's tail mass Phi(a) (the sampled
+        // method's draws), however small: at probabilities it shifts and at ones it cannot.
+        for (const double u : {0.0, 1e-22, 1e-19, 1e-12, 1e-3, 1.0 / 512, 1.0 / 256, 0.3, 1.0}) {
+          const double x =
+              std::clamp(mean + s * core::standardNormalQuantile(Phi(a) + u * kept), 0.0, upper);
+          // (Equal infinities, and the NaN both give at u = 0 when Phi(a) is subnormal.)
+          const double q = d.quantile(u);
+          if ((std::isnan(q) && std::isnan(x)) || q == x) continue;
+          if (a <= -9.0 && b >= 9.0)
+            EXPECT_EQ(q, x) << "u " << u;
+          else
+            EXPECT_NEAR(q, x, 1e-12 * s) << "u " << u;
+        }
+        for (const double z : {-8.5, -7.0, -6.0, -3.0, -0.5, 0.0, 1.0, 2.5}) {
+          const double x = mean + z * s;
+          const double p = (Phi((x - mean) / s) - Phi(a)) / kept;
+          if (x <= 0.0 || x >= upper) continue;
+          if (a <= -9.0 && b >= 9.0)
+            EXPECT_EQ(d.cdf(x), p) << "z " << z;
+          else
+            EXPECT_NEAR(d.cdf(x), p, 1e-15) << "z " << z;
+        }
+      }
+    }
+  }
+  EXPECT_GE(far, 40);  // the bit-for-bit cases were reached
+}
+
+// The warnings' percentages (writePercent()) are printf's "%.3g %" of 100 * fraction: against
+// std::to_chars (general, 3 digits, the exact binary value rounded) at every millionth in [0, 1],
+// log-uniform fractions from 1e-12 to 10, negative and non-finite ones, and the doubles next to
+// every rounding tie n.5 * 10^k (n of 3 digits) of the fast path's range.
+TEST(PercentText, MatchesPrintfsThreeSignificantDigits) {
+  auto reference = [](double fraction) {
+    char text[64];
+    char* end =
+        std::to_chars(text, text + sizeof text, 100.0 * fraction, std::chars_format::general, 3)
+            .ptr;
+    return std::string(text, end) + " %";
+  };
+  auto written = [](double fraction) {
+    char text[core::kPercentTextSize];
+    return std::string(text, core::writePercent(fraction, text));
+  };
+  std::vector<double> fractions;
+  for (int k = 0; k <= 1000000; ++k) fractions.push_back(k / 1e6);
+  std::mt19937 random(26);
+  std::uniform_real_distribution<double> exponent(-12.0, 1.0);
+  for (int k = 0; k < 200000; ++k) fractions.push_back(std::pow(10.0, exponent(random)));
+  for (const double special :
+       {0.0, -0.25, 1.0, 9.995, 1e-300, 5e-324, 1e300, std::numeric_limits<double>::infinity(),
+        std::numeric_limits<double>::quiet_NaN()})
+    fractions.push_back(special);
+  for (int power = -6; power <= 1; ++power) {
+    for (int n = 100; n < 1000; ++n) {
+      const double tie = (n + 0.5) * std::pow(10.0, power) / 100.0;
+      for (double x = std::nextafter(std::nextafter(tie, 0.0), 0.0), k = 0; k < 5;
+           ++k, x = std::nextafter(x, 1e9))
+        fractions.push_back(x);
+    }
+  }
+  int mismatches = 0;
+  for (const double fraction : fractions) {
+    if (written(fraction) != reference(fraction) && ++mismatches <= 10)
+      ADD_FAILURE() << "fraction " << std::hexfloat << fraction << std::defaultfloat << ": "
+                    << written(fraction) << " against " << reference(fraction);
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_EQ(written(0.123), "12.3 %");
+  EXPECT_EQ(written(0.5), "50 %");
+  EXPECT_EQ(written(0.0005), "0.05 %");
 }
 
 // The whole sampling is bounded by options.time_budget.

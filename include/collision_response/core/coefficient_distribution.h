@@ -72,11 +72,18 @@ class CheckedDistribution {
   void check(std::string (*name)(const void*), const void* context,
              std::optional<Warning>* warning);
 
+  // Phi(alpha) to add to or subtract from `beside` (a probability): cdf_lower_, or, when it was
+  // not computed (bounds 9+ standard deviations away), 0 where it cannot change `beside` and
+  // Phi(alpha) where it can.
+  double lowerMass(double beside) const;
+
   CoefficientDistribution distribution_;
   double lower_ = 0.0;
   double upper_ = 0.0;
-  double cdf_lower_ = 0.0;  // normal: Phi(alpha)
-  double kept_mass_ = 1.0;  // normal: Phi(beta) - Phi(alpha)
+  double alpha_ = 0.0;           // normal: (lower - mean) / std_dev
+  bool cdf_lower_known_ = true;  // false: cdf_lower_ is 0 in place of Phi(alpha) < 1.2e-19
+  double cdf_lower_ = 0.0;       // normal: Phi(alpha)
+  double kept_mass_ = 1.0;       // normal: Phi(beta) - Phi(alpha)
   double mean_ = 0.0;
   double variance_ = 0.0;
 };
