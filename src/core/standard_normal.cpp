@@ -51,10 +51,13 @@ double standardNormalQuantile(double p) {
     x = -(((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
         ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
   }
-  // One Halley step on Phi(x) - p (the error of Phi from erfc is relative in each tail).
+  // One Halley step on Phi(x) - p (the error of Phi from erfc is relative in each tail). Beyond
+  // |x| = 37.6 (p below 1e-309, subnormal) exp(x^2 / 2) overflows, and Phi(x) is too coarse
+  // there to refine anything: the approximation stands.
   const double e = standardNormalCdf(x) - p;
   const double u = e * kSqrt2Pi * std::exp(0.5 * x * x);
-  return x - u / (1.0 + 0.5 * x * u);
+  const double refined = x - u / (1.0 + 0.5 * x * u);
+  return std::isfinite(refined) ? refined : x;
 }
 
 }  // namespace collision_response::core

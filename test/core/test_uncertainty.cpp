@@ -137,6 +137,26 @@ TEST(StandardNormal, QuantileInvertsTheCdfAndKnownValues) {
   }
 }
 
+// The far tail, down to subnormal probabilities (where Phi's Halley step used to overflow into
+// NaN): against the asymptotic series log Phi(x) = -x^2/2 - log(|x| sqrt(2 pi)) + log(1 - 1/x^2
+// + 3/x^4 - 15/x^6), written here (its next term is below 1e-8 at |x| > 30), to the
+// approximation's accuracy in x (1e-9 relative: about x^2 1e-9 in log p). And a normal truncated
+// 38 standard deviations from its lower bound (Phi(alpha) subnormal) has a finite quantile at 0.
+TEST(StandardNormal, QuantileInTheFarTailDownToSubnormalProbabilities) {
+  for (const double p : {1e-280, 1e-300, 1e-310, 1e-320, 4.9e-324}) {
+    const double x = core::standardNormalQuantile(p);
+    ASSERT_TRUE(std::isfinite(x)) << p;
+    const double x2 = x * x;
+    const double log_phi = -0.5 * x2 - std::log(-x * std::sqrt(2.0 * M_PI)) +
+                           std::log(1.0 - 1.0 / x2 + 3.0 / (x2 * x2) - 15.0 / (x2 * x2 * x2));
+    EXPECT_NEAR(log_phi, std::log(p), 1e-8 * x2 + 1e-12) << p;
+  }
+  const core::CheckedDistribution far(core::CoefficientDistribution::normal(0.475, 0.0125), 0.0,
+                                      1.0, "e");
+  const double lowest = far.quantile(0.0);
+  EXPECT_TRUE(lowest >= 0.0 && lowest <= far.quantile(1e-3)) << lowest;
+}
+
 TEST(HaltonSequence, CoordinatesAreUniformAndSeeded) {
   const core::HaltonSequence a(5, 7);
   const core::HaltonSequence b(5, 7);
