@@ -13,10 +13,12 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 #include <string_view>
 
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/contact_space.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/halton_sequence.h"
 #include "collision_response/core/impact_derivatives.h"
@@ -54,12 +56,34 @@ struct UncertainContact {
   std::size_t entry = 0;  // k of uncertainties[k]
   std::array<CheckedDistribution, 3> distributions;
   std::array<int, 3> dimension = {-1, -1, -1};
+  // The uncertain geometry (ContactUncertainty): the mean normal n with its tangent basis, the
+  // mean point, their spreads, and their sampling dimensions counted from the first one after
+  // the coefficients' (Prepared::dimensions.size()); -1: exact.
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d tangent1 = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d tangent2 = Eigen::Vector3d::UnitY();
+  double normal_std_dev = 0.0;
+  int normal_dimension = -1;  // a's; b's is the next one
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d point_std_dev = Eigen::Vector3d::Zero();
+  std::array<int, 3> point_dimension = {-1, -1, -1};
+};
+
+// A sample's normal and point of one uncertain contact.
+struct DrawnGeometry {
+  Eigen::Vector3d normal;
+  Eigen::Vector3d point;
 };
 
 struct Prepared {
   Scene mean_scene;  // the coefficients at their means
   std::vector<UncertainContact> contacts;
   std::vector<std::pair<std::size_t, int>> dimensions;  // (index in contacts, coefficient)
+  // Sampling dimensions of the normals and points, after the coefficients' ones.
+  std::size_t geometry_dimensions = 0;
+  // The first entry with a normal or point spread ("uncertainties[k].normal_std_dev", ...), or
+  // empty: the linear method refuses it.
+  std::string first_geometry_field;
   std::vector<Warning> warnings;
   std::vector<std::pair<int, int>> contact_bodies;  // kSampled: validate()'s
 };
@@ -100,7 +124,15 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
     named[entry.contact / 64] |= bit;
     const std::array<const std::optional<CoefficientDistribution>*, 3> given = {
         &entry.restitution, &entry.static_friction, &entry.dynamic_friction};
-    if (!*given[0] && !*given[1] && !*given[2]) continue;
+    if (!(std::isfinite(entry.normal_std_dev) && entry.normal_std_dev >= 0.0))
+      throw InvalidInput(field() + ".normal_std_dev",
+                         "must be a finite number >= 0 [rad] (0: the normal exactly)");
+    for (int axis = 0; axis < 3; ++axis)
+      if (!(std::isfinite(entry.point_std_dev[axis]) && entry.point_std_dev[axis] >= 0.0))
+        throw InvalidInput(field() + ".point_std_dev." + "xyz"[axis],
+                           "must be a finite number >= 0 [m] (0: exact along that axis)");
+    const bool geometric = entry.normal_std_dev > 0.0 || (entry.point_std_dev.array() > 0.0).any();
+    if (!*given[0] && !*given[1] && !*given[2] && !geometric) continue;
     Contact& contact = prepared.mean_scene.contacts[entry.contact];
     const std::array<double, 3> uppers = {1.0, std::numeric_limits<double>::infinity(),
                                           std::numeric_limits<double>::infinity()};
@@ -129,6 +161,29 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
       if (uncertain.distributions[which].variance() > 0.0) {
         uncertain.dimension[which] = static_cast<int>(prepared.dimensions.size());
         prepared.dimensions.emplace_back(prepared.contacts.size(), which);
+      }
+    }
+    if (geometric) {
+      if (prepared.first_geometry_field.empty())
+        prepared.first_geometry_field =
+            field() + (entry.normal_std_dev > 0.0 ? ".normal_std_dev" : ".point_std_dev");
+      uncertain.normal = contact.normal;
+      uncertain.point = contact.point;
+      uncertain.normal_std_dev = entry.normal_std_dev;
+      uncertain.point_std_dev = entry.point_std_dev;
+      if (entry.normal_std_dev > 0.0) {
+        const double length = contact.normal.norm();
+        if (!(std::isfinite(length) && length > 0.0))  // as validate() names it
+          throw InvalidInput("contacts[" + std::to_string(entry.contact) + "].normal",
+                             "must be a finite, nonzero vector");
+        tangentBasis(contact.normal / length, uncertain.tangent1, uncertain.tangent2);
+        uncertain.normal_dimension = static_cast<int>(prepared.geometry_dimensions);
+        prepared.geometry_dimensions += 2;
+      }
+      for (int axis = 0; axis < 3; ++axis) {
+        if (!(entry.point_std_dev[axis] > 0.0)) continue;
+        uncertain.point_dimension[axis] = static_cast<int>(prepared.geometry_dimensions);
+        prepared.geometry_dimensions += 1;
       }
     }
     // (Friction given as it is, an invalid pair is the contact's: validate() names it.)
@@ -555,6 +610,28 @@ std::array<double, 3> drawCoefficients(const UncertainContact& uncertain,
   return drawn;
 }
 
+// The normal and point of sample i of an uncertain contact (UncertainContact): the scrambled
+// Halton coordinates of its dimensions (after the `offset` coefficient dimensions) through the
+// standard normal's quantile, scaled by the spreads; normal = normalize(n + a t1 + b t2).
+DrawnGeometry drawGeometry(const UncertainContact& uncertain, const HaltonSequence& sequence,
+                           std::size_t i, std::size_t offset) {
+  DrawnGeometry drawn{uncertain.normal, uncertain.point};
+  auto normal = [&](int dimension) {
+    return standardNormalQuantile(
+        sequence.coordinate(i, offset + static_cast<std::size_t>(dimension)));
+  };
+  if (uncertain.normal_dimension >= 0) {
+    const double a = uncertain.normal_std_dev * normal(uncertain.normal_dimension);
+    const double b = uncertain.normal_std_dev * normal(uncertain.normal_dimension + 1);
+    drawn.normal =
+        (uncertain.normal + a * uncertain.tangent1 + b * uncertain.tangent2).normalized();
+  }
+  for (int axis = 0; axis < 3; ++axis)
+    if (uncertain.point_dimension[axis] >= 0)
+      drawn.point[axis] += uncertain.point_std_dev[axis] * normal(uncertain.point_dimension[axis]);
+  return drawn;
+}
+
 // Mean, covariance (N - 1), quantiles of `values` (one column per sample), the stick fractions
 // (`sticking`: sample-major, one entry per contact) and the capping warnings, into `outcome`.
 void summariseSamples(const Eigen::MatrixXd& values, const std::vector<unsigned char>& sticking,
@@ -642,21 +719,25 @@ struct SampleStore {
 // count and size, the scrambled Halton points through the coefficients' quantile functions (mu_d
 // capped at mu_s and flagged), the time budget, the samples spread over `tasks` tasks on `pool`
 // (task t: a contiguous range of them). make_solver(t) gives task
-// t's solver (its own copy of the problem), called once per sample as solve(i, drawn, options,
-// store): drawn[u] = (e, mu_s, mu_d) of prepared.contacts[u], set on its copy, solved with
-// `options` (what is left of the budget), written into column i of store.values and the sample's
-// entries of store.sticking.
+// t's solver (its own copy of the problem), called once per sample as solve(i, drawn, geometry,
+// options, store): drawn[u] = (e, mu_s, mu_d) of prepared.contacts[u] and, when any contact's
+// normal or point is uncertain, geometry[u] its normal and point (else `geometry` is empty), set on
+// its copy, solved with `options` (what is left of the budget), written into column i of
+// store.values and the sample's entries of store.sticking.
 template <class MakeSolver>
 SampleStore sampleAll(const Prepared& prepared, const SolverOptions& options,
                       const UncertaintyOptions& uncertainty, Eigen::Index rows,
                       std::size_t contacts, std::size_t tasks, WorkerPool* pool,
                       MakeSolver&& make_solver) {
   const auto start = std::chrono::steady_clock::now();
-  const std::size_t dims = prepared.dimensions.size();
+  const std::size_t dims = prepared.dimensions.size() + prepared.geometry_dimensions;
   if (dims > HaltonSequence::kMaxDimensions)
-    throw InvalidInput("uncertainties", "the sampled method takes at most " +
-                                            std::to_string(HaltonSequence::kMaxDimensions) +
-                                            " uncertain coefficients (with a spread) per request");
+    throw InvalidInput("uncertainties",
+                       "the sampled method takes at most " +
+                           std::to_string(HaltonSequence::kMaxDimensions) +
+                           " uncertain quantities (with a spread) per request: coefficients, 2 "
+                           "per uncertain normal and 1 per uncertain axis of a point; got " +
+                           std::to_string(dims));
   const HaltonSequence sequence(dims, uncertainty.seed);
   const std::size_t samples = uncertainty.samples;
   checkOutcomeSize(rows, samples);
@@ -669,13 +750,17 @@ SampleStore sampleAll(const Prepared& prepared, const SolverOptions& options,
   auto run = [&](std::size_t task) {
     auto solve = make_solver(task);
     std::vector<std::array<double, 3>> drawn(uncertain);
+    // Empty unless a normal or a point is uncertain (the coefficients-only loop stays as it was).
+    std::vector<DrawnGeometry> geometry(prepared.geometry_dimensions > 0 ? uncertain : 0);
     const std::size_t end = (task + 1) * samples / tasks;
     for (std::size_t i = task * samples / tasks; i < end; ++i) {
       const SolverOptions sample_options = remainingBudget(options, start);
       for (std::size_t u = 0; u < uncertain; ++u)
         drawn[u] =
             drawCoefficients(prepared.contacts[u], sequence, i, store.capped[i * uncertain + u]);
-      solve(i, drawn, sample_options, store);
+      for (std::size_t u = 0; u < geometry.size(); ++u)
+        geometry[u] = drawGeometry(prepared.contacts[u], sequence, i, prepared.dimensions.size());
+      solve(i, drawn, geometry, sample_options, store);
     }
   };
   if (pool != nullptr) {
@@ -699,10 +784,16 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
   const SampleStore store =
       sampleAll(prepared, options, uncertainty, m, contacts, tasks, pool, [&](std::size_t) {
         return [&, sample = scene](std::size_t i, const std::vector<std::array<double, 3>>& drawn,
+                                   const std::vector<DrawnGeometry>& geometry,
                                    const SolverOptions& sample_options, SampleStore& out) mutable {
           for (std::size_t u = 0; u < drawn.size(); ++u) {
             Contact& contact = sample.contacts[prepared.contacts[u].contact];
             for (int which = 0; which < 3; ++which) coefficient(contact, which) = drawn[u][which];
+          }
+          for (std::size_t u = 0; u < geometry.size(); ++u) {
+            Contact& contact = sample.contacts[prepared.contacts[u].contact];
+            contact.normal = geometry[u].normal;
+            contact.point = geometry[u].point;
           }
           const CollisionResult result =
               computeValidatedResponse(sample, prepared.contact_bodies, sample_options);
@@ -735,6 +826,10 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
                            std::to_string(uncertainty.samples));
   Prepared prepared = prepare(scene, uncertainties);
   if (uncertainty.method == UncertaintyMethod::kLinear) {
+    if (!prepared.first_geometry_field.empty())
+      throw InvalidInput(prepared.first_geometry_field,
+                         "the linear method takes uncertain coefficients only: for an uncertain "
+                         "normal or point, ask for sampled");
     checkOutcomeSize(6 * movableCount(prepared.mean_scene) +
                          4 * static_cast<Eigen::Index>(prepared.mean_scene.contacts.size()),
                      1);
@@ -781,6 +876,8 @@ OutcomeDistribution computeBodyOutcomeDistribution(
     coefficients.contacts[c].restitution = contacts[c].restitution;
     coefficients.contacts[c].static_friction = contacts[c].static_friction;
     coefficients.contacts[c].dynamic_friction = contacts[c].dynamic_friction;
+    coefficients.contacts[c].normal = contacts[c].normal;
+    coefficients.contacts[c].point = contacts[c].point;
   }
   const Prepared prepared = prepare(coefficients, uncertainties);
   const std::size_t contact_count = contacts.size();
@@ -794,7 +891,8 @@ OutcomeDistribution computeBodyOutcomeDistribution(
         for (const BodyModel* body : bodies) before.push_back(body->velocity());
         return [&, before, sample = contacts](
                    std::size_t i, const std::vector<std::array<double, 3>>& drawn,
-                   const SolverOptions& sample_options, SampleStore& out) mutable {
+                   const std::vector<DrawnGeometry>& geometry, const SolverOptions& sample_options,
+                   SampleStore& out) mutable {
           auto restore = [&] {
             for (std::size_t b = 0; b < body_count; ++b)
               if (offset[b] >= 0) bodies[b]->addVelocityChange(before[b] - bodies[b]->velocity());
@@ -804,6 +902,11 @@ OutcomeDistribution computeBodyOutcomeDistribution(
             contact.restitution = drawn[u][kRestitution];
             contact.static_friction = drawn[u][kStaticFriction];
             contact.dynamic_friction = drawn[u][kDynamicFriction];
+          }
+          for (std::size_t u = 0; u < geometry.size(); ++u) {
+            ContactPoint& contact = sample[prepared.contacts[u].contact];
+            contact.normal = geometry[u].normal;
+            contact.point = geometry[u].point;
           }
           BodyResponse result;
           try {

@@ -35,6 +35,9 @@ std::vector<core::ContactUncertainty> fromMsg(const std::vector<ContactUncertain
     uncertainty.restitution = fromMsg(msgs[k].restitution, field + "restitution");
     uncertainty.static_friction = fromMsg(msgs[k].static_friction, field + "static_friction");
     uncertainty.dynamic_friction = fromMsg(msgs[k].dynamic_friction, field + "dynamic_friction");
+    uncertainty.normal_std_dev = msgs[k].normal_std_dev;
+    uncertainty.point_std_dev = {msgs[k].point_std_dev.x, msgs[k].point_std_dev.y,
+                                 msgs[k].point_std_dev.z};
     uncertainties.push_back(uncertainty);
   }
   return uncertainties;

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -157,6 +158,61 @@ TEST(RobotUncertainty, SampledArmStrikeMatchesTheAffineClosedForm) {
   // The copies end at their pre-impact velocities.
   EXPECT_LT((copies[0].arm.velocity() - before).norm(), 1e-12);
   EXPECT_LT((copies[1].arm.velocity() - before).norm(), 1e-12);
+}
+
+// The arm's strike with its contact's normal and point uncertain (normal_std_dev, point_std_dev;
+// docs/uncertainty.md, "Uncertain normal and point"), against a plain Monte Carlo loop over
+// computeBodyResponse() that perturbs the contact itself: std::mt19937 normals, the test's own
+// tangent basis (the law is isotropic in the tangent plane, so any basis gives the same one).
+TEST(RobotUncertainty, UncertainNormalAndPointMatchPlainMonteCarlo) {
+  const double sigma_n = 0.05;
+  const Vector3d sigma_p(0.01, 0.02, 0.005);
+  Strike s = strike(1.0, 0.5);
+  const int unknowns = s.arm.velocityCount();
+  cr::ContactUncertainty uncertain;
+  uncertain.contact = 0;
+  uncertain.normal_std_dev = sigma_n;
+  uncertain.point_std_dev = sigma_p;
+  cr::UncertaintyOptions sampling;
+  sampling.method = cr::UncertaintyMethod::kSampled;
+  sampling.samples = 4096;
+  const cr::OutcomeDistribution outcome = cr::computeBodyOutcomeDistribution(
+      {{&s.arm, &s.wall}}, {s.contact}, {uncertain},
+      VectorXd::Constant(unknowns, std::numeric_limits<double>::infinity()), newton(), sampling);
+
+  const Vector3d n = s.contact.normal;
+  const Vector3d t1 = n.cross(Vector3d(0.7, -0.2, 0.4)).normalized();
+  const Vector3d t2 = n.cross(t1);
+  std::mt19937 random(7);
+  std::normal_distribution<double> z(0.0, 1.0);
+  constexpr int kDraws = 8000;
+  Eigen::MatrixXd values(unknowns + 1, kDraws);
+  const Strike base = strike(1.0, 0.5);
+  for (int i = 0; i < kDraws; ++i) {
+    Strike draw = base;
+    cr::ContactPoint contact = draw.contact;
+    contact.normal = (n + sigma_n * z(random) * t1 + sigma_n * z(random) * t2).normalized();
+    for (int axis = 0; axis < 3; ++axis) contact.point[axis] += sigma_p[axis] * z(random);
+    std::vector<cr::BodyModel*> bodies{&draw.arm, &draw.wall};
+    const cr::BodyResponse response = cr::computeBodyResponse(bodies, {contact}, newton());
+    values.col(i) << draw.arm.velocity(), response.impulses[0].normal_impulse;
+  }
+  const VectorXd mc_mean = values.rowwise().mean();
+  const Eigen::MatrixXd centred = values.colwise() - mc_mean;
+  const VectorXd mc_variance = centred.rowwise().squaredNorm() / (kDraws - 1.0);
+  for (int r = 0; r <= unknowns; ++r) {
+    const int row = r < unknowns ? r : unknowns;  // the normal impulse follows the unknowns
+    SCOPED_TRACE(outcome.labels[static_cast<std::size_t>(row)]);
+    const double spread = std::sqrt(mc_variance(r));
+    if (spread < 1e-9) {  // a joint the contact does not move (the fingers)
+      EXPECT_LT(std::sqrt(outcome.covariance(row, row)), 1e-9);
+      continue;
+    }
+    EXPECT_NEAR(outcome.mean(row), mc_mean(r), 5.0 * spread / std::sqrt(double(kDraws)));
+    EXPECT_NEAR(std::sqrt(outcome.covariance(row, row)), spread, 0.06 * spread);
+  }
+  // The impulse moves with the geometry: the test is not vacuous.
+  EXPECT_GT(mc_variance(unknowns), 0.0);
 }
 
 TEST(RobotUncertainty, LinearIsRefusedNamingTheOption) {

@@ -132,6 +132,40 @@ TEST_F(UncertaintyNodeTest, BadInputIsRejectedNamingTheField) {
   EXPECT_TRUE(call(landingSphere(sampled, 0.05)).success) << "node stopped serving";
 }
 
+// The same sphere falling straight down at 2 m/s, frictionless, its contact normal uncertain
+// (normal_std_dev = sigma, sampled). Closed form (test_geometry_uncertainty.cpp derives it): with
+// the normal (a, b, 1) / s and the point under the centre, v_x = (1 + e) V a / (1 + 3.5 (a^2 +
+// b^2)), so Var(v_x) = Var(v_y) = ((1 + e) V sigma)^2 (1 - 28 sigma^2) + O(sigma^6), mean 0.
+TEST_F(UncertaintyNodeTest, UncertainNormalSpreadsTheTangentialVelocity) {
+  const double sigma = 0.02, speed = 2.0;
+  cr::ComputeResponse srv = landingSphere(cr::SolverOptions::UNCERTAINTY_SAMPLED, 0.0);
+  srv.request.bodies[1].twist.linear.x = 0.0;
+  srv.request.bodies[1].twist.linear.z = -speed;
+  srv.request.contacts[0].static_friction = 0.0;
+  srv.request.contacts[0].dynamic_friction = 0.0;
+  cr::ContactUncertainty u;
+  u.contact = 0;
+  u.normal_std_dev = sigma;
+  srv.request.uncertainties = {u};
+  const auto response = call(srv);
+  ASSERT_TRUE(response.success) << response.message;
+  const cr::OutcomeDistribution& d = response.outcome_distribution;
+  ASSERT_EQ(d.mean.size(), 10u);
+  const double variance = std::pow((1 + kE) * speed * sigma, 2) * (1.0 - 28.0 * sigma * sigma);
+  EXPECT_NEAR(d.covariance[0 * 10 + 0], variance, 0.01 * variance);
+  EXPECT_NEAR(d.covariance[1 * 10 + 1], variance, 0.01 * variance);
+  EXPECT_NEAR(d.mean[0], 0.0, 0.01 * std::sqrt(variance));
+  // The answer itself is the prediction at the contact's own normal: straight back up.
+  EXPECT_NEAR(response.bodies[1].twist.linear.x, 0.0, 1e-12);
+
+  // A negative spread, and the linear method, are refused naming the field.
+  srv.request.uncertainties[0].point_std_dev.y = -0.01;
+  expectRejected(srv, "uncertainties[0].point_std_dev.y");
+  srv.request.uncertainties[0].point_std_dev.y = 0.0;
+  srv.request.options.uncertainty = cr::SolverOptions::UNCERTAINTY_LINEAR;
+  expectRejected(srv, "uncertainties[0].normal_std_dev");
+}
+
 // Two spheres colliding head-on along x, frictionless: left (1 kg, +2 m/s), right (3 kg, -1 m/s),
 // restitution e. Newton's law in closed form: the normal impulse is (1 + e) m_red w with the
 // reduced mass m_red = 0.75 kg and the closing speed w = 3 m/s, so

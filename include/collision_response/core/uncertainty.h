@@ -41,11 +41,16 @@ struct UncertaintyOptions {
 /// the calling thread); mean, covariance (divided by N - 1) and quantiles of the samples. A sample
 /// whose mu_d exceeds its mu_s is solved with mu_d = mu_s (Coulomb's law needs mu_d <= mu_s): the
 /// warnings give the fraction of samples (kSampled) or the probability (kLinear, which does not
-/// see the cap) per contact.
+/// see the cap) per contact. An uncertain normal or point (ContactUncertainty) takes kSampled:
+/// two more dimensions per normal and one per uncertain axis of a point, after the coefficients'
+/// (so a request's coefficient samples do not change when a normal becomes uncertain), set on the
+/// sample's contact before the solve.
 ///
 /// Throws InvalidInput naming the field: the scene (as validate()), "uncertainties[k].contact"
 /// (out of range or repeated), "uncertainties[k].restitution.std_dev" ... (CheckedDistribution),
 /// "uncertainties[k].dynamic_friction.mean" when the mean of mu_d exceeds that of mu_s,
+/// "uncertainties[k].normal_std_dev" / ".point_std_dev.x|y|z" when negative or not finite, and
+/// (kLinear) the first of them with a nonzero spread,
 /// "options.uncertainty" (kNone), "options.uncertainty_samples" (0 or over the cap, or rows x
 /// samples over kMaxSampledValues), "uncertainties" (an outcome of more than kMaxOutcomeRows rows).
 /// SolverTimeout when the whole call runs past options.time_budget (kSampled: each sample gets what

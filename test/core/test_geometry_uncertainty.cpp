@@ -1,0 +1,382 @@
+// Outcome distributions of impacts whose contact normal or point is uncertain (ContactUncertainty's
+// normal_std_dev and point_std_dev, sampled method; docs/uncertainty.md). References, each
+// computed here independently of the code under test:
+// - a frictionless ball landing on its pole with a tilted normal, and a frictionless rod landing
+//   flat at a point along its length, both in closed form (derived below) integrated over the
+//   Gaussian perturbation by a fine quadrature;
+// - a plain Monte Carlo loop over computeResponse() on a frictional, spinning box whose normal and
+//   point this test perturbs with std::mt19937 draws and a tangent basis of its own.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "collision_response/core/body_response.h"
+#include "collision_response/core/compute_response.h"
+#include "collision_response/core/errors.h"
+#include "collision_response/core/rigid_body.h"
+#include "collision_response/core/uncertainty.h"
+#include "collision_response/core/worker_pool.h"
+
+namespace core = collision_response::core;
+using core::ContactUncertainty;
+using core::UncertaintyMethod;
+using Eigen::Vector3d;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+core::SolverOptions newton() {
+  core::SolverOptions options;
+  options.law = core::ImpactLaw::kNewton;
+  return options;
+}
+
+core::UncertaintyOptions sampled(std::size_t samples) {
+  core::UncertaintyOptions options;
+  options.method = UncertaintyMethod::kSampled;
+  options.samples = samples;
+  return options;
+}
+
+std::string errorField(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const core::InvalidInput& e) {
+    return e.field();
+  }
+  return "(no error)";
+}
+
+// E[f(z)] for z ~ N(0, 1) in `d` independent dimensions (d = 1 or 2): the trapezoid rule on
+// [-9, 9] with 401 nodes per axis (spectrally accurate for these smooth integrands).
+template <class F>
+double gaussian1(F&& f) {
+  constexpr int kNodes = 401;
+  constexpr double kHalf = 9.0;
+  const double h = 2.0 * kHalf / (kNodes - 1);
+  double sum = 0.0;
+  for (int i = 0; i < kNodes; ++i) {
+    const double z = -kHalf + h * i;
+    sum += f(z) * std::exp(-0.5 * z * z);
+  }
+  return sum * h / std::sqrt(2.0 * kPi);
+}
+
+template <class F>
+double gaussian2(F&& f) {
+  return gaussian1([&](double x) { return gaussian1([&](double y) { return f(x, y); }); });
+}
+
+// A uniform ball (mass m, radius R, no spin) falling straight down at V onto the immovable ground
+// (body a), the contact point fixed under its centre, the normal z tilted to n = (a, b, 1) / s,
+// s = sqrt(1 + a^2 + b^2). Frictionless, one contact: P = (1 + e) V / (s k) along n with the
+// arm r = (0, 0, -R), r x n = R (b, -a, 0) / s and
+//   k = 1/m + |r x n|^2 / I = (1 + 2.5 (a^2 + b^2) / s^2) / m,   I = 2/5 m R^2;
+// after: v = (0, 0, -V) + P n / m, w = P (r x n) / I.
+constexpr double kBallMass = 2.0, kBallRadius = 0.1, kBallSpeed = 2.0, kBallE = 0.5;
+
+core::Scene fallingBall() {
+  core::BodyState ground;
+  ground.id = "ground";
+  core::BodyState ball;
+  ball.id = "ball";
+  ball.mass = kBallMass;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.4 * kBallMass * kBallRadius * kBallRadius;
+  ball.position = {0.0, 0.0, kBallRadius};
+  ball.linear_velocity = {0.0, 0.0, -kBallSpeed};
+  core::Contact contact;
+  contact.body_a = "ground";
+  contact.body_b = "ball";
+  contact.point = {0.0, 0.0, 0.0};
+  contact.normal = {0.0, 0.0, 1.0};
+  contact.restitution = kBallE;
+  core::Scene scene;
+  scene.bodies = {ground, ball};
+  scene.contacts = {contact};
+  return scene;
+}
+
+// The ball's (v, w) after, for tangent components (a, b) of the normal, and the normal impulse.
+Eigen::Matrix<double, 7, 1> ballAfter(double a, double b) {
+  const double s2 = 1.0 + a * a + b * b, s = std::sqrt(s2);
+  const double inertia = 0.4 * kBallMass * kBallRadius * kBallRadius;
+  const double k = (1.0 + 2.5 * (a * a + b * b) / s2) / kBallMass;
+  const double p = (1.0 + kBallE) * kBallSpeed / (s * k);
+  Eigen::Matrix<double, 7, 1> out;
+  out << p * a / (s * kBallMass), p * b / (s * kBallMass), -kBallSpeed + p / (s * kBallMass),
+      p * kBallRadius * b / (s * inertia), -p * kBallRadius * a / (s * inertia), 0.0, p;
+  return out;
+}
+
+// A rod (mass m, length L along x, centre at height h) falling flat at V onto the ground, struck
+// at (x, 0, 0). Frictionless, normal z: r = (x, 0, -h), r x z = (0, -x, 0) (the point's height
+// does not enter), k = 1/m + x^2 / I_yy, I_yy = m L^2 / 12, P = (1 + e) V / k;
+// after: v_z = -V + P / m, w_y = -x P / I_yy, everything else unchanged (zero).
+constexpr double kRodMass = 1.2, kRodLength = 1.0, kRodHeight = 0.02, kRodSpeed = 1.5, kRodE = 0.3;
+constexpr double kRodIyy = kRodMass * kRodLength * kRodLength / 12.0;
+
+core::Scene fallingRod(double x) {
+  core::BodyState ground;
+  ground.id = "ground";
+  core::BodyState rod;
+  rod.id = "rod";
+  rod.mass = kRodMass;
+  rod.inertia = Eigen::Vector3d(1e-3, kRodIyy, kRodIyy).asDiagonal();
+  rod.position = {0.0, 0.0, kRodHeight};
+  rod.linear_velocity = {0.0, 0.0, -kRodSpeed};
+  core::Contact contact;
+  contact.body_a = "ground";
+  contact.body_b = "rod";
+  contact.point = {x, 0.0, 0.0};
+  contact.normal = {0.0, 0.0, 1.0};
+  contact.restitution = kRodE;
+  core::Scene scene;
+  scene.bodies = {ground, rod};
+  scene.contacts = {contact};
+  return scene;
+}
+
+// (v_z, w_y, P) after, the rod struck at x.
+Eigen::Vector3d rodAfter(double x) {
+  const double k = 1.0 / kRodMass + x * x / kRodIyy;
+  const double p = (1.0 + kRodE) * kRodSpeed / k;
+  return {-kRodSpeed + p / kRodMass, -x * p / kRodIyy, p};
+}
+
+}  // namespace
+
+TEST(GeometryUncertainty, TiltedNormalOfALandingBallMatchesTheClosedForm) {
+  const double sigma = 0.05;  // [rad]
+  ContactUncertainty uncertain;
+  uncertain.normal_std_dev = sigma;
+  const core::OutcomeDistribution outcome =
+      core::computeOutcomeDistribution(fallingBall(), {uncertain}, newton(), sampled(8192));
+  // Rows: the ball's v (0-2), w (3-5), the contact's normal impulse (6), friction (7-9).
+  ASSERT_EQ(outcome.mean.size(), 10);
+  const int rows[7] = {0, 1, 2, 3, 4, 5, 6};
+  auto mean = [&](int q) {
+    return gaussian2([&](double x, double y) { return ballAfter(sigma * x, sigma * y)(q); });
+  };
+  for (int q = 0; q < 7; ++q) {
+    SCOPED_TRACE("quantity " + std::to_string(q));
+    const double mu = mean(q);
+    const double variance = gaussian2([&](double x, double y) {
+      const double d = ballAfter(sigma * x, sigma * y)(q) - mu;
+      return d * d;
+    });
+    const double spread = std::sqrt(variance);
+    EXPECT_NEAR(outcome.mean(rows[q]), mu, 2e-3 * spread + 1e-12);
+    EXPECT_NEAR(outcome.covariance(rows[q], rows[q]), variance, 1e-2 * variance + 1e-14);
+  }
+  // Small sigma, from the closed form: s^2 k m = 1 + 3.5 rho (rho = a^2 + b^2), so
+  // v_x = (1 + e) V a / (1 + 3.5 rho) and, with E[a^2] = sigma^2, E[a^2 rho] = 4 sigma^4,
+  //   Var(v_x) = Var(v_y) = ((1 + e) V sigma)^2 (1 - 28 sigma^2) + O(sigma^6)
+  // (leading term: the tilt's tangential velocity (1 + e) V cos(theta) sin(theta) ~ (1 + e) V
+  // theta; the next one carries the lever arm). The O(sigma^6) term is about 0.6 % here.
+  const double leading = std::pow((1.0 + kBallE) * kBallSpeed * sigma, 2);
+  const double second = leading * (1.0 - 28.0 * sigma * sigma);
+  EXPECT_NEAR(outcome.covariance(0, 0), second, 0.015 * second);
+  EXPECT_NEAR(outcome.covariance(1, 1), second, 0.015 * second);
+  // The two tangent axes are independent: v_x and v_y are uncorrelated.
+  EXPECT_NEAR(outcome.covariance(0, 1), 0.0, 0.02 * leading);
+  // Frictionless: no friction impulse in any sample.
+  EXPECT_LT((outcome.covariance.block<3, 3>(7, 7).norm()), 1e-20);
+}
+
+TEST(GeometryUncertainty, PointAlongAStruckRodMatchesTheClosedForm) {
+  const double x0 = 0.2, sigma_x = 0.05;
+  ContactUncertainty uncertain;
+  // The height spread is along the normal: frictionless, it changes nothing (r x n ignores it).
+  uncertain.point_std_dev = {sigma_x, 0.0, 0.03};
+  const core::OutcomeDistribution outcome =
+      core::computeOutcomeDistribution(fallingRod(x0), {uncertain}, newton(), sampled(8192));
+  ASSERT_EQ(outcome.mean.size(), 10);
+  const int rows[3] = {2, 4, 6};  // v_z, w_y, normal impulse
+  for (int q = 0; q < 3; ++q) {
+    SCOPED_TRACE("quantity " + std::to_string(q));
+    const double mu = gaussian1([&](double z) { return rodAfter(x0 + sigma_x * z)(q); });
+    const double variance = gaussian1([&](double z) {
+      const double d = rodAfter(x0 + sigma_x * z)(q) - mu;
+      return d * d;
+    });
+    const double spread = std::sqrt(variance);
+    EXPECT_NEAR(outcome.mean(rows[q]), mu, 2e-3 * spread);
+    EXPECT_NEAR(outcome.covariance(rows[q], rows[q]), variance, 1e-2 * variance);
+  }
+  // The other velocities stay zero in every sample.
+  for (const int r : {0, 1, 3, 5}) EXPECT_NEAR(outcome.covariance(r, r), 0.0, 1e-20);
+}
+
+TEST(GeometryUncertainty, SampledMatchesPlainMonteCarloOnASlidingSpinningBox) {
+  // A box struck off-centre on the ground with friction, spinning: normal, point and restitution
+  // all uncertain at once.
+  core::BodyState ground;
+  ground.id = "ground";
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 1.5;
+  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
+  box.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
+  box.position = {0.1, -0.05, 0.2};
+  box.linear_velocity = {0.6, 0.3, -2.0};
+  box.angular_velocity = {0.5, -1.0, 0.2};
+  core::Contact contact;
+  contact.body_a = "ground";
+  contact.body_b = "box";
+  contact.point = {0.05, 0.0, 0.0};
+  contact.normal = Vector3d(0.1, -0.05, 1.0).normalized();
+  contact.restitution = 0.5;
+  contact.static_friction = 0.4;
+  contact.dynamic_friction = 0.3;
+  core::Scene scene;
+  scene.bodies = {ground, box};
+  scene.contacts = {contact};
+
+  const double sigma_n = 0.08, e_sd = 0.05;
+  const Vector3d sigma_p(0.03, 0.02, 0.01);
+  ContactUncertainty uncertain;
+  uncertain.normal_std_dev = sigma_n;
+  uncertain.point_std_dev = sigma_p;
+  uncertain.restitution = core::CoefficientDistribution::normal(0.5, e_sd);
+  core::WorkerPool pool(2);
+  const core::OutcomeDistribution outcome =
+      core::computeOutcomeDistribution(scene, {uncertain}, newton(), sampled(8192), &pool);
+
+  // The test's own Monte Carlo: its own tangent basis (any orthonormal one gives the same law),
+  // e by rejection inside [0, 1].
+  const Vector3d n = contact.normal;
+  const Vector3d t1 = n.cross(Vector3d(0.3, 1.0, -0.2)).normalized();
+  const Vector3d t2 = n.cross(t1);
+  std::mt19937 random(20261126);
+  std::normal_distribution<double> z(0.0, 1.0);
+  constexpr int kDraws = 20000;
+  const Eigen::Index m = outcome.mean.size();
+  ASSERT_EQ(m, 10);
+  Eigen::MatrixXd values(m, kDraws);
+  int sticking = 0;
+  for (int i = 0; i < kDraws; ++i) {
+    core::Scene sample = scene;
+    core::Contact& c = sample.contacts[0];
+    c.normal = (n + sigma_n * z(random) * t1 + sigma_n * z(random) * t2).normalized();
+    for (int axis = 0; axis < 3; ++axis) c.point[axis] += sigma_p[axis] * z(random);
+    do {
+      c.restitution = 0.5 + e_sd * z(random);
+    } while (c.restitution < 0.0 || c.restitution > 1.0);
+    const core::CollisionResult result = core::computeResponse(sample, newton());
+    const core::BodyState& after = result.bodies[1];
+    values.col(i) << after.linear_velocity, after.angular_velocity,
+        result.impulses[0].normal_impulse, result.impulses[0].friction_impulse;
+    sticking += result.impulses[0].sticking ? 1 : 0;
+  }
+  const Eigen::VectorXd mc_mean = values.rowwise().mean();
+  const Eigen::MatrixXd centred = values.colwise() - mc_mean;
+  const Eigen::VectorXd mc_variance = centred.rowwise().squaredNorm() / (kDraws - 1.0);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    SCOPED_TRACE(outcome.labels[static_cast<std::size_t>(r)]);
+    const double spread = std::sqrt(mc_variance(r));
+    ASSERT_GT(spread, 1e-4) << "every quantity must move";
+    // 5 standard errors of the Monte Carlo mean (the quasi-random one is far tighter).
+    EXPECT_NEAR(outcome.mean(r), mc_mean(r), 5.0 * spread / std::sqrt(double(kDraws)));
+    // A sample standard deviation of 20000 draws: within 5 % (about 5 of its standard errors for
+    // these mildly non-normal outcomes).
+    EXPECT_NEAR(std::sqrt(outcome.covariance(r, r)), spread, 0.05 * spread);
+  }
+  const double p = static_cast<double>(sticking) / kDraws;
+  EXPECT_NEAR(outcome.stick_probability[0], p, 5.0 * std::sqrt(p * (1 - p) / kDraws) + 1e-3);
+}
+
+TEST(GeometryUncertainty, GeneralBodiesPathPerturbsTheNormalToo) {
+  // computeBodyOutcomeDistribution() (robots and free bodies) on the ball of the closed form.
+  const core::Scene scene = fallingBall();
+  std::vector<core::RigidBody> copy;
+  core::makeRigidBodies(scene.bodies, copy);
+  std::vector<std::vector<core::BodyModel*>> copies = {{&copy[0], &copy[1]}};
+  const core::Contact& c = scene.contacts[0];
+  const core::ContactPoint point(0, 1, c.point, c.normal, c.restitution, 0.0, 0.0);
+  const double sigma = 0.05;
+  ContactUncertainty uncertain;
+  uncertain.normal_std_dev = sigma;
+  const Eigen::VectorXd limits =
+      Eigen::VectorXd::Constant(6, std::numeric_limits<double>::infinity());
+  const core::OutcomeDistribution outcome = core::computeBodyOutcomeDistribution(
+      copies, {point}, {uncertain}, limits, newton(), sampled(8192));
+  ASSERT_EQ(outcome.mean.size(), 10);
+  for (int q = 0; q < 7; ++q) {
+    SCOPED_TRACE("quantity " + std::to_string(q));
+    const double mu =
+        gaussian2([&](double x, double y) { return ballAfter(sigma * x, sigma * y)(q); });
+    const double variance = gaussian2([&](double x, double y) {
+      const double d = ballAfter(sigma * x, sigma * y)(q) - mu;
+      return d * d;
+    });
+    EXPECT_NEAR(outcome.mean(q), mu, 2e-3 * std::sqrt(variance) + 1e-12);
+    EXPECT_NEAR(outcome.covariance(q, q), variance, 1e-2 * variance + 1e-14);
+  }
+  // The copies end at their pre-impact velocities.
+  EXPECT_EQ(copy[1].velocity(),
+            Eigen::VectorXd((Eigen::VectorXd(6) << 0, 0, -kBallSpeed, 0, 0, 0).finished()));
+}
+
+TEST(GeometryUncertainty, ZeroSpreadsLeaveTheCoefficientSamplesUnchanged) {
+  // A restitution-only request and the same with explicit zero geometry spreads: bit for bit.
+  ContactUncertainty plain;
+  plain.restitution = core::CoefficientDistribution::interval(0.2, 0.8);
+  ContactUncertainty zero = plain;
+  zero.normal_std_dev = 0.0;
+  zero.point_std_dev = Vector3d::Zero();
+  const auto a = core::computeOutcomeDistribution(fallingRod(0.2), {plain}, newton(), sampled(256));
+  const auto b = core::computeOutcomeDistribution(fallingRod(0.2), {zero}, newton(), sampled(256));
+  EXPECT_EQ(a.mean, b.mean);
+  EXPECT_EQ(a.covariance, b.covariance);
+}
+
+TEST(GeometryUncertainty, BadSpreadsAndTheLinearMethodAreRefusedNamingTheField) {
+  const core::Scene scene = fallingRod(0.2);
+  auto field = [&](const ContactUncertainty& u, UncertaintyMethod method) {
+    core::UncertaintyOptions options = sampled(64);
+    options.method = method;
+    return errorField([&] { core::computeOutcomeDistribution(scene, {u}, newton(), options); });
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const double bad : {-0.01, nan, inf}) {
+    ContactUncertainty u;
+    u.normal_std_dev = bad;
+    EXPECT_EQ(field(u, UncertaintyMethod::kSampled), "uncertainties[0].normal_std_dev");
+    EXPECT_EQ(field(u, UncertaintyMethod::kLinear), "uncertainties[0].normal_std_dev");
+    for (int axis = 0; axis < 3; ++axis) {
+      ContactUncertainty v;
+      v.point_std_dev[axis] = bad;
+      EXPECT_EQ(field(v, UncertaintyMethod::kSampled),
+                std::string("uncertainties[0].point_std_dev.") + "xyz"[axis]);
+    }
+  }
+  // The linear method: a nonzero spread of the normal or the point, named.
+  ContactUncertainty normal;
+  normal.normal_std_dev = 0.01;
+  EXPECT_EQ(field(normal, UncertaintyMethod::kLinear), "uncertainties[0].normal_std_dev");
+  ContactUncertainty point;
+  point.restitution = core::CoefficientDistribution::normal(0.3, 0.01);
+  point.point_std_dev = {0.0, 0.01, 0.0};
+  EXPECT_EQ(field(point, UncertaintyMethod::kLinear), "uncertainties[0].point_std_dev");
+  try {
+    core::UncertaintyOptions options;
+    options.method = UncertaintyMethod::kLinear;
+    core::computeOutcomeDistribution(scene, {normal}, newton(), options);
+    ADD_FAILURE() << "linear took an uncertain normal";
+  } catch (const core::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("sampled"), std::string::npos) << e.what();
+  }
+  // Zero spreads are the exact normal and point: linear takes them.
+  ContactUncertainty exact;
+  exact.restitution = core::CoefficientDistribution::normal(0.3, 0.01);
+  EXPECT_EQ(field(exact, UncertaintyMethod::kLinear), "(no error)");
+}
