@@ -22,6 +22,7 @@
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
+#include "scenes.h"
 
 namespace core = collision_response::core;
 using core::ContactUncertainty;
@@ -217,28 +218,9 @@ TEST(GeometryUncertainty, PointAlongAStruckRodMatchesTheClosedForm) {
 TEST(GeometryUncertainty, SampledMatchesPlainMonteCarloOnASlidingSpinningBox) {
   // A box struck off-centre on the ground with friction, spinning: normal, point and restitution
   // all uncertain at once.
-  core::BodyState ground;
-  ground.id = "ground";
-  core::BodyState box;
-  box.id = "box";
-  box.mass = 1.5;
-  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
-  box.orientation =
-      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
-  box.position = {0.1, -0.05, 0.2};
-  box.linear_velocity = {0.6, 0.3, -2.0};
-  box.angular_velocity = {0.5, -1.0, 0.2};
-  core::Contact contact;
-  contact.body_a = "ground";
-  contact.body_b = "box";
-  contact.point = {0.05, 0.0, 0.0};
-  contact.normal = Vector3d(0.1, -0.05, 1.0).normalized();
-  contact.restitution = 0.5;
-  contact.static_friction = 0.4;
-  contact.dynamic_friction = 0.3;
-  core::Scene scene;
-  scene.bodies = {ground, box};
-  scene.contacts = {contact};
+  const core::Scene scene =
+      collision_response::testing::struckBox({0.6, 0.3, -2.0}, {0.5, -1.0, 0.2}, {0.05, 0.0, 0.0},
+                                             Vector3d(0.1, -0.05, 1.0).normalized(), 0.5, 0.4, 0.3);
 
   const double sigma_n = 0.08, e_sd = 0.05;
   const Vector3d sigma_p(0.03, 0.02, 0.01);
@@ -252,7 +234,7 @@ TEST(GeometryUncertainty, SampledMatchesPlainMonteCarloOnASlidingSpinningBox) {
 
   // The test's own Monte Carlo: its own tangent basis (any orthonormal one gives the same law),
   // e by rejection inside [0, 1].
-  const Vector3d n = contact.normal;
+  const Vector3d n = scene.contacts[0].normal;
   const Vector3d t1 = n.cross(Vector3d(0.3, 1.0, -0.2)).normalized();
   const Vector3d t2 = n.cross(t1);
   std::mt19937 random(20261126);

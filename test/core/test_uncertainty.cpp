@@ -24,6 +24,7 @@
 #include "collision_response/core/standard_normal.h"
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
+#include "scenes.h"
 
 namespace core = collision_response::core;
 using core::CoefficientDistribution;
@@ -35,28 +36,8 @@ namespace {
 // A box struck off-centre on the ground (u = (1, 0.3, -2) m/s at the contact): it slides for
 // mu_s = 0.2, far from sticking.
 core::Scene slidingBox() {
-  core::BodyState ground;
-  ground.id = "ground";
-  core::BodyState box;
-  box.id = "box";
-  box.mass = 1.5;
-  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
-  box.orientation =
-      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
-  box.position = {0.1, -0.05, 0.2};
-  box.linear_velocity = {1.0, 0.3, -2.0};
-  box.angular_velocity = {0.5, -1.0, 0.2};
-  core::Contact contact;
-  contact.body_a = "ground";
-  contact.body_b = "box";
-  contact.normal = {0.0, 0.0, 1.0};
-  contact.restitution = 0.5;
-  contact.static_friction = 0.2;
-  contact.dynamic_friction = 0.16;
-  core::Scene scene;
-  scene.bodies = {ground, box};
-  scene.contacts = {contact};
-  return scene;
+  return collision_response::testing::struckBox(
+      {1.0, 0.3, -2.0}, {0.5, -1.0, 0.2}, Eigen::Vector3d::Zero(), {0.0, 0.0, 1.0}, 0.5, 0.2, 0.16);
 }
 
 // A uniform sphere (mass m, radius r, no spin) landing on its pole with velocity (u_t, 0, -u_n).

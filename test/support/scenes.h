@@ -27,6 +27,35 @@ inline cr::BodyState ground() {
   return g;
 }
 
+/// A 1.5 kg box (principal inertia (0.05, 0.08, 0.1) kg m^2, turned 0.4 rad about (1, 2, 3)) at
+/// (0.1, -0.05, 0.2) m with linear velocity v [m/s] and angular velocity w [rad/s], struck by the
+/// ground ("ground", body a) through one contact at `point` with normal `normal` (from the ground
+/// to the box), restitution e and friction mu_s, mu_d: the off-centre box of the uncertainty tests
+/// and benchmarks.
+inline cr::Scene struckBox(const Vector3d& v, const Vector3d& w, const Vector3d& point,
+                           const Vector3d& normal, double e, double mu_s, double mu_d) {
+  cr::BodyState box;
+  box.id = "box";
+  box.mass = 1.5;
+  box.inertia = Vector3d(0.05, 0.08, 0.1).asDiagonal();
+  box.orientation = Quaterniond(Eigen::AngleAxisd(0.4, Vector3d(1, 2, 3).normalized()));
+  box.position = {0.1, -0.05, 0.2};
+  box.linear_velocity = v;
+  box.angular_velocity = w;
+  cr::Contact contact;
+  contact.body_a = "ground";
+  contact.body_b = "box";
+  contact.point = point;
+  contact.normal = normal;
+  contact.restitution = e;
+  contact.static_friction = mu_s;
+  contact.dynamic_friction = mu_d;
+  cr::Scene scene;
+  scene.bodies = {ground(), box};
+  scene.contacts = {contact};
+  return scene;
+}
+
 /// Solid sphere: I = 2/5 m r^2.
 inline cr::BodyState sphere(const std::string& id, double m, double radius,
                             const Vector3d& position, const Vector3d& v,
