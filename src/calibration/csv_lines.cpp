@@ -43,7 +43,10 @@ bool CsvLines::next() {
     line_ += buffer;
   }
   ++number_;
-  if (readError())
+  // zlib flags a stream cut short as soon as its last block is decompressed, lines before the
+  // cut: only the line the cut falls in (no line end) is an error here; a cut just after a line
+  // end is found at the next read.
+  if (readError() && (line_.empty() || line_.back() != '\n'))
     throw std::runtime_error(path_ + ":" + std::to_string(number_) +
                              ": read error (corrupt gzip?)");
   while (!line_.empty() && (line_.back() == '\n' || line_.back() == '\r' || line_.back() == ' '))

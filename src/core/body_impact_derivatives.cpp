@@ -317,6 +317,11 @@ void differenceCoordinates(const std::vector<ConfigurationCoordinate>& coordinat
                            BodyImpactDerivatives& out) {
   if (coordinates.empty()) return;
   const Index N = out.velocity_count, C = static_cast<Index>(contacts.size());
+  // The prediction's modes as modeOf() classifies the perturbed solves (the analytic pass may
+  // report a mode by its own, finer rules: comparing with those would flag switches that are not).
+  std::vector<ImpactMode> prediction_modes;
+  for (const ContactImpulse& impulse : out.result.impulses)
+    prediction_modes.push_back(modeOf(impulse));
   std::vector<ImpactMode> nominal_modes;
   VectorXd nominal;  // the outputs at the coordinates' values, solved once if a column needs them
   std::vector<ImpactMode> plus_modes, minus_modes;
@@ -331,8 +336,8 @@ void differenceCoordinates(const std::vector<ConfigurationCoordinate>& coordinat
     std::vector<std::size_t> switched;  // contacts whose mode changed on either side
     bool plus_same = true, minus_same = true;
     for (std::size_t c = 0; c < contacts.size(); ++c) {
-      const bool p = plus_modes[c] == out.contacts[c].mode,
-                 m = minus_modes[c] == out.contacts[c].mode;
+      const bool p = plus_modes[c] == prediction_modes[c],
+                 m = minus_modes[c] == prediction_modes[c];
       plus_same = plus_same && p;
       minus_same = minus_same && m;
       if (!p || !m) switched.push_back(c);
@@ -470,12 +475,21 @@ BodyImpactDerivatives computeBodyImpactDerivatives(
       }
     }
   }
-  differenceCoordinates(
-      coordinates, contacts,
-      [&](const std::vector<ContactPoint>& cs, std::vector<ImpactMode>* modes) {
-        return evaluate(bodies, cs, options, end, before, out.velocity_offset, N, modes);
-      },
-      out);
+  try {
+    differenceCoordinates(
+        coordinates, contacts,
+        [&](const std::vector<ContactPoint>& cs, std::vector<ImpactMode>* modes) {
+          return evaluate(bodies, cs, options, end, before, out.velocity_offset, N, modes);
+        },
+        out);
+  } catch (...) {
+    // A perturbed solve ran out of time or failed, or a coordinate could not be set (a robot's
+    // M singular at q +- h): the bodies go back to their configuration and the prediction's
+    // velocities before the error goes on.
+    for (const ConfigurationCoordinate& coordinate : coordinates) coordinate.set(coordinate.value);
+    setVelocities(bodies, out.velocity_offset, after);
+    throw;
+  }
   // The prediction's velocities, as computeBodyResponse() leaves them (the differences moved them).
   if (!fd_columns.empty() || !coordinates.empty())
     setVelocities(bodies, out.velocity_offset, after);

@@ -52,8 +52,8 @@ double standardNormalQuantile(double p) {
         ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
   }
   // One Halley step on Phi(x) - p (the error of Phi from erfc is relative in each tail). Beyond
-  // |x| = 37.6 (p below 1e-309, subnormal) exp(x^2 / 2) overflows, and Phi(x) is too coarse
-  // there to refine anything: the approximation stands.
+  // |x| = 37.68 (p below about 6e-311, subnormal) exp(x^2 / 2) overflows: the approximation
+  // stands there.
   const double e = standardNormalCdf(x) - p;
   const double u = e * kSqrt2Pi * std::exp(0.5 * x * x);
   const double refined = x - u / (1.0 + 0.5 * x * u);

@@ -9,7 +9,9 @@ namespace collision_response::robot {
 namespace {
 
 KDL::Frame toKdl(const Eigen::Isometry3d& pose) {
-  const Eigen::Matrix3d r = pose.rotation();
+  // linear(), not rotation(): an Isometry's linear part is a rotation already, and Eigen 3.3's
+  // rotation() re-orthonormalises it by an SVD (a pose set twice would drift).
+  const Eigen::Matrix3d r = pose.linear();
   return KDL::Frame(
       KDL::Rotation(r(0, 0), r(0, 1), r(0, 2), r(1, 0), r(1, 1), r(1, 2), r(2, 0), r(2, 1),
                     r(2, 2)),

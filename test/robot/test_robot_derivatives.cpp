@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -628,6 +629,30 @@ TEST(RobotDerivatives, JointPositionColumnsMatchTheTwoLinkClosedForm) {
   const cr::BodyImpactDerivatives plain =
       cr::computeBodyImpactDerivatives({&wall, &arm}, {contact});
   EXPECT_EQ(plain.jacobian, d.jacobian.leftCols(5));
+}
+
+// A coordinate whose perturbed solve fails (here its setter throws on the minus side, as a robot's
+// setState() does where M(q - h) is singular): the error goes on, and the arm is back at its q and
+// at the prediction's velocities (the closed form's).
+TEST(RobotDerivatives, JointPositionColumnThatThrowsLeavesTheArmAsItWas) {
+  const Eigen::Vector2d q(0.4, 1.1);
+  TwoLinkAtAWorldPoint scene;
+  scene.p = two_link::tip(q(0), q(1));
+  scene.n = -(two_link::tipJacobian(q(0), q(1)) * scene.qdot).normalized();
+  cr::ContactPoint contact;
+  rb::ArticulatedBody arm = scene.arm(q, contact);
+  cr::RigidBody wall;
+  std::vector<cr::ConfigurationCoordinate> coordinates = rb::jointPositionCoordinates(arm);
+  const auto set = coordinates[1].set;
+  const double value = coordinates[1].value;
+  coordinates[1].set = [set, value](double x) {
+    if (x < value) throw std::runtime_error("no state below q2");
+    set(x);
+  };
+  EXPECT_THROW(cr::computeBodyImpactDerivatives({&wall, &arm}, {contact}, {}, coordinates),
+               std::runtime_error);
+  EXPECT_EQ(arm.jointPositions(), VectorXd(q));
+  EXPECT_LE((arm.jointVelocities() - scene.outcome(q).head(2)).cwiseAbs().maxCoeff(), 1e-12);
 }
 
 // At a mode switch: the tip barely approaches the wall (n.J qdot = -1e-9 m/s), so that moving q1 by

@@ -17,8 +17,9 @@ class CsvLines {
   CsvLines& operator=(const CsvLines&) = delete;
 
   /// Reads the next line, of any length, into line() without its line end (LF or CRLF) and
-  /// trailing spaces. False at the end of the file; throws "path: read error (corrupt gzip?)" when
-  /// the file ends in a read error, "path: empty file" when it held no line at all.
+  /// trailing spaces. False at the end of the file. Throws "path:line: read error (corrupt gzip?)"
+  /// for a line cut by the end of a gzip stream cut short (or "path: read error ..." when the cut
+  /// falls after a line end), "path: empty file" when the file held no line at all.
   bool next();
   const std::string& line() const { return line_; }
   /// 1 for the first line.

@@ -80,7 +80,8 @@ struct BodyImpactDerivatives {
 /// the point) change, not of where the bodies would touch. A column whose perturbed solve changes
 /// a contact's mode (no impulse, sticking, sliding) on one side is one-sided on the other (the
 /// contact reported at_switch); on both sides, central, mixing both modes, also reported. The
-/// coordinates end at their values.
+/// coordinates end at their values, also when the call throws; the bodies' velocities end at the
+/// prediction's to round-off (v + (v' - v), as after the differenced columns).
 /// options.time_budget bounds the whole call (the prediction and every perturbed solve):
 /// SolverTimeout when it runs out. Throws what computeBodyResponse() throws.
 BodyImpactDerivatives computeBodyImpactDerivatives(

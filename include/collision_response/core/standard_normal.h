@@ -10,9 +10,9 @@ double standardNormalPdf(double x);
 /// Phi(x) = P(X <= x), from erfc (accurate in both tails); 0 at -infinity, 1 at +infinity.
 double standardNormalCdf(double x);
 /// Phi^-1(p) for p in [0, 1] (-infinity at 0, +infinity at 1): Acklam's rational approximation
-/// refined by one Halley step on Phi, relative error near machine precision (for a subnormal p,
-/// below 2.2e-308, the approximation unrefined: finite, relative error about 1e-9). NaN outside
-/// [0, 1].
+/// refined by one Halley step on Phi, relative error near machine precision (below p = 6e-311,
+/// where the step would overflow, the approximation unrefined: finite, relative error about
+/// 1e-9). NaN outside [0, 1].
 double standardNormalQuantile(double p);
 
 }  // namespace collision_response::core
