@@ -23,37 +23,20 @@
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
 #include "scenes.h"
+#include "uncertainty_options.h"
 
 namespace core = collision_response::core;
 using core::ContactUncertainty;
 using core::UncertaintyMethod;
 using Eigen::Vector3d;
 
+using collision_response::testing::errorField;
+using collision_response::testing::newton;
+using collision_response::testing::sampled;
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-core::SolverOptions newton() {
-  core::SolverOptions options;
-  options.law = core::ImpactLaw::kNewton;
-  return options;
-}
-
-core::UncertaintyOptions sampled(std::size_t samples) {
-  core::UncertaintyOptions options;
-  options.method = UncertaintyMethod::kSampled;
-  options.samples = samples;
-  return options;
-}
-
-std::string errorField(const std::function<void()>& call) {
-  try {
-    call();
-  } catch (const core::InvalidInput& e) {
-    return e.field();
-  }
-  return "(no error)";
-}
 
 // E[f(z)] for z ~ N(0, 1) in `d` independent dimensions (d = 1 or 2): the trapezoid rule on
 // [-9, 9] with 401 nodes per axis (spectrally accurate for these smooth integrands).

@@ -25,11 +25,17 @@
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
 #include "scenes.h"
+#include "uncertainty_options.h"
 
 namespace core = collision_response::core;
 using core::CoefficientDistribution;
 using core::ContactUncertainty;
 using core::UncertaintyMethod;
+
+using collision_response::testing::errorField;
+using collision_response::testing::linear;
+using collision_response::testing::newton;
+using collision_response::testing::sampled;
 
 namespace {
 
@@ -73,37 +79,9 @@ core::Scene sphere(double e, double mu_s, double mu_d) {
   return scene;
 }
 
-core::SolverOptions newton() {
-  core::SolverOptions options;
-  options.law = core::ImpactLaw::kNewton;
-  return options;
-}
-
-core::UncertaintyOptions sampled(std::size_t samples) {
-  core::UncertaintyOptions options;
-  options.method = UncertaintyMethod::kSampled;
-  options.samples = samples;
-  return options;
-}
-
-core::UncertaintyOptions linear() {
-  core::UncertaintyOptions options;
-  options.method = UncertaintyMethod::kLinear;
-  return options;
-}
-
 bool hasWarning(const core::OutcomeDistribution& outcome, const std::string& field) {
   return std::any_of(outcome.warnings.begin(), outcome.warnings.end(),
                      [&](const core::Warning& w) { return w.field == field; });
-}
-
-std::string errorField(const std::function<void()>& call) {
-  try {
-    call();
-  } catch (const core::InvalidInput& e) {
-    return e.field();
-  }
-  return "(no error)";
 }
 
 }  // namespace
