@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 #include "collision_response/calibration/csv_tracks.h"
 #include "collision_response/calibration/identification.h"
@@ -34,13 +35,19 @@ constexpr int kTosses = 200;
 /// at 0.3228 and 0.3354), each outside the other's interval; on the first 300 they agreed anyway.
 constexpr int kMeshTosses = 400;
 
-TEST(CubeTosses, EvenTossesPredictOddOnesBetterThanTheAuthorsCoefficients) {
+/// The tossed cube as a box: 0.1048 m, 0.37 kg, the uniform solid's inertia.
+ObjectModel tossedCube(const std::string& source) {
   ObjectModel cube;
-  cube.source = "cube";
+  cube.source = source;
   cube.shape.type = detection::Shape::Type::kBox;
   cube.shape.dimensions.assign(3, 0.1048);
   cube.mass = 0.37;
   cube.inertia = uniformInertia(cube.shape, cube.mass);
+  return cube;
+}
+
+TEST(CubeTosses, EvenTossesPredictOddOnesBetterThanTheAuthorsCoefficients) {
+  const ObjectModel cube = tossedCube("cube");
   std::vector<ObjectLandings> even{{cube, {}}}, odd{{cube, {}}};
   for (const auto& t : readCsvTracks(TOSS_DATA)) {
     if (t.number >= kTosses) break;
@@ -119,12 +126,7 @@ TEST(CubeTosses, BoxAndMeshFitsLieInEachOthersIntervals) {
   // test there too.
   if (std::getenv("CR_CALIBRATION_SMALL") != nullptr)
     GTEST_SKIP() << "CR_CALIBRATION_SMALL: the full-size fits run in the normal build";
-  ObjectModel box;
-  box.source = "box";
-  box.shape.type = detection::Shape::Type::kBox;
-  box.shape.dimensions.assign(3, 0.1048);
-  box.mass = 0.37;
-  box.inertia = uniformInertia(box.shape, box.mass);
+  const ObjectModel box = tossedCube("box");
   ObjectModel mesh = box;
   mesh.source = "mesh";
   mesh.shape = cubeMesh(0.1048);
