@@ -739,3 +739,53 @@ TEST(RobotDerivatives, ShippedArmJointPositionColumnsMatchCentralDifferences) {
     EXPECT_EQ(differentiated.jointPositions(), q);
   }
 }
+
+// Mimic joints (gripper.urdf: finger2_joint mimics finger1_joint): one coordinate per joint that
+// mimics no other (the wrist, finger 1), the follower moved with its leader. The gripper struck on
+// the follower's pad with mu_s > mu_d under Newton: every column against the test's own central
+// differences of computeBodyResponse() with the leader's position moved by setState(), 1e-6.
+TEST(RobotDerivatives, MimicGripperJointPositionColumnsMoveTheLeader) {
+  rb::ArticulatedBody gripper =
+      rb::robotFromUrdfFile(std::string(ROBOT_TEST_DIR) + "/gripper.urdf");
+  const int f1 = gripper.jointIndex("finger1_joint");
+  const VectorXd q = Eigen::Vector3d(0.3, 0.02, 0.02), qdot = Eigen::Vector3d(0.5, 0.05, 0.05);
+  gripper.setState(q, qdot);
+  const int pad = gripper.linkIndex("finger2");
+  const Eigen::Isometry3d pose = gripper.linkPose(pad);
+  const Vector3d p = pose * Vector3d(0.0, -0.01, 0.03);
+  const Vector3d n = (pose.linear() * Vector3d(0.2, -1.0, 0.1)).normalized();
+  const cr::RigidBody ball = sphere(0.2, 0.03, p + 0.03 * n, -2.0 * n + Vector3d(0.3, 0, 0));
+  cr::ContactPoint contact(0, 1, p, n, 0.5, 0.8, 0.5);
+  contact.part_a = pad;
+  const cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+  std::vector<int> joints;
+  rb::ArticulatedBody differentiated = gripper;
+  cr::RigidBody struck = ball;
+  const cr::BodyImpactDerivatives d =
+      cr::computeBodyImpactDerivatives({&differentiated, &struck}, {contact}, options,
+                                       rb::jointPositionCoordinates(differentiated, &joints));
+  ASSERT_EQ(joints, (std::vector<int>{gripper.jointIndex("wrist"), f1}));
+  const auto outputs = [&](const VectorXd& at) {
+    rb::ArticulatedBody a = gripper;
+    a.setState(at, qdot);
+    cr::RigidBody b = ball;
+    const cr::BodyResponse r = cr::computeBodyResponse({&a, &b}, {contact}, options);
+    VectorXd out(a.velocityCount() + 6 + 4);
+    out << a.velocity(), b.velocity(), r.impulses[0].normal_impulse, r.impulses[0].friction_impulse;
+    return out;
+  };
+  ASSERT_GT(d.result.impulses[0].normal_impulse, 0.0);
+  ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+  for (std::size_t k = 0; k < joints.size(); ++k) {
+    VectorXd plus = q, minus = q;
+    plus(joints[k]) += 1e-6;
+    minus(joints[k]) -= 1e-6;
+    const VectorXd want = (outputs(plus) - outputs(minus)) / 2e-6;
+    const VectorXd got = d.jacobian.col(d.jacobian.cols() - 2 + static_cast<Eigen::Index>(k));
+    EXPECT_LE((got - want).cwiseAbs().maxCoeff(), 1e-6 * std::max(1.0, want.cwiseAbs().maxCoeff()))
+        << "joint " << joints[k] << "\n"
+        << got.transpose() << "\n"
+        << want.transpose();
+  }
+  EXPECT_EQ(differentiated.jointPositions()(2), differentiated.jointPositions()(f1));
+}
