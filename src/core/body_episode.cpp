@@ -467,12 +467,14 @@ bool BodyEpisode::sustained() {
     contacts.push_back(contactOf(gap));
     pairs.emplace_back(contacts.back().body_a, contacts.back().body_b);
   }
-  // Velocities within the thresholds count as resting (a slip that small is what the tolerance
-  // leaves undecided).
-  double slip_threshold = resting_velocity_;
-  for (const Touch& t : touching_) slip_threshold = std::max(slip_threshold, t.threshold);
+  // Normal velocities within the thresholds count as resting (a rebound that small stays within
+  // the tolerance), and so does a body whose every point moves within them. A slip above the
+  // solver's resting velocity (round-off) is Coulomb's sliding, friction -mu_d N against it,
+  // however slow (docs/physics.md, "Slow slips").
+  double resting_threshold = resting_velocity_;
+  for (const Touch& t : touching_) resting_threshold = std::max(resting_threshold, t.threshold);
   SolverOptions solver = options_.solver;
-  solver.resting_velocity = slip_threshold;
+  solver.resting_velocity = resting_threshold;
   solver.time_budget = options_.solver.time_budget - elapsed();
   if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
   // The resting problem of each island (no impulse: the models are not changed).
@@ -481,7 +483,7 @@ bool BodyEpisode::sustained() {
   std::vector<const BodyModel*> models(models_.begin(), models_.end());
   solver.deadline = Deadline::in(solver.time_budget);
   for (const Island& island : findIslands(models_, pairs)) {
-    problem_.buildResting(models, contacts, island.contacts, slip_threshold);
+    problem_.buildResting(models, contacts, island.contacts, resting_threshold, resting_velocity_);
     solveRestingIsland(problem_, solver, answer_);
     problem_.scatterForces(answer_, response.impulses);
   }
@@ -508,7 +510,7 @@ bool BodyEpisode::sustained() {
     for (std::size_t g = 0; g < parts_.size(); ++g) {
       if (parts_[g].body != i) continue;
       const double r = std::isfinite(radius_[g]) ? radius_[g] : 0.0;
-      if (bodies_[i]->partSpeedBound(parts_[g].part, r) > slip_threshold) return false;
+      if (bodies_[i]->partSpeedBound(parts_[g].part, r) > resting_threshold) return false;
     }
     return true;
   };
@@ -539,7 +541,7 @@ bool BodyEpisode::sustained() {
         const EpisodeBody& body = *bodies_[i];
         const double spin =
             body.partSpeedBound(parts_[g].part, 1.0) - body.partSpeedBound(parts_[g].part, 0.0);
-        turning = turning || spin * r > slip_threshold;
+        turning = turning || spin * r > resting_threshold;
       }
       if (!turning && bodies_[i]->hold(force[i])) {
         held_[i] = 1;

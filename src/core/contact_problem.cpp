@@ -24,15 +24,15 @@ void setEntry(int source, const ContactPoint& contact, ProblemContact& out) {
 }
 
 // The fields of a resting entry (its acceleration and Jacobians aside) for the relative velocity
-// u [m/s] at the contact: e = 0, no velocity, the direction of a slip faster than
-// resting_velocity.
-void setRestingFields(const Eigen::Vector3d& u, double resting_velocity, ProblemContact& entry) {
+// u [m/s] at the contact: e = 0, no velocity, the direction of a slip faster than slip_velocity,
+// the slow slip of one within it.
+void setRestingFields(const Eigen::Vector3d& u, double slip_velocity, ProblemContact& entry) {
   entry.restitution = 0.0;
   entry.free_velocity.setZero();
   entry.target_normal_velocity = 0.0;
   const Eigen::Vector3d u_t = u - u.dot(entry.normal) * entry.normal;
   if (entry.frictionless()) return;
-  if (u_t.norm() > resting_velocity) {
+  if (u_t.norm() > slip_velocity) {
     entry.slip_direction = u_t.normalized();
   } else {
     entry.slow_slip = u_t;
@@ -210,8 +210,10 @@ template <typename BodyAt, typename RigidFreeAcceleration>
 void ContactProblem::buildRestingOf(std::size_t body_count, const BodyAt& body_at,
                                     const RigidFreeAcceleration& rigid_free_acceleration,
                                     const std::vector<ContactPoint>& contacts,
-                                    const std::vector<int>& island, double resting_velocity) {
+                                    const std::vector<int>& island, double resting_velocity,
+                                    double slip_velocity) {
   clear(ProblemLevel::kAcceleration);
+  if (slip_velocity < 0.0) slip_velocity = resting_velocity;
   if (local_of_.size() < body_count) local_of_.resize(body_count, -1);
   for (const int c : island) {
     const ContactPoint& point = contacts[c];
@@ -225,7 +227,7 @@ void ContactProblem::buildRestingOf(std::size_t body_count, const BodyAt& body_a
       if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
       ProblemContact& entry = contacts_.emplace_back();
       setEntry(c, point, entry);
-      setRestingFields(u, resting_velocity, entry);
+      setRestingFields(u, slip_velocity, entry);
       entry.lever_arm_a = space.r_a;
       entry.lever_arm_b = space.r_b;
       entry.delassus = space.K;
@@ -238,7 +240,7 @@ void ContactProblem::buildRestingOf(std::size_t body_count, const BodyAt& body_a
     const Eigen::Vector3d u = b.partPointVelocity(point.part_b, point.point) -
                               a.partPointVelocity(point.part_a, point.point);
     if (std::abs(u.dot(point.normal)) > resting_velocity) continue;
-    setRestingFields(u, resting_velocity,
+    setRestingFields(u, slip_velocity,
                      addGeneralEntry(a, b, rigid_a, rigid_b, c, point, island.size()));
   }
   finish();
@@ -247,7 +249,8 @@ void ContactProblem::buildRestingOf(std::size_t body_count, const BodyAt& body_a
 void ContactProblem::buildResting(const std::vector<BodyState>& states,
                                   const std::vector<RigidBody>& bodies,
                                   const std::vector<ContactPoint>& contacts,
-                                  const std::vector<int>& island, double resting_velocity) {
+                                  const std::vector<int>& island, double resting_velocity,
+                                  double slip_velocity) {
   // The bodies' free accelerations from their states' wrenches, on copies.
   const auto free_acceleration = [&](int i, const RigidBody& body, const Eigen::Vector3d& r) {
     RigidBody accelerated = body;
@@ -256,18 +259,19 @@ void ContactProblem::buildResting(const std::vector<BodyState>& states,
   };
   buildRestingOf(
       bodies.size(), [&](int i) -> const RigidBody& { return bodies[i]; }, free_acceleration,
-      contacts, island, resting_velocity);
+      contacts, island, resting_velocity, slip_velocity);
 }
 
 void ContactProblem::buildResting(const std::vector<const BodyModel*>& bodies,
                                   const std::vector<ContactPoint>& contacts,
-                                  const std::vector<int>& island, double resting_velocity) {
+                                  const std::vector<int>& island, double resting_velocity,
+                                  double slip_velocity) {
   const auto free_acceleration = [](int, const RigidBody& body, const Eigen::Vector3d& r) {
     return body.pointFreeAcceleration(r);
   };
   buildRestingOf(
       bodies.size(), [&](int i) -> const BodyModel& { return *bodies[i]; }, free_acceleration,
-      contacts, island, resting_velocity);
+      contacts, island, resting_velocity, slip_velocity);
 }
 
 void ContactProblem::makePlastic() {

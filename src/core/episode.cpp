@@ -447,17 +447,21 @@ bool Episode::sustained(const std::vector<int>& contacts) {
                          c.static_friction, c.dynamic_friction);
     scene_pairs_.push_back(pair);
   }
-  // Resting here means within the contacts' resting thresholds, sqrt(2 g_n tol): a normal or a
-  // slip velocity that small is what the tolerance leaves undecided (friction stops such a slip
-  // within about a tolerance of travel), so static friction is tried first on it; a faster slip
-  // gets dynamic friction against it.
-  double slip_threshold = resting_velocity_;
-  for (const int c : contacts) slip_threshold = std::max(slip_threshold, candidates_[c].threshold);
+  // Resting here means a normal velocity within the contacts' resting thresholds, sqrt(2 g_n tol)
+  // (a rebound that small stays within the tolerance). A slip is another matter: any slip above
+  // the solver's resting velocity (round-off) is Coulomb's sliding, friction -mu_d N against it,
+  // however slow (a box sliding at 2 cm/s without turning brakes at mu_d g); static friction is
+  // tried first only on slips within it (docs/physics.md, "Slow slips").
+  double normal_threshold = resting_velocity_;
+  for (const int c : contacts) {
+    normal_threshold = std::max(normal_threshold, candidates_[c].threshold);
+  }
   std::vector<ContactImpulse> forces(contacts.size());
   SolverOptions solver = options_.solver;
   solver.deadline = Deadline::in(std::max(options_.solver.time_budget - elapsed(), 0.0));
   for (const Island& island : findIslands(rigid_, scene_pairs_)) {
-    problem_.buildResting(scene_.bodies, rigid_, points_, island.contacts, slip_threshold);
+    problem_.buildResting(scene_.bodies, rigid_, points_, island.contacts, normal_threshold,
+                          resting_velocity_);
     solveRestingIsland(problem_, solver, answer_);
     problem_.scatterForces(answer_, forces);
   }

@@ -703,6 +703,109 @@ TEST(Episode, CubeRestingOnTheFloorGivesTheRestingAnalysis) {
   }
 }
 
+// Slow slips (docs/physics.md, "Slow slips"): a slip below the episode's resting threshold
+// (sqrt(2 g tol) = 0.044 m/s at tol = 1e-4 m) but above round-off is Coulomb's sliding. The cube
+// lying on the floor sliding at 2 cm/s along x without turning (every corner slipping at 2 cm/s),
+// mu_s = 0.6 > mu_d = 0.4. Closed form: each loaded corner's friction -mu_d N_i x, so the cube
+// decelerates at mu_d g along x and, all four corners staying in contact, does not turn
+// (alpha = 0). The corners' normal forces are not unique, but their sums are: sum N_i = m g
+// (vertical), and the moments about the centre of F_i = (-mu_d N_i, 0, N_i) at r_i = (x_i, y_i,
+// -h): about y, mu_d h N_i - x_i N_i, so sum x_i N_i = mu_d h m g (the front corners, x_i = +h,
+// carry m g (1 + mu_d) / 2, the back ones m g (1 - mu_d) / 2); about x and z, sum y_i N_i = 0.
+// Before, the slips counted as none, the all-stick answer (no friction needed) was given, and the
+// cube was reported sliding at zero acceleration.
+TEST(Episode, CubeSlidingSlowlyWithoutTurningBrakesUnderDynamicFriction) {
+  const double mu_s = 0.6, mu_d = 0.4, m = kCubeMass, v = 0.02;
+  const PointsAndPlanes geometry({Vector3d::UnitZ()}, cubeCorners(kHalf), 0.0, {0.5, mu_s, mu_d});
+  const core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kStronge);
+  ASSERT_LT(v, std::sqrt(2.0 * kG * options.contact_tolerance));  // within the resting threshold
+  core::BodyState c = cubeOnFloor();
+  c.linear_velocity = {v, 0.0, 0.0};
+  const core::EpisodeResult r = core::computeEpisode({floorBody(), c}, geometry, options);
+  ASSERT_EQ(r.end, core::EpisodeEnd::kSustainedContact);
+  EXPECT_TRUE(r.impacts.empty());
+  EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSliding);
+  ASSERT_EQ(r.linear_accelerations.size(), 2u);
+  EXPECT_LT((r.linear_accelerations[1] - Vector3d(-mu_d * kG, 0.0, 0.0)).norm(), 1e-9 * kG);
+  EXPECT_LT(r.angular_accelerations[1].norm(), 1e-9 * kG / kHalf);
+  ASSERT_EQ(r.resting.size(), 4u);
+  double normal = 0.0, moment_x = 0.0, moment_y = 0.0;
+  for (std::size_t i = 0; i < r.resting.size(); ++i) {
+    const core::ContactImpulse& f = r.resting[i];
+    const Vector3d arm = r.resting_contacts[i].point - c.position;
+    normal += f.normal_force;
+    moment_x += arm.x() * f.normal_force;
+    moment_y += arm.y() * f.normal_force;
+    EXPECT_GE(f.normal_force, 0.0) << "corner " << i;
+    EXPECT_FALSE(f.sticking) << "corner " << i;
+    EXPECT_LT((f.friction_force - Vector3d(-mu_d * f.normal_force, 0.0, 0.0)).norm(), 1e-9 * m * kG)
+        << "corner " << i;
+  }
+  EXPECT_NEAR(normal, m * kG, 1e-9 * m * kG);
+  EXPECT_NEAR(moment_x, mu_d * kHalf * m * kG, 1e-9 * m * kG * kHalf);
+  EXPECT_NEAR(moment_y, 0.0, 1e-9 * m * kG * kHalf);
+}
+
+// The other side of the line: slips of round-off size stay at rest, and the static band is kept.
+// The cube pushed through its centre with 0.5 m g, between mu_d m g and mu_s m g: at exactly zero
+// slip, and at a slip of 1e-9 m/s (below the solver's resting velocity, 1e-6 m/s: round-off), it
+// sticks (static friction 0.5 m g against the push, no acceleration); at a slip of 2 cm/s, it is
+// already sliding, so dynamic friction, and it accelerates at (0.5 - mu_d) g along the push.
+TEST(Episode, CubeInTheStaticBandSticksAtRoundOffSlipAndSlidesAtARealOne) {
+  const double mu_s = 0.6, mu_d = 0.4, m = kCubeMass, push = 0.5 * m * kG;
+  const PointsAndPlanes geometry({Vector3d::UnitZ()}, cubeCorners(kHalf), 0.0, {0.5, mu_s, mu_d});
+  const core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kStronge);
+  for (const double v : {0.0, 1e-9, 0.02}) {
+    SCOPED_TRACE("slip " + std::to_string(v));
+    core::BodyState c = cubeOnFloor();
+    c.linear_velocity = {v, 0.0, 0.0};
+    c.force = {push, 0.0, 0.0};
+    const core::EpisodeResult r = core::computeEpisode({floorBody(), c}, geometry, options);
+    ASSERT_EQ(r.end, core::EpisodeEnd::kSustainedContact);
+    ASSERT_EQ(r.resting.size(), 4u);
+    Vector3d friction = Vector3d::Zero();
+    for (const core::ContactImpulse& f : r.resting) friction += f.friction_force;
+    if (v < 1e-6) {
+      EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSticking);
+      EXPECT_LT(r.linear_accelerations[1].norm(), 1e-9 * kG);
+      EXPECT_LT((friction - Vector3d(-push, 0.0, 0.0)).norm(), 1e-9 * m * kG);
+      for (const core::ContactImpulse& f : r.resting) EXPECT_TRUE(f.sticking);
+    } else {
+      EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSliding);
+      EXPECT_LT((r.linear_accelerations[1] - Vector3d((0.5 - mu_d) * kG, 0.0, 0.0)).norm(),
+                1e-9 * kG);
+      EXPECT_LT((friction - Vector3d(-mu_d * m * kG, 0.0, 0.0)).norm(), 1e-9 * m * kG);
+      for (const core::ContactImpulse& f : r.resting) EXPECT_FALSE(f.sticking);
+    }
+    EXPECT_LT(r.angular_accelerations[1].norm(), 1e-9 * kG / kHalf);
+  }
+}
+
+// One contact: a ball (1 kg, R = 0.05 m) on the floor sliding at 2 cm/s without spin, its contact
+// slipping at 2 cm/s (below the resting threshold). Closed form of a sliding ball: friction
+// -mu_d m g x at the bottom, so a = -mu_d g x and alpha = R mu_d m g / I about +y,
+// I = 2/5 m R^2: alpha_y = 5 mu_d g / (2 R). Before, the lone contact's closed form took the slip
+// as none and, nothing pushing the ball along the floor, answered no friction and no
+// acceleration.
+TEST(Episode, BallSlidingSlowlyOnOneContactBrakesUnderDynamicFriction) {
+  const double m = 1.0, R = 0.05, mu_s = 0.6, mu_d = 0.4, v = 0.02;
+  const PointsAndPlanes geometry({Vector3d::UnitZ()}, {Vector3d::Zero()}, R, {0.5, mu_s, mu_d});
+  const core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kNewton);
+  core::BodyState b = ball(m, R, 0.0);
+  b.linear_velocity = {v, 0.0, 0.0};
+  const core::EpisodeResult r = core::computeEpisode({floorBody(), b}, geometry, options);
+  ASSERT_EQ(r.end, core::EpisodeEnd::kSustainedContact);
+  ASSERT_EQ(r.resting.size(), 1u);
+  EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSliding);
+  EXPECT_FALSE(r.resting[0].sticking);
+  EXPECT_NEAR(r.resting[0].normal_force, m * kG, 1e-9 * m * kG);
+  EXPECT_LT((r.resting[0].friction_force - Vector3d(-mu_d * m * kG, 0.0, 0.0)).norm(),
+            1e-9 * m * kG);
+  EXPECT_LT((r.linear_accelerations[1] - Vector3d(-mu_d * kG, 0.0, 0.0)).norm(), 1e-9 * kG);
+  EXPECT_LT((r.angular_accelerations[1] - Vector3d(0.0, 2.5 * mu_d * kG / R, 0.0)).norm(),
+            1e-9 * kG / R);
+}
+
 // --- Bad input and pathological episodes -------------------------------------------------------
 
 std::string fieldOf(const std::vector<core::BodyState>& bodies, const core::GapQuery& geometry,

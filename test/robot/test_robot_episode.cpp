@@ -315,6 +315,34 @@ TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
   EXPECT_LT(r.end_time, s.options.horizon + 1e-12);
 }
 
+// The same box sliding slowly without turning: v = 0.02 m/s, every corner slipping at v along x,
+// below the episode's resting threshold (sqrt(2 g tolerance) = 0.044 m/s) but far above round-off.
+// A stuck answer exists here (nothing needs holding: zero friction does), which is what the
+// analysis gave before, and the held box slid on unbraked, v t = 2.4 mm to the horizon. Coulomb's
+// law at a nonzero slip: each corner's friction -mu_d N_i along -x, summing to -mu_d m g, so the
+// box stops v^2 / (2 mu_d g) = 51 um away (closed form), not turning, on the table.
+TEST(RobotEpisode, SlowlySlidingBoxStopsWithinTheDynamicFrictionDistance) {
+  using collision_response::testing::armBoxScene;
+  auto s = armBoxScene(kArm7, /*lift=*/0.35);
+  const double v = 0.02, mu_d = 0.4, g = 9.81;
+  ASSERT_LT(v, std::sqrt(2.0 * g * s.options.contact_tolerance));
+  cr::BodyState box = s.box->state();
+  const Vector3d start = box.position;
+  box.linear_velocity = Vector3d(v, 0.0, 0.0);
+  *s.box = cr::RigidEpisodeBody(box);
+  s.bodies[1] = s.box.get();
+  s.options.horizon = 0.12;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
+  const cr::BodyState& end = s.box->state();
+  const double distance = v * v / (2.0 * mu_d * g);
+  EXPECT_NEAR(end.position.x() - start.x(), distance, 1e-6 * distance);
+  EXPECT_NEAR(end.position.y(), start.y(), 1e-12);
+  EXPECT_NEAR(end.position.z(), start.z(), 1e-9);
+  EXPECT_LT(end.linear_velocity.norm(), 1e-9);
+  EXPECT_LT(end.angular_velocity.norm(), 1e-12);
+}
+
 // The same box sliding slowly while it turns slowly: v = 0.02 m/s and w = 0.02 rad/s about the
 // vertical, its corners' slips (|v + w x r| <= 0.0215 m/s) below the episode's resting threshold
 // (sqrt(2 g tolerance) = 0.044 m/s) and the turning leaving no stuck answer (the centripetal w^2 r

@@ -79,19 +79,23 @@ class ContactProblem {
   void buildImpact(const std::vector<RigidBody>& bodies, const std::vector<ContactPoint>& contacts,
                    const std::vector<int>& island);
   /// The resting problem (ProblemLevel::kAcceleration) of the contacts of `island` with
-  /// |u_n| <= resting_velocity: free relative accelerations from each side's
+  /// |u_n| <= resting_velocity [m/s]: free relative accelerations from each side's
   /// BodyModel::partPointFreeAcceleration() (a rigid body's as set by setFreeAcceleration():
   /// a = F / m, alpha = Iw^-1 (tau - w x Iw w), with the centripetal terms; a robot's from its
-  /// loads), e = 0, the slip direction of contacts already slipping faster than resting_velocity.
+  /// loads), e = 0, the slip direction of contacts already slipping faster than slip_velocity
+  /// [m/s], the slow slip of those slipping slower (ProblemContact::slow_slip). A negative
+  /// slip_velocity (the default) is resting_velocity. The episodes pass a normal threshold from
+  /// their contact tolerance and a slip threshold of the solver's resting velocity: a slip above
+  /// round-off is Coulomb's sliding (docs/physics.md, "Slow slips").
   /// Other contacts are left out (ProblemContact::source says which are in).
   void buildResting(const std::vector<const BodyModel*>& bodies,
                     const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
-                    double resting_velocity);
+                    double resting_velocity, double slip_velocity = -1.0);
   /// The same builder for a list of free rigid bodies whose free accelerations come from the
   /// wrenches of `states` (the same order; the bodies are not changed).
   void buildResting(const std::vector<BodyState>& states, const std::vector<RigidBody>& bodies,
                     const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
-                    double resting_velocity);
+                    double resting_velocity, double slip_velocity = -1.0);
 
   /// One contact between two free rigid bodies as a problem entry on its own (local_a, local_b
   /// unset), for the closed forms: K, the frame and u = free_velocity, target -e u_n.
@@ -205,7 +209,7 @@ class ContactProblem {
   void buildRestingOf(std::size_t body_count, const BodyAt& body_at,
                       const RigidFreeAcceleration& rigid_free_acceleration,
                       const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
-                      double resting_velocity);
+                      double resting_velocity, double slip_velocity);
   // Appends the entry of contact c (`point`) between bodies a and b (rigid_a, rigid_b: their
   // asRigidBody()), not both free rigid bodies:
   // frame, coefficients, u, K (with the cross terms when both sides are parts of one body), the

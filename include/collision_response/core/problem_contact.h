@@ -44,14 +44,16 @@ struct ProblemContact {
   /// w_b x (w_b x r_b) - w_a x (w_a x r_a) [m/s^2] (docs/physics.md, "Resting contacts"). Zero in
   /// impact problems.
   Eigen::Vector3d free_acceleration = Eigen::Vector3d::Zero();
-  /// Resting problems: the unit direction of a slip that already exists (|u_t| above the resting
-  /// velocity), friction being -mu_d F_n along it; zero for a contact without slip.
+  /// Resting problems: the unit direction of a slip that already exists (|u_t| above the builder's
+  /// slip velocity, ContactProblem::buildResting()), friction being -mu_d F_n along it; zero for a
+  /// contact without slip.
   Eigen::Vector3d slip_direction = Eigen::Vector3d::Zero();
   /// Resting problems: the tangential relative velocity u_t [m/s] of a contact whose slip is
-  /// within the resting velocity (slip_direction zero), so slow that the contact may count as
-  /// not slipping; zero for a contact without slip, a frictionless one, one with a slip
-  /// direction, and in impact problems. solveRestingIsland() poses the contact as sliding along it
-  /// when the island has no stuck answer (docs/physics.md, "Slow slips").
+  /// within the builder's slip velocity (slip_direction zero: the solver's resting velocity in the
+  /// episodes, a round-off slip), so slow that the contact may count as not slipping; zero for a
+  /// contact without slip, a frictionless one, one with a slip direction, and in impact problems.
+  /// solveRestingIsland() poses the contact as sliding along it when the island has no stuck
+  /// answer (docs/physics.md, "Slow slips").
   Eigen::Vector3d slow_slip = Eigen::Vector3d::Zero();
 
   bool frictionless() const { return static_friction == 0.0 && dynamic_friction == 0.0; }
