@@ -756,7 +756,9 @@ TEST(Episode, CubeInTheStaticBandSticksAtRoundOffSlipAndSlidesAtARealOne) {
   const PointsAndPlanes geometry({Vector3d::UnitZ()}, cubeCorners(kHalf), 0.0, {0.5, mu_s, mu_d});
   const core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kStronge);
   for (const double v : {0.0, 1e-9, 0.02}) {
-    SCOPED_TRACE("slip " + std::to_string(v));
+    char trace[32];
+    std::snprintf(trace, sizeof trace, "slip %g m/s", v);
+    SCOPED_TRACE(trace);
     core::BodyState c = cubeOnFloor();
     c.linear_velocity = {v, 0.0, 0.0};
     c.force = {push, 0.0, 0.0};
