@@ -345,11 +345,12 @@ TEST(RobotEpisode, SlowlySlidingBoxStopsWithinTheDynamicFrictionDistance) {
 
 // The same box sliding slowly while it turns slowly: v = 0.02 m/s and w = 0.02 rad/s about the
 // vertical, its corners' slips (|v + w x r| <= 0.0215 m/s) below the episode's resting threshold
-// (sqrt(2 g tolerance) = 0.044 m/s) and the turning leaving no stuck answer (the centripetal w^2 r
-// no force cancels). Coulomb's law at those slips: each corner's friction -mu_d N_i against its own
+// (sqrt(2 g tolerance) = 0.044 m/s) but above round-off, so sliding from the start (before the
+// fix above they counted as none, and the turning left no stuck answer: the centripetal w^2 r no
+// force cancels). Coulomb's law at those slips: each corner's friction -mu_d N_i against its own
 // slip: the box slides to rest about v^2 / (2 mu_d g) = 51 um away (closed form, bounds below),
-// not on at v (friction that opposed only the corners'
-// centripetal accelerations, summing to nothing, let it slide 2.4 mm to the horizon).
+// not on at v (friction that opposed only the corners' centripetal accelerations, summing to
+// nothing, let it slide 2.4 mm to the horizon).
 TEST(RobotEpisode, SlowlyTurningBoxSlidesToRestUnderDynamicFriction) {
   using collision_response::testing::armBoxScene;
   auto s = armBoxScene(kArm7, /*lift=*/0.35);
