@@ -388,7 +388,8 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
 // product kernel's set-up at this size), two output columns per pass (each load of S serves
 // both). Entries (r, c) and (c, r) sum the same products in the same order: the result is exactly
 // symmetric.
-void outerProduct(const double* s, Eigen::Index m, Eigen::Index used, double* out) {
+[[gnu::always_inline]] inline void outerProduct(const double* s, Eigen::Index m, Eigen::Index used,
+                                                double* out) {
   Eigen::Index c = 0;
   for (; c + 2 <= m; c += 2) {
     double* __restrict first = out + c * m;
