@@ -17,12 +17,15 @@
 // (LD_BIND_NOW: the dynamic linker's first resolution of a library function is not counted)
 // with SCENE one of sliding, sticking, cube4, arm_stronge, arm_poisson, arm_newton (the arm's
 // functions are predictArmOnce and differentiateArmOnce; each is counted on one call after an
-// uncounted warm-up call).
+// uncounted warm-up call). The arm's linear outcome distribution (uncertainty.h, kLinear; e, mu_s
+// and mu_d uncertain): BM_Linear_ArmNewton / _ArmStronge, and '*linearArmOnce*' with the arm
+// scenes.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -31,6 +34,7 @@
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/core/uncertainty.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "robot_scene.h"
@@ -179,6 +183,36 @@ core::SolverOptions armOptions(core::ImpactLaw law) {
   return core::computeBodyImpactDerivatives({&s.arm, &s.box}, s.contacts, options);
 }
 
+// The linear outcome distribution of the same strike (computeBodyOutcomeDistribution(), kLinear):
+// e ~ N(0.5, 0.05), mu_s ~ N(0.6, 0.03), mu_d ~ N(0.5, 0.03), the arm's URDF velocity limits.
+struct ArmUncertainty {
+  std::vector<core::ContactUncertainty> uncertainties;
+  Eigen::VectorXd limits;
+  explicit ArmUncertainty(const ArmScene& s) {
+    core::ContactUncertainty u;
+    u.contact = 0;
+    u.restitution = core::CoefficientDistribution::normal(0.5, 0.05);
+    u.static_friction = core::CoefficientDistribution::normal(0.6, 0.03);
+    u.dynamic_friction = core::CoefficientDistribution::normal(0.5, 0.03);
+    uncertainties = {u};
+    limits = Eigen::VectorXd::Constant(s.arm.velocityCount() + 6,
+                                       std::numeric_limits<double>::infinity());
+    for (int k = 0; k < s.arm.velocityCount(); ++k) {
+      const int joint = s.arm.jointOfUnknown(k);
+      if (joint >= 0) limits(k) = s.arm.velocityLimit(joint);
+    }
+  }
+};
+
+[[gnu::noinline]] core::OutcomeDistribution linearArmOnce(ArmScene& s, const ArmUncertainty& u,
+                                                          const core::SolverOptions& options) {
+  s.reset();
+  core::UncertaintyOptions linear;
+  linear.method = core::UncertaintyMethod::kLinear;
+  return core::computeBodyOutcomeDistribution({{&s.arm, &s.box}}, s.contacts, u.uncertainties,
+                                              u.limits, options, linear);
+}
+
 void BM_Predict_ArmStronge(benchmark::State& state) {
   ArmScene s;
   const core::SolverOptions options = armOptions(core::ImpactLaw::kStronge);
@@ -210,6 +244,19 @@ void BM_Derivatives_ArmNewton(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(differentiateArmOnce(s, options));
 }
 
+void BM_Linear_ArmNewton(benchmark::State& state) {
+  ArmScene s;
+  const ArmUncertainty u(s);
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kNewton);
+  for (auto _ : state) benchmark::DoNotOptimize(linearArmOnce(s, u, options));
+}
+void BM_Linear_ArmStronge(benchmark::State& state) {
+  ArmScene s;
+  const ArmUncertainty u(s);
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kStronge);
+  for (auto _ : state) benchmark::DoNotOptimize(linearArmOnce(s, u, options));
+}
+
 }  // namespace
 
 BENCHMARK(BM_Predict_ArmStronge);
@@ -218,6 +265,8 @@ BENCHMARK(BM_Predict_ArmPoisson);
 BENCHMARK(BM_Derivatives_ArmPoisson);
 BENCHMARK(BM_Predict_ArmNewton);
 BENCHMARK(BM_Derivatives_ArmNewton);
+BENCHMARK(BM_Linear_ArmNewton);
+BENCHMARK(BM_Linear_ArmStronge);
 BENCHMARK(BM_Predict_SingleSliding);
 BENCHMARK(BM_Derivatives_SingleSliding);
 BENCHMARK(BM_Predict_SingleSticking);
@@ -250,6 +299,15 @@ int main(int argc, char** argv) {
       benchmark::DoNotOptimize(core::computeBodyResponse({&s.arm, &s.box}, s.contacts, options));
       benchmark::DoNotOptimize(predictArmOnce(s, options));
       benchmark::DoNotOptimize(differentiateArmOnce(s, options));
+      const ArmUncertainty u(s);
+      core::UncertaintyOptions linear;  // a warm-up call of the linear method, not counted
+      linear.method = core::UncertaintyMethod::kLinear;
+      s.reset();
+      const core::OutcomeDistribution warm = core::computeBodyOutcomeDistribution(
+          {{&s.arm, &s.box}}, s.contacts, u.uncertainties, u.limits, options, linear);
+      std::printf("linear: stick probability %.4f, %zu warnings\n", warm.stick_probability[0],
+                  warm.warnings.size());
+      benchmark::DoNotOptimize(linearArmOnce(s, u, options));  // counted by '*linearArmOnce*'
       return 0;
     }
     const core::Scene scene = which == "sliding"    ? singleContact(0.2)

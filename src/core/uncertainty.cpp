@@ -15,7 +15,9 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <tuple>
 
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/contact_space.h"
@@ -309,16 +311,21 @@ std::string percentText(double fraction) {
 // The probability that contact c sticks, from the linearised margin of its mode at the means
 // (docs/uncertainty.md): sticking, mu_s P_n - |P_t|; sliding, mu_s minus the mu_d at which the
 // linearised slip speed would vanish.
+// `jacobian`: the derivatives at the means, rows as OutcomeDistribution's (velocity_count velocity
+// rows, then 4 per contact), columns velocity_count, then e, mu_s, mu_d per contact (then any
+// others). `slip_of(c, slip, slip_rate)` adds the relative velocity of b against a at the contact's
+// point after the impact [m/s, world] to `slip` and its derivative by each Jacobian column to
+// `slip_rate` (3 x columns), both given zero; it is called for a sliding contact only.
 // `column_used[j]`: whether the Jacobian's column of dimension j has a nonzero entry. `gradient`: a
 // workspace of one entry per dimension.
-double linearStickProbability(const ImpactDerivatives& derivatives, const Prepared& prepared,
-                              std::size_t c, const int* column_of_dimension,
-                              const unsigned char* column_used, double* gradient) {
-  const CollisionResult& result = derivatives.result;
-  const ContactImpulse& impulse = result.impulses[c];
+template <class SlipOf>
+double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
+                              const ContactImpulse& impulse, ImpactMode mode,
+                              const Prepared& prepared, std::size_t c,
+                              const int* column_of_dimension, const unsigned char* column_used,
+                              double* gradient, SlipOf& slip_of) {
   const Contact& contact = prepared.mean_scene.contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
-  const ImpactMode mode = derivatives.contacts[c].mode;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
   const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   // The dimension of this contact's mu_s, if uncertain.
@@ -327,7 +334,7 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
     if (uncertain.contact == c) mu_s_dimension = uncertain.dimension[kStaticFriction];
   std::fill(gradient, gradient + dims, 0.0);
   double margin = 0.0;
-  const Eigen::Index row = derivatives.velocityCount() + 4 * static_cast<Eigen::Index>(c);
+  const Eigen::Index row = velocity_count + 4 * static_cast<Eigen::Index>(c);
   if (mode == ImpactMode::kSticking) {
     const double tangential = impulse.friction_impulse.norm();
     const Eigen::Vector3d direction = tangential > 0.0
@@ -337,37 +344,16 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
     for (Eigen::Index j = 0; j < dims; ++j) {
       if (!column_used[j]) continue;  // a zero column: its gradient entry stays 0
       const Eigen::Index k = column_of_dimension[j];
-      gradient[j] = contact.static_friction * derivatives.jacobian(row, k) -
-                    direction.dot(derivatives.jacobian.block<3, 1>(row + 1, k));
+      gradient[j] = contact.static_friction * jacobian(row, k) -
+                    direction.dot(jacobian.block<3, 1>(row + 1, k));
     }
     if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
   } else {
     // Slip velocity of b relative to a at the point, tangential part, and its derivatives.
-    auto index = [&](const std::string& id) {
-      for (std::size_t b = 0; b < result.bodies.size(); ++b)
-        if (result.bodies[b].id == id) return static_cast<int>(b);
-      return -1;  // not a body of the scene (validation rules this out)
-    };
-    const std::pair<int, int> bodies{index(contact.body_a), index(contact.body_b)};
     const Eigen::Vector3d& n = contact.normal;
     Eigen::Vector3d slip = Eigen::Vector3d::Zero();
-    Eigen::MatrixXd slip_rate = Eigen::MatrixXd::Zero(3, derivatives.jacobian.cols());
-    for (const auto& [body, sign] :
-         {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
-      if (body < 0) continue;
-      const BodyState& state = result.bodies[static_cast<std::size_t>(body)];
-      if (state.immovable()) continue;
-      const Eigen::Vector3d arm = contact.point - state.worldCom();
-      slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
-      const auto at =
-          std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
-      const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
-      for (Eigen::Index k = 0; k < slip_rate.cols(); ++k) {
-        const Eigen::Vector3d dv = derivatives.jacobian.block<3, 1>(rows, k);
-        const Eigen::Vector3d dw = derivatives.jacobian.block<3, 1>(rows + 3, k);
-        slip_rate.col(k) += sign * (dv + dw.cross(arm));
-      }
-    }
+    Eigen::MatrixXd slip_rate = Eigen::MatrixXd::Zero(3, jacobian.cols());
+    slip_of(c, slip, slip_rate);
     const Eigen::Matrix3d tangent_projection = Eigen::Matrix3d::Identity() - n * n.transpose();
     slip = tangent_projection * slip;
     const double speed = slip.norm();
@@ -375,7 +361,7 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
     const Eigen::RowVectorXd speed_rate =
         (slip / speed).transpose() * tangent_projection * slip_rate;
     const Eigen::Index mu_d_column =
-        derivatives.velocityCount() + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
+        velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
     const double by_mu_d = speed_rate(mu_d_column);
     if (!(by_mu_d < 0.0)) return 0.0;  // more friction does not slow the slip: it never sticks
     margin = contact.static_friction - contact.dynamic_friction + speed / by_mu_d;
@@ -402,7 +388,8 @@ double linearStickProbability(const ImpactDerivatives& derivatives, const Prepar
 // product kernel's set-up at this size), two output columns per pass (each load of S serves
 // both). Entries (r, c) and (c, r) sum the same products in the same order: the result is exactly
 // symmetric.
-void outerProduct(const double* s, Eigen::Index m, Eigen::Index used, double* out) {
+[[gnu::always_inline]] inline void outerProduct(const double* s, Eigen::Index m, Eigen::Index used,
+                                                double* out) {
   Eigen::Index c = 0;
   for (; c + 2 <= m; c += 2) {
     double* __restrict first = out + c * m;
@@ -467,29 +454,20 @@ void outerProduct(const double* s, Eigen::Index m, Eigen::Index used, double* ou
   }
 }
 
-OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
-                                       const RequestLimits& limits) {
-  // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
-  // probability of a sliding contact reads it), are computed.
-  const std::vector<std::pair<int, int>> contact_bodies =
-      validate(prepared.mean_scene, options, limits);
-  DerivativeColumns columns;
-  columns.velocities = false;
-  columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
-  for (std::size_t c = 0; c < prepared.mean_scene.contacts.size(); ++c)
-    columns.coefficients[3 * c + kDynamicFriction] = true;
-  for (const auto& [index, which] : prepared.dimensions)
-    columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
-        true;
-  const ImpactDerivatives derivatives =
-      computeValidatedImpactDerivatives(prepared.mean_scene, contact_bodies, options, columns);
-  OutcomeDistribution outcome;
+// The linear method's spread (docs/uncertainty.md), shared by the rigid-body and the general-body
+// paths: with outcome.mean set to the prediction, covariance = J S J^T over the uncertain
+// coefficients' columns (S their variances), q05 / q95 = mean -/+ 1.645 sigma, the linearised stick
+// probabilities (linearStickProbability(), `slip_of` as it takes it) and the warnings (truncations,
+// mu_d > mu_s overlap, a spread reaching a stick/slip switch, a linearisation at a mode switch).
+// `jacobian` and `velocity_count` as linearStickProbability() takes them; `impulses` and `modes`:
+// the prediction's, one per contact.
+template <class SlipOf>
+void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
+                  const std::vector<ContactImpulse>& impulses,
+                  const std::vector<ContactDerivativeMode>& modes, const Prepared& prepared,
+                  SlipOf&& slip_of, OutcomeDistribution& outcome) {
   outcome.method = UncertaintyMethod::kLinear;
-  const Eigen::Index m = derivatives.velocityCount() + derivatives.impulseCount();
-  outcome.labels = derivatives.rowLabels();
-  outcome.mean.resize(m);
-  fillOutcome(derivatives.result, derivatives.movable_bodies,
-              [&](Eigen::Index r) -> double& { return outcome.mean(r); });
+  const Eigen::Index m = jacobian.rows();
   const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   // Per dimension: its Jacobian column, whether that column has a nonzero entry, and the stick
   // probabilities' gradient entry (on the stack up to 96 dimensions: 32 uncertain contacts).
@@ -518,10 +496,9 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   Eigen::Index used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     const auto& [index, which] = prepared.dimensions[j];
-    column_of_dimension[j] =
-        static_cast<int>(derivatives.velocityCount() +
-                         3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
-    const double* column = derivatives.jacobian.col(column_of_dimension[j]).data();
+    column_of_dimension[j] = static_cast<int>(
+        velocity_count + 3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
+    const double* column = jacobian.col(column_of_dimension[j]).data();
     column_used[j] = std::any_of(column, column + m, [](double x) { return x != 0.0; });
     used += column_used[j];
   }
@@ -529,7 +506,7 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     if (column_used[j])
-      scaled.col(used++) = derivatives.jacobian.col(column_of_dimension[j]) *
+      scaled.col(used++) = jacobian.col(column_of_dimension[j]) *
                            std::sqrt(dimensionVariance(prepared, static_cast<std::size_t>(j)));
   }
   outcome.covariance.resize(m, m);
@@ -544,8 +521,9 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   outcome.stick_probability.resize(contacts);
   for (std::size_t c = 0; c < contacts; ++c)
-    outcome.stick_probability[c] = linearStickProbability(
-        derivatives, prepared, c, column_of_dimension, column_used, gradient);
+    outcome.stick_probability[c] =
+        linearStickProbability(jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c,
+                               column_of_dimension, column_used, gradient, slip_of);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -573,7 +551,7 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
          Warning::Kind::kInput});
   }
   for (std::size_t c = 0; c < contacts; ++c) {
-    const ContactDerivativeMode& mode = derivatives.contacts[c];
+    const ContactDerivativeMode& mode = modes[c];
     if (!mode.at_switch) continue;
     outcome.warnings.push_back(
         {contactField(c),
@@ -581,6 +559,59 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
                  "): the linear distribution holds on one side only; use the sampled method"}),
          Warning::Kind::kInput});
   }
+}
+
+OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
+                                       const RequestLimits& limits) {
+  // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
+  // probability of a sliding contact reads it), are computed.
+  const std::vector<std::pair<int, int>> contact_bodies =
+      validate(prepared.mean_scene, options, limits);
+  DerivativeColumns columns;
+  columns.velocities = false;
+  columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
+  for (std::size_t c = 0; c < prepared.mean_scene.contacts.size(); ++c)
+    columns.coefficients[3 * c + kDynamicFriction] = true;
+  for (const auto& [index, which] : prepared.dimensions)
+    columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
+        true;
+  const ImpactDerivatives derivatives =
+      computeValidatedImpactDerivatives(prepared.mean_scene, contact_bodies, options, columns);
+  OutcomeDistribution outcome;
+  const Eigen::Index m = derivatives.velocityCount() + derivatives.impulseCount();
+  outcome.labels = derivatives.rowLabels();
+  outcome.mean.resize(m);
+  fillOutcome(derivatives.result, derivatives.movable_bodies,
+              [&](Eigen::Index r) -> double& { return outcome.mean(r); });
+  const CollisionResult& result = derivatives.result;
+  // The slip of a sliding contact from the bodies' twists after the impact and their rows.
+  auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
+    const Contact& contact = prepared.mean_scene.contacts[c];
+    auto index = [&](const std::string& id) {
+      for (std::size_t b = 0; b < result.bodies.size(); ++b)
+        if (result.bodies[b].id == id) return static_cast<int>(b);
+      return -1;  // not a body of the scene (validation rules this out)
+    };
+    const std::pair<int, int> bodies{index(contact.body_a), index(contact.body_b)};
+    for (const auto& [body, sign] :
+         {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
+      if (body < 0) continue;
+      const BodyState& state = result.bodies[static_cast<std::size_t>(body)];
+      if (state.immovable()) continue;
+      const Eigen::Vector3d arm = contact.point - state.worldCom();
+      slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
+      const auto at =
+          std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
+      const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
+      for (Eigen::Index k = 0; k < slip_rate.cols(); ++k) {
+        const Eigen::Vector3d dv = derivatives.jacobian.block<3, 1>(rows, k);
+        const Eigen::Vector3d dw = derivatives.jacobian.block<3, 1>(rows + 3, k);
+        slip_rate.col(k) += sign * (dv + dw.cross(arm));
+      }
+    }
+  };
+  linearSpread(derivatives.jacobian, derivatives.velocityCount(), result.impulses,
+               derivatives.contacts, prepared, slip_of, outcome);
   return outcome;
 }
 
@@ -810,13 +841,8 @@ OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOp
   return outcome;
 }
 
-}  // namespace
-
-OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
-                                               const std::vector<ContactUncertainty>& uncertainties,
-                                               const SolverOptions& options,
-                                               const UncertaintyOptions& uncertainty,
-                                               WorkerPool* pool, const RequestLimits& limits) {
+// A method asked for, and (kSampled) a sample count within the cap.
+void checkMethod(const UncertaintyOptions& uncertainty) {
   if (uncertainty.method == UncertaintyMethod::kNone)
     throw InvalidInput("options.uncertainty", "no method: ask for linear or sampled");
   if (uncertainty.method == UncertaintyMethod::kSampled &&
@@ -824,12 +850,122 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
     throw InvalidInput("options.uncertainty_samples",
                        "must be in [1, " + std::to_string(kMaxUncertaintySamples) + "], got " +
                            std::to_string(uncertainty.samples));
+}
+
+// The linear method refuses an uncertain normal or point, naming the first such field.
+void refuseGeometry(const Prepared& prepared) {
+  if (!prepared.first_geometry_field.empty())
+    throw InvalidInput(prepared.first_geometry_field,
+                       "the linear method takes uncertain coefficients only: for an uncertain "
+                       "normal or point, ask for sampled");
+}
+
+// The labels of computeBodyOutcomeDistribution(): "velocities[r]", then 4 per contact.
+std::vector<std::string> bodyOutcomeLabels(Eigen::Index velocity_count, std::size_t contacts) {
+  std::vector<std::string> labels;
+  labels.reserve(static_cast<std::size_t>(velocity_count) + 4 * contacts);
+  for (Eigen::Index r = 0; r < velocity_count; ++r)
+    labels.push_back("velocities[" + std::to_string(r) + "]");
+  for (std::size_t c = 0; c < contacts; ++c) {
+    const std::string impulse = "impulses[" + std::to_string(c) + "].";
+    labels.push_back(impulse + "normal_impulse");
+    for (const char* axis : {"x", "y", "z"}) labels.push_back(impulse + "friction_impulse." + axis);
+  }
+  return labels;
+}
+
+// The linear method for general bodies (docs/uncertainty.md, "Robots"):
+// computeBodyImpactDerivatives() at the coefficients' means (prepared.mean_scene's), mean = its
+// prediction, the spread as the rigid-body path's (linearSpread()), the slip of a sliding contact
+// from the bodies' point Jacobians at the point (partPointJacobian() times the velocity rows).
+// P(|v_r| > limit_r) under the normal approximation N(mean_r, covariance_rr): Phi((-limit - mean) /
+// sigma) + Phi((mean - limit) / sigma) (the second is 1 - Phi((limit - mean) / sigma) without its
+// cancellation); sigma = 0: 1 when |mean| > limit, else 0. The bodies end at their pre-impact
+// velocities (v' + (v - v'), as the sampled path's), also when the call throws.
+OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies,
+                                           const std::vector<ContactPoint>& contacts,
+                                           const Prepared& prepared,
+                                           const Eigen::VectorXd& velocity_limits,
+                                           const SolverOptions& options) {
+  std::vector<ContactPoint> mean_contacts = contacts;
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const Contact& mean = prepared.mean_scene.contacts[c];
+    mean_contacts[c].restitution = mean.restitution;
+    mean_contacts[c].static_friction = mean.static_friction;
+    mean_contacts[c].dynamic_friction = mean.dynamic_friction;
+  }
+  std::vector<Eigen::VectorXd> before;
+  before.reserve(bodies.size());
+  for (const BodyModel* body : bodies) before.push_back(body->velocity());
+  auto restore = [&] {
+    for (std::size_t b = 0; b < bodies.size(); ++b)
+      if (bodies[b]->velocityCount() > 0)
+        bodies[b]->addVelocityChange(before[b] - bodies[b]->velocity());
+  };
+  OutcomeDistribution outcome;
+  Eigen::Index velocity_count = 0;
+  try {
+    const BodyImpactDerivatives derivatives =
+        computeBodyImpactDerivatives(bodies, mean_contacts, options);
+    velocity_count = derivatives.velocity_count;
+    const Eigen::Index m = derivatives.jacobian.rows();
+    outcome.mean.resize(m);
+    // The bodies are at their post-impact velocities: the prediction's, and the slips' base.
+    for (std::size_t b = 0; b < bodies.size(); ++b)
+      if (derivatives.velocity_offset[b] >= 0)
+        outcome.mean.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) =
+            bodies[b]->velocity();
+    Eigen::Index r = velocity_count;
+    for (const ContactImpulse& impulse : derivatives.result.impulses) {
+      outcome.mean(r++) = impulse.normal_impulse;
+      outcome.mean.segment<3>(r) = impulse.friction_impulse;
+      r += 3;
+    }
+    auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
+      const ContactPoint& contact = mean_contacts[c];
+      for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
+                                             std::tuple{contact.body_a, contact.part_a, -1.0}}) {
+        const BodyModel& model = *bodies[static_cast<std::size_t>(body)];
+        slip += sign * model.partPointVelocity(part, contact.point);
+        const int offset = derivatives.velocity_offset[static_cast<std::size_t>(body)];
+        if (offset < 0) continue;  // prescribed motion: the coefficients do not move it
+        slip_rate.noalias() += sign * model.partPointJacobian(part, contact.point) *
+                               derivatives.jacobian.middleRows(offset, model.velocityCount());
+      }
+    };
+    linearSpread(derivatives.jacobian, velocity_count, derivatives.result.impulses,
+                 derivatives.contacts, prepared, slip_of, outcome);
+  } catch (...) {
+    restore();
+    throw;
+  }
+  restore();
+  outcome.labels = bodyOutcomeLabels(velocity_count, contacts.size());
+  outcome.limit_probability.assign(static_cast<std::size_t>(velocity_count), 0.0);
+  for (Eigen::Index r = 0; r < velocity_count; ++r) {
+    const double limit = velocity_limits(r);
+    if (std::isinf(limit)) continue;  // no limit: never exceeded
+    const double mu = outcome.mean(r);
+    const double sigma = std::sqrt(outcome.covariance(r, r));
+    outcome.limit_probability[static_cast<std::size_t>(r)] =
+        sigma == 0.0
+            ? (std::abs(mu) > limit ? 1.0 : 0.0)
+            : standardNormalCdf((-limit - mu) / sigma) + standardNormalCdf((mu - limit) / sigma);
+  }
+  return outcome;
+}
+
+}  // namespace
+
+OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
+                                               const std::vector<ContactUncertainty>& uncertainties,
+                                               const SolverOptions& options,
+                                               const UncertaintyOptions& uncertainty,
+                                               WorkerPool* pool, const RequestLimits& limits) {
+  checkMethod(uncertainty);
   Prepared prepared = prepare(scene, uncertainties);
   if (uncertainty.method == UncertaintyMethod::kLinear) {
-    if (!prepared.first_geometry_field.empty())
-      throw InvalidInput(prepared.first_geometry_field,
-                         "the linear method takes uncertain coefficients only: for an uncertain "
-                         "normal or point, ask for sampled");
+    refuseGeometry(prepared);
     checkOutcomeSize(6 * movableCount(prepared.mean_scene) +
                          4 * static_cast<Eigen::Index>(prepared.mean_scene.contacts.size()),
                      1);
@@ -843,15 +979,7 @@ OutcomeDistribution computeBodyOutcomeDistribution(
     const std::vector<std::vector<BodyModel*>>& copies, const std::vector<ContactPoint>& contacts,
     const std::vector<ContactUncertainty>& uncertainties, const Eigen::VectorXd& velocity_limits,
     const SolverOptions& options, const UncertaintyOptions& uncertainty, WorkerPool* pool) {
-  if (uncertainty.method == UncertaintyMethod::kNone)
-    throw InvalidInput("options.uncertainty", "no method: ask for linear or sampled");
-  if (uncertainty.method == UncertaintyMethod::kLinear)
-    throw InvalidInput("options.uncertainty",
-                       "the linear method is for rigid bodies alone: with robots, ask for sampled");
-  if (uncertainty.samples == 0 || uncertainty.samples > kMaxUncertaintySamples)
-    throw InvalidInput("options.uncertainty_samples",
-                       "must be in [1, " + std::to_string(kMaxUncertaintySamples) + "], got " +
-                           std::to_string(uncertainty.samples));
+  checkMethod(uncertainty);
   if (copies.empty()) throw std::invalid_argument("computeBodyOutcomeDistribution: no copies");
   const std::size_t body_count = copies.front().size();
   std::vector<int> offset(body_count, -1);
@@ -882,6 +1010,11 @@ OutcomeDistribution computeBodyOutcomeDistribution(
   const Prepared prepared = prepare(coefficients, uncertainties);
   const std::size_t contact_count = contacts.size();
   const Eigen::Index m = velocity_count + 4 * static_cast<Eigen::Index>(contact_count);
+  if (uncertainty.method == UncertaintyMethod::kLinear) {
+    refuseGeometry(prepared);
+    checkOutcomeSize(m, 1);
+    return linearBodyDistribution(copies.front(), contacts, prepared, velocity_limits, options);
+  }
   // One task per set of copies (each set is used by one task at a time).
   const SampleStore store = sampleAll(
       prepared, options, uncertainty, m, contact_count, copies.size(), pool, [&](std::size_t part) {
@@ -937,14 +1070,7 @@ OutcomeDistribution computeBodyOutcomeDistribution(
 
   OutcomeDistribution outcome;
   summariseSamples(values, store.sticking, contact_count, store.capped, prepared, outcome);
-  for (Eigen::Index r = 0; r < velocity_count; ++r)
-    outcome.labels.push_back("velocities[" + std::to_string(r) + "]");
-  for (std::size_t c = 0; c < contact_count; ++c) {
-    const std::string impulse = "impulses[" + std::to_string(c) + "].";
-    outcome.labels.push_back(impulse + "normal_impulse");
-    for (const char* axis : {"x", "y", "z"})
-      outcome.labels.push_back(impulse + "friction_impulse." + axis);
-  }
+  outcome.labels = bodyOutcomeLabels(velocity_count, contact_count);
   outcome.limit_probability.assign(static_cast<std::size_t>(velocity_count), 0.0);
   for (Eigen::Index r = 0; r < velocity_count; ++r) {
     std::size_t over = 0;

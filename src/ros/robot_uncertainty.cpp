@@ -24,11 +24,11 @@ OutcomeDistribution robotOutcomeDistribution(
     const std::vector<RequestRobot>& robots, const std::vector<core::ContactPoint>& points,
     const core::SolverOptions& options, const core::UncertaintyOptions& uncertainty,
     core::WorkerPool* pool, std::vector<core::Warning>& warnings) {
-  if (uncertainty.method == core::UncertaintyMethod::kLinear)
-    throw core::InvalidInput("options.uncertainty",
-                             "linear (1) is for rigid bodies alone: with robots, ask for sampled "
-                             "(2)");
-  const std::size_t copy_count = pool != nullptr ? static_cast<std::size_t>(pool->threads()) : 1;
+  // One set of copies per thread for the sampled method; the linear one solves once, on one set.
+  const std::size_t copy_count =
+      pool != nullptr && uncertainty.method == core::UncertaintyMethod::kSampled
+          ? static_cast<std::size_t>(pool->threads())
+          : 1;
   std::vector<BodyCopy> copies(copy_count);
   std::vector<std::vector<core::BodyModel*>> models;
   models.reserve(copy_count);

@@ -1,4 +1,4 @@
-// Sampled uncertainty of robot impacts (core::computeBodyOutcomeDistribution(),
+// Sampled and linear uncertainty of robot impacts (core::computeBodyOutcomeDistribution(),
 // docs/uncertainty.md, "Robots"): the shipped arm (urdf/arm7.urdf) striking a fixed wall with its
 // hand, frictionless, Newton's law. With one contact that stays active for every e, the impulse is
 // -(1 + e) u_n / (J M^-1 J^T) and the joint velocities after are affine in e:
@@ -17,15 +17,21 @@
 #include <string>
 #include <vector>
 
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
 #include "collision_response/robot/articulated_body.h"
 #include "collision_response/robot/urdf_loader.h"
+#include "uncertainty_options.h"
 
 namespace cr = collision_response::core;
 namespace rb = collision_response::robot;
+using collision_response::testing::errorField;
+using collision_response::testing::linear;
+using collision_response::testing::newton;
+using collision_response::testing::sampled;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
 
@@ -59,12 +65,6 @@ Strike strike(double scale, double e) {
   s.contact = cr::ContactPoint(0, 1, p, n, e, 0.0, 0.0);
   s.contact.part_a = hand;
   return s;
-}
-
-cr::SolverOptions newton() {
-  cr::SolverOptions options;
-  options.law = cr::ImpactLaw::kNewton;
-  return options;
 }
 
 // The arm's velocity unknowns after a deterministic solve at restitution e.
@@ -215,21 +215,261 @@ TEST(RobotUncertainty, UncertainNormalAndPointMatchPlainMonteCarlo) {
   EXPECT_GT(mc_variance(unknowns), 0.0);
 }
 
-TEST(RobotUncertainty, LinearIsRefusedNamingTheOption) {
-  Strike s = strike(1.0, 0.5);
-  cr::ContactUncertainty uncertain;
-  uncertain.contact = 0;
-  uncertain.restitution = cr::CoefficientDistribution::interval(kA, kB);
-  cr::UncertaintyOptions linear;
-  linear.method = cr::UncertaintyMethod::kLinear;
-  try {
-    cr::computeBodyOutcomeDistribution({{&s.arm, &s.wall}}, {s.contact}, {uncertain},
-                                       VectorXd::Constant(s.arm.velocityCount(), 1e9), newton(),
-                                       linear);
-    FAIL() << "linear with general bodies must be refused";
-  } catch (const cr::InvalidInput& e) {
-    EXPECT_NE(std::string(e.what()).find("options.uncertainty"), std::string::npos) << e.what();
+// The linear method with robots (docs/uncertainty.md, "Robots"): the arm's strike with friction,
+// its normal tilted 30 degrees off the hand point's velocity so that the contact slides, e, mu_s
+// and mu_d all uncertain (normals). The map from the coefficients to the outcome is smooth there,
+// so for small spreads the linear answer is the sampled one to second order.
+constexpr double kE = 0.5, kMuS = 0.3, kMuD = 0.25;
+
+Strike slidingStrike(double e, double mu_s, double mu_d) {
+  Strike s = strike(1.0, e);
+  const Vector3d v = s.contact.normal;
+  const Vector3d t = v.cross(Vector3d(0.3, 0.8, -0.5)).normalized();
+  s.contact.normal = (std::cos(0.5236) * v + std::sin(0.5236) * t).normalized();
+  s.contact.static_friction = mu_s;
+  s.contact.dynamic_friction = mu_d;
+  return s;
+}
+
+// The outcome of one deterministic solve at (e, mu_s, mu_d): the arm's unknowns, then the
+// contact's normal and friction impulses, in the order of computeBodyOutcomeDistribution().
+VectorXd slidingOutcome(const Vector3d& theta) {
+  Strike s = slidingStrike(theta(0), theta(1), theta(2));
+  std::vector<cr::BodyModel*> bodies{&s.arm, &s.wall};
+  const cr::BodyResponse response = cr::computeBodyResponse(bodies, {s.contact}, newton());
+  VectorXd out(s.arm.velocityCount() + 4);
+  out << s.arm.velocity(), response.impulses[0].normal_impulse,
+      response.impulses[0].friction_impulse;
+  return out;
+}
+
+// The test's own central differences of slidingOutcome() over (e, mu_s, mu_d), h = 1e-6.
+Eigen::MatrixXd slidingJacobian() {
+  const Vector3d theta(kE, kMuS, kMuD);
+  const double h = 1e-6;
+  Eigen::MatrixXd jacobian;
+  for (int k = 0; k < 3; ++k) {
+    const VectorXd column = (slidingOutcome(theta + h * Vector3d::Unit(k)) -
+                             slidingOutcome(theta - h * Vector3d::Unit(k))) /
+                            (2.0 * h);
+    jacobian.conservativeResize(column.size(), 3);
+    jacobian.col(k) = column;
   }
+  return jacobian;
+}
+
+cr::ContactUncertainty coefficientsUncertain(const Vector3d& sigma) {
+  cr::ContactUncertainty u;
+  u.contact = 0;
+  u.restitution = cr::CoefficientDistribution::normal(kE, sigma(0));
+  u.static_friction = cr::CoefficientDistribution::normal(kMuS, sigma(1));
+  u.dynamic_friction = cr::CoefficientDistribution::normal(kMuD, sigma(2));
+  return u;
+}
+
+VectorXd noLimits(int unknowns) {
+  return VectorXd::Constant(unknowns, std::numeric_limits<double>::infinity());
+}
+
+// P(|X| > limit) for X ~ N(mu, sigma^2), from erfc: the test's own closed form.
+double normalTail(double mu, double sigma, double limit) {
+  const double below = 0.5 * std::erfc(((limit + mu) / sigma) / std::sqrt(2.0));  // X < -limit
+  const double above = 0.5 * std::erfc(((limit - mu) / sigma) / std::sqrt(2.0));  // X > limit
+  return below + above;
+}
+
+TEST(RobotUncertainty, TheSlidingStrikeSlidesAwayFromASwitch) {
+  Strike s = slidingStrike(kE, kMuS, kMuD);
+  const cr::BodyImpactDerivatives d =
+      cr::computeBodyImpactDerivatives({&s.arm, &s.wall}, {s.contact}, newton());
+  ASSERT_EQ(d.contacts.size(), 1u);
+  EXPECT_EQ(d.contacts[0].mode, cr::ImpactMode::kSliding);
+  EXPECT_FALSE(d.contacts[0].at_switch);
+  EXPECT_GT(d.result.impulses[0].friction_impulse.norm(), 0.0);
+}
+
+// (2) Linear against the test's own central differences of computeBodyResponse() over (e, mu_s,
+// mu_d): covariance = J S J^T with S = diag(sigma^2), quantiles = mean -/+ z95 sqrt(diag), mean
+// = the deterministic solve at the means. Central differences with h = 1e-6 on a smooth map have
+// a truncation error of order h^2 (1e-12) and a round-off of order 1e-16 / h = 1e-10 relative:
+// 1e-6 of the covariance's scale leaves room for both.
+TEST(RobotUncertainty, LinearMatchesTheTestsOwnFiniteDifferences) {
+  const Vector3d sigma(0.02, 0.03, 0.02);
+  const VectorXd mean = slidingOutcome(Vector3d(kE, kMuS, kMuD));
+  const Eigen::Index m = mean.size();
+  const Eigen::MatrixXd jacobian = slidingJacobian();
+  ASSERT_GT(jacobian.col(0).norm(), 1e-3) << "e must move the outcome";
+  ASSERT_GT(jacobian.col(2).norm(), 1e-3) << "mu_d must move the outcome";
+  const Eigen::MatrixXd covariance =
+      jacobian * sigma.cwiseAbs2().asDiagonal() * jacobian.transpose();
+
+  Strike s = slidingStrike(kE, kMuS, kMuD);
+  const VectorXd before = s.arm.velocity();
+  const int unknowns = s.arm.velocityCount();
+  const cr::OutcomeDistribution outcome = cr::computeBodyOutcomeDistribution(
+      {{&s.arm, &s.wall}}, {s.contact}, {coefficientsUncertain(sigma)}, noLimits(unknowns),
+      newton(), linear());
+  EXPECT_EQ(outcome.method, cr::UncertaintyMethod::kLinear);
+  EXPECT_EQ(outcome.samples, 0u);
+  ASSERT_EQ(outcome.mean.size(), m);
+  ASSERT_EQ(outcome.covariance.rows(), m);
+  EXPECT_EQ(outcome.labels[static_cast<std::size_t>(unknowns)], "impulses[0].normal_impulse");
+  const double scale = covariance.diagonal().maxCoeff();
+  const double mean_scale = mean.cwiseAbs().maxCoeff();
+  constexpr double kZ95 = 1.6448536269514722;  // Phi^-1(0.95)
+  for (Eigen::Index i = 0; i < m; ++i) {
+    SCOPED_TRACE(outcome.labels[static_cast<std::size_t>(i)]);
+    EXPECT_NEAR(outcome.mean(i), mean(i), 1e-12 * mean_scale);
+    for (Eigen::Index j = 0; j < m; ++j)
+      EXPECT_NEAR(outcome.covariance(i, j), covariance(i, j), 1e-6 * scale);
+    const double spread = std::sqrt(covariance(i, i));
+    EXPECT_NEAR(outcome.q05(i), mean(i) - kZ95 * spread, 1e-6 * std::sqrt(scale));
+    EXPECT_NEAR(outcome.q95(i), mean(i) + kZ95 * spread, 1e-6 * std::sqrt(scale));
+  }
+  // The stick probability of the sliding contact from the linearised margin (docs/uncertainty.md,
+  // "Linear"): g = mu_s - mu*, mu* = mu_d + s / (-ds/dmu_d) the mu_d at which the linearised slip
+  // speed s would vanish, sd(g)^2 = (ds/de / ds/dmu_d)^2 sigma_e^2 + sigma_mu_s^2 (mu_d decides how
+  // it slides, not whether it sticks); s and its derivatives from the test's own solves and
+  // central differences of the hand point's tangential velocity.
+  auto slip = [&](const Vector3d& theta) {
+    Strike t = slidingStrike(theta(0), theta(1), theta(2));
+    std::vector<cr::BodyModel*> bodies{&t.arm, &t.wall};
+    cr::computeBodyResponse(bodies, {t.contact}, newton());
+    const Vector3d n = t.contact.normal;
+    const Vector3d v = t.arm.partPointVelocity(t.arm.linkIndex("hand"), t.contact.point);
+    return (v - n.dot(v) * n).norm();  // the wall does not move
+  };
+  const Vector3d theta(kE, kMuS, kMuD);
+  const double s0 = slip(theta);
+  const double h = 1e-6;
+  const double s_e =
+      (slip(theta + h * Vector3d::UnitX()) - slip(theta - h * Vector3d::UnitX())) / (2.0 * h);
+  const double s_d =
+      (slip(theta + h * Vector3d::UnitZ()) - slip(theta - h * Vector3d::UnitZ())) / (2.0 * h);
+  ASSERT_GT(s0, 1e-3);
+  ASSERT_LT(s_d, 0.0);
+  const double margin = kMuS - (kMuD - s0 / s_d);
+  const double margin_sd = std::hypot(s_e / s_d * sigma(0), sigma(1));
+  const double stick = 0.5 * std::erfc(-margin / margin_sd / std::sqrt(2.0));
+  ASSERT_EQ(outcome.stick_probability.size(), 1u);
+  EXPECT_NEAR(outcome.stick_probability[0], stick, 1e-5);
+  ASSERT_GT(stick, 1e-3) << "the margin must be reachable: the check is weak";
+  // Every limit infinite: never exceeded.
+  for (const double p : outcome.limit_probability) EXPECT_EQ(p, 0.0);
+  // The bodies end at their pre-impact velocities.
+  EXPECT_LT((s.arm.velocity() - before).norm(), 1e-12);
+}
+
+// (1) and (3): linear against sampled (8192 scrambled Halton points) for a small spread, and the
+// limit probability of the joint that moves most against the closed-form normal tail, its limit
+// set half a standard deviation above its mean's magnitude. With sigma = 0.005 the map's
+// curvature moves the mean by O(sigma^2) and the spread by O(sigma) relative; the quasi-random
+// sampling error for 8192 points in 3 dimensions is well under a hundredth of a standard
+// deviation. Tolerances: mean within 0.02 sigma_r, covariance within 0.02 sqrt(C_ii C_jj) (the
+// scale of a covariance entry), quantiles within 0.03 sigma_r (an empirical quantile's own
+// error is larger than the mean's), the limit probability within 0.01 (the sample fraction moves
+// by 1 / 8192 per sample; the normal approximation of a map curved by O(sigma) by less).
+TEST(RobotUncertainty, LinearMatchesSampledForASmallSpreadWithRobots) {
+  const Vector3d sigma(0.005, 0.005, 0.005);
+  Strike s = slidingStrike(kE, kMuS, kMuD);
+  const int unknowns = s.arm.velocityCount();
+  // The test's own mean and standard deviations (central differences, as above).
+  const VectorXd mean = slidingOutcome(Vector3d(kE, kMuS, kMuD));
+  const VectorXd spread = (slidingJacobian() * sigma.asDiagonal()).rowwise().norm();
+  Eigen::Index pivot = 0;
+  spread.head(7).maxCoeff(&pivot);
+  ASSERT_GT(spread(pivot), 1e-4);
+  VectorXd limits = noLimits(unknowns);
+  limits(pivot) = std::abs(mean(pivot)) + 0.5 * spread(pivot);
+  const double tail = normalTail(mean(pivot), spread(pivot), limits(pivot));
+  ASSERT_GT(tail, 0.1);
+  ASSERT_LT(tail, 0.9);
+
+  const cr::OutcomeDistribution lin = cr::computeBodyOutcomeDistribution(
+      {{&s.arm, &s.wall}}, {s.contact}, {coefficientsUncertain(sigma)}, limits, newton(), linear());
+  cr::WorkerPool pool(2);
+  Strike other = slidingStrike(kE, kMuS, kMuD);
+  const cr::OutcomeDistribution sam = cr::computeBodyOutcomeDistribution(
+      {{&s.arm, &s.wall}, {&other.arm, &other.wall}}, {s.contact}, {coefficientsUncertain(sigma)},
+      limits, newton(), sampled(8192), &pool);
+  const Eigen::Index m = lin.mean.size();
+  ASSERT_EQ(sam.mean.size(), m);
+  EXPECT_EQ(lin.labels, sam.labels);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    SCOPED_TRACE(lin.labels[static_cast<std::size_t>(i)]);
+    const double si = std::sqrt(sam.covariance(i, i));
+    if (si < 1e-12) {  // a joint the contact does not move
+      EXPECT_LT(std::sqrt(lin.covariance(i, i)), 1e-9);
+      continue;
+    }
+    EXPECT_NEAR(lin.mean(i), sam.mean(i), 0.02 * si);
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const double sj = std::sqrt(sam.covariance(j, j));
+      EXPECT_NEAR(lin.covariance(i, j), sam.covariance(i, j), 0.02 * si * sj + 1e-24);
+    }
+    EXPECT_NEAR(lin.q05(i), sam.q05(i), 0.03 * si);
+    EXPECT_NEAR(lin.q95(i), sam.q95(i), 0.03 * si);
+  }
+  EXPECT_NEAR(lin.stick_probability[0], sam.stick_probability[0], 1e-3);
+  // (3) The limit probability: the closed form at the test's own mean and spread, and sampled.
+  const auto p = static_cast<std::size_t>(pivot);
+  EXPECT_NEAR(lin.limit_probability[p], tail, 1e-6);
+  EXPECT_NEAR(lin.limit_probability[p], sam.limit_probability[p], 0.01);
+  for (Eigen::Index r = 0; r < unknowns; ++r) {
+    if (r == pivot) continue;
+    EXPECT_EQ(lin.limit_probability[static_cast<std::size_t>(r)], 0.0);
+  }
+}
+
+// No spread at all: sigma = 0 for every unknown, the limit probability exactly 1 where the
+// prediction's magnitude exceeds the limit and exactly 0 where it does not.
+TEST(RobotUncertainty, LinearLimitProbabilityWithoutSpreadIsExact) {
+  Strike s = slidingStrike(kE, kMuS, kMuD);
+  const int unknowns = s.arm.velocityCount();
+  const VectorXd mean = slidingOutcome(Vector3d(kE, kMuS, kMuD));
+  VectorXd limits(unknowns);
+  for (int r = 0; r < unknowns; ++r)
+    limits(r) = r % 2 == 0 ? 0.5 * std::abs(mean(r)) : 2.0 * std::abs(mean(r)) + 1e-9;
+  cr::ContactUncertainty exact;  // the contact named, nothing uncertain
+  exact.contact = 0;
+  const cr::OutcomeDistribution outcome = cr::computeBodyOutcomeDistribution(
+      {{&s.arm, &s.wall}}, {s.contact}, {exact}, limits, newton(), linear());
+  EXPECT_EQ(outcome.covariance.norm(), 0.0);
+  bool some_over = false;
+  for (int r = 0; r < unknowns; ++r) {
+    SCOPED_TRACE(r);
+    const bool over = std::abs(mean(r)) > limits(r);
+    some_over |= over;
+    EXPECT_EQ(outcome.limit_probability[static_cast<std::size_t>(r)], over ? 1.0 : 0.0);
+  }
+  EXPECT_TRUE(some_over);
+}
+
+// (4) An uncertain normal or point under the linear method is refused naming the field, as the
+// rigid-body path refuses it; the sampled method takes it. The bodies are left untouched.
+TEST(RobotUncertainty, LinearRefusesAnUncertainNormalOrPointNamingTheField) {
+  Strike s = slidingStrike(kE, kMuS, kMuD);
+  const VectorXd before = s.arm.velocity();
+  const VectorXd limits = noLimits(s.arm.velocityCount());
+  auto field = [&](const cr::ContactUncertainty& u, const cr::UncertaintyOptions& method) {
+    return errorField([&] {
+      cr::computeBodyOutcomeDistribution({{&s.arm, &s.wall}}, {s.contact}, {u}, limits, newton(),
+                                         method);
+    });
+  };
+  cr::ContactUncertainty normal = coefficientsUncertain(Vector3d(0.01, 0.01, 0.01));
+  normal.normal_std_dev = 0.05;
+  EXPECT_EQ(field(normal, linear()), "uncertainties[0].normal_std_dev");
+  cr::ContactUncertainty point;
+  point.contact = 0;
+  point.point_std_dev = Vector3d(0.0, 0.01, 0.0);
+  EXPECT_EQ(field(point, linear()), "uncertainties[0].point_std_dev");
+  EXPECT_EQ(field(point, sampled(16)), "(no error)");
+  cr::ContactUncertainty negative;
+  negative.contact = 0;
+  negative.restitution = cr::CoefficientDistribution::normal(kE, -0.1);
+  EXPECT_EQ(field(negative, linear()), "uncertainties[0].restitution.std_dev");
+  EXPECT_LT((s.arm.velocity() - before).norm(), 1e-12);  // (the sampled call: v' + (v - v'))
 }
 
 }  // namespace

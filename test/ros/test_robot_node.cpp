@@ -518,7 +518,8 @@ double exceedingFraction(double x0, double x1, double limit) {
 // Frictionless, Newton's law, one contact: the joint velocities after are affine in e. With e
 // uniform on [a, b], the sampled distribution through the service against two deterministic
 // calls at e = a and e = b: mean (their average), variance (d^2 / 12), limit probabilities (the
-// exact fraction of [a, b] beyond each URDF limit).
+// exact fraction of [a, b] beyond each URDF limit); then the linear method against the same two
+// calls.
 TEST_F(RobotNodeTest, SampledUncertaintyWithRobotsThroughTheService) {
   const cr::robot::ArticulatedBody arm = publishedArm();
   const Strike strike = strikeOf(arm);
@@ -580,11 +581,39 @@ TEST_F(RobotNodeTest, SampledUncertaintyWithRobotsThroughTheService) {
   }
   EXPECT_TRUE(some_crossing) << "no joint crosses its limit inside [a, b]: the check is weak";
 
+  // The linear method through the service: the map is affine in e, so the linear mean is the
+  // prediction at e's mean, (qa + qb) / 2, and its variance exactly that of the uniform e, d^2 /
+  // 12 (to round-off); the limit probabilities are the normal tails P(|x| > L) of N(mean, d^2 /
+  // 12), computed here from erfc.
   srv.request.options.uncertainty = cr::SolverOptions::UNCERTAINTY_LINEAR;
   const auto linear = call(srv);
-  EXPECT_FALSE(linear.success);
-  EXPECT_NE(linear.message.find("options.uncertainty"), std::string::npos) << linear.message;
-  EXPECT_TRUE(linear.outcome_distribution.mean.empty());
+  ASSERT_TRUE(linear.success) << linear.message;
+  const cr::OutcomeDistribution& l = linear.outcome_distribution;
+  EXPECT_EQ(l.method, "linear");
+  EXPECT_EQ(l.samples, 0u);
+  EXPECT_EQ(l.labels, d.labels);
+  ASSERT_EQ(l.mean.size(), n);
+  ASSERT_EQ(l.covariance.size(), n * n);
+  ASSERT_EQ(l.joint_limit_labels, d.joint_limit_labels);
+  ASSERT_EQ(l.joint_limit_probability.size(), joints);
+  bool some_tail = false;
+  for (std::size_t j = 0; j < joints; ++j) {
+    SCOPED_TRACE(kJoints[j]);
+    const std::size_t r = 6 + j;
+    const double mean = 0.5 * (qa[j] + qb[j]);
+    const double dj = qb[j] - qa[j];
+    EXPECT_NEAR(l.mean[r], mean, 1e-9 * (1.0 + range));
+    EXPECT_NEAR(l.covariance[r * n + r], dj * dj / 12.0, 1e-9 * (1.0 + range * range));
+    const double sigma = std::abs(dj) / std::sqrt(12.0);
+    const double limit = j < 7 ? 2.5 : 0.2;
+    const double tail = sigma == 0.0
+                            ? (std::abs(mean) > limit ? 1.0 : 0.0)
+                            : 0.5 * std::erfc((limit + mean) / (sigma * std::sqrt(2.0))) +
+                                  0.5 * std::erfc((limit - mean) / (sigma * std::sqrt(2.0)));
+    EXPECT_NEAR(l.joint_limit_probability[j], tail, 1e-6);
+    some_tail |= tail > 0.05 && tail < 0.95;
+  }
+  EXPECT_TRUE(some_tail) << "no joint's tail is strictly inside (0, 1): the check is weak";
 }
 
 TEST_F(RobotNodeTest, BadRobotInputIsNamed) {

@@ -42,7 +42,8 @@ struct OutcomeDistribution {
   /// margin of the mode the contact is in at the means (docs/uncertainty.md).
   std::vector<double> stick_probability;
   /// computeBodyOutcomeDistribution() only: per velocity unknown, the probability that its
-  /// magnitude exceeds its limit (the fraction of samples); empty otherwise.
+  /// magnitude exceeds its limit (kSampled: the fraction of samples; kLinear: the normal tail
+  /// P(|v| > limit) of N(mean, covariance_rr)); empty otherwise.
   std::vector<double> limit_probability;
   /// Truncated normals, mu_d > mu_s in samples (capped at mu_s); kLinear: a linearisation at a
   /// mode switch, a stick probability in [0.001, 0.999] (the spread reaches a stick/slip switch).

@@ -62,7 +62,7 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
                                                WorkerPool* pool = nullptr,
                                                const RequestLimits& limits = {});
 
-/// The sampled distribution of the impact of general bodies (body_model.h: robots and free rigid
+/// The distribution of the impact of general bodies (body_model.h: robots and free rigid
 /// bodies, as computeBodyResponse() solves them) when the contacts' coefficients follow
 /// `uncertainties` (uncertainties[k].contact indexes `contacts`; docs/uncertainty.md, "Robots").
 ///
@@ -77,11 +77,19 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
 /// (BodyModel::velocity()) body after body, labelled "velocities[r]"; then per contact
 /// "impulses[c].normal_impulse", "impulses[c].friction_impulse.x/y/z" [N s, world] (the caller
 /// names the velocities). `velocity_limits`: one per velocity unknown (+infinity: none);
-/// OutcomeDistribution::limit_probability[r] is the fraction of samples with |v_r| > limit_r.
+/// kSampled: OutcomeDistribution::limit_probability[r] is the fraction of samples with |v_r| >
+/// limit_r.
 ///
-/// Only kSampled: kLinear throws InvalidInput("options.uncertainty"). Throws as
-/// computeOutcomeDistribution() for the uncertainties, options.uncertainty_samples and the time
-/// budget; std::invalid_argument when copies is empty, the sets differ in size or
+/// kLinear: computeBodyImpactDerivatives() on copies[0] at the coefficients' means (the other
+/// copies are not used), mean = its prediction, covariance = J S J^T over the uncertain
+/// coefficients' columns, quantiles and stick probabilities and warnings as
+/// computeOutcomeDistribution()'s kLinear (a sliding contact's slip from the bodies' point
+/// Jacobians); limit_probability[r] = P(|v_r| > limit_r) under N(mean_r, covariance_rr) (sd = 0:
+/// exactly 0 or 1); copies[0] ends at its pre-impact velocities, also when the call throws. An
+/// uncertain normal or point is refused as computeOutcomeDistribution()'s kLinear refuses it.
+///
+/// Throws as computeOutcomeDistribution() for the uncertainties, options.uncertainty_samples and
+/// the time budget; std::invalid_argument when copies is empty, the sets differ in size or
 /// velocity_limits has the wrong length.
 OutcomeDistribution computeBodyOutcomeDistribution(
     const std::vector<std::vector<BodyModel*>>& copies, const std::vector<ContactPoint>& contacts,

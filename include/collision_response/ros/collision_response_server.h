@@ -127,8 +127,9 @@ class CollisionResponseServer {
   /// The rigid bodies and the placed robots (placeRobots()) solved together by
   /// core::computeBodyResponse() on `points` (the contacts placed on the models); fills the
   /// answer's bodies, impulses, islands, effective masses, warnings, robots, energies [J] and
-  /// solve_time [s]; with options.uncertainty sampled and uncertainties, outcome_distribution
-  /// (robotOutcomeDistribution(), samples spread on `sampling_pool`; linear is refused).
+  /// solve_time [s]; with options.uncertainty (linear or sampled) and uncertainties,
+  /// outcome_distribution (robotOutcomeDistribution(), samples spread on `sampling_pool`; linear:
+  /// one solve).
   void solveBodyModels(const ComputeResponse::Request& request, ComputeResponse::Response& response,
                        core::Scene& scene, std::vector<RequestRobot>& robots,
                        const std::vector<core::ContactPoint>& points,

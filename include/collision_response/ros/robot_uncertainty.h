@@ -16,14 +16,13 @@
 namespace collision_response {
 
 /// The outcome distribution of a request with robots (docs/uncertainty.md, "Robots"): the
-/// request's `uncertainties` sampled through core::computeBodyOutcomeDistribution() on copies of
-/// the body models (`rigid` and the placed `robots`, at their pre-impact state and left as they
-/// are): one copy per thread of `pool` (nullptr: one copy, on the calling thread; robot copies
-/// share the robot's model and own their state). Labels: the rigid bodies' twists, each robot's
-/// unknowns (velocityLabels()), the impulses; joint_limit_labels / joint_limit_probability: every
-/// robot joint with a finite URDF velocity limit. The core's warnings are appended to `warnings`.
-/// Throws core::InvalidInput naming "options.uncertainty" for the linear method, and what
-/// computeBodyOutcomeDistribution() throws.
+/// request's `uncertainties` through core::computeBodyOutcomeDistribution() on copies of the body
+/// models (`rigid` and the placed `robots`, at their pre-impact state and left as they are):
+/// sampled, one copy per thread of `pool` (nullptr: one copy, on the calling thread; robot copies
+/// share the robot's model and own their state); linear, one copy, differentiated once. Labels: the
+/// rigid bodies' twists, each robot's unknowns (velocityLabels()), the impulses; joint_limit_labels
+/// / joint_limit_probability: every robot joint with a finite URDF velocity limit. The core's
+/// warnings are appended to `warnings`. Throws what computeBodyOutcomeDistribution() throws.
 OutcomeDistribution robotOutcomeDistribution(
     const std::vector<ContactUncertainty>& uncertainties, const std::vector<core::RigidBody>& rigid,
     const std::vector<RequestRobot>& robots, const std::vector<core::ContactPoint>& points,
