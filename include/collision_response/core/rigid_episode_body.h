@@ -16,6 +16,11 @@ namespace collision_response::core {
 /// plus its own force and torque (setFreeAcceleration()).
 class RigidEpisodeBody final : public EpisodeBody {
  public:
+  /// The angle [rad] a held body (hold()) turns by at most before its step limit, where the
+  /// episode redoes the resting analysis: its held contact forces, constant in the world, follow
+  /// its turning slip directions to first order in this angle.
+  static constexpr double kHeldTurn = 0.02;
+
   /// `state` must be valid (core::SceneValidator); its orientation is normalised.
   explicit RigidEpisodeBody(const BodyState& state);
 
@@ -38,7 +43,7 @@ class RigidEpisodeBody final : public EpisodeBody {
   void restoreState(const Eigen::VectorXd& state) override;
   bool translate(const Eigen::Vector3d& shift) override;
   double stepLimit() const override;
-  bool hold(const Eigen::Vector3d& contact_force) override;
+  bool hold(const Eigen::Vector3d& contact_force, const Eigen::Vector3d& contact_torque) override;
   void release() override { held_ = false; }
   double kineticEnergy() const override;
 
@@ -48,6 +53,8 @@ class RigidEpisodeBody final : public EpisodeBody {
   Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();
   bool held_ = false;                                            // hold()
   Eigen::Vector3d held_acceleration_ = Eigen::Vector3d::Zero();  // of the centre of mass [m/s^2]
+  // Held: the constant angular acceleration [rad/s^2], world.
+  Eigen::Vector3d held_angular_acceleration_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace collision_response::core
