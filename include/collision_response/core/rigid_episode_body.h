@@ -13,7 +13,9 @@ namespace collision_response::core {
 /// flight by advanceFreeFlight() (free_flight.h: the parabola in closed form, torque-free
 /// rotation); bounds V = |v| + |w|max r (|w|max = angularSpeedBound(), over the whole flight) and A
 /// = |g| (0 when immovable); its model a RigidBody with the free accelerations of its weight m g
-/// plus its own force and torque (setFreeAcceleration()).
+/// plus its own force and torque (setFreeAcceleration()). Held (hold()): constant linear and
+/// angular accelerations a and alpha, A = |a| + |alpha| r, stepLimit() where its slip or spin stops
+/// or it has turned by kHeldTurn.
 class RigidEpisodeBody final : public EpisodeBody {
  public:
   /// The angle [rad] a held body (hold()) turns by at most before its step limit, where the
