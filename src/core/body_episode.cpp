@@ -517,9 +517,10 @@ bool BodyEpisode::sustained() {
     return true;
   };
   if (othersMayTouch(held)) {
-    // Held, not slipping and at rest: kept still while the others fly. Held and moving, its turning
-    // within the thresholds: moved on under the contact forces (EpisodeBody::hold()), the
-    // analysis redone where its slip would stop, at the next impact, or when nothing touches.
+    // Held, not slipping and at rest: kept still while the others fly. Held and moving, not tilting
+    // beyond the thresholds: moved on under the contact forces' wrench (EpisodeBody::hold()), the
+    // analysis redone where its slip or spin would stop (or it has turned too far to keep the
+    // forces), at the next impact, or when nothing touches.
     // Each body's contact force and its moment about the world origin (EpisodeBody::hold()).
     std::vector<Eigen::Vector3d> force(n, Eigen::Vector3d::Zero());
     std::vector<Eigen::Vector3d> torque(n, Eigen::Vector3d::Zero());
