@@ -9,7 +9,9 @@
 // gained under Stronge; receding bodies (the bound by a convex pair's normal rate) that come back:
 // a ball thrown up from a small sphere (closed-form return time), a pendulum's ball swinging away
 // from a small sphere and back (an independent RK4 integration), and a turning capsule that
-// closes on a dot while its frame recedes (the gap sampled along the uniform rotation).
+// closes on a dot while its frame recedes (the gap sampled along the uniform rotation); a box held
+// on the table while the arm flies, sliding or spinning, against Coulomb's closed forms (the
+// slide's v^2 / (2 mu_d g), the spin's stop after w0^2 / (2 mu_d m g r / I_zz)).
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
