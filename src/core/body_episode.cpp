@@ -5,9 +5,11 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <tuple>
 
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/contact_problem.h"
+#include "collision_response/core/contact_space.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/islands.h"
 #include "collision_response/core/option_ranges.h"
@@ -515,15 +517,43 @@ bool BodyEpisode::sustained() {
     return true;
   };
   if (othersMayTouch(held)) {
-    // Held, not slipping and at rest: kept still while the others fly. Held and moving, its turning
-    // within the thresholds: moved on under the contact forces (EpisodeBody::hold()), the
-    // analysis redone where its slip would stop, at the next impact, or when nothing touches.
+    // Held, not slipping and at rest: kept still while the others fly. Held and moving, not tilting
+    // beyond the thresholds: moved on under the contact forces' wrench (EpisodeBody::hold()), the
+    // analysis redone where its slip or spin would stop (or it has turned too far to keep the
+    // forces), at the next impact, or when nothing touches.
+    // Each body's contact force and its moment about the world origin (EpisodeBody::hold()).
     std::vector<Eigen::Vector3d> force(n, Eigen::Vector3d::Zero());
+    std::vector<Eigen::Vector3d> torque(n, Eigen::Vector3d::Zero());
     for (std::size_t c = 0; c < contacts.size(); ++c) {
       const ContactImpulse& f = response.impulses[c];
       const Eigen::Vector3d F = f.normal_force * contacts[c].normal + f.friction_force;
+      const Eigen::Vector3d moment = contacts[c].point.cross(F);
       force[contacts[c].body_a] -= F;
       force[contacts[c].body_b] += F;
+      torque[contacts[c].body_a] -= moment;
+      torque[contacts[c].body_b] += moment;
+    }
+    // Per body: how fast its turning moves its points within its radius along its loaded contacts'
+    // normals (|w x n| r for a rigid body: its spin about axes across a normal). A body turning so
+    // tilts or rolls off its contact set, which a hold does not follow; one spinning about the
+    // normals only (a box turning flat on a table) keeps its contacts and is held.
+    std::vector<double> tilting(n, 0.0);
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      if (!(response.impulses[c].normal_force > 1e-9 * total)) continue;
+      const ContactPoint& p = contacts[c];
+      const GapContact& gap = gaps_[touching_[c].gap];
+      Eigen::Vector3d t1, t2;
+      tangentBasis(p.normal, t1, t2);
+      for (const auto& [i, part, g] : {std::tuple(p.body_a, p.part_a, gap.body_a),
+                                       std::tuple(p.body_b, p.part_b, gap.body_b)}) {
+        if (!bodies_[i]->movable()) continue;
+        const double r = std::isfinite(radius_[g]) ? radius_[g] : 0.0;
+        const BodyModel& model = *models_[i];
+        const Eigen::Vector3d u = model.partPointVelocity(part, p.point);
+        const double along1 = p.normal.dot(model.partPointVelocity(part, p.point + r * t1) - u);
+        const double along2 = p.normal.dot(model.partPointVelocity(part, p.point + r * t2) - u);
+        tilting[i] = std::max(tilting[i], std::hypot(along1, along2));
+      }
     }
     for (std::size_t i = 0; i < n; ++i) {
       if (!held[i]) continue;
@@ -534,16 +564,7 @@ bool BodyEpisode::sustained() {
         frozen_[i] = 1;
         continue;
       }
-      bool turning = false;
-      for (std::size_t g = 0; g < parts_.size(); ++g) {
-        if (parts_[g].body != static_cast<int>(i)) continue;
-        const double r = std::isfinite(radius_[g]) ? radius_[g] : 0.0;
-        const EpisodeBody& body = *bodies_[i];
-        const double spin =
-            body.partSpeedBound(parts_[g].part, 1.0) - body.partSpeedBound(parts_[g].part, 0.0);
-        turning = turning || spin * r > resting_threshold;
-      }
-      if (!turning && bodies_[i]->hold(force[i])) {
+      if (tilting[i] <= resting_threshold && bodies_[i]->hold(force[i], torque[i])) {
         held_[i] = 1;
         held_until_ = std::min(held_until_, time_ + bodies_[i]->stepLimit());
       }

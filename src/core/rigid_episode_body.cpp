@@ -1,5 +1,8 @@
 #include "collision_response/core/rigid_episode_body.h"
 
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "collision_response/core/free_flight.h"
@@ -24,30 +27,81 @@ double RigidEpisodeBody::partSpeedBound(int /*part*/, double radius) const {
   return state_.linear_velocity.norm() + (spin > 0.0 ? spin * radius : 0.0);
 }
 
-double RigidEpisodeBody::partAccelerationBound(int /*part*/, double /*radius*/) const {
+double RigidEpisodeBody::partAccelerationBound(int /*part*/, double radius) const {
   // The centre of mass' speed grows at most by |g| per second; the spin bound holds over the
   // whole torque-free flight (angularSpeedBound()); an immovable body's velocity is constant.
+  // Held: |v(t)| + |w(t)| r grows at most by |a| + |alpha| r per second (w = w0 + alpha t).
   if (state_.immovable()) return 0.0;
-  return held_ ? held_acceleration_.norm() : gravity_.norm();
+  if (!held_) return gravity_.norm();
+  return held_acceleration_.norm() + held_angular_acceleration_.norm() * radius;
 }
 
 void RigidEpisodeBody::advance(double dt) {
-  advanceFreeFlight(state_, dt, held_ ? held_acceleration_ : gravity_);
+  if (!held_) {
+    advanceFreeFlight(state_, dt, gravity_);
+    return;
+  }
+  if (!(dt > 0.0)) return;
+  // The centre of mass on its parabola under a, the angular velocity w0 + alpha t; the orientation
+  // turned by Magnus' expansion of dR/dt = [w(t)]x R to its second term, w0 t + alpha t^2 / 2 +
+  // (alpha x w0) t^3 / 12: exact when alpha is parallel to w0 (a spin about a fixed axis, as of a
+  // body turning on a plane about its normal), else to O(t^4).
+  const Eigen::Quaterniond q0 = state_.orientation.normalized();
+  const Eigen::Vector3d com = state_.position + q0 * state_.com;
+  const Eigen::Vector3d& w0 = state_.angular_velocity;
+  const Eigen::Vector3d& alpha = held_angular_acceleration_;
+  const Eigen::Vector3d turn =
+      dt * w0 + 0.5 * dt * dt * alpha + (dt * dt * dt / 12.0) * alpha.cross(w0);
+  const double angle = turn.norm();
+  Eigen::Quaterniond q1 = q0;
+  if (angle > 0.0) q1 = Eigen::Quaterniond(Eigen::AngleAxisd(angle, turn / angle)) * q0;
+  q1.normalize();
+  const Eigen::Vector3d com1 =
+      com + dt * state_.linear_velocity + 0.5 * dt * dt * held_acceleration_;
+  state_.linear_velocity += dt * held_acceleration_;
+  state_.angular_velocity += dt * alpha;
+  state_.orientation = q1;
+  state_.position = com1 - q1 * state_.com;
 }
 
 double RigidEpisodeBody::stepLimit() const {
-  // Until the velocity's component against the acceleration is used up (a slip stopping under
-  // friction); never for a body that the acceleration speeds up (sliding off from rest).
-  const double a2 = held_acceleration_.squaredNorm();
-  const double against = -state_.linear_velocity.dot(held_acceleration_);
-  if (!held_ || !(a2 > 0.0) || !(against > 0.0)) return std::numeric_limits<double>::infinity();
-  return against / a2;
+  // Until the velocity's or the angular velocity's component against its acceleration is used up
+  // (a slip or a spin stopping under friction); never for a body that the accelerations speed up
+  // (sliding off from rest).
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  if (!held_) return kInfinity;
+  const auto until = [](const Eigen::Vector3d& velocity, const Eigen::Vector3d& acceleration) {
+    const double a2 = acceleration.squaredNorm();
+    const double against = -velocity.dot(acceleration);
+    return a2 > 0.0 && against > 0.0 ? against / a2 : kInfinity;
+  };
+  const Eigen::Vector3d& w = state_.angular_velocity;
+  const Eigen::Vector3d& alpha = held_angular_acceleration_;
+  // And until it turns by kHeldTurn: the contact forces, held constant in the world, turn with the
+  // body's slip directions (exactly so in torque alone for a spin about a contact normal, only to
+  // first order in the angle once it also slides). |w| stays at most |w0| while the spin slows (up
+  // to its stop), and grows at most by |alpha| per second otherwise.
+  const double spin = w.norm();
+  const double speeding = w.dot(alpha) > 0.0 ? alpha.norm() : 0.0;
+  const double turn =
+      spin > 0.0 ? 2.0 * kHeldTurn / (spin + std::sqrt(spin * spin + 2.0 * speeding * kHeldTurn))
+      : speeding > 0.0 ? std::sqrt(2.0 * kHeldTurn / speeding)
+                       : kInfinity;
+  return std::min({until(state_.linear_velocity, held_acceleration_), until(w, alpha), turn});
 }
 
-bool RigidEpisodeBody::hold(const Eigen::Vector3d& contact_force) {
+bool RigidEpisodeBody::hold(const Eigen::Vector3d& contact_force,
+                            const Eigen::Vector3d& contact_torque) {
   if (state_.immovable()) return false;
   held_ = true;
   held_acceleration_ = gravity_ + (state_.force + contact_force) / state_.mass;
+  // alpha = I^-1 (tau_own - w x I w) (setFreeAcceleration()) + I^-1 tau_contact, the contact
+  // torque taken about the centre of mass: tau_origin - c x F.
+  RigidBody rigid = makeRigidBody(state_);
+  setFreeAcceleration(state_, rigid);
+  held_angular_acceleration_ =
+      rigid.angular_acceleration +
+      rigid.inverse_inertia * (contact_torque - rigid.com.cross(contact_force));
   return true;
 }
 

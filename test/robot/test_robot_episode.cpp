@@ -9,7 +9,9 @@
 // gained under Stronge; receding bodies (the bound by a convex pair's normal rate) that come back:
 // a ball thrown up from a small sphere (closed-form return time), a pendulum's ball swinging away
 // from a small sphere and back (an independent RK4 integration), and a turning capsule that
-// closes on a dot while its frame recedes (the gap sampled along the uniform rotation).
+// closes on a dot while its frame recedes (the gap sampled along the uniform rotation); a box held
+// on the table while the arm flies, sliding or spinning, against Coulomb's closed forms (the
+// slide's v^2 / (2 mu_d g), the spin's stop after w0^2 / (2 mu_d m g r / I_zz)).
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -376,70 +378,103 @@ TEST(RobotEpisode, SlowlyTurningBoxSlidesToRestUnderDynamicFriction) {
   EXPECT_LE(std::abs(end.position.y() - start.y()), turned * distance);
   EXPECT_NEAR(end.position.z(), start.z(), 1e-9);
   EXPECT_LT(end.linear_velocity.norm(), 1e-6);
+  // Its spin too ends under the corners' friction torque (held, it kept turning at w before).
+  EXPECT_LT(end.angular_velocity.norm(), 1e-9);
 }
 
-// A random suite of strikes (joint2's lift and speed, the other joints' speeds, the box's place,
-// Newton or Stronge): every episode ends within its horizon with finite states and impacts in
-// order, the box stays on the table, no contact is passed through before the first impact along a
-// reference path of 50 us steps, and under Stronge the mechanical energy (the arm's kinetic
-// energy, gravity compensated, and the box's kinetic and potential energy) is not gained.
-TEST(RobotEpisode, RandomStrikesMissNoContactAndGainNoEnergy) {
+namespace {
+
+// The arm scene's box (1 kg, 0.1 m cube, I = m s^2 / 6) spinning only, at w0 about the vertical,
+// on the table while the arm flies (so the episode holds it rather than ending), to `horizon`.
+struct SpinEnd {
+  double rate = 0.0;   // its angular velocity about z at the end [rad/s]
+  double angle = 0.0;  // the angle it turned about z [rad]
+  Vector3d shift = Vector3d::Zero();
+  Vector3d off_axis = Vector3d::Zero();  // its angular velocity's components about x and y
+  std::size_t impacts = 0;
+};
+
+SpinEnd spinBox(double w0, double horizon) {
   using collision_response::testing::armBoxScene;
-  std::mt19937 rng(24u);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (int trial = 0; trial < 12; ++trial) {
-    SCOPED_TRACE(trial);
-    const double lift = 0.01 + 0.08 * unit(rng), speed = 0.5 + 1.5 * unit(rng);
-    auto s = armBoxScene(kArm7, lift, speed);
-    auto reference = armBoxScene(kArm7, lift, speed);
-    rb::ArticulatedBody arm = s.arm->robot();
-    VectorXd qdot = arm.jointVelocities();
-    for (const char* joint : {"joint1", "joint3", "joint5", "joint7"})
-      qdot(arm.jointIndex(joint)) = 0.4 * (unit(rng) - 0.5);
-    arm.setState(arm.jointPositions(), qdot);
-    *s.arm = rb::RobotEpisodeBody(arm);
-    *reference.arm = rb::RobotEpisodeBody(arm);
-    cr::BodyState box = s.box->state();
-    box.position += Vector3d(0.04 * (unit(rng) - 0.5), 0.04 * (unit(rng) - 0.5), 0.0);
-    *s.box = cr::RigidEpisodeBody(box);
-    *reference.box = cr::RigidEpisodeBody(box);
-    const bool stronge = trial % 2 == 1;
-    s.options.solver.law = stronge ? cr::ImpactLaw::kStronge : cr::ImpactLaw::kNewton;
-    const auto energy = [](const auto& scene) {
-      return scene.arm->kineticEnergy() + scene.box->kineticEnergy() +
-             scene.box->state().mass * 9.81 * scene.box->state().position.z();
-    };
-    const double energy0 = energy(s);
-    const cr::BodyEpisodeResult r =
-        cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
-    EXPECT_LE(r.end_time, s.options.horizon);
-    double last = 0.0;
-    for (const cr::BodyEpisodeImpact& impact : r.impacts) {
-      EXPECT_GE(impact.time, last);
-      last = impact.time;
-      for (const auto& p : impact.impulses) EXPECT_TRUE(std::isfinite(p.normal_impulse));
-    }
-    EXPECT_TRUE(s.arm->robot().jointPositions().allFinite());
-    EXPECT_TRUE(s.arm->robot().jointVelocities().allFinite());
-    EXPECT_GE(s.box->state().position.z(), 0.1615 + 0.05 - 2.0 * s.options.contact_tolerance);
-    if (stronge) EXPECT_LE(energy(s), energy0 + 1e-9 * energy0);
-    // The reference path up to the first impact (or the end).
-    const double until = r.impacts.empty() ? r.end_time : r.impacts[0].time;
-    std::vector<cr::BodyState> states = reference.part_states;
-    std::vector<cr::GapContact> gaps;
-    const double h = 5e-5;
-    double smallest = kInf;
-    for (double t = h; t <= until; t += h) {
-      reference.arm->advance(h);
-      for (std::size_t g = 0; g < reference.parts.size(); ++g)
-        reference.bodies[reference.parts[g].body]->partPose(reference.parts[g].part, states[g]);
-      reference.geometry->gaps(states, 0.05, gaps);
-      for (const auto& gap : gaps) {
-        if (gap.body_a >= 2 || gap.body_b >= 2) smallest = std::min(smallest, gap.gap);
-      }
-    }
-    EXPECT_GE(smallest, 0.0);
+  auto s = armBoxScene(kArm7, /*lift=*/0.35);
+  cr::BodyState box = s.box->state();
+  const Vector3d start = box.position;
+  const Eigen::Quaterniond q0 = box.orientation;
+  box.angular_velocity = Vector3d(0.0, 0.0, w0);
+  *s.box = cr::RigidEpisodeBody(box);
+  s.bodies[1] = s.box.get();
+  s.options.horizon = horizon;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  const cr::BodyState& end = s.box->state();
+  SpinEnd out;
+  out.rate = end.angular_velocity.z();
+  out.off_axis = Vector3d(end.angular_velocity.x(), end.angular_velocity.y(), 0.0);
+  const Eigen::AngleAxisd turned(end.orientation * q0.conjugate());
+  out.angle = turned.angle() * turned.axis().z();
+  out.shift = end.position - start;
+  out.impacts = r.impacts.size();
+  return out;
+}
+
+}  // namespace
+
+// The box spinning only, about the vertical, on its four bottom corners: each corner carries m g /
+// 4 (no net friction force, so no tipping moment) and slips tangentially at w r, so Coulomb's
+// friction -mu_d m g / 4 along the slip at each gives the constant torque -mu_d m g r (r = s /
+// sqrt(2) the corners' distance from the axis): the spin decelerates at alpha = mu_d m g r / I_zz
+// (closed form, 166.5 rad/s^2, mu_d = 0.4 under the scene's mu_s = 0.5), stops at w0 / alpha after
+// turning w0^2 / (2 alpha), and the box does not translate. w0 = 0.2 rad/s: corners slipping at
+// 14 mm/s, below the episode's resting threshold (44 mm/s); 1 rad/s: 71 mm/s, above it (such a
+// body was not held before: it fell into the table between plastic touches whose friction braked
+// its spin in bursts, 3 impacts and 15 % too far a turn); 5 rad/s: 75 mrad, the hold redone
+// every RigidEpisodeBody::kHeldTurn.
+TEST(RobotEpisode, SpinningBoxStopsUnderTheCornersFrictionTorque) {
+  const double mu_d = 0.4, g = 9.81, m = 1.0, side = 0.1;
+  const double r = side / std::sqrt(2.0), inertia = m * side * side / 6.0;
+  const double alpha = mu_d * m * g * r / inertia;
+  for (const double w0 : {0.2, 1.0, 5.0}) {
+    SCOPED_TRACE(w0);
+    const double angle = w0 * w0 / (2.0 * alpha);
+    const SpinEnd end = spinBox(w0, 0.12);
+    EXPECT_EQ(end.impacts, 0u);
+    EXPECT_LT(std::abs(end.rate), 1e-9);
+    EXPECT_NEAR(end.angle, angle, 1e-6 * angle);
+    EXPECT_LT(end.shift.norm(), 1e-9);
+    EXPECT_LT(end.off_axis.norm(), 1e-9);
   }
+}
+
+// A held rigid body's spin: its angular acceleration I^-1 tau about its centre of mass (the torque
+// given about the origin, tau_origin - c x F), the step limit where its spin stops, w0 / |alpha|,
+// the acceleration bound |a| + |alpha| r, and after that step no spin left, turned by w0^2 / (2
+// |alpha|) about the axis (closed form); a spin that would turn farther than kHeldTurn first
+// (w0^2 / (2 alpha) > kHeldTurn) is limited to the time it turns by kHeldTurn at most, kHeldTurn
+// / w0.
+TEST(RobotEpisode, HeldBodyStepLimitIsWhereItsSpinStops) {
+  cr::BodyState box;
+  box.mass = 2.0;
+  box.inertia = Eigen::Matrix3d::Identity() * 0.5;
+  box.position = Vector3d(1.0, 2.0, 0.5);
+  box.angular_velocity = Vector3d(0.0, 0.0, 0.1);
+  cr::RigidEpisodeBody body(box);
+  body.setGravity(Vector3d(0, 0, -10.0));
+  // Normal force m g up at the centre's foot (no moment about the centre), torque -2 N m about z.
+  const Vector3d F(0.0, 0.0, 20.0), foot(1.0, 2.0, 0.0);
+  const Vector3d torque = foot.cross(F) + Vector3d(0.0, 0.0, -2.0);
+  ASSERT_TRUE(body.hold(F, torque));
+  const double alpha = 2.0 / 0.5;
+  EXPECT_NEAR(body.stepLimit(), 0.1 / alpha, 1e-15);
+  EXPECT_NEAR(body.partAccelerationBound(0, 0.1), 0.1 * alpha, 1e-12);
+  body.advance(0.1 / alpha);
+  EXPECT_LT(body.state().angular_velocity.norm(), 1e-15);
+  EXPECT_LT((body.state().position - box.position).norm(), 1e-15);
+  const Eigen::AngleAxisd turned(body.state().orientation);
+  EXPECT_NEAR(turned.angle() * turned.axis().z(), 0.01 / (2.0 * alpha), 1e-15);
+  box.angular_velocity = Vector3d(0.0, 0.0, 3.0);
+  cr::RigidEpisodeBody fast(box);
+  fast.setGravity(Vector3d(0, 0, -10.0));
+  ASSERT_TRUE(fast.hold(F, torque));
+  EXPECT_NEAR(fast.stepLimit(), cr::RigidEpisodeBody::kHeldTurn / 3.0, 1e-15);
 }
 
 // A held rigid body's step limit: the time its velocity's component against the held
@@ -453,13 +488,13 @@ TEST(RobotEpisode, HeldBodyStepLimitIsWhereItsSlipStops) {
   cr::RigidEpisodeBody body(box);
   body.setGravity(Vector3d(0, 0, -10.0));
   // Normal force m g up, friction 0.4 m g against the slip.
-  ASSERT_TRUE(body.hold(Vector3d(-0.4 * 2.0 * 10.0, 0.0, 2.0 * 10.0)));
+  ASSERT_TRUE(body.hold(Vector3d(-0.4 * 2.0 * 10.0, 0.0, 2.0 * 10.0), Vector3d::Zero()));
   EXPECT_NEAR(body.stepLimit(), 0.5 / 4.0, 1e-15);
   EXPECT_NEAR(body.partAccelerationBound(0, 0.1), 4.0, 1e-12);
   box.linear_velocity.setZero();
   cr::RigidEpisodeBody still(box);
   still.setGravity(Vector3d(0, 0, -10.0));
-  ASSERT_TRUE(still.hold(Vector3d(3.0, 0.0, 20.0)));  // pushed off from rest
+  ASSERT_TRUE(still.hold(Vector3d(3.0, 0.0, 20.0), Vector3d::Zero()));  // pushed off from rest
   EXPECT_EQ(still.stepLimit(), kInf);
   still.release();
   EXPECT_EQ(still.stepLimit(), kInf);

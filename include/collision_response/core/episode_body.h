@@ -66,14 +66,21 @@ class EpisodeBody {
   /// is not moved): how a plastic touch's depth is taken back out of a resting contact.
   virtual bool translate(const Eigen::Vector3d& /*shift*/) { return false; }
   /// Sustained contact while other bodies fly (body_episode.h): from now until release(), the body
-  /// moves as if `contact_force` [N], world (the resting analysis' total contact force on it) acted
-  /// on it besides its own loads: a rigid body's centre of mass at the constant acceleration
-  /// g + (F_own + contact_force) / m, its rotation still torque-free; its acceleration bound that
-  /// acceleration's size, and stepLimit() the time its velocity's component against it takes to run
-  /// out (infinity if the acceleration speeds it up), where the episode redoes the resting
-  /// analysis. False if the body cannot be held so (a robot): it then keeps its own motion, its
-  /// touches solved plastic.
-  virtual bool hold(const Eigen::Vector3d& /*contact_force*/) { return false; }
+  /// moves as if the wrench of `contact_force` [N], world (the resting analysis' total contact
+  /// force on it) and `contact_torque` [N m], world, about the world origin (the moment of those
+  /// forces about the origin, sum p x F) acted on it besides its own loads, both constant: a rigid
+  /// body's centre of mass at the constant acceleration g + (F_own + contact_force) / m, its
+  /// angular velocity at the constant angular acceleration alpha = I^-1 (tau_own + tau_contact - w
+  /// x I w) taken now (tau_contact the contact torque about its centre of mass), its orientation
+  /// turned accordingly; its acceleration bound those accelerations' share (|a| + |alpha| r), and
+  /// stepLimit() the time its velocity's or its angular velocity's component against its
+  /// acceleration takes to run out, whichever comes first (infinity if the accelerations speed it
+  /// up), where the episode redoes the resting analysis. False if the body cannot be held so (a
+  /// robot): it then keeps its own motion, its touches solved plastic.
+  virtual bool hold(const Eigen::Vector3d& /*contact_force*/,
+                    const Eigen::Vector3d& /*contact_torque*/) {
+    return false;
+  }
   virtual void release() {}
   /// Kinetic energy [J] (diagnostics and tests).
   virtual double kineticEnergy() const = 0;

@@ -13,9 +13,16 @@ namespace collision_response::core {
 /// flight by advanceFreeFlight() (free_flight.h: the parabola in closed form, torque-free
 /// rotation); bounds V = |v| + |w|max r (|w|max = angularSpeedBound(), over the whole flight) and A
 /// = |g| (0 when immovable); its model a RigidBody with the free accelerations of its weight m g
-/// plus its own force and torque (setFreeAcceleration()).
+/// plus its own force and torque (setFreeAcceleration()). Held (hold()): constant linear and
+/// angular accelerations a and alpha, A = |a| + |alpha| r, stepLimit() where its slip or spin stops
+/// or it has turned by kHeldTurn.
 class RigidEpisodeBody final : public EpisodeBody {
  public:
+  /// The angle [rad] a held body (hold()) turns by at most before its step limit, where the
+  /// episode redoes the resting analysis: its held contact forces, constant in the world, follow
+  /// its turning slip directions to first order in this angle.
+  static constexpr double kHeldTurn = 0.02;
+
   /// `state` must be valid (core::SceneValidator); its orientation is normalised.
   explicit RigidEpisodeBody(const BodyState& state);
 
@@ -38,7 +45,7 @@ class RigidEpisodeBody final : public EpisodeBody {
   void restoreState(const Eigen::VectorXd& state) override;
   bool translate(const Eigen::Vector3d& shift) override;
   double stepLimit() const override;
-  bool hold(const Eigen::Vector3d& contact_force) override;
+  bool hold(const Eigen::Vector3d& contact_force, const Eigen::Vector3d& contact_torque) override;
   void release() override { held_ = false; }
   double kineticEnergy() const override;
 
@@ -48,6 +55,8 @@ class RigidEpisodeBody final : public EpisodeBody {
   Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();
   bool held_ = false;                                            // hold()
   Eigen::Vector3d held_acceleration_ = Eigen::Vector3d::Zero();  // of the centre of mass [m/s^2]
+  // Held: the constant angular acceleration [rad/s^2], world.
+  Eigen::Vector3d held_angular_acceleration_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace collision_response::core
