@@ -109,6 +109,12 @@ void ArticulatedBody::setFlightState(const Eigen::Ref<const Eigen::VectorXd>& q,
   forwardKinematics(*model_, data_);
 }
 
+void ArticulatedBody::completeFlightState() {
+  computeMassMatrix(*model_, data_);
+  factorizeMassMatrix(*model_, data_);
+  robot::requireRegular(data_, "q");
+}
+
 Eigen::VectorXd ArticulatedBody::flightAcceleration() const {
   return articulatedBodyAcceleration(*model_, data_);
 }

@@ -195,10 +195,9 @@ void RobotEpisodeBody::advance(double dt) {
     robot_.setState(y.head(n), y.tail(n), base_pose_);
     accelerations_valid_ = false;
   } else {
-    // The last right-hand side was at y; the articulated-body path left M(q) stale there.
-    if (robot::articulatedBodyApplies(robot_.model())) {
-      robot_.setState(y.head(n), y.tail(n), base_pose_);
-    }
+    // The last right-hand side was at y (its kinematics are y's); the articulated-body path left
+    // M(q) stale there.
+    if (robot::articulatedBodyApplies(robot_.model())) robot_.completeFlightState();
     accelerations_ = k1.tail(n);  // k7 of the last accepted step: qdd at y
     accelerations_valid_ = true;
   }

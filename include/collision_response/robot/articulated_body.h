@@ -134,6 +134,9 @@ class ArticulatedBody final : public core::BodyModel {
   void setFlightState(const Eigen::Ref<const Eigen::VectorXd>& q,
                       const Eigen::Ref<const Eigen::VectorXd>& qdot,
                       const Eigen::Isometry3d& base_pose);
+  /// Completes a setFlightState() state into what setState() gives at it: M(q), its factor and the
+  /// same check (the kinematics kept, not computed again). Throws as setState().
+  void completeFlightState();
   /// freeAcceleration() at a setFlightState() state, by the articulated-body algorithm
   /// (articulated_body_algorithm.h).
   Eigen::VectorXd flightAcceleration() const;
