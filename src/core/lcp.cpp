@@ -96,9 +96,16 @@ LcpResult solveLcp(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, const Lcp
     column = T.col(entering);
     pivot_row = T.row(r) / column(r);
     column(r) = 0.0;
-    // Row-reduce; the columns of the other basic variables (0 in row r) do not change.
-    for (Index j = 0; j < T.cols(); ++j) {
-      if (pivot_row(j) != 0.0) T.col(j).noalias() -= pivot_row(j) * column;
+    // Row-reduce; the columns of the other basic variables (0 in row r) do not change. Plain
+    // loops (the same arithmetic): the tableaux are small, where a call per column costs more
+    // than its few entries.
+    const double* __restrict c = column.data();
+    const Index cols = T.cols();
+    for (Index j = 0; j < cols; ++j) {
+      const double factor = pivot_row(j);
+      if (factor == 0.0) continue;
+      double* __restrict t = &T(0, j);
+      for (Index i = 0; i < n; ++i) t[i] -= factor * c[i];
     }
     T.row(r) = pivot_row;
     T.col(entering).setZero();
