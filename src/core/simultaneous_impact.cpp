@@ -582,14 +582,15 @@ class Simultaneous {
         compressing_.push_back(i);
         joined = true;
       }
-      if (!joined) return true;
+      if (!joined) return true;  // du_ = W rates_ for these rates (step() uses it)
     }
   }
 
   // Returns false if there are no rates (a jammed island under kVelocityConsistent).
   bool step() {
     if (!computeRates()) return false;
-    du_.noalias() = w_.lazyProduct(rates_);
+    // The velocity-consistent rates come with du_ = W rates_ (their last consistency check).
+    if (sharing_ == SimultaneousSharing::kSpring) du_.noalias() = w_.lazyProduct(rates_);
     du_ *= h_;
     // The step fraction of the first event, and which contacts have it.
     std::vector<double>& event = event_;
