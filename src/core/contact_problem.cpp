@@ -321,7 +321,9 @@ void ContactProblem::generalAddImpulse(std::size_t i, const Eigen::Vector3d& imp
       velocity_changes.segment<3>(body.offset + 3) +=
           body.inverse_inertia * lever_arm[side]->cross(p);
     } else {
-      velocity_changes.segment(body.offset, body.unknowns) +=
+      // noalias(): no temporary on the heap (the product's three terms summed, then added, as
+      // before).
+      velocity_changes.segment(body.offset, body.unknowns).noalias() +=
           general_sides_[2 * i + side].inverse_mass_jacobian_t * p;
     }
   }

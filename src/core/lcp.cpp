@@ -20,10 +20,33 @@ namespace {
 
 using Eigen::Index;
 
+using Tableau = Eigen::Map<Eigen::MatrixXd>;
+using Column = Eigen::Map<Eigen::VectorXd>;
+constexpr Index kStackUnknowns = 12;
+
+// The pivot's row reduction, T(:, j) -= pivot_row(j) * column for every column j whose factor is
+// not 0 (T column-major, `rows` x `cols`; `column` 0 in the pivot row). Plain loops: the tableaux
+// are small, where an Eigen expression per column costs more in set-up than its few entries.
+// Element by element (no sum, no fused multiply-add), so that every instruction set gives the same
+// numbers: on x86-64 GCC also builds an AVX copy, chosen at load time where the processor has AVX,
+// which takes four entries per instruction instead of two.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+__attribute__((target_clones("avx", "default")))
+#endif
+void reduceColumns(double* __restrict T, Index rows, Index cols, const double* __restrict pivot_row,
+                   const double* __restrict column) {
+  for (Index j = 0; j < cols; ++j) {
+    const double factor = pivot_row[j];
+    if (factor == 0.0) continue;
+    double* __restrict t = T + j * rows;
+    for (Index i = 0; i < rows; ++i) t[i] -= factor * column[i];
+  }
+}
+
 // Keeps, among `rows`, those whose ratio T(i, column) / a(i) is smallest, up to the relative
 // tolerance (scale: the largest |ratio| among them).
-void keepMinimumRatios(const Eigen::MatrixXd& T, Index column, const Eigen::VectorXd& a,
-                       double tolerance, std::vector<Index>& rows) {
+void keepMinimumRatios(const Tableau& T, Index column, const Column& a, double tolerance,
+                       std::vector<Index>& rows) {
   // Ties are judged against the size of the minimum and of the column's entries, never against the
   // largest ratio (a tiny a_i makes that huge and would let a clearly larger ratio tie).
   double minimum = INFINITY;
@@ -42,9 +65,8 @@ void keepMinimumRatios(const Eigen::MatrixXd& T, Index column, const Eigen::Vect
 
 // Leaving row for the entering column a: the lexicographic minimum of [rhs_i, (B^-1)_i] / a_i
 // over the rows with a_i > 0, z0's row first if it ties on rhs. -1 if no row bounds the step.
-Index lexicographicMinimumRatio(const Eigen::MatrixXd& T, const Eigen::VectorXd& a,
-                                const std::vector<Index>& basis, double tolerance,
-                                std::vector<Index>& rows) {
+Index lexicographicMinimumRatio(const Tableau& T, const Column& a, const std::vector<Index>& basis,
+                                double tolerance, std::vector<Index>& rows) {
   const Index n = T.rows();
   const Index rhs = 2 * n + 1;
   const Index z0 = 2 * n;
@@ -78,7 +100,21 @@ LcpResult solveLcp(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, const Lcp
   const std::size_t max_pivots =
       options.max_pivots > 0 ? options.max_pivots : 50 * static_cast<std::size_t>(n + 1);
 
-  Eigen::MatrixXd T(n, 2 * n + 2);
+  // The tableau and the pivoting's column and row: on the stack for up to kStackUnknowns
+  // unknowns (the simultaneous integration's compressing contacts call this at most steps), on
+  // the heap beyond.
+  const Index cols = 2 * n + 2;
+  double stack_tableau[kStackUnknowns * (2 * kStackUnknowns + 2)];
+  double stack_vectors[kStackUnknowns + 2 * kStackUnknowns + 2];
+  Eigen::VectorXd heap;
+  double* tableau = stack_tableau;
+  double* vectors = stack_vectors;
+  if (n > kStackUnknowns) {
+    heap.resize(n * cols + n + cols);
+    tableau = heap.data();
+    vectors = tableau + n * cols;
+  }
+  Tableau T(tableau, n, cols);
   T.leftCols(n).setIdentity();
   T.middleCols(n, n) = -M;
   T.col(z0).setConstant(-1.0);  // -d
@@ -86,8 +122,8 @@ LcpResult solveLcp(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, const Lcp
   std::vector<Index> basis(n);
   std::iota(basis.begin(), basis.end(), Index{0});
 
-  Eigen::VectorXd column(n);
-  Eigen::RowVectorXd pivot_row(2 * n + 2);
+  Column column(vectors, n);
+  Eigen::Map<Eigen::RowVectorXd> pivot_row(vectors + n, cols);
   std::vector<Index> rows;
   rows.reserve(n);
 
@@ -97,9 +133,7 @@ LcpResult solveLcp(const Eigen::MatrixXd& M, const Eigen::VectorXd& q, const Lcp
     pivot_row = T.row(r) / column(r);
     column(r) = 0.0;
     // Row-reduce; the columns of the other basic variables (0 in row r) do not change.
-    for (Index j = 0; j < T.cols(); ++j) {
-      if (pivot_row(j) != 0.0) T.col(j).noalias() -= pivot_row(j) * column;
-    }
+    reduceColumns(T.data(), n, T.cols(), pivot_row.data(), column.data());
     T.row(r) = pivot_row;
     T.col(entering).setZero();
     T(r, entering) = 1.0;

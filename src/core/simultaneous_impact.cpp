@@ -481,22 +481,34 @@ class Simultaneous {
             w_.middleCols(at, 3).lazyProduct(g_.template block<3, 1>(at, at / 3));
       }
       if (!stick_.empty()) {
+        // Over the active contacts' columns only: an idle contact's column of g_ and W g_ is 0,
+        // and so is every map of it (each column is computed on its own).
+        active_.clear();
+        for (std::size_t i = 0; i < m_; ++i) {
+          if (state_[i].phase != Phase::kIdle) active_.push_back(static_cast<Eigen::Index>(i));
+        }
+        const Eigen::Index columns = static_cast<Eigen::Index>(active_.size());
+        wg_active_.resize(3 * m, columns);
+        for (Eigen::Index a = 0; a < columns; ++a) wg_active_.col(a) = wg_.col(active_[a]);
         const Eigen::CompleteOrthogonalDecomposition<Sticking>& cod = factorization();
-        stick_rhs_.resize(2 * static_cast<Eigen::Index>(stick_.size()), m);
+        stick_rhs_.resize(2 * static_cast<Eigen::Index>(stick_.size()), columns);
         for (std::size_t p = 0; p < stick_.size(); ++p) {
           stick_rhs_.middleRows(2 * p, 2).noalias() =
-              -tangents(stick_[p]).transpose() * wg_.middleRows(3 * stick_[p], 3);
+              -tangents(stick_[p]).transpose() * wg_active_.middleRows(3 * stick_[p], 3);
         }
         stick_map_ = cod.solve(stick_rhs_);
-        // The stuck contacts' tangential impulses fill their rows of g_ (every column); W g_
-        // takes what they add.
+        // The stuck contacts' tangential impulses fill their rows of g_ (every active column);
+        // W g_ takes what they add.
         for (std::size_t p = 0; p < stick_.size(); ++p) {
           const Eigen::Index at = 3 * static_cast<Eigen::Index>(stick_[p]);
           const Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, Storage<kMax>::kTimes(1)> added =
               tangents(stick_[p]) * stick_map_.middleRows(2 * p, 2);
-          g_.middleRows(at, 3) += added;
-          wg_.noalias() += w_.middleCols(at, 3).lazyProduct(added);
+          for (Eigen::Index a = 0; a < columns; ++a) {
+            g_.template block<3, 1>(at, active_[a]) += added.col(a);
+          }
+          wg_active_.noalias() += w_.middleCols(at, 3).lazyProduct(added);
         }
+        for (Eigen::Index a = 0; a < columns; ++a) wg_.col(active_[a]) = wg_active_.col(a);
       }
       if (!compressing_.empty()) {
         const Eigen::Index k = static_cast<Eigen::Index>(compressing_.size());
@@ -582,14 +594,15 @@ class Simultaneous {
         compressing_.push_back(i);
         joined = true;
       }
-      if (!joined) return true;
+      if (!joined) return true;  // du_ = W rates_ for these rates (step() uses it)
     }
   }
 
   // Returns false if there are no rates (a jammed island under kVelocityConsistent).
   bool step() {
     if (!computeRates()) return false;
-    du_.noalias() = w_.lazyProduct(rates_);
+    // The velocity-consistent rates come with du_ = W rates_ (their last consistency check).
+    if (sharing_ == SimultaneousSharing::kSpring) du_.noalias() = w_.lazyProduct(rates_);
     du_ *= h_;
     // The step fraction of the first event, and which contacts have it.
     std::vector<double>& event = event_;
@@ -724,6 +737,9 @@ class Simultaneous {
   std::vector<std::size_t> compressing_;
   std::vector<char> unfrictioned_, unstuck_now_;  // per contact, this step
   PerContact g_, wg_;
+  // The active contacts (indices) and W g_'s columns for them, for the sticking map.
+  std::vector<Eigen::Index> active_;
+  PerContact wg_active_;
   StickingMap stick_rhs_, stick_map_;
   Square eff_;
   Vector q_, r_, r_all_, residual_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <utility>
 
 namespace collision_response::detection {
 namespace {
@@ -49,7 +50,7 @@ PlanarFeature projectFeature(const std::vector<Vec3>& pts, const ContactPlaneBas
       h[k++] = idx[i];
     }
     h.resize(k - 1);
-    hull = h;
+    hull = std::move(h);
   }
   // Diameter and width.
   int i0 = hull[0], i1 = hull[0];
@@ -77,6 +78,8 @@ PlanarFeature projectFeature(const std::vector<Vec3>& pts, const ContactPlaneBas
     return f;
   }
   f.kind = PlanarFeature::Kind::kPolygon;
+  f.poly.reserve(hull.size());
+  f.pts.reserve(hull.size());
   for (int a : hull) {
     f.poly.push_back(q[a]);
     f.pts.push_back(pts[a]);
@@ -110,6 +113,7 @@ std::vector<Vec2> clipPolygon(std::vector<Vec2> subject, const std::vector<Vec2>
     const double len = edge.norm();
     auto side = [&](const Vec2& p) { return cross2(edge, p - c0) / len + delta; };
     std::vector<Vec2> out;
+    out.reserve(2 * subject.size());  // each vertex gives at most itself and a crossing
     for (std::size_t k = 0; k < subject.size(); ++k) {
       const Vec2& p = subject[k];
       const Vec2& r = subject[(k + 1) % subject.size()];

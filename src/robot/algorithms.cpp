@@ -19,6 +19,21 @@ Eigen::Matrix3d toEigen(const KDL::Rotation& r) {
   return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r.data);
 }
 
+// KDL's frame product a * b, the same arithmetic term for term (KDL's rotation product is out of
+// line in its library; the kinematics compose two frames per link at every right-hand side).
+KDL::Frame compose(const KDL::Frame& a, const KDL::Frame& b) {
+  const double* l = a.M.data;
+  const double* r = b.M.data;
+  return KDL::Frame(
+      KDL::Rotation(
+          l[0] * r[0] + l[1] * r[3] + l[2] * r[6], l[0] * r[1] + l[1] * r[4] + l[2] * r[7],
+          l[0] * r[2] + l[1] * r[5] + l[2] * r[8], l[3] * r[0] + l[4] * r[3] + l[5] * r[6],
+          l[3] * r[1] + l[4] * r[4] + l[5] * r[7], l[3] * r[2] + l[4] * r[5] + l[5] * r[8],
+          l[6] * r[0] + l[7] * r[3] + l[8] * r[6], l[6] * r[1] + l[7] * r[4] + l[8] * r[7],
+          l[6] * r[2] + l[7] * r[5] + l[8] * r[8]),
+      a.M * b.p + a.p);
+}
+
 // Velocity at the world point p of a twist given at the world origin: vel + rot x p.
 Eigen::Vector3d velocityAt(const KDL::Twist& twist, const Eigen::Vector3d& p) {
   return toEigen(twist.vel) + toEigen(twist.rot).cross(p);
@@ -192,7 +207,8 @@ void forwardKinematics(const RobotModel& model, RobotData& data) {
     const KDL::Frame& parent = data.frames[link.parent];
     const KDL::Joint& joint = link.segment.getJoint();
     const double q = link.joint >= 0 ? data.q(link.joint) : 0.0;
-    data.frames[i] = parent * (jointPose(joint, q) * link.tip);  // not KDL's pose(): it caches
+    // Not KDL's pose(): it caches.
+    data.frames[i] = compose(parent, compose(jointPose(joint, q), link.tip));
     if (link.joint < 0) {
       data.axes[i] = KDL::Twist::Zero();
     } else {

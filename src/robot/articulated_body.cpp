@@ -96,7 +96,8 @@ void ArticulatedBody::setState(const Eigen::VectorXd& q, const Eigen::VectorXd& 
   robot::requireRegular(data_, "q");
 }
 
-void ArticulatedBody::setFlightState(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+void ArticulatedBody::setFlightState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                     const Eigen::Ref<const Eigen::VectorXd>& qdot,
                                      const Eigen::Isometry3d& base_pose) {
   if (q.size() != jointCount() || qdot.size() != jointCount()) {
     throw core::InvalidInput("q", "joint positions and velocities need " +
@@ -108,8 +109,19 @@ void ArticulatedBody::setFlightState(const Eigen::VectorXd& q, const Eigen::Vect
   forwardKinematics(*model_, data_);
 }
 
+void ArticulatedBody::completeFlightState() {
+  computeMassMatrix(*model_, data_);
+  factorizeMassMatrix(*model_, data_);
+  robot::requireRegular(data_, "q");
+}
+
 Eigen::VectorXd ArticulatedBody::flightAcceleration() const {
   return articulatedBodyAcceleration(*model_, data_);
+}
+
+void ArticulatedBody::flightAcceleration(ArticulatedBodyWorkspace& workspace,
+                                         Eigen::VectorXd& vdot) const {
+  articulatedBodyAcceleration(*model_, data_, workspace, vdot);
 }
 
 Eigen::Isometry3d ArticulatedBody::linkPose(int link) const {

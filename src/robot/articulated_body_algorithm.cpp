@@ -60,29 +60,60 @@ bool articulatedBodyApplies(const RobotModel& model) {
 }
 
 Eigen::VectorXd articulatedBodyAcceleration(const RobotModel& model, const RobotData& data) {
+  ArticulatedBodyWorkspace workspace;
+  Eigen::VectorXd vdot;
+  articulatedBodyAcceleration(model, data, workspace, vdot);
+  return vdot;
+}
+
+void articulatedBodyAcceleration(const RobotModel& model, const RobotData& data,
+                                 ArticulatedBodyWorkspace& workspace, Eigen::VectorXd& vdot) {
   const int links = model.linkCount();
-  Eigen::VectorXd vdot = Eigen::VectorXd::Zero(data.unknowns);
-  if (data.unknowns == 0) return vdot;
+  vdot.setZero(data.unknowns);
+  if (data.unknowns == 0) return;
   const bool compensated = data.gravity_compensation;
-  std::vector<Matrix6d> inertia(links);  // articulated inertias I^A
-  std::vector<Vector6d> bias(links);     // articulated bias forces p^A
-  std::vector<Vector6d> axis(links), drift(links), U(links);
-  std::vector<double> D(links, 0.0), u(links, 0.0);
+  auto& inertia = workspace.inertia;  // articulated inertias I^A
+  auto& bias = workspace.bias;        // articulated bias forces p^A
+  auto& axis = workspace.axis;
+  auto& drift = workspace.drift;
+  auto& U = workspace.U;
+  auto& D = workspace.D;
+  auto& u = workspace.u;
+  auto& grounded = workspace.grounded;
+  inertia.resize(links);
+  bias.resize(links);
+  axis.resize(links);
+  drift.resize(links);
+  U.resize(links);
+  D.assign(links, 0.0);
+  u.assign(links, 0.0);
+  // The base (fixed: articulatedBodyApplies()) and the links welded to it by fixed joints move
+  // with it: their articulated inertias and biases are never read, so they are not formed.
+  grounded.resize(links);
+  grounded[0] = 1;
+  for (int i = 1; i < links; ++i) {
+    grounded[i] = model.link(i).joint < 0 && grounded[model.link(i).parent] ? 1 : 0;
+  }
   for (int i = 0; i < links; ++i) {
+    const int j = model.link(i).joint;
+    axis[i] = i > 0 ? motionOf(data.axes[i]) : Vector6d::Zero();
+    if (grounded[i]) {
+      drift[i].setZero();
+      continue;
+    }
     const Vector6d v = motionOf(data.twists[i]);
     inertia[i] = matrixOf(worldInertia(model.link(i).local, data.frames[i]));
     bias[i] = crossForce(v, inertia[i] * v);
-    const int j = model.link(i).joint;
-    axis[i] = i > 0 ? motionOf(data.axes[i]) : Vector6d::Zero();
     // c = v x S qdot: the change of the joint's motion as the axis moves with the link.
     drift[i] = j >= 0 ? Vector6d(crossMotion(v, axis[i] * data.qdot(j))) : Vector6d::Zero();
   }
-  // Leaves to the root: each link's articulated inertia and bias, passed on to its parent.
+  // Leaves to the root: each link's articulated inertia and bias, passed on to its parent (not to
+  // a grounded one, which nothing reads).
   for (int i = links - 1; i > 0; --i) {
+    if (grounded[i]) continue;
     const int j = model.link(i).joint;
+    const int parent = model.link(i).parent;
     const bool free = j >= 0 && data.unknown_of_joint[j] >= 0;
-    Matrix6d passed = inertia[i];
-    Vector6d passed_bias = bias[i] + inertia[i] * drift[i];
     if (free) {
       U[i] = inertia[i] * axis[i];
       D[i] = axis[i].dot(U[i]) + model.armature(j);
@@ -92,14 +123,22 @@ Eigen::VectorXd articulatedBodyAcceleration(const RobotModel& model, const Robot
       }
       const double tau = compensated ? 0.0 : data.torques(j);
       u[i] = tau - axis[i].dot(bias[i]);
+    }
+    if (grounded[parent]) continue;
+    Matrix6d passed = inertia[i];
+    Vector6d passed_bias;
+    if (free) {
       passed -= U[i] * U[i].transpose() / D[i];
       passed_bias = bias[i] + passed * drift[i] + U[i] * (u[i] / D[i]);
+    } else {
+      passed_bias = bias[i] + inertia[i] * drift[i];
     }
-    inertia[model.link(i).parent] += passed;
-    bias[model.link(i).parent] += passed_bias;
+    inertia[parent] += passed;
+    bias[parent] += passed_bias;
   }
   // Root to leaves: accelerations (gravity as the base accelerating upwards, unless compensated).
-  std::vector<Vector6d> acceleration(links);
+  auto& acceleration = workspace.acceleration;
+  acceleration.resize(links);
   acceleration[0].setZero();
   if (!compensated) acceleration[0].tail<3>() = -data.gravity;
   for (int i = 1; i < links; ++i) {
@@ -112,7 +151,6 @@ Eigen::VectorXd articulatedBodyAcceleration(const RobotModel& model, const Robot
     }
     acceleration[i] = a;
   }
-  return vdot;
 }
 
 }  // namespace collision_response::robot

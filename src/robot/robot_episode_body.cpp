@@ -101,10 +101,10 @@ void RobotEpisodeBody::derivative(const Eigen::VectorXd& y, Eigen::VectorXd& dy)
     // full state at its end).
     robot_.setFlightState(y.head(n), y.tail(n), base_pose_);
     accelerations_valid_ = false;
-    const Eigen::VectorXd vdot = robot_.flightAcceleration();
+    robot_.flightAcceleration(workspace_, vdot_);
     for (int j = 0; j < n; ++j) {
       const int u = robot_.unknownOfJoint(j);
-      dy(n + j) = u >= 0 ? vdot(u) : 0.0;
+      dy(n + j) = u >= 0 ? vdot_(u) : 0.0;
     }
     return;
   }
@@ -152,11 +152,16 @@ void RobotEpisodeBody::advance(double dt) {
   while (t < dt) {
     const bool last = h >= dt - t;
     if (last) h = dt - t;
-    derivative(y + h * a21 * k1, k2);
-    derivative(y + h * (a31 * k1 + a32 * k2), k3);
-    derivative(y + h * (a41 * k1 + a42 * k2 + a43 * k3), k4);
-    derivative(y + h * (a51 * k1 + a52 * k2 + a53 * k3 + a54 * k4), k5);
-    derivative(y + h * (a61 * k1 + a62 * k2 + a63 * k3 + a64 * k4 + a65 * k5), k6);
+    stage_ = y + h * a21 * k1;
+    derivative(stage_, k2);
+    stage_ = y + h * (a31 * k1 + a32 * k2);
+    derivative(stage_, k3);
+    stage_ = y + h * (a41 * k1 + a42 * k2 + a43 * k3);
+    derivative(stage_, k4);
+    stage_ = y + h * (a51 * k1 + a52 * k2 + a53 * k3 + a54 * k4);
+    derivative(stage_, k5);
+    stage_ = y + h * (a61 * k1 + a62 * k2 + a63 * k3 + a64 * k4 + a65 * k5);
+    derivative(stage_, k6);
     trial = y + h * (b1 * k1 + b3 * k3 + b4 * k4 + b5 * k5 + b6 * k6);
     derivative(trial, k7);
     error = h * (e1 * k1 + e3 * k3 + e4 * k4 + e5 * k5 + e6 * k6 + e7 * k7);
@@ -190,10 +195,9 @@ void RobotEpisodeBody::advance(double dt) {
     robot_.setState(y.head(n), y.tail(n), base_pose_);
     accelerations_valid_ = false;
   } else {
-    // The last right-hand side was at y; the articulated-body path left M(q) stale there.
-    if (robot::articulatedBodyApplies(robot_.model())) {
-      robot_.setState(y.head(n), y.tail(n), base_pose_);
-    }
+    // The last right-hand side was at y (its kinematics are y's); the articulated-body path left
+    // M(q) stale there.
+    if (robot::articulatedBodyApplies(robot_.model())) robot_.completeFlightState();
     accelerations_ = k1.tail(n);  // k7 of the last accepted step: qdd at y
     accelerations_valid_ = true;
   }

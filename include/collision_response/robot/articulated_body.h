@@ -13,6 +13,7 @@
 #include "collision_response/core/contact_impulse.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/robot/algorithms.h"
+#include "collision_response/robot/articulated_body_algorithm.h"
 #include "collision_response/robot/robot_data.h"
 #include "collision_response/robot/robot_model.h"
 
@@ -130,11 +131,17 @@ class ArticulatedBody final : public core::BodyModel {
   /// The flight's state (RobotEpisodeBody): as setState() for a fixed base without mimic joints
   /// (articulatedBodyApplies()), kinematics only: M(q) and its factor are left stale, so only
   /// flightAcceleration() and the kinematic queries may follow until the next setState().
-  void setFlightState(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+  void setFlightState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                      const Eigen::Ref<const Eigen::VectorXd>& qdot,
                       const Eigen::Isometry3d& base_pose);
+  /// Completes a setFlightState() state into what setState() gives at it: M(q), its factor and the
+  /// same check (the kinematics kept, not computed again). Throws as setState().
+  void completeFlightState();
   /// freeAcceleration() at a setFlightState() state, by the articulated-body algorithm
   /// (articulated_body_algorithm.h).
   Eigen::VectorXd flightAcceleration() const;
+  /// The same into `vdot`, with the caller's scratch (no allocation once sized).
+  void flightAcceleration(ArticulatedBodyWorkspace& workspace, Eigen::VectorXd& vdot) const;
   const Eigen::VectorXd& jointPositions() const { return data_.q; }
   const Eigen::VectorXd& jointVelocities() const { return data_.qdot; }
   const Eigen::Vector3d& baseLinearVelocity() const { return data_.base_linear_velocity; }

@@ -5,6 +5,7 @@
 
 #include "collision_response/core/episode_body.h"
 #include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/articulated_body_algorithm.h"
 
 namespace collision_response::robot {
 
@@ -70,6 +71,10 @@ class RobotEpisodeBody final : public core::EpisodeBody {
   ArticulatedBody robot_;
   Eigen::Isometry3d base_pose_ = Eigen::Isometry3d::Identity();
   double hint_ = 0.0;  // the integrator's last step [s]
+  // The flight's scratch (per request): the articulated-body algorithm's, its answer and each
+  // Runge-Kutta stage's state, reused so that a right-hand side allocates nothing.
+  ArticulatedBodyWorkspace workspace_;
+  Eigen::VectorXd vdot_, stage_;
   mutable Eigen::VectorXd accelerations_;
   mutable bool accelerations_valid_ = false;
   int steps_ = 0;
