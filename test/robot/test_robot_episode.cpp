@@ -11,15 +11,20 @@
 // from a small sphere and back (an independent RK4 integration), and a turning capsule that
 // closes on a dot while its frame recedes (the gap sampled along the uniform rotation); a box held
 // on the table while the arm flies, sliding or spinning, against Coulomb's closed forms (the
-// slide's v^2 / (2 mu_d g), the spin's stop after w0^2 / (2 mu_d m g r / I_zz)).
+// slide's v^2 / (2 mu_d g), the spin's stop after w0^2 / (2 mu_d m g r / I_zz)), and sliding
+// while it spins against an independent RK4 integration of the planar Coulomb motion on its four
+// corners (disabled: the held steps miss it, see there).
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "arm_box_scene.h"
@@ -499,6 +504,204 @@ TEST(RobotEpisode, HeldBodyStepLimitIsWhereItsSlipStops) {
   still.release();
   EXPECT_EQ(still.stepLimit(), kInf);
   EXPECT_NEAR(still.partAccelerationBound(0, 0.1), 10.0, 1e-12);
+}
+
+namespace {
+
+// A box sliding and turning flat on the table, by an independent planar reference. Its mass sits in
+// its base (centre of mass in the middle of the bottom face, the support plane), so the corners'
+// friction, acting in that plane, has no tipping moment: the box does not tip, and its weight is
+// balanced by normal forces N_k with sum m g and no moment about the centre. Four coplanar corners
+// leave one mode of them free (more on one diagonal, less on the other: statically indeterminate);
+// equal corner compliance picks m g / 4 each, and `diagonal` moves d m g / 4 from the (+a, -a) and
+// (-a, +a) corners onto the (+a, +a) and (-a, -a) ones (|d| <= 1, held constant), to bound what
+// another choice does. State (x, y, theta, vx, vy, wz) of the centre of mass; corner k (body offset
+// c_k = (+-a, +-a)) slips at u_k = v + w z x R(theta) c_k and carries the friction
+// -mu_d N_k u_k / |u_k|; RK4 at step h until the slip stops. It stops as a whole: for this box
+// (I_zz = 2 m a^2 / 3) the spin dies faster than the slide (near a pure slide w / v falls as
+// (T - t)^(m a^2 / I_zz - 1) = (T - t)^0.5; near a pure spin v / (w r) grows), so no corner's slip
+// vanishes before the end (no set-valued friction to resolve, no regularisation), and the last
+// step, where v would reverse, ends with the slide's closed form v^2 / (2 mu_d g) (w ~ (T - t)^1.5
+// is spent by then).
+struct PlanarState {
+  double x = 0.0, y = 0.0, theta = 0.0, vx = 0.0, vy = 0.0, w = 0.0;
+  double time = 0.0;  // when the slip stopped [s]
+};
+
+PlanarState planarSlideAndSpin(double vx, double wz, double mu_d, double g, double half,
+                               double inertia_per_mass, double h, double diagonal = 0.0) {
+  using State = std::array<double, 6>;
+  const auto rate = [&](const State& s) {
+    State d{s[3], s[4], s[5], 0.0, 0.0, 0.0};
+    const double c = std::cos(s[2]), sn = std::sin(s[2]);
+    for (const double cx : {-half, half})
+      for (const double cy : {-half, half}) {
+        const double rx = c * cx - sn * cy, ry = sn * cx + c * cy;
+        const double ux = s[3] - s[5] * ry, uy = s[4] + s[5] * rx;
+        const double u = std::hypot(ux, uy);
+        if (!(u > 0.0)) continue;
+        const double load = g / 4.0 * (1.0 + (cx * cy > 0.0 ? diagonal : -diagonal));  // N_k / m
+        const double fx = -mu_d * load * ux / u, fy = -mu_d * load * uy / u;
+        d[3] += fx;
+        d[4] += fy;
+        d[5] += (rx * fy - ry * fx) / inertia_per_mass;
+      }
+    return d;
+  };
+  const auto plus = [](const State& a, double k, const State& b) {
+    State r;
+    for (int i = 0; i < 6; ++i) r[i] = a[i] + k * b[i];
+    return r;
+  };
+  State s{0.0, 0.0, 0.0, vx, 0.0, wz};
+  double t = 0.0;
+  for (;;) {
+    const double speed = std::hypot(s[3], s[4]);
+    PlanarState out{s[0], s[1], s[2], s[3], s[4], s[5], t};
+    if (speed <= mu_d * g * h) {  // the slide's last step, closed form
+      const double along = speed > 0.0 ? speed / (2.0 * mu_d * g) : 0.0;
+      out.x += along * s[3];
+      out.y += along * s[4];
+      out.theta += 0.5 * s[5] * speed / (mu_d * g);
+      out.vx = out.vy = out.w = 0.0;
+      out.time += speed / (mu_d * g);
+      return out;
+    }
+    const State k1 = rate(s), k2 = rate(plus(s, 0.5 * h, k1)), k3 = rate(plus(s, 0.5 * h, k2)),
+                k4 = rate(plus(s, h, k3));
+    for (int i = 0; i < 6; ++i) s[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    t += h;
+  }
+}
+
+// The arm scene's box (1 kg, 0.1 m cube, I = m s^2 / 6 about its centre of mass) with its centre of
+// mass moved to the middle of its bottom face, sliding at (v, 0, 0) and spinning at w about the
+// vertical on the table while the arm flies, to a 0.12 s horizon.
+struct HeldEnd {
+  Vector3d shift = Vector3d::Zero();  // of its centre of mass [m]
+  double angle = 0.0;                 // turned about z [rad]
+  Vector3d velocity = Vector3d::Zero(), angular_velocity = Vector3d::Zero();
+  double tilt = 0.0;  // between its z axis and the vertical [rad]
+  std::size_t impacts = 0;
+  int steps = 0;
+};
+
+HeldEnd slideAndSpinBaseHeavyBox(double v, double w) {
+  using collision_response::testing::armBoxScene;
+  auto s = armBoxScene(kArm7, /*lift=*/0.35);
+  cr::BodyState box = s.box->state();
+  box.com = Vector3d(0.0, 0.0, -0.05);
+  const Vector3d start = box.position + box.orientation * box.com;
+  const Eigen::Quaterniond q0 = box.orientation;
+  box.linear_velocity = Vector3d(v, 0.0, 0.0);
+  box.angular_velocity = Vector3d(0.0, 0.0, w);
+  *s.box = cr::RigidEpisodeBody(box);
+  s.bodies[1] = s.box.get();
+  s.options.horizon = 0.12;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  const cr::BodyState& end = s.box->state();
+  HeldEnd out;
+  out.shift = end.position + end.orientation * end.com - start;
+  const Eigen::AngleAxisd turned(end.orientation * q0.conjugate());
+  out.angle = turned.angle() * turned.axis().z();
+  out.velocity = end.linear_velocity;
+  out.angular_velocity = end.angular_velocity;
+  out.tilt = std::acos(std::min(1.0, (end.orientation * Vector3d::UnitZ()).z()));
+  out.impacts = r.impacts.size();
+  out.steps = r.steps;
+  return out;
+}
+
+constexpr double kBoxHalf = 0.05, kBoxInertiaPerMass = 0.01 / 6.0;
+
+}  // namespace
+
+// The planar reference against its closed forms (so that the test below compares the episode with
+// something right): a slide alone stops after v^2 / (2 mu_d g) in v / (mu_d g) without turning; a
+// spin with a slide of 1e-4 of its corners' speed turns by w^2 / (2 alpha), alpha = mu_d g r /
+// (I / m) (the spinning box's closed form above), with a slide that small not changing it beyond
+// 1e-3; at h = 1 us its answers for the test's cases move by less than 1e-9 m and 1e-9 rad at h =
+// 4 us (converged).
+TEST(RobotEpisode, PlanarCoulombReferenceMeetsItsClosedForms) {
+  const double mu_d = 0.4, g = 9.81;
+  const PlanarState slide =
+      planarSlideAndSpin(0.05, 0.0, mu_d, g, kBoxHalf, kBoxInertiaPerMass, 1e-6);
+  EXPECT_NEAR(slide.x, 0.05 * 0.05 / (2.0 * mu_d * g), 1e-12);
+  EXPECT_EQ(slide.y, 0.0);
+  EXPECT_EQ(slide.theta, 0.0);
+  EXPECT_NEAR(slide.time, 0.05 / (mu_d * g), 1e-12);
+  const double r = kBoxHalf * std::sqrt(2.0), alpha = mu_d * g * r / kBoxInertiaPerMass;
+  const PlanarState spin =
+      planarSlideAndSpin(1e-4 * r, 1.0, mu_d, g, kBoxHalf, kBoxInertiaPerMass, 1e-6);
+  EXPECT_NEAR(spin.theta, 1.0 / (2.0 * alpha), 1e-3 / (2.0 * alpha));
+  for (const auto& [v, w] : {std::pair{0.05, 1.0}, std::pair{0.02, 3.0}}) {
+    SCOPED_TRACE(::testing::Message() << "v " << v << " w " << w);
+    const PlanarState fine = planarSlideAndSpin(v, w, mu_d, g, kBoxHalf, kBoxInertiaPerMass, 1e-6);
+    const PlanarState coarse =
+        planarSlideAndSpin(v, w, mu_d, g, kBoxHalf, kBoxInertiaPerMass, 4e-6);
+    EXPECT_NEAR(coarse.x, fine.x, 1e-9);
+    EXPECT_NEAR(coarse.y, fine.y, 1e-9);
+    EXPECT_NEAR(coarse.theta, fine.theta, 1e-9);
+  }
+}
+
+// Sliding and turning at once, against the planar reference: v = 0.05 m/s with w = 1 rad/s (the
+// corners' spin w r = 71 mm/s against the slide's 50), and a slower slide, 0.02 m/s, with a faster
+// spin, 3 rad/s (212 mm/s). The held wrench is exact in neither: the corners' slip directions turn
+// with the body and with the changing ratio of slide to spin. Held in steps over which they turn by
+// at most kHeldTurn = 0.02 rad, each corner's friction is exact in direction at a step's start and
+// off by at most 0.02 rad at its end (in magnitude only to second order), so on average by half
+// that: the stop and the angle turned should be within 1 % of the reference's (a literal here, not
+// the constant, which a change must not loosen). The free diagonal mode of the corners' loads (the
+// reference's comment) is the analysis's to pick: the box must end within the references' spread
+// over constant diagonal shares d in [-1, 1] (sampled at -1, -0.5, 0, 0.5, 1; d moves the stop
+// across the slide by up to 60 um, along it by up to 2.7 %, the angle by up to 7.4 %; at d = 0.25
+// by 14 um, 0.3 % and 0.4 %), widened by that 1 %. DISABLED: the episodes fail it. The step limits
+// bound the slips' turning with the body (kHeldTurn) but not with the slide-to-spin ratio, and the
+// first wrench is held until the spin stops (7.3 ms, w0 / alpha0, where the reference still turns
+// at 0.26 rad/s): at v = 0.05 m/s, w = 1 rad/s the episode (4 held steps) stops at x = 493.8 um
+// (reference 427.9, +15 %) having turned 3.628 mrad (5.006, -27.5 %); at v = 0.02 m/s, w = 3 rad/s
+// (6 steps) 347.4 um (322.0, +7.9 %) and 27.22 mrad (27.38, -0.6 %). A step limit of kHeldTurn /
+// (|a| / |v| + |alpha| / |w|) while the body both slides and spins (floored at 0.1 ms: without a
+// floor its steps shrink geometrically towards the stop) passes it, at 156 and 154 steps (+0.11 %,
+// +0.08 %; +0.45 %, +0.004 %).
+TEST(RobotEpisode, DISABLED_SlidingAndTurningBoxStopsWhereThePlanarCoulombReferenceStops) {
+  const double mu_d = 0.4, g = 9.81;
+  for (const auto& [v, w] : {std::pair{0.05, 1.0}, std::pair{0.02, 3.0}}) {
+    SCOPED_TRACE(::testing::Message() << "v " << v << " w " << w);
+    const PlanarState ref = planarSlideAndSpin(v, w, mu_d, g, kBoxHalf, kBoxInertiaPerMass, 1e-6);
+    PlanarState low = ref, high = ref;
+    for (const double d : {-1.0, -0.5, 0.5, 1.0}) {
+      const PlanarState other =
+          planarSlideAndSpin(v, w, mu_d, g, kBoxHalf, kBoxInertiaPerMass, 1e-6, d);
+      low.x = std::min(low.x, other.x);
+      low.y = std::min(low.y, other.y);
+      low.theta = std::min(low.theta, other.theta);
+      high.x = std::max(high.x, other.x);
+      high.y = std::max(high.y, other.y);
+      high.theta = std::max(high.theta, other.theta);
+    }
+    const double tolerance = 0.01;
+    const HeldEnd end = slideAndSpinBaseHeavyBox(v, w);
+    std::printf(
+        "v %g w %g: reference (equal loads; diagonal loads) x %.3f (%.3f to %.3f) um, y %.3f "
+        "(%.3f to %.3f) um, theta %.4f (%.4f to %.4f) mrad, stop %.3f ms; episode x %.3f um, y "
+        "%.3f um, theta %.4f mrad, %d steps\n",
+        v, w, 1e6 * ref.x, 1e6 * low.x, 1e6 * high.x, 1e6 * ref.y, 1e6 * low.y, 1e6 * high.y,
+        1e3 * ref.theta, 1e3 * low.theta, 1e3 * high.theta, 1e3 * ref.time, 1e6 * end.shift.x(),
+        1e6 * end.shift.y(), 1e3 * end.angle, end.steps);
+    EXPECT_EQ(end.impacts, 0u);
+    EXPECT_LT(end.velocity.norm(), 1e-9);
+    EXPECT_LT(end.angular_velocity.norm(), 1e-9);
+    EXPECT_GE(end.shift.x(), low.x - tolerance * ref.x);
+    EXPECT_LE(end.shift.x(), high.x + tolerance * ref.x);
+    EXPECT_GE(end.angle, low.theta - tolerance * ref.theta);
+    EXPECT_LE(end.angle, high.theta + tolerance * ref.theta);
+    EXPECT_GE(end.shift.y(), low.y - tolerance * ref.x);
+    EXPECT_LE(end.shift.y(), high.y + tolerance * ref.x);
+    EXPECT_NEAR(end.shift.z(), 0.0, 1e-9);
+    EXPECT_LT(end.tilt, 1e-9);
+  }
 }
 
 namespace {
