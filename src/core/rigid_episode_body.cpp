@@ -87,7 +87,19 @@ double RigidEpisodeBody::stepLimit() const {
       spin > 0.0 ? 2.0 * kHeldTurn / (spin + std::sqrt(spin * spin + 2.0 * speeding * kHeldTurn))
       : speeding > 0.0 ? std::sqrt(2.0 * kHeldTurn / speeding)
                        : kInfinity;
-  return std::min({until(state_.linear_velocity, held_acceleration_), until(w, alpha), turn});
+  // And, sliding and spinning at once, until v or w has changed by about kHeldTurn of itself: the
+  // slip directions of the contacts (v + w x r) then turn with the ratio of slide to spin even
+  // without the body turning, and the held forces follow them to first order in that change. The
+  // relative rates grow without bound towards a stop, so the step is at least kHeldMinimumStep.
+  // Round-off velocities (a body held at rest: below kHeldRoundOff) do not count: their relative
+  // rates mean nothing.
+  constexpr double kHeldRoundOff = 1e-9;  // [m/s], [rad/s]
+  const double v = state_.linear_velocity.norm();
+  const double rate = v > kHeldRoundOff && spin > kHeldRoundOff
+                          ? held_acceleration_.norm() / v + alpha.norm() / spin
+                          : 0.0;
+  const double mix = rate > 0.0 ? std::max(kHeldMinimumStep, kHeldTurn / rate) : kInfinity;
+  return std::min({until(state_.linear_velocity, held_acceleration_), until(w, alpha), turn, mix});
 }
 
 bool RigidEpisodeBody::hold(const Eigen::Vector3d& contact_force,

@@ -13,7 +13,7 @@
 // on the table while the arm flies, sliding or spinning, against Coulomb's closed forms (the
 // slide's v^2 / (2 mu_d g), the spin's stop after w0^2 / (2 mu_d m g r / I_zz)), and sliding
 // while it spins against an independent RK4 integration of the planar Coulomb motion on its four
-// corners (disabled: the held steps miss it, see there).
+// corners.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -656,16 +656,13 @@ TEST(RobotEpisode, PlanarCoulombReferenceMeetsItsClosedForms) {
 // reference's comment) is the analysis's to pick: the box must end within the references' spread
 // over constant diagonal shares d in [-1, 1] (sampled at -1, -0.5, 0, 0.5, 1; d moves the stop
 // across the slide by up to 60 um, along it by up to 2.7 %, the angle by up to 7.4 %; at d = 0.25
-// by 14 um, 0.3 % and 0.4 %), widened by that 1 %. DISABLED: the episodes fail it. The step limits
-// bound the slips' turning with the body (kHeldTurn) but not with the slide-to-spin ratio, and the
-// first wrench is held until the spin stops (7.3 ms, w0 / alpha0, where the reference still turns
-// at 0.26 rad/s): at v = 0.05 m/s, w = 1 rad/s the episode (4 held steps) stops at x = 493.8 um
-// (reference 427.9, +15 %) having turned 3.628 mrad (5.006, -27.5 %); at v = 0.02 m/s, w = 3 rad/s
-// (6 steps) 347.4 um (322.0, +7.9 %) and 27.22 mrad (27.38, -0.6 %). A step limit of kHeldTurn /
-// (|a| / |v| + |alpha| / |w|) while the body both slides and spins (floored at 0.1 ms: without a
-// floor its steps shrink geometrically towards the stop) passes it, at 156 and 154 steps (+0.11 %,
-// +0.08 %; +0.45 %, +0.004 %).
-TEST(RobotEpisode, DISABLED_SlidingAndTurningBoxStopsWhereThePlanarCoulombReferenceStops) {
+// by 14 um, 0.3 % and 0.4 %), widened by that 1 %. Without the step limit on the slide-to-spin
+// ratio (RigidEpisodeBody::stepLimit(), kHeldTurn / (|a| / |v| + |alpha| / |w|), floored at
+// kHeldMinimumStep) it fails: the first wrench was held until the spin stopped (7.3 ms, where the
+// reference still turns at 0.26 rad/s), at v = 0.05 m/s, w = 1 rad/s x = 493.8 um (reference
+// 427.9, +15 %) and 3.628 mrad turned (5.006, -27.5 %); at v = 0.02 m/s, w = 3 rad/s 347.4 um
+// (322.0, +7.9 %). With it: 156 and 154 steps, +0.11 % / +0.08 % and +0.45 % / +0.004 %.
+TEST(RobotEpisode, SlidingAndTurningBoxStopsWhereThePlanarCoulombReferenceStops) {
   const double mu_d = 0.4, g = 9.81;
   for (const auto& [v, w] : {std::pair{0.05, 1.0}, std::pair{0.02, 3.0}}) {
     SCOPED_TRACE(::testing::Message() << "v " << v << " w " << w);

@@ -14,14 +14,19 @@ namespace collision_response::core {
 /// rotation); bounds V = |v| + |w|max r (|w|max = angularSpeedBound(), over the whole flight) and A
 /// = |g| (0 when immovable); its model a RigidBody with the free accelerations of its weight m g
 /// plus its own force and torque (setFreeAcceleration()). Held (hold()): constant linear and
-/// angular accelerations a and alpha, A = |a| + |alpha| r, stepLimit() where its slip or spin stops
-/// or it has turned by kHeldTurn.
+/// angular accelerations a and alpha, A = |a| + |alpha| r, stepLimit() where its slip or spin
+/// stops, it has turned by kHeldTurn, or (sliding and spinning at once) v or w has changed by about
+/// kHeldTurn of itself.
 class RigidEpisodeBody final : public EpisodeBody {
  public:
   /// The angle [rad] a held body (hold()) turns by at most before its step limit, where the
   /// episode redoes the resting analysis: its held contact forces, constant in the world, follow
   /// its turning slip directions to first order in this angle.
   static constexpr double kHeldTurn = 0.02;
+  /// The shortest step [s] the slide-and-spin limit of stepLimit() takes: near a stop the
+  /// relative changes of v and w grow without bound (steps shrinking geometrically), while a step
+  /// this short moves the body by at most |a| h^2 / 2 off the followed path (0.2 um at 4 m/s^2).
+  static constexpr double kHeldMinimumStep = 1e-4;
 
   /// `state` must be valid (core::SceneValidator); its orientation is normalised.
   explicit RigidEpisodeBody(const BodyState& state);
