@@ -297,29 +297,54 @@ TEST(RobotEpisode, ArmStrikesBoxNoContactMissedNoEnergyGained) {
   EXPECT_LT(energy1, energy0);  // the impacts dissipate
 }
 
+namespace {
+
+// The arm scene with the arm still on its way (lift 0.35: the episode cannot end in sustained
+// contact before the horizon, and the box is held on the table meanwhile), its box set moving at
+// v [m/s] and w [rad/s] (world frame) with its centre of mass at `com` (box frame), then run to
+// `horizon` [s]. `start` is the box's state as set; the scene's box holds its end state.
+struct MovingBox {
+  collision_response::testing::ArmBoxScene scene;
+  cr::BodyState start;
+  cr::BodyEpisodeResult result;
+  const cr::BodyState& end() const { return scene.box->state(); }
+};
+
+MovingBox runMovingBox(const Vector3d& v, const Vector3d& w, double horizon,
+                       const Vector3d* com = nullptr) {
+  MovingBox run;
+  run.scene = collision_response::testing::armBoxScene(kArm7, /*lift=*/0.35);
+  collision_response::testing::ArmBoxScene& s = run.scene;
+  run.start = s.box->state();
+  if (com != nullptr) run.start.com = *com;
+  run.start.linear_velocity = v;
+  run.start.angular_velocity = w;
+  *s.box = cr::RigidEpisodeBody(run.start);
+  s.bodies[1] = s.box.get();
+  s.options.horizon = horizon;
+  run.result = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  return run;
+}
+
+}  // namespace
+
 // A box sliding on the table while the arm is still on its way (the episode cannot end in
 // sustained contact: the arm may reach the box before the horizon): held on the table by its
 // resting forces, it slides to rest under dynamic friction, v^2 / (2 mu_d g) away after v / (mu_d
 // g) (closed form), without sinking into the table or leaving it.
 TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
-  using collision_response::testing::armBoxScene;
-  auto s = armBoxScene(kArm7, /*lift=*/0.35);
   const double v = 0.3, mu_d = 0.4, g = 9.81;
-  cr::BodyState box = s.box->state();
-  const Vector3d start = box.position;
-  box.linear_velocity = Vector3d(v, 0.0, 0.0);
-  *s.box = cr::RigidEpisodeBody(box);
-  s.bodies[1] = s.box.get();
-  s.options.horizon = 0.12;
-  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  const MovingBox run = runMovingBox(Vector3d(v, 0.0, 0.0), Vector3d::Zero(), 0.12);
+  const cr::BodyEpisodeResult& r = run.result;
+  const Vector3d start = run.start.position;
   EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
-  const cr::BodyState& end = s.box->state();
+  const cr::BodyState& end = run.end();
   EXPECT_NEAR(end.position.x() - start.x(), v * v / (2.0 * mu_d * g), 1e-6);
   EXPECT_NEAR(end.position.y(), start.y(), 1e-9);
   EXPECT_NEAR(end.position.z(), start.z(), 1e-9);
   EXPECT_LT(end.linear_velocity.norm(), 1e-9);
   EXPECT_LT(end.angular_velocity.norm(), 1e-9);
-  EXPECT_LT(r.end_time, s.options.horizon + 1e-12);
+  EXPECT_LT(r.end_time, run.scene.options.horizon + 1e-12);
 }
 
 // The same box sliding slowly without turning: v = 0.02 m/s, every corner slipping at v along x,
@@ -329,19 +354,13 @@ TEST(RobotEpisode, BoxSlidesToRestOnTheTableWhileTheArmFlies) {
 // law at a nonzero slip: each corner's friction -mu_d N_i along -x, summing to -mu_d m g, so the
 // box stops v^2 / (2 mu_d g) = 51 um away (closed form), not turning, on the table.
 TEST(RobotEpisode, SlowlySlidingBoxStopsWithinTheDynamicFrictionDistance) {
-  using collision_response::testing::armBoxScene;
-  auto s = armBoxScene(kArm7, /*lift=*/0.35);
   const double v = 0.02, mu_d = 0.4, g = 9.81;
-  ASSERT_LT(v, std::sqrt(2.0 * g * s.options.contact_tolerance));
-  cr::BodyState box = s.box->state();
-  const Vector3d start = box.position;
-  box.linear_velocity = Vector3d(v, 0.0, 0.0);
-  *s.box = cr::RigidEpisodeBody(box);
-  s.bodies[1] = s.box.get();
-  s.options.horizon = 0.12;
-  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  const MovingBox run = runMovingBox(Vector3d(v, 0.0, 0.0), Vector3d::Zero(), 0.12);
+  ASSERT_LT(v, std::sqrt(2.0 * g * run.scene.options.contact_tolerance));
+  const cr::BodyEpisodeResult& r = run.result;
+  const Vector3d start = run.start.position;
   EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
-  const cr::BodyState& end = s.box->state();
+  const cr::BodyState& end = run.end();
   const double distance = v * v / (2.0 * mu_d * g);
   EXPECT_NEAR(end.position.x() - start.x(), distance, 1e-6 * distance);
   EXPECT_NEAR(end.position.y(), start.y(), 1e-12);
@@ -359,19 +378,12 @@ TEST(RobotEpisode, SlowlySlidingBoxStopsWithinTheDynamicFrictionDistance) {
 // not on at v (friction that opposed only the corners' centripetal accelerations, summing to
 // nothing, let it slide 2.4 mm to the horizon).
 TEST(RobotEpisode, SlowlyTurningBoxSlidesToRestUnderDynamicFriction) {
-  using collision_response::testing::armBoxScene;
-  auto s = armBoxScene(kArm7, /*lift=*/0.35);
   const double v = 0.02, w = 0.02, mu_d = 0.4, g = 9.81;
-  cr::BodyState box = s.box->state();
-  const Vector3d start = box.position;
-  box.linear_velocity = Vector3d(v, 0.0, 0.0);
-  box.angular_velocity = Vector3d(0.0, 0.0, w);
-  *s.box = cr::RigidEpisodeBody(box);
-  s.bodies[1] = s.box.get();
-  s.options.horizon = 0.12;
-  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
+  const MovingBox run = runMovingBox(Vector3d(v, 0.0, 0.0), Vector3d(0.0, 0.0, w), 0.12);
+  const cr::BodyEpisodeResult& r = run.result;
+  const Vector3d start = run.start.position;
   EXPECT_TRUE(r.impacts.empty()) << r.impacts.size() << " impacts";
-  const cr::BodyState& end = s.box->state();
+  const cr::BodyState& end = run.end();
   const double distance = v * v / (2.0 * mu_d * g);
   // Along x: the corners' friction forces sum to at most mu_d m g (sum |F_t| = mu_d sum N), so
   // the box slides at least `distance`; their slips turn from x by at most about w (s / 2) / v
@@ -400,17 +412,11 @@ struct SpinEnd {
 };
 
 SpinEnd spinBox(double w0, double horizon) {
-  using collision_response::testing::armBoxScene;
-  auto s = armBoxScene(kArm7, /*lift=*/0.35);
-  cr::BodyState box = s.box->state();
-  const Vector3d start = box.position;
-  const Eigen::Quaterniond q0 = box.orientation;
-  box.angular_velocity = Vector3d(0.0, 0.0, w0);
-  *s.box = cr::RigidEpisodeBody(box);
-  s.bodies[1] = s.box.get();
-  s.options.horizon = horizon;
-  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
-  const cr::BodyState& end = s.box->state();
+  const MovingBox run = runMovingBox(Vector3d::Zero(), Vector3d(0.0, 0.0, w0), horizon);
+  const cr::BodyEpisodeResult& r = run.result;
+  const Vector3d start = run.start.position;
+  const Eigen::Quaterniond q0 = run.start.orientation;
+  const cr::BodyState& end = run.end();
   SpinEnd out;
   out.rate = end.angular_velocity.z();
   out.off_axis = Vector3d(end.angular_velocity.x(), end.angular_velocity.y(), 0.0);
@@ -587,19 +593,14 @@ struct HeldEnd {
 };
 
 HeldEnd slideAndSpinBaseHeavyBox(double v, double w) {
-  using collision_response::testing::armBoxScene;
-  auto s = armBoxScene(kArm7, /*lift=*/0.35);
-  cr::BodyState box = s.box->state();
-  box.com = Vector3d(0.0, 0.0, -0.05);
+  const Vector3d base_centre(0.0, 0.0, -0.05);
+  const MovingBox run =
+      runMovingBox(Vector3d(v, 0.0, 0.0), Vector3d(0.0, 0.0, w), 0.12, &base_centre);
+  const cr::BodyEpisodeResult& r = run.result;
+  const cr::BodyState& box = run.start;
   const Vector3d start = box.position + box.orientation * box.com;
   const Eigen::Quaterniond q0 = box.orientation;
-  box.linear_velocity = Vector3d(v, 0.0, 0.0);
-  box.angular_velocity = Vector3d(0.0, 0.0, w);
-  *s.box = cr::RigidEpisodeBody(box);
-  s.bodies[1] = s.box.get();
-  s.options.horizon = 0.12;
-  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(s.bodies, s.parts, *s.geometry, s.options);
-  const cr::BodyState& end = s.box->state();
+  const cr::BodyState& end = run.end();
   HeldEnd out;
   out.shift = end.position + end.orientation * end.com - start;
   const Eigen::AngleAxisd turned(end.orientation * q0.conjugate());
