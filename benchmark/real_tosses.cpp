@@ -5,7 +5,7 @@
 //
 //   real_tosses [--data tosses.csv.gz] [--markdown out.md] [--models SUBSTRING] [--starts N]
 //               [--max-evaluations N] [--clearance M] [--min-post-frames N]
-//               [--max-landing-duration S] [--list] [--check]
+//               [--max-landing-duration S] [--errors out.csv] [--list] [--check]
 //
 // --list prints each toss's extraction (kept or why not); --check runs only the extraction's
 // sanity checks (exit status 1 if one fails); --models keeps the models whose name contains the
@@ -45,6 +45,7 @@ namespace {
 struct Arguments {
   std::string data = TOSS_DATA;
   std::string markdown;
+  std::string errors;  ///< each held-out landing's errors per model, CSV ("" = none)
   std::vector<std::string> models;
   FitOptions fit;
   ExtractionOptions extraction;
@@ -64,6 +65,8 @@ Arguments parse(int argc, char** argv) {
       a.data = value();
     else if (arg == "--markdown")
       a.markdown = value();
+    else if (arg == "--errors")
+      a.errors = value();
     else if (arg == "--models")
       a.models.push_back(value());
     else if (arg == "--starts")
@@ -325,12 +328,25 @@ void writeMarkdown(const std::string& path, const std::vector<Row>& rows,
 
 }  // namespace
 
+/// Each held-out landing's errors, one line per landing and model (toss, model, v, w; the metric
+/// of the table), to see which landings make a model's RMS.
+void writeErrors(const std::string& path, const std::vector<Row>& rows,
+                 const std::vector<Landing>& held_out) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write");
+  out << "toss,model,v,w\n";
+  for (const Row& r : rows)
+    for (size_t i = 0; i < r.score.linear.size() && i < held_out.size(); ++i)
+      out << held_out[i].recording << ",\"" << r.model << "\"," << r.score.linear[i] << ','
+          << r.score.angular[i] << '\n';
+}
+
 int main(int argc, char** argv) try {
   const Arguments args = parse(argc, argv);
   std::string command = "real_tosses";
   for (int i = 1; i < argc; ++i) {
-    if (std::string(argv[i]) == "--markdown") {
-      ++i;  // where the section goes is no part of how its numbers were made
+    if (std::string(argv[i]) == "--markdown" || std::string(argv[i]) == "--errors") {
+      ++i;  // where the outputs go is no part of how their numbers were made
       continue;
     }
     const std::string arg = argv[i];
@@ -389,6 +405,10 @@ int main(int argc, char** argv) try {
     rows.push_back(row);
   }
   printTable(rows);
+  if (!args.errors.empty()) {
+    writeErrors(args.errors, rows, held_out);
+    std::printf("real_tosses: wrote %s\n", args.errors.c_str());
+  }
   if (!args.markdown.empty()) {
     writeMarkdown(args.markdown, rows, summary, static_cast<int>(training.size()),
                   static_cast<int>(held_out.size()), command);
