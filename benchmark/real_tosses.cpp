@@ -86,6 +86,10 @@ Arguments parse(int argc, char** argv) {
     else
       throw std::runtime_error("unknown argument " + arg);
   }
+  // Without a start (or an evaluation) the fit has no values, and every model would be scored on
+  // none.
+  if (a.fit.starts < 1) throw std::runtime_error("--starts must be at least 1");
+  if (a.fit.max_evaluations < 1) throw std::runtime_error("--max-evaluations must be at least 1");
   return a;
 }
 
