@@ -152,11 +152,14 @@ FitResult fitLandingModel(LandingModel& model, const std::vector<Landing>& train
       }
     }
     const int arg = static_cast<int>(std::min_element(f.begin(), f.end()) - f.begin());
-    if (f[arg] < best.objective) {
+    if (f[arg] < best.objective || best.values.empty()) {
       best.objective = f[arg];
       best.values = values(simplex[arg]);
     }
   }
+  // No start (or every objective +infinity): the parameters' initial values, scored as they are.
+  if (best.values.empty())
+    for (const LandingParameter& p : params) best.values.push_back(p.initial);
   return best;
 }
 

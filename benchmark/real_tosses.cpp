@@ -86,8 +86,7 @@ Arguments parse(int argc, char** argv) {
     else
       throw std::runtime_error("unknown argument " + arg);
   }
-  // Without a start (or an evaluation) the fit has no values, and every model would be scored on
-  // none.
+  // A fit needs at least one start and one evaluation (the starting simplex is evaluated anyway).
   if (a.fit.starts < 1) throw std::runtime_error("--starts must be at least 1");
   if (a.fit.max_evaluations < 1) throw std::runtime_error("--max-evaluations must be at least 1");
   return a;
@@ -330,8 +329,6 @@ void writeMarkdown(const std::string& path, const std::vector<Row>& rows,
   }
 }
 
-}  // namespace
-
 /// Each held-out landing's errors, one line per landing and model (toss, model, v, w; the metric
 /// of the table), to see which landings make a model's RMS.
 void writeErrors(const std::string& path, const std::vector<Row>& rows,
@@ -344,6 +341,8 @@ void writeErrors(const std::string& path, const std::vector<Row>& rows,
       out << held_out[i].recording << ",\"" << r.model << "\"," << r.score.linear[i] << ','
           << r.score.angular[i] << '\n';
 }
+
+}  // namespace
 
 int main(int argc, char** argv) try {
   const Arguments args = parse(argc, argv);

@@ -5,7 +5,7 @@
 // squares (the benchmark's objective) its 95 % intervals hold the values the real-tosses
 // benchmark's own fit finds on the same landings (benchmark/landing_fit.h: Nelder-Mead from 4
 // starts over its own cube-corner episode model, landing_ours.h), an independent optimiser and
-// geometry. On all 570 tosses the benchmark reports e 0.335, mu 0.230 (benchmark/RESULTS.md, "Real
+// geometry. On all 570 tosses the benchmark reports e 0.336, mu 0.229 (benchmark/RESULTS.md, "Real
 // tosses": episode, stronge, mu); docs/calibration.md gives identify's values there. And the same
 // cube given as a box and as an 8-vertex mesh (the same solid) is fitted to coefficients that lie
 // within each other's intervals (the first kMeshTosses tosses).
@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "collision_response/calibration/csv_tracks.h"
 #include "collision_response/calibration/identification.h"
@@ -86,8 +87,9 @@ TEST(CubeTosses, EvenTossesPredictOddOnesBetterThanTheAuthorsCoefficients) {
   // against the plane, landing_ours.h: another geometry and gap query) at the same coefficients
   // on the same landings: the medians to within 3 %. Not the RMS: at these coefficients the
   // landing of toss 107, which pivots for 0.15 s, ends in sustained contact here and is flown on
-  // through the floor (0.60 off; the benchmark's model follows it, 0.12), and that one landing
-  // makes the RMS 0.123 against 0.101.
+  // through the floor (0.60 off; the benchmark's model follows it to its flight: 0.121 at these
+  // coefficients), and that one landing makes the RMS 0.123 against 0.101 (docs/calibration.md,
+  // "Prediction and residual": the rigid episode does not follow a sustained contact on).
   {
     auto bench_model =
         bench::makeEpisodeLanding(bench::TossedCube(), core::ImpactLaw::kStronge, false);
@@ -136,9 +138,11 @@ TEST(CubeTosses, EvenTossesPredictOddOnesBetterThanTheAuthorsCoefficients) {
 // with the episodes' default cap of 100 impacts it stopped after 8 ms of pivoting and flew on
 // through the floor, 0.93 of the pre-impact speed off the measured velocity, the benchmark's
 // largest error by far (it made the episode's RMS; landing_ours.cpp, kEpisodeImpactCap). The
-// reference is the measurement: at the benchmark's fitted coefficients (e 0.336, mu 0.229) both
-// that model and the calibration's (detection's box against the plane, whose contact manifolds
-// follow the pivot in fewer impacts) lie within the spread of the other landings' errors.
+// reference is the measurement: at the benchmark's fitted coefficients (e 0.336, mu 0.229) that
+// model, and the calibration's (detection's box against the plane, whose contact manifolds follow
+// the pivot in fewer impacts; it does not reach the cap), lie within the spread of the other
+// landings' errors. Only at these coefficients: at others (e 0.2855, mu 0.2137, the test above)
+// the calibration's episode of this landing ends in sustained contact (0.60 off).
 TEST(CubeTosses, ALandingThatPivotsForATenthOfASecondIsFollowedToItsEnd) {
   const ObjectModel cube = tossedCube("cube");
   std::optional<Landing> landing;
@@ -147,6 +151,7 @@ TEST(CubeTosses, ALandingThatPivotsForATenthOfASecondIsFollowedToItsEnd) {
     const Extraction x = extractLandings(t.track, cube.shape, std::nullopt).front();
     ASSERT_TRUE(x.ok) << x.reason;
     landing = x.landing;
+    break;
   }
   ASSERT_TRUE(landing.has_value());
   ASSERT_GT(landing->t_after - landing->t_before, 0.15);
