@@ -14,15 +14,6 @@ bool finite(const CubeState& s) {
          s.angular_velocity.allFinite() && s.orientation.coeffs().allFinite();
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  if (v.size() % 2 == 1) return v[mid];
-  const double upper = v[mid];
-  return 0.5 * (upper + *std::max_element(v.begin(), v.begin() + mid));
-}
-
 double rms(const std::vector<double>& v) {
   double sum = 0.0;
   for (double x : v) sum += x * x;
@@ -41,6 +32,15 @@ double fromUnit(const LandingParameter& p, double u) {
 }
 
 }  // namespace
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  if (v.size() % 2 == 1) return v[mid];
+  const double upper = v[mid];
+  return 0.5 * (upper + *std::max_element(v.begin(), v.begin() + mid));
+}
 
 LandingError landingError(LandingModel& model, const std::vector<double>& values,
                           const Landing& landing, const TossedCube& cube) {

@@ -20,6 +20,9 @@ struct LandingError {
   double angular = 0.0;
 };
 
+/// The median of `v` (the mean of the two middle values for an even count; NaN when empty).
+double median(std::vector<double> v);
+
 /// Runs the model on the landing (from its pre-impact state to the start of its post-landing
 /// flight) and measures the errors.
 LandingError landingError(LandingModel& model, const std::vector<double>& values,

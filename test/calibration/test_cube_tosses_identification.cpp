@@ -11,7 +11,6 @@
 // within each other's intervals (the first kMeshTosses tosses).
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -101,18 +100,13 @@ TEST(CubeTosses, EvenTossesPredictOddOnesBetterThanTheAuthorsCoefficients) {
       v.push_back(r.head<3>().norm());
       w.push_back(r.tail<3>().norm());
     }
-    auto median = [](std::vector<double> x) {
-      std::sort(x.begin(), x.end());
-      const size_t n = x.size();
-      return n % 2 ? x[n / 2] : 0.5 * (x[n / 2 - 1] + x[n / 2]);
-    };
     std::printf(
         "median v %.4f w %.4f; the benchmark's episode model at these coefficients: median v "
         "%.4f w %.4f, RMS v %.3f w %.3f\n",
-        median(v), median(w), score.median_linear, score.median_angular, score.rms_linear,
-        score.rms_angular);
-    EXPECT_NEAR(median(v), score.median_linear, 0.03 * score.median_linear);
-    EXPECT_NEAR(median(w), score.median_angular, 0.03 * score.median_angular);
+        bench::median(v), bench::median(w), score.median_linear, score.median_angular,
+        score.rms_linear, score.rms_angular);
+    EXPECT_NEAR(bench::median(v), score.median_linear, 0.03 * score.median_linear);
+    EXPECT_NEAR(bench::median(w), score.median_angular, 0.03 * score.median_angular);
   }
 
   // Plain least squares (a loss scale far above every residual) against the benchmark's fit.
