@@ -77,15 +77,24 @@ struct DrawnGeometry {
   Eigen::Vector3d point;
 };
 
+// One dimension of an uncertain normal or point: the contact (index in Prepared::contacts) and
+// what it moves: the normal's tilt along tangent1 (kTilt1) or tangent2 (kTilt2), or the point
+// along the request frame's x, y or z (kPointX + axis).
+struct GeometryDimension {
+  enum Kind { kTilt1 = 0, kTilt2 = 1, kPointX = 2 };
+  std::size_t index = 0;
+  int kind = kTilt1;
+  double std_dev = 0.0;  // [rad] or [m]
+};
+
 struct Prepared {
   Scene mean_scene;  // the coefficients at their means
   std::vector<UncertainContact> contacts;
   std::vector<std::pair<std::size_t, int>> dimensions;  // (index in contacts, coefficient)
-  // Sampling dimensions of the normals and points, after the coefficients' ones.
+  // Sampling dimensions of the normals and points, after the coefficients' ones (their count is
+  // geometry.size()).
   std::size_t geometry_dimensions = 0;
-  // The first entry with a normal or point spread ("uncertainties[k].normal_std_dev", ...), or
-  // empty: the linear method refuses it.
-  std::string first_geometry_field;
+  std::vector<GeometryDimension> geometry;
   std::vector<Warning> warnings;
   std::vector<std::pair<int, int>> contact_bodies;  // kSampled: validate()'s
 };
@@ -166,9 +175,6 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
       }
     }
     if (geometric) {
-      if (prepared.first_geometry_field.empty())
-        prepared.first_geometry_field =
-            field() + (entry.normal_std_dev > 0.0 ? ".normal_std_dev" : ".point_std_dev");
       uncertain.normal = contact.normal;
       uncertain.point = contact.point;
       uncertain.normal_std_dev = entry.normal_std_dev;
@@ -181,11 +187,15 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
         tangentBasis(contact.normal / length, uncertain.tangent1, uncertain.tangent2);
         uncertain.normal_dimension = static_cast<int>(prepared.geometry_dimensions);
         prepared.geometry_dimensions += 2;
+        for (const int kind : {GeometryDimension::kTilt1, GeometryDimension::kTilt2})
+          prepared.geometry.push_back({prepared.contacts.size(), kind, entry.normal_std_dev});
       }
       for (int axis = 0; axis < 3; ++axis) {
         if (!(entry.point_std_dev[axis] > 0.0)) continue;
         uncertain.point_dimension[axis] = static_cast<int>(prepared.geometry_dimensions);
         prepared.geometry_dimensions += 1;
+        prepared.geometry.push_back({prepared.contacts.size(), GeometryDimension::kPointX + axis,
+                                     entry.point_std_dev[axis]});
       }
     }
     // (Friction given as it is, an invalid pair is the contact's: validate() names it.)
@@ -256,8 +266,12 @@ double approximateOverlapProbability(const UncertainContact& contact) {
   return standardNormalCdf((mu_d.mean() - mu_s.mean()) / std::sqrt(variance));
 }
 
-// The variance of sampling dimension j.
+// The variance of sampling dimension j (the coefficients', then the geometry's).
 double dimensionVariance(const Prepared& prepared, std::size_t j) {
+  if (j >= prepared.dimensions.size()) {
+    const double sd = prepared.geometry[j - prepared.dimensions.size()].std_dev;
+    return sd * sd;
+  }
   const auto& [index, which] = prepared.dimensions[j];
   return prepared.contacts[index].distributions[static_cast<std::size_t>(which)].variance();
 }
@@ -316,18 +330,24 @@ std::string percentText(double fraction) {
 // others). `slip_of(c, slip, slip_rate)` adds the relative velocity of b against a at the contact's
 // point after the impact [m/s, world] to `slip` and its derivative by each Jacobian column to
 // `slip_rate` (3 x columns), both given zero; it is called for a sliding contact only.
-// `column_used[j]`: whether the Jacobian's column of dimension j has a nonzero entry. `gradient`: a
-// workspace of one entry per dimension.
+// `column_used[j]`: whether the Jacobian's column of dimension j has a nonzero entry; `variance[j]`
+// the dimension's variance (dimensionVariance()). `gradient`: a workspace of one entry per
+// dimension. The geometry's dimensions (after the coefficients') have
+// their columns after the coefficients' and `geometry_speed` (contacts x their count; null without
+// them): the derivatives of each contact's slip speed after the impact, which also moves with the
+// contact's own point and normal, not only with the bodies' velocities that slip_of() reads.
 template <class SlipOf>
 double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                               const ContactImpulse& impulse, ImpactMode mode,
                               const Prepared& prepared, std::size_t c,
                               const int* column_of_dimension, const unsigned char* column_used,
-                              double* gradient, SlipOf& slip_of) {
+                              const double* variance, double* gradient, SlipOf& slip_of,
+                              const Eigen::MatrixXd* geometry_speed) {
   const Contact& contact = prepared.mean_scene.contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
-  const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
+  const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
+  const Eigen::Index dims = coefficient_dims + static_cast<Eigen::Index>(prepared.geometry.size());
   // The dimension of this contact's mu_s, if uncertain.
   int mu_s_dimension = -1;
   for (const UncertainContact& uncertain : prepared.contacts)
@@ -365,21 +385,22 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
     const double by_mu_d = speed_rate(mu_d_column);
     if (!(by_mu_d < 0.0)) return 0.0;  // more friction does not slow the slip: it never sticks
     margin = contact.static_friction - contact.dynamic_friction + speed / by_mu_d;
-    for (Eigen::Index j = 0; j < dims; ++j) {
+    for (Eigen::Index j = 0; j < coefficient_dims; ++j) {
       const Eigen::Index k = column_of_dimension[j];
       if (k == mu_d_column) continue;  // mu_d decides how it slides, not whether it sticks
       gradient[j] = speed_rate(k) / by_mu_d;
     }
+    for (Eigen::Index j = coefficient_dims; j < dims; ++j)
+      gradient[j] = (*geometry_speed)(static_cast<Eigen::Index>(c), j - coefficient_dims) / by_mu_d;
     if (mu_s_dimension >= 0) gradient[mu_s_dimension] += 1.0;
   }
-  double variance = 0.0;
+  double margin_variance = 0.0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     if (gradient[j] == 0.0) continue;  // adds +0 (the variances are finite)
-    variance +=
-        gradient[j] * gradient[j] * dimensionVariance(prepared, static_cast<std::size_t>(j));
+    margin_variance += gradient[j] * gradient[j] * variance[j];
   }
-  if (variance == 0.0) return margin >= 0.0 ? 1.0 : 0.0;
-  return standardNormalCdf(margin / std::sqrt(variance));
+  if (margin_variance == 0.0) return margin >= 0.0 ? 1.0 : 0.0;
+  return standardNormalCdf(margin / std::sqrt(margin_variance));
 }
 
 // S S^T into `out` (m x m, column-major), S = `s` (m x used, column-major). Rows x a few columns:
@@ -461,32 +482,43 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
 // mu_d > mu_s overlap, a spread reaching a stick/slip switch, a linearisation at a mode switch).
 // `jacobian` and `velocity_count` as linearStickProbability() takes them; `impulses` and `modes`:
 // the prediction's, one per contact.
+// With an uncertain normal or point, `jacobian` has the geometry's columns last and
+// `geometry_speed` is as linearStickProbability() takes it (differenceGeometry()); else null.
 template <class SlipOf>
 void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                   const std::vector<ContactImpulse>& impulses,
                   const std::vector<ContactDerivativeMode>& modes, const Prepared& prepared,
-                  SlipOf&& slip_of, OutcomeDistribution& outcome) {
+                  SlipOf&& slip_of, const Eigen::MatrixXd* geometry_speed,
+                  OutcomeDistribution& outcome) {
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = jacobian.rows();
-  const Eigen::Index dims = static_cast<Eigen::Index>(prepared.dimensions.size());
-  // Per dimension: its Jacobian column, whether that column has a nonzero entry, and the stick
-  // probabilities' gradient entry (on the stack up to 96 dimensions: 32 uncertain contacts).
+  const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
+  const Eigen::Index geometry_dims = static_cast<Eigen::Index>(prepared.geometry.size());
+  const Eigen::Index dims = coefficient_dims + geometry_dims;
+  // Per dimension: its Jacobian column, whether that column has a nonzero entry, its variance,
+  // and the stick probabilities' gradient entry (on the stack up to 96 dimensions: 32 uncertain
+  // contacts' coefficients).
   constexpr std::size_t kSmallDimensions = 96;
   std::array<int, kSmallDimensions> small_columns;
   std::array<unsigned char, kSmallDimensions> small_used;
+  std::array<double, kSmallDimensions> small_variance;
   std::array<double, kSmallDimensions> small_gradient;
   std::vector<int> large_columns;
   std::vector<unsigned char> large_used;
+  std::vector<double> large_variance;
   std::vector<double> large_gradient;
   int* column_of_dimension = small_columns.data();
   unsigned char* column_used = small_used.data();
+  double* variance = small_variance.data();
   double* gradient = small_gradient.data();
-  if (prepared.dimensions.size() > kSmallDimensions) {
-    large_columns.resize(prepared.dimensions.size());
-    large_used.resize(prepared.dimensions.size());
-    large_gradient.resize(prepared.dimensions.size());
+  if (static_cast<std::size_t>(dims) > kSmallDimensions) {
+    large_columns.resize(static_cast<std::size_t>(dims));
+    large_used.resize(static_cast<std::size_t>(dims));
+    large_variance.resize(static_cast<std::size_t>(dims));
+    large_gradient.resize(static_cast<std::size_t>(dims));
     column_of_dimension = large_columns.data();
     column_used = large_used.data();
+    variance = large_variance.data();
     gradient = large_gradient.data();
   }
   // J columns times the standard deviations; a coefficient the outcome does not depend on (a
@@ -495,9 +527,15 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   // (a plain scan: cheaper than isZero()).
   Eigen::Index used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
-    const auto& [index, which] = prepared.dimensions[j];
-    column_of_dimension[j] = static_cast<int>(
-        velocity_count + 3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
+    if (j < coefficient_dims) {
+      const auto& [index, which] = prepared.dimensions[j];
+      column_of_dimension[j] = static_cast<int>(
+          velocity_count + 3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) + which);
+    } else {
+      column_of_dimension[j] =
+          static_cast<int>(jacobian.cols() - geometry_dims + j - coefficient_dims);
+    }
+    variance[j] = dimensionVariance(prepared, static_cast<std::size_t>(j));
     const double* column = jacobian.col(column_of_dimension[j]).data();
     column_used[j] = std::any_of(column, column + m, [](double x) { return x != 0.0; });
     used += column_used[j];
@@ -506,8 +544,7 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   used = 0;
   for (Eigen::Index j = 0; j < dims; ++j) {
     if (column_used[j])
-      scaled.col(used++) = jacobian.col(column_of_dimension[j]) *
-                           std::sqrt(dimensionVariance(prepared, static_cast<std::size_t>(j)));
+      scaled.col(used++) = jacobian.col(column_of_dimension[j]) * std::sqrt(variance[j]);
   }
   outcome.covariance.resize(m, m);
   outerProduct(scaled.data(), m, used, outcome.covariance.data());
@@ -521,9 +558,9 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   outcome.stick_probability.resize(contacts);
   for (std::size_t c = 0; c < contacts; ++c)
-    outcome.stick_probability[c] =
-        linearStickProbability(jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c,
-                               column_of_dimension, column_used, gradient, slip_of);
+    outcome.stick_probability[c] = linearStickProbability(
+        jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c, column_of_dimension,
+        column_used, variance, gradient, slip_of, geometry_speed);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -561,8 +598,182 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   }
 }
 
+// One solve's options: what is left of the call's time budget (options.time_budget from `start`),
+// so that the whole call (the samples, or the linear method's differences) is bounded by it, not
+// each solve; SolverTimeout when nothing is left.
+SolverOptions remainingBudget(const SolverOptions& options,
+                              std::chrono::steady_clock::time_point start) {
+  SolverOptions sample = options;
+  sample.time_budget =
+      options.time_budget -
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!(sample.time_budget > 0.0))
+    throw SolverTimeout("the uncertainty's solves ran past options.time_budget");
+  return sample;
+}
+
+// Per contact: 0 no impulse, 1 sliding, 2 sticking (what differenceGeometry() keeps its
+// differences within).
+int modeCode(const ContactImpulse& impulse) {
+  return impulse.normal_impulse > 0.0 ? (impulse.sticking ? 2 : 1) : 0;
+}
+
+// The tangential part of a slip velocity against `normal`, its length [m/s].
+double tangentialSpeed(const Eigen::Vector3d& slip, const Eigen::Vector3d& normal) {
+  return (slip - normal * normal.dot(slip)).norm();
+}
+
+// The linear method's columns of an uncertain normal or point (docs/uncertainty.md, "Uncertain
+// normal and point"): per dimension of prepared.geometry, the central difference of the outcome's
+// m rows and of each contact's slip speed after the impact, the contact's normal tilted by +-h,
+// normalize(n +- h t) with h = kGeometryStep [rad], or its point moved by +-h along the axis, h =
+// kGeometryStep max(1, |p|_inf) [m]. `evaluate(u, normal, point, values, modes)` solves with
+// prepared.contacts[u]'s contact at that normal and point (every other contact as it is), writes
+// the m rows then the `contacts` slip speeds into `values`, and each contact's modeCode() into
+// `modes`. Where one side changes a contact's mode from `mean_modes`, the difference is one-sided
+// on the other side (one more solve, at the mean); where both do, the column is the secant over
+// +-1 standard deviation (two more solves); either way a warning names the dimension's field.
+struct GeometryColumns {
+  Eigen::MatrixXd outcome;     // m x geometry dimensions
+  Eigen::MatrixXd slip_speed;  // contacts x geometry dimensions [m/s per rad, or per m]
+};
+
+constexpr double kGeometryStep = 1e-6;
+
+template <class Evaluate>
+GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std::size_t contacts,
+                                   const std::vector<int>& mean_modes, Evaluate&& evaluate,
+                                   std::vector<Warning>& warnings) {
+  const auto count = static_cast<Eigen::Index>(prepared.geometry.size());
+  const Eigen::Index rows = m + static_cast<Eigen::Index>(contacts);
+  GeometryColumns columns{Eigen::MatrixXd(m, count),
+                          Eigen::MatrixXd(static_cast<Eigen::Index>(contacts), count)};
+  Eigen::VectorXd plus(rows), minus(rows), mean;
+  std::vector<int> plus_modes(contacts), minus_modes(contacts), modes(contacts);
+  for (Eigen::Index g = 0; g < count; ++g) {
+    const GeometryDimension& dimension = prepared.geometry[static_cast<std::size_t>(g)];
+    const UncertainContact& uncertain = prepared.contacts[dimension.index];
+    const bool tilt = dimension.kind < GeometryDimension::kPointX;
+    const double h =
+        tilt ? kGeometryStep : kGeometryStep * std::max(1.0, uncertain.point.cwiseAbs().maxCoeff());
+    auto at = [&](double step, Eigen::VectorXd& values, std::vector<int>& found) {
+      Eigen::Vector3d normal = uncertain.normal;
+      Eigen::Vector3d point = uncertain.point;
+      if (tilt) {
+        const Eigen::Vector3d& t =
+            dimension.kind == GeometryDimension::kTilt1 ? uncertain.tangent1 : uncertain.tangent2;
+        normal = (normal + step * t).normalized();
+      } else {
+        point[dimension.kind - GeometryDimension::kPointX] += step;
+      }
+      evaluate(dimension.index, normal, point, values, found);
+    };
+    at(h, plus, plus_modes);
+    at(-h, minus, minus_modes);
+    const bool plus_kept = plus_modes == mean_modes;
+    const bool minus_kept = minus_modes == mean_modes;
+    Eigen::VectorXd column;
+    if (plus_kept && minus_kept) {
+      column = (plus - minus) / (2.0 * h);
+    } else if (!plus_kept && !minus_kept) {
+      // The outcome jumps at the mean (a flat face's corners, whose split of the impulse the
+      // slightest tilt changes): no derivative exists, and a difference across the jump over h
+      // would be as large as the jump over h. The secant over +-1 standard deviation instead.
+      at(dimension.std_dev, plus, plus_modes);
+      at(-dimension.std_dev, minus, minus_modes);
+      column = (plus - minus) / (2.0 * dimension.std_dev);
+    } else {
+      if (mean.size() == 0) {
+        mean.resize(rows);
+        at(0.0, mean, modes);
+      }
+      column = plus_kept ? Eigen::VectorXd((plus - mean) / h) : Eigen::VectorXd((mean - minus) / h);
+    }
+    columns.outcome.col(g) = column.head(m);
+    columns.slip_speed.col(g) = column.tail(static_cast<Eigen::Index>(contacts));
+    if (plus_kept && minus_kept) continue;
+    static constexpr std::array<std::string_view, 5> kFields = {
+        ".normal_std_dev", ".normal_std_dev", ".point_std_dev.x", ".point_std_dev.y",
+        ".point_std_dev.z"};
+    const std::string field = joined({"uncertainties[", NumberText(uncertain.entry), "]",
+                                      kFields[static_cast<std::size_t>(dimension.kind)]});
+    warnings.push_back(
+        {field,
+         plus_kept == minus_kept
+             ? std::string("a contact changes its mode (no impulse, sliding, sticking) on both "
+                           "sides of the mean geometry within the difference step, where the "
+                           "outcome has no derivative: this dimension's column is the secant over "
+                           "+-1 standard deviation, and the linear distribution is rough; use the "
+                           "sampled method")
+             : std::string("a contact changes its mode (no impulse, sliding, sticking) on one "
+                           "side of the mean geometry within the difference step: linearised on "
+                           "the other side, the linear distribution holds on that side only; use "
+                           "the sampled method"),
+         Warning::Kind::kInput});
+  }
+  return columns;
+}
+
+// The Jacobian with the geometry's columns after the coefficients' (differenceGeometry()), the
+// slip speeds' rows and the warnings, for the linear method on a scene with an uncertain normal or
+// point; `start`: the call's, for its time budget. (Out of line: the coefficients-only path, whose
+// cost is measured against the prediction's, does not carry it.)
+struct GeometryJacobian {
+  Eigen::MatrixXd jacobian;
+  Eigen::MatrixXd slip_speed;
+  std::vector<Warning> warnings;
+};
+
+[[gnu::noinline]] GeometryJacobian rigidGeometryJacobian(
+    const Prepared& prepared, const ImpactDerivatives& derivatives,
+    const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
+    std::chrono::steady_clock::time_point start) {
+  GeometryJacobian out;
+  const Eigen::Index m = derivatives.jacobian.rows();
+  const std::size_t contacts = prepared.mean_scene.contacts.size();
+  std::vector<int> mean_modes(contacts);
+  for (std::size_t c = 0; c < contacts; ++c)
+    mean_modes[c] = modeCode(derivatives.result.impulses[c]);
+  Scene moved = prepared.mean_scene;
+  auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
+                      Eigen::VectorXd& values, std::vector<int>& modes) {
+    Contact& changed = moved.contacts[prepared.contacts[u].contact];
+    changed.normal = normal;
+    changed.point = point;
+    const CollisionResult after =
+        computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
+    fillOutcome(after, derivatives.movable_bodies,
+                [&](Eigen::Index r) -> double& { return values(r); });
+    for (std::size_t c = 0; c < contacts; ++c) {
+      const Contact& contact = moved.contacts[c];
+      Eigen::Vector3d slip = Eigen::Vector3d::Zero();
+      for (const auto& [body, sign] :
+           {std::pair{contact_bodies[c].second, 1.0}, std::pair{contact_bodies[c].first, -1.0}}) {
+        const BodyState& state = after.bodies[static_cast<std::size_t>(body)];
+        if (state.immovable()) continue;  // as slip_of() below
+        slip += sign * (state.linear_velocity +
+                        state.angular_velocity.cross(contact.point - state.worldCom()));
+      }
+      values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
+      modes[c] = modeCode(after.impulses[c]);
+    }
+    const Contact& mean = prepared.mean_scene.contacts[prepared.contacts[u].contact];
+    changed.normal = mean.normal;
+    changed.point = mean.point;
+  };
+  const GeometryColumns columns =
+      differenceGeometry(prepared, m, contacts, mean_modes, evaluate, out.warnings);
+  out.jacobian.resize(m, derivatives.jacobian.cols() + columns.outcome.cols());
+  out.jacobian << derivatives.jacobian, columns.outcome;
+  out.slip_speed = columns.slip_speed;
+  return out;
+}
+
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
                                        const RequestLimits& limits) {
+  // The call's start, for the geometry's differences' budget (read only when they are needed).
+  const auto start = prepared.geometry.empty() ? std::chrono::steady_clock::time_point{}
+                                               : std::chrono::steady_clock::now();
   // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
   // probability of a sliding contact reads it), are computed.
   const std::vector<std::pair<int, int>> contact_bodies =
@@ -584,6 +795,12 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   fillOutcome(derivatives.result, derivatives.movable_bodies,
               [&](Eigen::Index r) -> double& { return outcome.mean(r); });
   const CollisionResult& result = derivatives.result;
+  // An uncertain normal or point: its columns by differences of the solver, after the
+  // coefficients'.
+  std::optional<GeometryJacobian> geometry;
+  if (!prepared.geometry.empty())
+    geometry = rigidGeometryJacobian(prepared, derivatives, contact_bodies, options, start);
+  const Eigen::MatrixXd* jacobian = geometry ? &geometry->jacobian : &derivatives.jacobian;
   // The slip of a sliding contact from the bodies' twists after the impact and their rows.
   auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
     const Contact& contact = prepared.mean_scene.contacts[c];
@@ -604,14 +821,16 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
           std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
       const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
       for (Eigen::Index k = 0; k < slip_rate.cols(); ++k) {
-        const Eigen::Vector3d dv = derivatives.jacobian.block<3, 1>(rows, k);
-        const Eigen::Vector3d dw = derivatives.jacobian.block<3, 1>(rows + 3, k);
+        const Eigen::Vector3d dv = jacobian->block<3, 1>(rows, k);
+        const Eigen::Vector3d dw = jacobian->block<3, 1>(rows + 3, k);
         slip_rate.col(k) += sign * (dv + dw.cross(arm));
       }
     }
   };
-  linearSpread(derivatives.jacobian, derivatives.velocityCount(), result.impulses,
-               derivatives.contacts, prepared, slip_of, outcome);
+  linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
+               prepared, slip_of, geometry ? &geometry->slip_speed : nullptr, outcome);
+  if (geometry)
+    for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   return outcome;
 }
 
@@ -704,20 +923,6 @@ void summariseSamples(const Eigen::MatrixXd& values, const std::vector<unsigned 
                                     "): those were solved with mu_d = mu_s",
                                 Warning::Kind::kInput});
   }
-}
-
-// One sample's options: what is left of the call's time budget (options.time_budget from
-// `start`), so that the whole sampled call is bounded by it, not each sample; SolverTimeout when
-// nothing is left.
-SolverOptions remainingBudget(const SolverOptions& options,
-                              std::chrono::steady_clock::time_point start) {
-  SolverOptions sample = options;
-  sample.time_budget =
-      options.time_budget -
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (!(sample.time_budget > 0.0))
-    throw SolverTimeout("uncertainty sampling ran past options.time_budget");
-  return sample;
 }
 
 // The outcome's rows (6 per movable body or its velocity unknowns, 4 per contact) and the sampled
@@ -852,14 +1057,6 @@ void checkMethod(const UncertaintyOptions& uncertainty) {
                            std::to_string(uncertainty.samples));
 }
 
-// The linear method refuses an uncertain normal or point, naming the first such field.
-void refuseGeometry(const Prepared& prepared) {
-  if (!prepared.first_geometry_field.empty())
-    throw InvalidInput(prepared.first_geometry_field,
-                       "the linear method takes uncertain coefficients only: for an uncertain "
-                       "normal or point, ask for sampled");
-}
-
 // The labels of computeBodyOutcomeDistribution(): "velocities[r]", then 4 per contact.
 std::vector<std::string> bodyOutcomeLabels(Eigen::Index velocity_count, std::size_t contacts) {
   std::vector<std::string> labels;
@@ -887,6 +1084,9 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
                                            const Prepared& prepared,
                                            const Eigen::VectorXd& velocity_limits,
                                            const SolverOptions& options) {
+  // The call's start, for the geometry's differences' budget (read only when they are needed).
+  const auto start = prepared.geometry.empty() ? std::chrono::steady_clock::time_point{}
+                                               : std::chrono::steady_clock::now();
   std::vector<ContactPoint> mean_contacts = contacts;
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     const Contact& mean = prepared.mean_scene.contacts[c];
@@ -921,6 +1121,60 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
       outcome.mean.segment<3>(r) = impulse.friction_impulse;
       r += 3;
     }
+    // An uncertain normal or point: its columns by differences of the solver, after the
+    // coefficients'; the bodies then go back to the prediction's velocities (slip_of() reads them).
+    const Eigen::MatrixXd* jacobian = &derivatives.jacobian;
+    Eigen::MatrixXd extended;
+    GeometryColumns geometry;
+    std::vector<Warning> geometry_warnings;
+    if (!prepared.geometry.empty()) {
+      const std::size_t count = contacts.size();
+      std::vector<int> mean_modes(count);
+      for (std::size_t c = 0; c < count; ++c)
+        mean_modes[c] = modeCode(derivatives.result.impulses[c]);
+      std::vector<ContactPoint> moved = mean_contacts;
+      auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal,
+                          const Eigen::Vector3d& point, Eigen::VectorXd& values,
+                          std::vector<int>& modes) {
+        ContactPoint& changed = moved[prepared.contacts[u].contact];
+        changed.normal = normal;
+        changed.point = point;
+        restore();
+        const BodyResponse after =
+            computeBodyResponse(bodies, moved, remainingBudget(options, start));
+        for (std::size_t b = 0; b < bodies.size(); ++b)
+          if (derivatives.velocity_offset[b] >= 0)
+            values.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) =
+                bodies[b]->velocity();
+        Eigen::Index row = velocity_count;
+        for (std::size_t c = 0; c < count; ++c) {
+          const ContactImpulse& impulse = after.impulses[c];
+          values(row++) = impulse.normal_impulse;
+          values.segment<3>(row) = impulse.friction_impulse;
+          row += 3;
+        }
+        for (std::size_t c = 0; c < count; ++c) {
+          const ContactPoint& contact = moved[c];
+          const Eigen::Vector3d slip =
+              bodies[static_cast<std::size_t>(contact.body_b)]->partPointVelocity(contact.part_b,
+                                                                                  contact.point) -
+              bodies[static_cast<std::size_t>(contact.body_a)]->partPointVelocity(contact.part_a,
+                                                                                  contact.point);
+          values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
+          modes[c] = modeCode(after.impulses[c]);
+        }
+        changed = mean_contacts[prepared.contacts[u].contact];
+      };
+      geometry = differenceGeometry(prepared, m, count, mean_modes, evaluate, geometry_warnings);
+      for (std::size_t b = 0; b < bodies.size(); ++b)
+        if (derivatives.velocity_offset[b] >= 0)
+          bodies[b]->addVelocityChange(
+              outcome.mean.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) -
+              bodies[b]->velocity());
+      extended.resize(m, derivatives.jacobian.cols() + geometry.outcome.cols());
+      extended << derivatives.jacobian, geometry.outcome;
+      jacobian = &extended;
+    }
     auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
       const ContactPoint& contact = mean_contacts[c];
       for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
@@ -930,11 +1184,13 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
         const int offset = derivatives.velocity_offset[static_cast<std::size_t>(body)];
         if (offset < 0) continue;  // prescribed motion: the coefficients do not move it
         slip_rate.noalias() += sign * model.partPointJacobian(part, contact.point) *
-                               derivatives.jacobian.middleRows(offset, model.velocityCount());
+                               jacobian->middleRows(offset, model.velocityCount());
       }
     };
-    linearSpread(derivatives.jacobian, velocity_count, derivatives.result.impulses,
-                 derivatives.contacts, prepared, slip_of, outcome);
+    linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
+                 prepared, slip_of, prepared.geometry.empty() ? nullptr : &geometry.slip_speed,
+                 outcome);
+    for (Warning& warning : geometry_warnings) outcome.warnings.push_back(std::move(warning));
   } catch (...) {
     restore();
     throw;
@@ -965,7 +1221,6 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
   checkMethod(uncertainty);
   Prepared prepared = prepare(scene, uncertainties);
   if (uncertainty.method == UncertaintyMethod::kLinear) {
-    refuseGeometry(prepared);
     checkOutcomeSize(6 * movableCount(prepared.mean_scene) +
                          4 * static_cast<Eigen::Index>(prepared.mean_scene.contacts.size()),
                      1);
@@ -1011,7 +1266,6 @@ OutcomeDistribution computeBodyOutcomeDistribution(
   const std::size_t contact_count = contacts.size();
   const Eigen::Index m = velocity_count + 4 * static_cast<Eigen::Index>(contact_count);
   if (uncertainty.method == UncertaintyMethod::kLinear) {
-    refuseGeometry(prepared);
     checkOutcomeSize(m, 1);
     return linearBodyDistribution(copies.front(), contacts, prepared, velocity_limits, options);
   }

@@ -445,9 +445,83 @@ TEST(RobotUncertainty, LinearLimitProbabilityWithoutSpreadIsExact) {
   EXPECT_TRUE(some_over);
 }
 
-// (4) An uncertain normal or point under the linear method is refused naming the field, as the
-// rigid-body path refuses it; the sampled method takes it. The bodies are left untouched.
-TEST(RobotUncertainty, LinearRefusesAnUncertainNormalOrPointNamingTheField) {
+// (4) The linear method with the sliding strike's normal and point uncertain as well as its
+// coefficients: against J S J^T with J the test's own central differences of computeBodyResponse()
+// (the normal tilted along the test's own tangent basis: for the isotropic tilt the covariance
+// does not depend on the basis; the point moved along x, y, z; e, mu_s, mu_d as above), and
+// against 8192 samples at these small spreads. The arm ends at its pre-impact velocities.
+TEST(RobotUncertainty, LinearWithAnUncertainNormalAndPointMatchesDifferencesAndSamples) {
+  const Vector3d coefficient_sd(0.005, 0.005, 0.005), point_sd(0.001, 0.0015, 0.0005);
+  const double normal_sd = 0.002;
+  const Strike base = slidingStrike(kE, kMuS, kMuD);
+  const Vector3d n = base.contact.normal;
+  const Vector3d t1 = n.cross(Vector3d(0.7, -0.2, 0.4)).normalized();
+  const Vector3d t2 = n.cross(t1);
+  auto outcomeAt = [&](int direction, double step) {
+    Strike s = slidingStrike(kE, kMuS, kMuD);
+    cr::ContactPoint& c = s.contact;
+    if (direction < 2) c.normal = (n + step * (direction == 0 ? t1 : t2)).normalized();
+    if (direction >= 2 && direction < 5) c.point[direction - 2] += step;
+    if (direction == 5) c.restitution += step;
+    if (direction == 6) c.static_friction += step;
+    if (direction == 7) c.dynamic_friction += step;
+    std::vector<cr::BodyModel*> bodies{&s.arm, &s.wall};
+    const cr::BodyResponse response = cr::computeBodyResponse(bodies, {c}, newton());
+    VectorXd out(s.arm.velocityCount() + 4);
+    out << s.arm.velocity(), response.impulses[0].normal_impulse,
+        response.impulses[0].friction_impulse;
+    return out;
+  };
+  const double sds[8] = {normal_sd,   normal_sd,         point_sd(0),       point_sd(1),
+                         point_sd(2), coefficient_sd(0), coefficient_sd(1), coefficient_sd(2)};
+  const VectorXd mean = outcomeAt(0, 0.0);
+  const Eigen::Index m = mean.size();
+  Eigen::MatrixXd scaled(m, 8);
+  const double h = 1e-6;
+  for (int j = 0; j < 8; ++j)
+    scaled.col(j) = (outcomeAt(j, h) - outcomeAt(j, -h)) / (2.0 * h) * sds[j];
+  const Eigen::MatrixXd covariance = scaled * scaled.transpose();
+
+  cr::ContactUncertainty uncertain = coefficientsUncertain(coefficient_sd);
+  uncertain.normal_std_dev = normal_sd;
+  uncertain.point_std_dev = point_sd;
+  Strike s = slidingStrike(kE, kMuS, kMuD);
+  const VectorXd before = s.arm.velocity();
+  const int unknowns = s.arm.velocityCount();
+  const cr::OutcomeDistribution outcome = cr::computeBodyOutcomeDistribution(
+      {{&s.arm, &s.wall}}, {s.contact}, {uncertain}, noLimits(unknowns), newton(), linear());
+  ASSERT_EQ(outcome.mean.size(), m);
+  EXPECT_LT((s.arm.velocity() - before).norm(), 1e-12);
+  const double scale = covariance.diagonal().maxCoeff();
+  EXPECT_LT((outcome.mean - mean).cwiseAbs().maxCoeff(), 1e-12 * mean.cwiseAbs().maxCoeff());
+  EXPECT_LT((outcome.covariance - covariance).cwiseAbs().maxCoeff(), 1e-5 * scale)
+      << "linear:\n"
+      << outcome.covariance << "\ndifferences:\n"
+      << covariance;
+  // The geometry's share is not small: without it the covariance is far from this one.
+  EXPECT_GT((covariance - scaled.rightCols(3) * scaled.rightCols(3).transpose()).norm(),
+            0.1 * covariance.norm());
+  for (const cr::Warning& warning : outcome.warnings)  // no mode change along the differences
+    EXPECT_EQ(warning.field.find("_std_dev"), std::string::npos) << warning.reason;
+
+  Strike t = slidingStrike(kE, kMuS, kMuD);
+  const cr::OutcomeDistribution samples = cr::computeBodyOutcomeDistribution(
+      {{&t.arm, &t.wall}}, {t.contact}, {uncertain}, noLimits(unknowns), newton(), sampled(8192));
+  for (Eigen::Index r = 0; r < m; ++r) {
+    SCOPED_TRACE(outcome.labels[static_cast<std::size_t>(r)]);
+    const double sd = std::sqrt(samples.covariance(r, r));
+    if (sd < 1e-9) {  // a joint the contact does not move (the fingers)
+      EXPECT_LT(std::sqrt(outcome.covariance(r, r)), 1e-9);
+      continue;
+    }
+    EXPECT_NEAR(outcome.mean(r), samples.mean(r), 0.05 * sd);
+    EXPECT_NEAR(std::sqrt(outcome.covariance(r, r)), sd, 0.03 * sd);
+  }
+}
+
+// (5) Bad spreads are refused naming the field under either method; valid normal and point
+// spreads are taken by both. The bodies are left untouched.
+TEST(RobotUncertainty, BadSpreadsAreRefusedNamingTheField) {
   Strike s = slidingStrike(kE, kMuS, kMuD);
   const VectorXd before = s.arm.velocity();
   const VectorXd limits = noLimits(s.arm.velocityCount());
@@ -459,12 +533,16 @@ TEST(RobotUncertainty, LinearRefusesAnUncertainNormalOrPointNamingTheField) {
   };
   cr::ContactUncertainty normal = coefficientsUncertain(Vector3d(0.01, 0.01, 0.01));
   normal.normal_std_dev = 0.05;
+  EXPECT_EQ(field(normal, linear()), "(no error)");
+  normal.normal_std_dev = -0.05;
   EXPECT_EQ(field(normal, linear()), "uncertainties[0].normal_std_dev");
   cr::ContactUncertainty point;
   point.contact = 0;
   point.point_std_dev = Vector3d(0.0, 0.01, 0.0);
-  EXPECT_EQ(field(point, linear()), "uncertainties[0].point_std_dev");
+  EXPECT_EQ(field(point, linear()), "(no error)");
   EXPECT_EQ(field(point, sampled(16)), "(no error)");
+  point.point_std_dev = Vector3d(0.0, std::numeric_limits<double>::quiet_NaN(), 0.0);
+  EXPECT_EQ(field(point, linear()), "uncertainties[0].point_std_dev.y");
   cr::ContactUncertainty negative;
   negative.contact = 0;
   negative.restitution = cr::CoefficientDistribution::normal(kE, -0.1);

@@ -133,9 +133,10 @@ TEST_F(UncertaintyNodeTest, BadInputIsRejectedNamingTheField) {
 }
 
 // The same sphere falling straight down at 2 m/s, frictionless, its contact normal uncertain
-// (normal_std_dev = sigma, sampled). Closed form (test_geometry_uncertainty.cpp derives it): with
-// the normal (a, b, 1) / s and the point under the centre, v_x = (1 + e) V a / (1 + 3.5 (a^2 +
-// b^2)), so Var(v_x) = Var(v_y) = ((1 + e) V sigma)^2 (1 - 28 sigma^2) + O(sigma^6), mean 0.
+// (normal_std_dev = sigma, sampled, then linear). Closed form (test_geometry_uncertainty.cpp
+// derives it): with the normal (a, b, 1) / s and the point under the centre, v_x = (1 + e) V a / (1
+// + 3.5 (a^2 + b^2)), so Var(v_x) = Var(v_y) = ((1 + e) V sigma)^2 (1 - 28 sigma^2) + O(sigma^6),
+// mean 0.
 TEST_F(UncertaintyNodeTest, UncertainNormalSpreadsTheTangentialVelocity) {
   const double sigma = 0.02, speed = 2.0;
   cr::ComputeResponse srv = landingSphere(cr::SolverOptions::UNCERTAINTY_SAMPLED, 0.0);
@@ -158,12 +159,22 @@ TEST_F(UncertaintyNodeTest, UncertainNormalSpreadsTheTangentialVelocity) {
   // The answer itself is the prediction at the contact's own normal: straight back up.
   EXPECT_NEAR(response.bodies[1].twist.linear.x, 0.0, 1e-12);
 
-  // A negative spread, and the linear method, are refused naming the field.
+  // The linear method: the first-order variance, ((1 + e) V sigma)^2, and the prediction as mean.
+  srv.request.options.uncertainty = cr::SolverOptions::UNCERTAINTY_LINEAR;
+  const auto linear = call(srv);
+  ASSERT_TRUE(linear.success) << linear.message;
+  const cr::OutcomeDistribution& l = linear.outcome_distribution;
+  ASSERT_EQ(l.mean.size(), 10u);
+  const double leading = std::pow((1 + kE) * speed * sigma, 2);
+  EXPECT_NEAR(l.covariance[0 * 10 + 0], leading, 1e-6 * leading);
+  EXPECT_NEAR(l.covariance[1 * 10 + 1], leading, 1e-6 * leading);
+  EXPECT_NEAR(l.mean[0], 0.0, 1e-12);
+
+  // A negative spread is refused naming the field, under either method.
   srv.request.uncertainties[0].point_std_dev.y = -0.01;
   expectRejected(srv, "uncertainties[0].point_std_dev.y");
-  srv.request.uncertainties[0].point_std_dev.y = 0.0;
-  srv.request.options.uncertainty = cr::SolverOptions::UNCERTAINTY_LINEAR;
-  expectRejected(srv, "uncertainties[0].normal_std_dev");
+  srv.request.options.uncertainty = cr::SolverOptions::UNCERTAINTY_SAMPLED;
+  expectRejected(srv, "uncertainties[0].point_std_dev.y");
 }
 
 // Two spheres colliding head-on along x, frictionless: left (1 kg, +2 m/s), right (3 kg, -1 m/s),

@@ -13,8 +13,8 @@ namespace collision_response::core {
 /// without a distribution keeps the contact's own value (Contact::restitution, ...); the
 /// coefficients of a contact, and of different contacts, are independent of each other.
 ///
-/// The contact's normal and point may be uncertain too (the sampled method only; the linear one
-/// refuses a nonzero spread): per sample the normal is normalize(n + a t1 + b t2), a and b
+/// The contact's normal and point may be uncertain too (both methods; the linear one takes their
+/// columns as central differences of the solver): per sample the normal is normalize(n + a t1 + b t2), a and b
 /// independent N(0, normal_std_dev^2) and (t1, t2) an orthonormal basis of n's tangent plane (the
 /// distribution does not depend on which), and the point p + point_std_dev .* z, z three
 /// independent standard normals. They are independent of the coefficients and of each other.

@@ -41,16 +41,19 @@ struct UncertaintyOptions {
 /// the calling thread); mean, covariance (divided by N - 1) and quantiles of the samples. A sample
 /// whose mu_d exceeds its mu_s is solved with mu_d = mu_s (Coulomb's law needs mu_d <= mu_s): the
 /// warnings give the fraction of samples (kSampled) or the probability (kLinear, which does not
-/// see the cap) per contact. An uncertain normal or point (ContactUncertainty) takes kSampled:
-/// two more dimensions per normal and one per uncertain axis of a point, after the coefficients'
-/// (so a request's coefficient samples do not change when a normal becomes uncertain), set on the
-/// sample's contact before the solve.
+/// see the cap) per contact. An uncertain normal or point (ContactUncertainty), kSampled: two more
+/// dimensions per normal and one per uncertain axis of a point, after the coefficients' (so a
+/// request's coefficient samples do not change when a normal becomes uncertain), set on the
+/// sample's contact before the solve; kLinear: the same dimensions as columns of J after the
+/// coefficients', each a central difference of the solver (the normal tilted by +-1e-6 rad along a
+/// tangent, the point moved by +-1e-6 max(1, |p|_inf) m), one-sided where one side changes a
+/// contact's mode (no impulse, sliding, sticking), with a warning naming the dimension's field
+/// wherever a side does.
 ///
 /// Throws InvalidInput naming the field: the scene (as validate()), "uncertainties[k].contact"
 /// (out of range or repeated), "uncertainties[k].restitution.std_dev" ... (CheckedDistribution),
 /// "uncertainties[k].dynamic_friction.mean" when the mean of mu_d exceeds that of mu_s,
-/// "uncertainties[k].normal_std_dev" / ".point_std_dev.x|y|z" when negative or not finite, and
-/// (kLinear) the first of them with a nonzero spread,
+/// "uncertainties[k].normal_std_dev" / ".point_std_dev.x|y|z" when negative or not finite,
 /// "options.uncertainty" (kNone), "options.uncertainty_samples" (0 or over the cap, or rows x
 /// samples over kMaxSampledValues), "uncertainties" (an outcome of more than kMaxOutcomeRows rows).
 /// SolverTimeout when the whole call runs past options.time_budget (kSampled: each sample gets what
@@ -86,7 +89,8 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
 /// computeOutcomeDistribution()'s kLinear (a sliding contact's slip from the bodies' point
 /// Jacobians); limit_probability[r] = P(|v_r| > limit_r) under N(mean_r, covariance_rr) (sd = 0:
 /// exactly 0 or 1); copies[0] ends at its pre-impact velocities, also when the call throws. An
-/// uncertain normal or point is refused as computeOutcomeDistribution()'s kLinear refuses it.
+/// uncertain normal or point as computeOutcomeDistribution()'s kLinear takes it (differences of
+/// computeBodyResponse() on copies[0], the robot's Jacobian taken at the moved point).
 ///
 /// Throws as computeOutcomeDistribution() for the uncertainties, options.uncertainty_samples and
 /// the time budget; std::invalid_argument when copies is empty, the sets differ in size or
