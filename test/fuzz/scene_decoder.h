@@ -23,6 +23,7 @@
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -31,6 +32,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/scene.h"
 #include "collision_response/core/solver_options.h"
+#include "collision_response/core/uncertainty.h"
 
 namespace collision_response::fuzz {
 
@@ -130,6 +132,11 @@ struct DecodedRequest {
   core::Scene scene;
   core::SolverOptions options;
   core::RequestLimits limits;
+  /// The request's outcome distribution (docs/uncertainty.md), decoded from the bytes after the
+  /// contacts: none when they run out (so that inputs saved before it replay as they did).
+  bool with_uncertainty = false;
+  std::vector<core::ContactUncertainty> uncertainties;
+  core::UncertaintyOptions uncertainty;
 };
 
 namespace detail {
@@ -317,6 +324,75 @@ inline core::Contact decodeContact(ByteReader& in, const std::vector<core::BodyS
 
 /// The request encoded by `data`. Layout: options (5 bytes), limits (1 or 3), body count, contact
 /// count, then each body and each contact, field by field; see the detail:: functions.
+namespace detail {
+
+// A coefficient's distribution: none, a normal or an interval of sane values, or raw doubles
+// (NaN, negative spreads, min > max, means outside the range).
+inline std::optional<core::CoefficientDistribution> decodeCoefficient(ByteReader& in,
+                                                                      double upper) {
+  const std::uint8_t kind = in.byte();
+  switch (kind % 5) {
+    case 0:
+      return std::nullopt;
+    case 1:
+      return core::CoefficientDistribution::normal(in.uniform(0.0, upper),
+                                                   in.uniform(0.0, 0.1 * upper));
+    case 2: {
+      const double a = in.uniform(0.0, upper), b = in.uniform(0.0, upper);
+      return core::CoefficientDistribution::interval(std::min(a, b), std::max(a, b));
+    }
+    case 3:
+      return core::CoefficientDistribution::normal(in.raw(), in.raw());
+    default:
+      return core::CoefficientDistribution::interval(in.raw(), in.raw());
+  }
+}
+
+// A spread of the normal [rad] or of a point's axis [m]: mostly 0 or small, sometimes raw.
+inline double decodeSpread(ByteReader& in, double scale) {
+  const std::uint8_t kind = in.byte();
+  switch (kind % 6) {
+    case 0:
+    case 1:
+      return 0.0;
+    case 2:
+    case 3:
+      return in.uniform(0.0, scale);
+    case 4:
+      return -in.uniform(0.0, scale);
+    default:
+      return in.raw();
+  }
+}
+
+inline void decodeUncertainty(ByteReader& in, DecodedRequest& request) {
+  const std::uint8_t selector = in.byte();
+  if (selector % 4 == 0) return;  // (also when the input has run out)
+  request.with_uncertainty = true;
+  request.uncertainty.method =
+      selector % 4 == 3 ? core::UncertaintyMethod::kSampled : core::UncertaintyMethod::kLinear;
+  // Few samples, and now and then a count out of range (0, over the cap).
+  const std::uint8_t samples = in.byte();
+  request.uncertainty.samples = samples == 255   ? core::kMaxUncertaintySamples + 1
+                                : samples == 254 ? 0
+                                                 : 1 + samples % 16;
+  request.uncertainty.seed = in.byte();
+  const std::size_t contacts = request.scene.contacts.size();
+  const std::size_t count = in.byte() % (contacts + 2);
+  for (std::size_t k = 0; k < count; ++k) {
+    core::ContactUncertainty u;
+    u.contact = in.byte() % (contacts + 1);  // now and then one past the end
+    u.restitution = decodeCoefficient(in, 1.0);
+    u.static_friction = decodeCoefficient(in, 1.5);
+    u.dynamic_friction = decodeCoefficient(in, 1.0);
+    u.normal_std_dev = decodeSpread(in, 0.2);
+    for (int axis = 0; axis < 3; ++axis) u.point_std_dev[axis] = decodeSpread(in, 0.05);
+    request.uncertainties.push_back(u);
+  }
+}
+
+}  // namespace detail
+
 inline DecodedRequest decodeRequest(const std::uint8_t* data, std::size_t size) {
   ByteReader in(data, size);
   DecodedRequest request;
@@ -329,6 +405,7 @@ inline DecodedRequest decodeRequest(const std::uint8_t* data, std::size_t size) 
     request.scene.bodies.push_back(detail::decodeBody(in, i));
   for (std::size_t i = 0; i < contact_count; ++i)
     request.scene.contacts.push_back(detail::decodeContact(in, request.scene.bodies));
+  detail::decodeUncertainty(in, request);
   return request;
 }
 
@@ -340,6 +417,10 @@ struct Outcome {
   std::string bug;      ///< non-empty: an unexpected exception or a broken invariant
   bool non_finite = false;  ///< the bug is a non-finite number in a successful answer
   core::CollisionResult result;
+  /// With an uncertainty: whether computeOutcomeDistribution() answered (else InvalidInput or a
+  /// timeout, in `invalid` / `timeout` with "uncertainty: " before it).
+  bool distributed = false;
+  core::OutcomeDistribution distribution;
 };
 
 /// True if some number of the scene is finite but huge (|x| > bound) or tiny (0 < |x| < 1 /
@@ -464,6 +545,49 @@ inline std::string checkResult(const DecodedRequest& request, const core::Collis
 
 /// Runs computeResponse on the request. InvalidInput is an expected outcome; any other exception
 /// or a broken invariant of the answer is reported in Outcome::bug.
+namespace detail {
+
+// Cheap invariants of an answered distribution: sizes as the rows of the prediction (6 per movable
+// body, 4 per contact), a symmetric covariance with a non-negative diagonal, q05 <= mean <= q95
+// (linear: symmetric about the mean), probabilities in [0, 1], finite numbers where the prediction
+// is finite (non_finite otherwise).
+inline std::string checkDistribution(const DecodedRequest& request, const core::CollisionResult& r,
+                                     const core::OutcomeDistribution& d, bool& non_finite) {
+  Eigen::Index movable = 0;
+  for (const core::BodyState& body : request.scene.bodies) movable += body.immovable() ? 0 : 1;
+  const Eigen::Index m = 6 * movable + 4 * static_cast<Eigen::Index>(request.scene.contacts.size());
+  if (d.mean.size() != m || d.covariance.rows() != m || d.covariance.cols() != m ||
+      d.q05.size() != m || d.q95.size() != m || d.labels.size() != static_cast<std::size_t>(m))
+    return "uncertainty: the distribution's sizes differ from the prediction's rows";
+  if (d.stick_probability.size() != request.scene.contacts.size())
+    return "uncertainty: one stick probability per contact expected";
+  if (d.method != request.uncertainty.method) return "uncertainty: another method answered";
+  for (const double p : d.stick_probability)
+    if (!(p >= 0.0 && p <= 1.0)) return "uncertainty: a stick probability outside [0, 1]";
+  if (!d.mean.allFinite() || !d.covariance.allFinite() || !d.q05.allFinite() ||
+      !d.q95.allFinite()) {
+    non_finite = true;
+    return "uncertainty: non-finite mean, covariance or quantile";
+  }
+  if (m == 0) return "";
+  const double scale = std::max(1.0, d.covariance.cwiseAbs().maxCoeff());
+  if ((d.covariance - d.covariance.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale)
+    return "uncertainty: covariance not symmetric";
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const double slack =
+        1e-9 * std::max({1.0, std::abs(d.mean(i)), std::abs(d.q05(i)), std::abs(d.q95(i))});
+    if (d.covariance(i, i) < 0.0) return "uncertainty: negative variance";
+    if (d.q05(i) > d.q95(i) + slack) return "uncertainty: q05 above q95";
+    if (d.method == core::UncertaintyMethod::kLinear &&
+        (d.q05(i) > d.mean(i) + slack || d.q95(i) < d.mean(i) - slack))
+      return "uncertainty: linear quantiles not about the mean";
+  }
+  (void)r;
+  return "";
+}
+
+}  // namespace detail
+
 inline Outcome run(const DecodedRequest& request) {
   Outcome outcome;
   try {
@@ -483,6 +607,28 @@ inline Outcome run(const DecodedRequest& request) {
     return outcome;
   }
   outcome.bug = detail::checkResult(request, outcome.result, outcome.non_finite);
+  if (!outcome.bug.empty() || !request.with_uncertainty) return outcome;
+  // The outcome distribution of the same (valid, solvable) request.
+  try {
+    outcome.distribution =
+        core::computeOutcomeDistribution(request.scene, request.uncertainties, request.options,
+                                         request.uncertainty, nullptr, request.limits);
+    outcome.distributed = true;
+  } catch (const core::InvalidInput& error) {
+    outcome.invalid = std::string("uncertainty: ") + error.what();
+    return outcome;
+  } catch (const core::SolverTimeout& error) {
+    outcome.timeout = std::string("uncertainty: ") + error.what();
+    return outcome;
+  } catch (const std::exception& error) {
+    outcome.bug = std::string("uncertainty: unexpected exception: ") + error.what();
+    return outcome;
+  } catch (...) {
+    outcome.bug = "uncertainty: unexpected exception of unknown type";
+    return outcome;
+  }
+  outcome.bug =
+      detail::checkDistribution(request, outcome.result, outcome.distribution, outcome.non_finite);
   return outcome;
 }
 
@@ -518,6 +664,28 @@ inline std::string describe(const DecodedRequest& request) {
     out << "contacts[" << i << "]: '" << c.body_a << "' -> '" << c.body_b << "', point "
         << vec(c.point) << ", normal " << vec(c.normal) << ", e " << c.restitution << ", mu_s "
         << c.static_friction << ", mu_d " << c.dynamic_friction << "\n";
+  }
+  if (request.with_uncertainty) {
+    out << "uncertainty: " << core::toString(request.uncertainty.method) << ", samples "
+        << request.uncertainty.samples << ", seed " << request.uncertainty.seed << "\n";
+    const auto distribution = [](const std::optional<core::CoefficientDistribution>& d) {
+      std::ostringstream s;
+      s.precision(17);
+      if (!d)
+        s << "none";
+      else if (d->type == core::CoefficientDistribution::Type::kNormal)
+        s << "normal(" << d->mean << ", " << d->std_dev << ")";
+      else
+        s << "interval(" << d->min << ", " << d->max << ")";
+      return s.str();
+    };
+    for (std::size_t k = 0; k < request.uncertainties.size(); ++k) {
+      const core::ContactUncertainty& u = request.uncertainties[k];
+      out << "uncertainties[" << k << "]: contact " << u.contact << ", e "
+          << distribution(u.restitution) << ", mu_s " << distribution(u.static_friction)
+          << ", mu_d " << distribution(u.dynamic_friction) << ", normal_std_dev "
+          << u.normal_std_dev << ", point_std_dev " << vec(u.point_std_dev) << "\n";
+    }
   }
   return out.str();
 }
