@@ -2,12 +2,14 @@
 // prediction's own (Google Benchmark), Newton law: a unit cube landing flat on 4 corner contacts
 // (exact solver), each contact with e ~ N(0.5, 0.05), mu_s ~ U[0.4, 0.6], mu_d ~ N(0.4, 0.03).
 //   devel/lib/collision_response/bench_uncertainty          (Release build)
-// BM_Predict: computeResponse(); BM_Linear: the linear distribution; BM_Sampled/N/threads: N
-// samples on a worker pool of that many threads (wall time: --benchmark_min_time=2).
+// BM_Predict: computeResponse(); BM_Linear: the linear distribution; BM_LinearGeometry: the same
+// with each corner's normal (0.01 rad) and point (5 mm in x and y) uncertain too, whose columns are
+// differences of the solver (16 dimensions, 32 solves); BM_Sampled/N/threads: N samples on a
+// worker pool of that many threads (wall time: --benchmark_min_time=2).
 // Instruction counts of one call each, for the ratio linear / prediction:
 //   valgrind --tool=callgrind --toggle-collect='*predictOnce*' bench_uncertainty --callgrind
 //   valgrind --tool=callgrind --toggle-collect='*linearOnce*' bench_uncertainty --callgrind
-// (and '*sampledOnce*': 1,000 samples on the calling thread).
+// (and '*sampledOnce*': 1,000 samples on the calling thread; '*linearGeometryOnce*').
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
@@ -84,6 +86,24 @@ core::SolverOptions newton() {
   return core::computeOutcomeDistribution(scene, u, options, core::UncertaintyOptions{});
 }
 
+// uncertainties() with each corner's normal and point (x, y) uncertain too.
+std::vector<core::ContactUncertainty> geometryUncertainties() {
+  std::vector<core::ContactUncertainty> all = uncertainties();
+  for (core::ContactUncertainty& u : all) {
+    u.normal_std_dev = 0.01;
+    u.point_std_dev = {0.005, 0.005, 0.0};
+  }
+  return all;
+}
+
+[[gnu::noinline]] core::OutcomeDistribution linearGeometryOnce(
+    const core::Scene& scene, const std::vector<core::ContactUncertainty>& u,
+    const core::SolverOptions& options) {
+  core::UncertaintyOptions linear;  // (spelled out: identical code would be folded with linearOnce)
+  linear.method = core::UncertaintyMethod::kLinear;
+  return core::computeOutcomeDistribution(scene, u, options, linear);
+}
+
 [[gnu::noinline]] core::OutcomeDistribution sampledOnce(
     const core::Scene& scene, const std::vector<core::ContactUncertainty>& u,
     const core::SolverOptions& options, std::size_t samples) {
@@ -106,6 +126,13 @@ void BM_Linear(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(linearOnce(scene, u, options));
 }
 
+void BM_LinearGeometry(benchmark::State& state) {
+  const core::Scene scene = cube4();
+  const auto u = geometryUncertainties();
+  const core::SolverOptions options = newton();
+  for (auto _ : state) benchmark::DoNotOptimize(linearGeometryOnce(scene, u, options));
+}
+
 void BM_Sampled(benchmark::State& state) {
   const core::Scene scene = cube4();
   const auto u = uncertainties();
@@ -123,6 +150,7 @@ void BM_Sampled(benchmark::State& state) {
 
 BENCHMARK(BM_Predict);
 BENCHMARK(BM_Linear);
+BENCHMARK(BM_LinearGeometry);
 BENCHMARK(BM_Sampled)
     ->Args({10000, 1})
     ->Args({10000, 2})
@@ -206,6 +234,7 @@ int main(int argc, char** argv) {
     benchmark::DoNotOptimize(core::computeResponse(scene, options));
     benchmark::DoNotOptimize(predictOnce(scene, options));
     benchmark::DoNotOptimize(linearOnce(scene, u, options));
+    benchmark::DoNotOptimize(linearGeometryOnce(scene, geometryUncertainties(), options));
     // Under valgrind, 1,000 samples take longer than the default budget of 1 s.
     core::SolverOptions unhurried = options;
     unhurried.time_budget = 3600.0;
