@@ -4,7 +4,7 @@
 //   devel/lib/collision_response/bench_uncertainty          (Release build)
 // BM_Predict: computeResponse(); BM_Linear: the linear distribution; BM_LinearGeometry: the same
 // with each corner's normal (0.01 rad) and point (5 mm in x and y) uncertain too, whose columns are
-// differences of the solver (16 dimensions, 32 solves); BM_Sampled/N/threads: N samples on a
+// differences of the solver (16 dimensions, 49 solves: the flat face's tilts take secants); BM_Sampled/N/threads: N samples on a
 // worker pool of that many threads (wall time: --benchmark_min_time=2).
 // Instruction counts of one call each, for the ratio linear / prediction:
 //   valgrind --tool=callgrind --toggle-collect='*predictOnce*' bench_uncertainty --callgrind

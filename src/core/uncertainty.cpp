@@ -44,7 +44,8 @@ const char* toString(UncertaintyMethod method) {
 
 namespace {
 
-constexpr double kZ95 = 1.6448536269514722;  // Phi^-1(0.95)
+constexpr double kZ95 = 1.6448536269514722;              // Phi^-1(0.95)
+constexpr double kMaxNormalStdDev = 1.5707963267948966;  // pi/2 [rad]
 // A linear stick probability in [this, 1 - this] is reported: the spread reaches a switch.
 constexpr double kSwitchReachWarning = 1e-3;
 constexpr std::array<const char*, 3> kCoefficientNames = {"restitution", "static_friction",
@@ -135,13 +136,16 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
     named[entry.contact / 64] |= bit;
     const std::array<const std::optional<CoefficientDistribution>*, 3> given = {
         &entry.restitution, &entry.static_friction, &entry.dynamic_friction};
-    if (!(std::isfinite(entry.normal_std_dev) && entry.normal_std_dev >= 0.0))
+    // (A normal spread beyond pi/2 spreads the direction over the whole half-sphere; a point
+    // spread beyond the length limit leaves the request's world.)
+    if (!(entry.normal_std_dev >= 0.0 && entry.normal_std_dev <= kMaxNormalStdDev))
       throw InvalidInput(field() + ".normal_std_dev",
-                         "must be a finite number >= 0 [rad] (0: the normal exactly)");
+                         "must be a number in [0, pi/2] [rad] (0: the normal exactly)");
     for (int axis = 0; axis < 3; ++axis)
-      if (!(std::isfinite(entry.point_std_dev[axis]) && entry.point_std_dev[axis] >= 0.0))
+      if (!(entry.point_std_dev[axis] >= 0.0 &&
+            entry.point_std_dev[axis] <= MagnitudeLimits::kLength))
         throw InvalidInput(field() + ".point_std_dev." + "xyz"[axis],
-                           "must be a finite number >= 0 [m] (0: exact along that axis)");
+                           "must be a number in [0, 1e7] [m] (0: exact along that axis)");
     const bool geometric = entry.normal_std_dev > 0.0 || (entry.point_std_dev.array() > 0.0).any();
     if (!*given[0] && !*given[1] && !*given[2] && !geometric) continue;
     Contact& contact = prepared.mean_scene.contacts[entry.contact];
@@ -370,7 +374,7 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
     if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
   } else {
     // Slip velocity of b relative to a at the point, tangential part, and its derivatives.
-    const Eigen::Vector3d& n = contact.normal;
+    const Eigen::Vector3d n = contact.normal.normalized();  // (unit within 1e-3)
     Eigen::Vector3d slip = Eigen::Vector3d::Zero();
     Eigen::MatrixXd slip_rate = Eigen::MatrixXd::Zero(3, jacobian.cols());
     slip_of(c, slip, slip_rate);
@@ -618,21 +622,26 @@ int modeCode(const ContactImpulse& impulse) {
   return impulse.normal_impulse > 0.0 ? (impulse.sticking ? 2 : 1) : 0;
 }
 
-// The tangential part of a slip velocity against `normal`, its length [m/s].
+// The tangential part of a slip velocity against `normal` (any length: validated normals are unit
+// within 1e-3), its length [m/s].
 double tangentialSpeed(const Eigen::Vector3d& slip, const Eigen::Vector3d& normal) {
-  return (slip - normal * normal.dot(slip)).norm();
+  const Eigen::Vector3d n = normal.normalized();
+  return (slip - n * n.dot(slip)).norm();
 }
 
 // The linear method's columns of an uncertain normal or point (docs/uncertainty.md, "Uncertain
 // normal and point"): per dimension of prepared.geometry, the central difference of the outcome's
 // m rows and of each contact's slip speed after the impact, the contact's normal tilted by +-h,
-// normalize(n +- h t) with h = kGeometryStep [rad], or its point moved by +-h along the axis, h =
-// kGeometryStep max(1, |p|_inf) [m]. `evaluate(u, normal, point, values, modes)` solves with
-// prepared.contacts[u]'s contact at that normal and point (every other contact as it is), writes
-// the m rows then the `contacts` slip speeds into `values`, and each contact's modeCode() into
-// `modes`. Where one side changes a contact's mode from `mean_modes`, the difference is one-sided
-// on the other side (one more solve, at the mean); where both do, the column is the secant over
-// +-1 standard deviation (two more solves); either way a warning names the dimension's field.
+// normalize(n +- h t), or its point moved by +-h along the axis, with h = min(base, sd / 100) but
+// at least base / 1000, base = kGeometryStep [rad] for a tilt and kGeometryStep max(1, |p|_inf) [m]
+// for a point. `evaluate(u, normal, point, values, modes)` solves with prepared.contacts[u]'s
+// contact at that normal and point (every other contact as it is; every normal taken unit),
+// writes the m rows then the `contacts` slip speeds into `values`, and each contact's modeCode()
+// into `modes`; evaluate(npos, ...) solves at the mean geometry. The difference is kept within the
+// modes of the mean solve: where one side changes a contact's mode, it is one-sided on the other
+// side; where both do, or where the two one-sided differences disagree (the outcome jumps with no
+// contact changing its mode: a split of the impulse that is not unique), the column is the secant
+// over +-1 standard deviation. Each such dimension is named by a warning (once per field).
 struct GeometryColumns {
   Eigen::MatrixXd outcome;     // m x geometry dimensions
   Eigen::MatrixXd slip_speed;  // contacts x geometry dimensions [m/s per rad, or per m]
@@ -640,24 +649,38 @@ struct GeometryColumns {
 
 constexpr double kGeometryStep = 1e-6;
 
+// Whether two one-sided differences of the same values disagree beyond a smooth map's curvature
+// and round-off: by more than 1 % of their size plus `floor` (per row).
+bool onesidedDisagree(const Eigen::VectorXd& forward, const Eigen::VectorXd& backward,
+                      const Eigen::VectorXd& floor) {
+  for (Eigen::Index i = 0; i < forward.size(); ++i)
+    if (std::abs(forward(i) - backward(i)) >
+        0.01 * (std::abs(forward(i)) + std::abs(backward(i))) + floor(i))
+      return true;
+  return false;
+}
+
 template <class Evaluate>
 GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std::size_t contacts,
-                                   const std::vector<int>& mean_modes, Evaluate&& evaluate,
-                                   std::vector<Warning>& warnings) {
+                                   Evaluate&& evaluate, std::vector<Warning>& warnings) {
   const auto count = static_cast<Eigen::Index>(prepared.geometry.size());
   const Eigen::Index rows = m + static_cast<Eigen::Index>(contacts);
   GeometryColumns columns{Eigen::MatrixXd(m, count),
                           Eigen::MatrixXd(static_cast<Eigen::Index>(contacts), count)};
-  Eigen::VectorXd plus(rows), minus(rows), mean;
-  std::vector<int> plus_modes(contacts), minus_modes(contacts), modes(contacts);
+  Eigen::VectorXd plus(rows), minus(rows), mean(rows);
+  std::vector<int> plus_modes(contacts), minus_modes(contacts), mean_modes(contacts);
+  evaluate(static_cast<std::size_t>(-1), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), mean,
+           mean_modes);
+  std::vector<std::string> warned;
   for (Eigen::Index g = 0; g < count; ++g) {
     const GeometryDimension& dimension = prepared.geometry[static_cast<std::size_t>(g)];
     const UncertainContact& uncertain = prepared.contacts[dimension.index];
     const bool tilt = dimension.kind < GeometryDimension::kPointX;
-    const double h =
+    const double base =
         tilt ? kGeometryStep : kGeometryStep * std::max(1.0, uncertain.point.cwiseAbs().maxCoeff());
+    const double h = std::max(std::min(base, 0.01 * dimension.std_dev), 0.001 * base);
     auto at = [&](double step, Eigen::VectorXd& values, std::vector<int>& found) {
-      Eigen::Vector3d normal = uncertain.normal;
+      Eigen::Vector3d normal = uncertain.normal.normalized();
       Eigen::Vector3d point = uncertain.point;
       if (tilt) {
         const Eigen::Vector3d& t =
@@ -672,43 +695,56 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
     at(-h, minus, minus_modes);
     const bool plus_kept = plus_modes == mean_modes;
     const bool minus_kept = minus_modes == mean_modes;
+    bool secant = !plus_kept && !minus_kept;
     Eigen::VectorXd column;
     if (plus_kept && minus_kept) {
-      column = (plus - minus) / (2.0 * h);
-    } else if (!plus_kept && !minus_kept) {
-      // The outcome jumps at the mean (a flat face's corners, whose split of the impulse the
-      // slightest tilt changes): no derivative exists, and a difference across the jump over h
-      // would be as large as the jump over h. The secant over +-1 standard deviation instead.
+      // Per outcome row (not the slip speeds, whose kink at zero slip is no jump): the solves'
+      // round-off, 1e-12 of the row's values or of the largest of all rows (a row that is zero
+      // up to round-off), over h, and 0.1 of the row's values per unit of the dimension (a smooth
+      // map's one-sided differences differ by h f'', far below that; a jump J makes them differ
+      // by J / h, above it once J > 1e-7 of the values).
+      const auto values = [m](const Eigen::VectorXd& v) { return v.head(m); };
+      const Eigen::VectorXd size = values(mean)
+                                       .cwiseAbs()
+                                       .cwiseMax(values(plus).cwiseAbs())
+                                       .cwiseMax(values(minus).cwiseAbs());
+      const double largest = m > 0 ? size.maxCoeff() : 0.0;
+      const Eigen::VectorXd floor =
+          (1e-12 / h) * size.cwiseMax(largest).array() + 0.1 * size.array() + 1e-300;
+      secant = onesidedDisagree((values(plus) - values(mean)) / h,
+                                (values(mean) - values(minus)) / h, floor);
+      if (!secant) column = (plus - minus) / (2.0 * h);
+    } else if (!secant) {
+      column = plus_kept ? Eigen::VectorXd((plus - mean) / h) : Eigen::VectorXd((mean - minus) / h);
+    }
+    if (secant) {
+      // No derivative exists at the mean, and a difference across the jump over h would be as
+      // large as the jump over h: the secant over +-1 standard deviation instead.
       at(dimension.std_dev, plus, plus_modes);
       at(-dimension.std_dev, minus, minus_modes);
       column = (plus - minus) / (2.0 * dimension.std_dev);
-    } else {
-      if (mean.size() == 0) {
-        mean.resize(rows);
-        at(0.0, mean, modes);
-      }
-      column = plus_kept ? Eigen::VectorXd((plus - mean) / h) : Eigen::VectorXd((mean - minus) / h);
     }
     columns.outcome.col(g) = column.head(m);
     columns.slip_speed.col(g) = column.tail(static_cast<Eigen::Index>(contacts));
-    if (plus_kept && minus_kept) continue;
+    if (plus_kept && minus_kept && !secant) continue;
     static constexpr std::array<std::string_view, 5> kFields = {
         ".normal_std_dev", ".normal_std_dev", ".point_std_dev.x", ".point_std_dev.y",
         ".point_std_dev.z"};
-    const std::string field = joined({"uncertainties[", NumberText(uncertain.entry), "]",
-                                      kFields[static_cast<std::size_t>(dimension.kind)]});
+    std::string field = joined({"uncertainties[", NumberText(uncertain.entry), "]",
+                                kFields[static_cast<std::size_t>(dimension.kind)]});
+    if (std::find(warned.begin(), warned.end(), field) != warned.end()) continue;
+    warned.push_back(field);
     warnings.push_back(
-        {field,
-         plus_kept == minus_kept
-             ? std::string("a contact changes its mode (no impulse, sliding, sticking) on both "
-                           "sides of the mean geometry within the difference step, where the "
-                           "outcome has no derivative: this dimension's column is the secant over "
-                           "+-1 standard deviation, and the linear distribution is rough; use the "
-                           "sampled method")
-             : std::string("a contact changes its mode (no impulse, sliding, sticking) on one "
-                           "side of the mean geometry within the difference step: linearised on "
-                           "the other side, the linear distribution holds on that side only; use "
-                           "the sampled method"),
+        {std::move(field),
+         secant ? std::string("the outcome has no derivative at the mean geometry (a contact "
+                              "changes its mode on both sides within the difference step, or the "
+                              "outcome jumps there): this dimension's column is the secant over "
+                              "+-1 standard deviation, and the linear distribution is rough; use "
+                              "the sampled method")
+                : std::string("a contact changes its mode (no impulse, sliding, sticking) on one "
+                              "side of the mean geometry within the difference step: linearised "
+                              "on the other side, the linear distribution holds on that side only; "
+                              "use the sampled method"),
          Warning::Kind::kInput});
   }
   return columns;
@@ -731,15 +767,18 @@ struct GeometryJacobian {
   GeometryJacobian out;
   const Eigen::Index m = derivatives.jacobian.rows();
   const std::size_t contacts = prepared.mean_scene.contacts.size();
-  std::vector<int> mean_modes(contacts);
-  for (std::size_t c = 0; c < contacts; ++c)
-    mean_modes[c] = modeCode(derivatives.result.impulses[c]);
   Scene moved = prepared.mean_scene;
+  for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
-    Contact& changed = moved.contacts[prepared.contacts[u].contact];
-    changed.normal = normal;
-    changed.point = point;
+    Contact* changed =
+        u < prepared.contacts.size() ? &moved.contacts[prepared.contacts[u].contact] : nullptr;
+    const Eigen::Vector3d kept_normal = changed ? changed->normal : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d kept_point = changed ? changed->point : Eigen::Vector3d::Zero();
+    if (changed) {
+      changed->normal = normal;
+      changed->point = point;
+    }
     const CollisionResult after =
         computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
     fillOutcome(after, derivatives.movable_bodies,
@@ -750,19 +789,18 @@ struct GeometryJacobian {
       for (const auto& [body, sign] :
            {std::pair{contact_bodies[c].second, 1.0}, std::pair{contact_bodies[c].first, -1.0}}) {
         const BodyState& state = after.bodies[static_cast<std::size_t>(body)];
-        if (state.immovable()) continue;  // as slip_of() below
         slip += sign * (state.linear_velocity +
                         state.angular_velocity.cross(contact.point - state.worldCom()));
       }
       values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
       modes[c] = modeCode(after.impulses[c]);
     }
-    const Contact& mean = prepared.mean_scene.contacts[prepared.contacts[u].contact];
-    changed.normal = mean.normal;
-    changed.point = mean.point;
+    if (changed) {
+      changed->normal = kept_normal;
+      changed->point = kept_point;
+    }
   };
-  const GeometryColumns columns =
-      differenceGeometry(prepared, m, contacts, mean_modes, evaluate, out.warnings);
+  const GeometryColumns columns = differenceGeometry(prepared, m, contacts, evaluate, out.warnings);
   out.jacobian.resize(m, derivatives.jacobian.cols() + columns.outcome.cols());
   out.jacobian << derivatives.jacobian, columns.outcome;
   out.slip_speed = columns.slip_speed;
@@ -814,9 +852,9 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
          {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
       if (body < 0) continue;
       const BodyState& state = result.bodies[static_cast<std::size_t>(body)];
-      if (state.immovable()) continue;
       const Eigen::Vector3d arm = contact.point - state.worldCom();
       slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
+      if (state.immovable()) continue;  // a prescribed motion: no rows, no derivatives
       const auto at =
           std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
       const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
@@ -1129,16 +1167,18 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
     std::vector<Warning> geometry_warnings;
     if (!prepared.geometry.empty()) {
       const std::size_t count = contacts.size();
-      std::vector<int> mean_modes(count);
-      for (std::size_t c = 0; c < count; ++c)
-        mean_modes[c] = modeCode(derivatives.result.impulses[c]);
       std::vector<ContactPoint> moved = mean_contacts;
+      for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
       auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal,
                           const Eigen::Vector3d& point, Eigen::VectorXd& values,
                           std::vector<int>& modes) {
-        ContactPoint& changed = moved[prepared.contacts[u].contact];
-        changed.normal = normal;
-        changed.point = point;
+        ContactPoint* changed =
+            u < prepared.contacts.size() ? &moved[prepared.contacts[u].contact] : nullptr;
+        const ContactPoint kept = changed ? *changed : ContactPoint();
+        if (changed) {
+          changed->normal = normal;
+          changed->point = point;
+        }
         restore();
         const BodyResponse after =
             computeBodyResponse(bodies, moved, remainingBudget(options, start));
@@ -1163,9 +1203,9 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
           values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
           modes[c] = modeCode(after.impulses[c]);
         }
-        changed = mean_contacts[prepared.contacts[u].contact];
+        if (changed) *changed = kept;
       };
-      geometry = differenceGeometry(prepared, m, count, mean_modes, evaluate, geometry_warnings);
+      geometry = differenceGeometry(prepared, m, count, evaluate, geometry_warnings);
       for (std::size_t b = 0; b < bodies.size(); ++b)
         if (derivatives.velocity_offset[b] >= 0)
           bodies[b]->addVelocityChange(

@@ -519,6 +519,40 @@ TEST(RobotUncertainty, LinearWithAnUncertainNormalAndPointMatchesDifferencesAndS
   }
 }
 
+// (4b) The stick probability of the robot's sliding contact moves with its normal: the strike
+// above with mu_s = 0.345, just below the stick impulse's ratio at the mean normal (0.348: it
+// slides), its normal uncertain (0.01 rad), nothing else. Without the slip speed's geometry
+// columns (computed from the arm's point velocity after each differenced solve) the linear
+// method would give 0. It is rough there (docs/uncertainty.md): the margin's slope holds the slip
+// speed's rate in mu_d at the mean, and on this arm that rate moves with the normal too, so the
+// linear probability is well below the sampled one; the spread reaching the switch is warned of.
+TEST(RobotUncertainty, LinearStickProbabilityMovesWithAnUncertainNormal) {
+  Strike s = slidingStrike(kE, 0.345, kMuD);
+  const int unknowns = s.arm.velocityCount();
+  {
+    Strike probe = slidingStrike(kE, 0.345, kMuD);
+    std::vector<cr::BodyModel*> bodies{&probe.arm, &probe.wall};
+    const cr::BodyResponse response = cr::computeBodyResponse(bodies, {probe.contact}, newton());
+    ASSERT_FALSE(response.impulses[0].sticking);
+  }
+  cr::ContactUncertainty u;
+  u.contact = 0;
+  u.normal_std_dev = 0.01;
+  const cr::OutcomeDistribution lin = cr::computeBodyOutcomeDistribution(
+      {{&s.arm, &s.wall}}, {s.contact}, {u}, noLimits(unknowns), newton(), linear());
+  Strike t = slidingStrike(kE, 0.345, kMuD);
+  const cr::OutcomeDistribution smp = cr::computeBodyOutcomeDistribution(
+      {{&t.arm, &t.wall}}, {t.contact}, {u}, noLimits(unknowns), newton(), sampled(4096));
+  EXPECT_GT(smp.stick_probability[0], 0.2);
+  EXPECT_GT(lin.stick_probability[0], 0.05);
+  EXPECT_LT(lin.stick_probability[0], smp.stick_probability[0]);
+  bool warned = false;
+  for (const cr::Warning& warning : lin.warnings)
+    warned |= warning.field == "contacts[0]" &&
+              warning.reason.find("stick/slip switch") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
 // (5) Bad spreads are refused naming the field under either method; valid normal and point
 // spreads are taken by both. The bodies are left untouched.
 TEST(RobotUncertainty, BadSpreadsAreRefusedNamingTheField) {

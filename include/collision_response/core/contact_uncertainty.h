@@ -24,10 +24,10 @@ struct ContactUncertainty {
   std::optional<CoefficientDistribution> static_friction;   ///< mu_s, range [0, infinity)
   std::optional<CoefficientDistribution> dynamic_friction;  ///< mu_d, range [0, infinity)
   /// [rad] (small angles) standard deviation of each of the normal's two tangent-plane
-  /// components, >= 0 (0: the contact's normal exactly).
+  /// components, in [0, pi/2] (0: the contact's normal exactly).
   double normal_std_dev = 0.0;
-  /// [m] standard deviation of the point along each axis of the scene's (world) frame, each
-  /// >= 0 (0: exact along that axis).
+  /// [m] standard deviation of the point along each axis of the scene's (world) frame, each in
+  /// [0, 1e7] (0: exact along that axis).
   Eigen::Vector3d point_std_dev = Eigen::Vector3d::Zero();
 };
 

@@ -45,15 +45,17 @@ struct UncertaintyOptions {
 /// dimensions per normal and one per uncertain axis of a point, after the coefficients' (so a
 /// request's coefficient samples do not change when a normal becomes uncertain), set on the
 /// sample's contact before the solve; kLinear: the same dimensions as columns of J after the
-/// coefficients', each a central difference of the solver (the normal tilted by +-1e-6 rad along a
-/// tangent, the point moved by +-1e-6 max(1, |p|_inf) m), one-sided where one side changes a
-/// contact's mode (no impulse, sliding, sticking), with a warning naming the dimension's field
-/// wherever a side does.
+/// coefficients', each a central difference of the solver (the normal tilted along a tangent, the
+/// point moved along its axis, by a step of at most 1e-6 rad or 1e-6 max(1, |p|_inf) m and of
+/// sd / 100), one-sided where one side changes a contact's mode (no impulse, sliding, sticking),
+/// the secant over +-1 sd where both sides do or the outcome jumps, with a warning naming the
+/// dimension's field for either.
 ///
 /// Throws InvalidInput naming the field: the scene (as validate()), "uncertainties[k].contact"
 /// (out of range or repeated), "uncertainties[k].restitution.std_dev" ... (CheckedDistribution),
 /// "uncertainties[k].dynamic_friction.mean" when the mean of mu_d exceeds that of mu_s,
-/// "uncertainties[k].normal_std_dev" / ".point_std_dev.x|y|z" when negative or not finite,
+/// "uncertainties[k].normal_std_dev" / ".point_std_dev.x|y|z" when negative, not finite or above
+/// pi/2 rad / 1e7 m,
 /// "options.uncertainty" (kNone), "options.uncertainty_samples" (0 or over the cap, or rows x
 /// samples over kMaxSampledValues), "uncertainties" (an outcome of more than kMaxOutcomeRows rows).
 /// SolverTimeout when the whole call runs past options.time_budget (kSampled: each sample gets what
