@@ -365,19 +365,22 @@ inline double decodeSpread(ByteReader& in, double scale) {
   }
 }
 
-inline void decodeUncertainty(ByteReader& in, DecodedRequest& request) {
+// An outcome distribution's request over `contacts` contacts: false (none) when the selector byte
+// is a multiple of 4, as past the input's end; else the method, a sample count (now and then out of
+// range), a seed, and the uncertainties (now and then naming a contact past the end).
+inline bool decodeUncertainty(ByteReader& in, std::size_t contacts,
+                              std::vector<core::ContactUncertainty>& uncertainties,
+                              core::UncertaintyOptions& uncertainty) {
   const std::uint8_t selector = in.byte();
-  if (selector % 4 == 0) return;  // (also when the input has run out)
-  request.with_uncertainty = true;
-  request.uncertainty.method =
+  if (selector % 4 == 0) return false;  // (also when the input has run out)
+  uncertainty.method =
       selector % 4 == 3 ? core::UncertaintyMethod::kSampled : core::UncertaintyMethod::kLinear;
   // Few samples, and now and then a count out of range (0, over the cap).
   const std::uint8_t samples = in.byte();
-  request.uncertainty.samples = samples == 255   ? core::kMaxUncertaintySamples + 1
-                                : samples == 254 ? 0
-                                                 : 1 + samples % 16;
-  request.uncertainty.seed = in.byte();
-  const std::size_t contacts = request.scene.contacts.size();
+  uncertainty.samples = samples == 255   ? core::kMaxUncertaintySamples + 1
+                        : samples == 254 ? 0
+                                         : 1 + samples % 16;
+  uncertainty.seed = in.byte();
   const std::size_t count = in.byte() % (contacts + 2);
   for (std::size_t k = 0; k < count; ++k) {
     core::ContactUncertainty u;
@@ -387,8 +390,9 @@ inline void decodeUncertainty(ByteReader& in, DecodedRequest& request) {
     u.dynamic_friction = decodeCoefficient(in, 1.0);
     u.normal_std_dev = decodeSpread(in, 0.2);
     for (int axis = 0; axis < 3; ++axis) u.point_std_dev[axis] = decodeSpread(in, 0.05);
-    request.uncertainties.push_back(u);
+    uncertainties.push_back(u);
   }
+  return true;
 }
 
 }  // namespace detail
@@ -405,7 +409,8 @@ inline DecodedRequest decodeRequest(const std::uint8_t* data, std::size_t size) 
     request.scene.bodies.push_back(detail::decodeBody(in, i));
   for (std::size_t i = 0; i < contact_count; ++i)
     request.scene.contacts.push_back(detail::decodeContact(in, request.scene.bodies));
-  detail::decodeUncertainty(in, request);
+  request.with_uncertainty = detail::decodeUncertainty(in, request.scene.contacts.size(),
+                                                       request.uncertainties, request.uncertainty);
   return request;
 }
 
@@ -551,19 +556,20 @@ namespace detail {
 // body, 4 per contact), a symmetric covariance with a non-negative diagonal, q05 <= mean <= q95
 // (linear: symmetric about the mean), probabilities in [0, 1], finite numbers where the prediction
 // is finite (non_finite otherwise).
-inline std::string checkDistribution(const DecodedRequest& request, const core::CollisionResult& r,
+// `m` the rows expected, `contacts` the contacts, `method` the method asked for.
+inline std::string checkDistribution(Eigen::Index m, std::size_t contacts,
+                                     core::UncertaintyMethod method,
                                      const core::OutcomeDistribution& d, bool& non_finite) {
-  Eigen::Index movable = 0;
-  for (const core::BodyState& body : request.scene.bodies) movable += body.immovable() ? 0 : 1;
-  const Eigen::Index m = 6 * movable + 4 * static_cast<Eigen::Index>(request.scene.contacts.size());
   if (d.mean.size() != m || d.covariance.rows() != m || d.covariance.cols() != m ||
       d.q05.size() != m || d.q95.size() != m || d.labels.size() != static_cast<std::size_t>(m))
     return "uncertainty: the distribution's sizes differ from the prediction's rows";
-  if (d.stick_probability.size() != request.scene.contacts.size())
+  if (d.stick_probability.size() != contacts)
     return "uncertainty: one stick probability per contact expected";
-  if (d.method != request.uncertainty.method) return "uncertainty: another method answered";
+  if (d.method != method) return "uncertainty: another method answered";
   for (const double p : d.stick_probability)
     if (!(p >= 0.0 && p <= 1.0)) return "uncertainty: a stick probability outside [0, 1]";
+  for (const double p : d.limit_probability)
+    if (!(p >= 0.0 && p <= 1.0)) return "uncertainty: a limit probability outside [0, 1]";
   if (!d.mean.allFinite() || !d.covariance.allFinite() || !d.q05.allFinite() ||
       !d.q95.allFinite()) {
     non_finite = true;
@@ -582,7 +588,6 @@ inline std::string checkDistribution(const DecodedRequest& request, const core::
         (d.q05(i) > d.mean(i) + slack || d.q95(i) < d.mean(i) - slack))
       return "uncertainty: linear quantiles not about the mean";
   }
-  (void)r;
   return "";
 }
 
@@ -627,8 +632,12 @@ inline Outcome run(const DecodedRequest& request) {
     outcome.bug = "uncertainty: unexpected exception of unknown type";
     return outcome;
   }
-  outcome.bug =
-      detail::checkDistribution(request, outcome.result, outcome.distribution, outcome.non_finite);
+  Eigen::Index movable = 0;
+  for (const core::BodyState& body : request.scene.bodies) movable += body.immovable() ? 0 : 1;
+  outcome.bug = detail::checkDistribution(
+      6 * movable + 4 * static_cast<Eigen::Index>(request.scene.contacts.size()),
+      request.scene.contacts.size(), request.uncertainty.method, outcome.distribution,
+      outcome.non_finite);
   return outcome;
 }
 
