@@ -11,6 +11,7 @@
 
 #include "collision_response/core/errors.h"
 #include "collision_response/core/validation.h"
+#include "collision_response/robot/urdf_text.h"
 
 namespace collision_response::robot {
 namespace {
@@ -106,6 +107,7 @@ void requireUsableModel(const urdf::Model& model) {
 }  // namespace
 
 std::shared_ptr<RobotModel> robotModelFromUrdfString(const std::string& xml, BaseType base) {
+  requireUrdfText(xml);  // before TinyXML, which reads past a cut UTF-8 sequence
   urdf::Model model;
   if (!model.initString(xml)) throw core::InvalidInput(kField, "the document does not parse");
   requireUsableModel(model);

@@ -14,6 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "collision_response/core/errors.h"
+#include "collision_response/robot/urdf_text.h"
+
 namespace collision_response {
 namespace {
 
@@ -147,6 +150,11 @@ std::map<std::string, detection::BodyGeometry> linkCollisionGeometry(
 
 std::map<std::string, detection::BodyGeometry> linkCollisionGeometryFromUrdf(
     const std::string& xml) {
+  try {
+    robot::requireUrdfText(xml);  // before TinyXML, which reads past a cut UTF-8 sequence
+  } catch (const core::InvalidInput& e) {
+    throw std::invalid_argument(e.what());
+  }
   urdf::Model model;
   if (!model.initString(xml)) throw std::invalid_argument("URDF: the document does not parse");
   return linkCollisionGeometry(model);

@@ -18,6 +18,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "collision_response/core/errors.h"
 #include "collision_response/robot/algorithms.h"
@@ -456,6 +457,49 @@ TEST(ArticulatedBody, SingularInertiaIsRejectedNamingTheJoint) {
   EXPECT_THROW(rb::robotFromUrdfString("<robot"), collision_response::core::InvalidInput);
   EXPECT_THROW(rb::robotFromUrdfFile(kDir + "/missing.urdf"),
                collision_response::core::InvalidInput);
+}
+
+// The URDF's text is checked before TinyXML reads it (urdf_text.h): UTF-8 without NUL. The robot
+// fuzz target found TinyXML reading past the end of a text that ends in a cut UTF-8 sequence
+// (test/fuzz/regressions/robot/); every broken form is refused naming the byte and its line, and
+// real UTF-8 (a comment in three scripts) still loads.
+TEST(ArticulatedBody, UrdfTextThatIsNotUtf8IsRefusedNamingTheByte) {
+  const std::string head = "<?xml version=\"1.0\"?>\n<robot name=\"r\">\n<!-- ";
+  const std::string tail = " -->\n<link name=\"base\"/>\n</robot>\n";
+  // "Smørbrød, 機械, 🤖": two-, three- and four-byte sequences.
+  const std::string fine =
+      "Sm\xc3\xb8rbr\xc3\xb8"
+      "d, \xe6\xa9\x9f\xe6\xa2\xb0, \xf0\x9f\xa4\x96";
+  EXPECT_EQ(rb::robotFromUrdfString(head + fine + tail).jointCount(), 0);
+  struct Case {
+    std::string text;
+    std::size_t byte;  // the offset the error must name
+    std::size_t line;
+  };
+  const std::size_t at = head.size();  // the comment's first byte, on line 3
+  const std::vector<Case> cases = {
+      {head + "ok" + tail + "\xf0", head.size() + 2 + tail.size(), 6},  // cut at the end
+      {head + "\xc3", at, 3},                                           // cut at the end
+      {head + "a" + std::string(1, '\0') + tail, at + 1, 3},            // a NUL
+      {head + "\xc0\xaf" + tail, at, 3},                                // overlong '/'
+      {head + "\xe0\x80\xaf" + tail, at + 1, 3},                        // overlong '/'
+      {head + "\xed\xa0\x80" + tail, at + 1, 3},                        // a surrogate
+      {head + "\xf4\x90\x80\x80" + tail, at + 1, 3},                    // beyond U+10FFFF
+      {head + "\xe2\x28\xa1" + tail, at + 1, 3},                        // '(' inside
+      {head + "x\x80" + tail, at + 1, 3},                               // a lone continuation
+      {head + "\xff" + tail, at, 3}};
+  for (const Case& c : cases) {
+    try {
+      rb::robotFromUrdfString(c.text);
+      ADD_FAILURE() << "accepted a text with byte " << c.byte << " broken";
+    } catch (const collision_response::core::InvalidInput& error) {
+      EXPECT_EQ(error.field(), "URDF");
+      const std::string expected =
+          "byte " + std::to_string(c.byte) + " (line " + std::to_string(c.line) + ")";
+      EXPECT_NE(error.reason().find(expected), std::string::npos)
+          << error.what() << " (expected " << expected << ")";
+    }
+  }
 }
 
 // Model and data (docs/robots.md): copies of a body share one model and own their state; a change

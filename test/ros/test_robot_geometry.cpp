@@ -245,6 +245,16 @@ TEST(RobotGeometry, ErrorsNameTheLinkAndTheCollision) {
             0u)
       << messageOf(flat);
   EXPECT_THROW(linkCollisionGeometryFromUrdf("<robot>"), std::invalid_argument);
+  // A text ending in a cut UTF-8 sequence (TinyXML would read past its end): refused by its byte.
+  const std::string cut = "<robot name=\"r\"><link name=\"a\"/></robot>\xf0";
+  std::string message = "(accepted)";
+  try {
+    linkCollisionGeometryFromUrdf(cut);
+  } catch (const std::invalid_argument& e) {
+    message = e.what();
+  }
+  EXPECT_EQ(message.rfind("URDF: byte " + std::to_string(cut.size() - 1) + " (line 1)", 0), 0u)
+      << message;
 }
 
 // Every link of the shipped arm has collision geometry, valid for detection, and the hand's is

@@ -13,6 +13,7 @@ namespace collision_response::robot {
 /// (which KDL's tree drops) becomes the base inertia for a floating base. Joint limits are not
 /// used. <mimic> joints become the model's mimic joints (RobotModel::setMimicJoints()).
 /// Throws core::InvalidInput naming the field "URDF" (its text "URDF: ..." as before) for a
+/// text that is not UTF-8 or holds a NUL (requireUrdfText(): the byte and its line), for a
 /// document that does not parse;
 /// naming the joint for a <mimic> the body refuses ("URDF: mimic joint 'x': ...": a leader that is
 /// not a joint with a coordinate, a cycle of mimics); and naming the link or joint for a number

@@ -31,8 +31,8 @@ namespace collision_response {
 std::map<std::string, detection::BodyGeometry> linkCollisionGeometry(
     const urdf::ModelInterface& model);
 
-/// The same from a URDF document (plain URDF, no xacro); throws std::invalid_argument if it does
-/// not parse.
+/// The same from a URDF document (plain URDF, no xacro); throws std::invalid_argument if its text
+/// is not UTF-8 or holds a NUL (robot::requireUrdfText()), or it does not parse.
 std::map<std::string, detection::BodyGeometry> linkCollisionGeometryFromUrdf(
     const std::string& xml);
 
