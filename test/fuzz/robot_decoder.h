@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <exception>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -43,6 +44,7 @@
 #include "collision_response/core/body_state.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/core/uncertainty.h"
 #include "collision_response/core/validation.h"
 #include "collision_response/ros/robot_conversion.h"
 #include "collision_response/ros/served_robot.h"
@@ -711,6 +713,9 @@ inline RobotOutcome runRobotInput(const std::uint8_t* data, std::size_t size,
       std::fflush(stdout);
       text.str("");
     }
+    // Pre-impact copies of the bodies, for the outcome distribution below.
+    std::vector<core::RigidBody> rigid_copy = rigid;
+    robot::ArticulatedBody robot_copy = robot;
     const core::BodyResponse result = core::computeBodyResponse(models, points, options);
     std_msgs::Header header;
     header.frame_id = "world";
@@ -728,6 +733,41 @@ inline RobotOutcome runRobotInput(const std::uint8_t* data, std::size_t size,
          << list(answer.joint_state.effort) << ", energy " << answer.kinetic_energy_before << " -> "
          << answer.kinetic_energy_after << ", warnings " << list(warnings) << "\n";
     outcome.bug = checkAnswer(result, rigid, answer, contact_torques);
+
+    // The same request's outcome distribution (linear or sampled), decoded from the bytes left:
+    // none when they have run out, so that saved inputs replay as before.
+    std::vector<core::ContactUncertainty> uncertainties;
+    core::UncertaintyOptions method;
+    if (outcome.bug.empty() &&
+        detail::decodeUncertainty(bytes, points.size(), uncertainties, method)) {
+      std::vector<core::BodyModel*> copies;
+      for (core::RigidBody& body : rigid_copy) copies.push_back(&body);
+      copies.push_back(&robot_copy);
+      Eigen::Index unknowns = 0;
+      for (const core::BodyModel* body : copies) unknowns += body->velocityCount();
+      Eigen::VectorXd limits =
+          Eigen::VectorXd::Constant(unknowns, std::numeric_limits<double>::infinity());
+      const Eigen::Index robot_offset = unknowns - robot_copy.velocityCount();
+      for (int k = 0; k < robot_copy.velocityCount(); ++k) {
+        const int joint = robot_copy.jointOfUnknown(k);
+        if (joint >= 0) limits(robot_offset + k) = robot_copy.velocityLimit(joint);
+      }
+      const Eigen::VectorXd before = robot_copy.velocity();
+      text << "uncertainty: " << core::toString(method.method) << ", samples " << method.samples
+           << ", " << uncertainties.size() << " entries\n";
+      const core::OutcomeDistribution distribution = core::computeBodyOutcomeDistribution(
+          {copies}, points, uncertainties, limits, options, method, nullptr);
+      bool non_finite = false;
+      outcome.bug =
+          detail::checkDistribution(unknowns + 4 * static_cast<Eigen::Index>(points.size()),
+                                    points.size(), method.method, distribution, non_finite);
+      if (outcome.bug.empty() &&
+          distribution.limit_probability.size() != static_cast<std::size_t>(unknowns))
+        outcome.bug = "uncertainty: one limit probability per velocity unknown expected";
+      if (outcome.bug.empty() &&
+          !((robot_copy.velocity() - before).norm() <= 1e-9 * (1.0 + before.norm())))
+        outcome.bug = "uncertainty: the robot's copy did not end at its pre-impact velocities";
+    }
   } catch (const core::InvalidInput& error) {
     outcome.invalid = error.what();
     text << "outcome: InvalidInput: " << error.what() << "\n";
