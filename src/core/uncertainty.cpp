@@ -760,6 +760,15 @@ struct GeometryJacobian {
   std::vector<Warning> warnings;
 };
 
+// `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` the geometry's slip
+// speeds' rows: the end of rigidGeometryJacobian() and bodyGeometryJacobian().
+void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& columns,
+                         GeometryJacobian& out) {
+  out.jacobian.resize(coefficients.rows(), coefficients.cols() + columns.outcome.cols());
+  out.jacobian << coefficients, columns.outcome;
+  out.slip_speed = std::move(columns.slip_speed);
+}
+
 [[gnu::noinline]] GeometryJacobian rigidGeometryJacobian(
     const Prepared& prepared, const ImpactDerivatives& derivatives,
     const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
@@ -800,10 +809,8 @@ struct GeometryJacobian {
       changed->point = kept_point;
     }
   };
-  const GeometryColumns columns = differenceGeometry(prepared, m, contacts, evaluate, out.warnings);
-  out.jacobian.resize(m, derivatives.jacobian.cols() + columns.outcome.cols());
-  out.jacobian << derivatives.jacobian, columns.outcome;
-  out.slip_speed = columns.slip_speed;
+  joinGeometryColumns(derivatives.jacobian,
+                      differenceGeometry(prepared, m, contacts, evaluate, out.warnings), out);
   return out;
 }
 
@@ -1109,6 +1116,59 @@ std::vector<std::string> bodyOutcomeLabels(Eigen::Index velocity_count, std::siz
   return labels;
 }
 
+// The robot path's counterpart of rigidGeometryJacobian(): each difference solves
+// computeBodyResponse() from the pre-impact velocities (`restore`) with the contact moved, and
+// reads the bodies' velocities after it; the bodies are left at the last solve's velocities.
+template <class Restore>
+[[gnu::noinline]] GeometryJacobian bodyGeometryJacobian(
+    const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& mean_contacts,
+    const Prepared& prepared, const BodyImpactDerivatives& derivatives, Restore&& restore,
+    const SolverOptions& options, std::chrono::steady_clock::time_point start) {
+  GeometryJacobian out;
+  const Eigen::Index m = derivatives.jacobian.rows();
+  const Eigen::Index velocity_count = derivatives.velocity_count;
+  const std::size_t count = mean_contacts.size();
+  std::vector<ContactPoint> moved = mean_contacts;
+  for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
+  auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
+                      Eigen::VectorXd& values, std::vector<int>& modes) {
+    ContactPoint* changed =
+        u < prepared.contacts.size() ? &moved[prepared.contacts[u].contact] : nullptr;
+    const ContactPoint kept = changed ? *changed : ContactPoint();
+    if (changed) {
+      changed->normal = normal;
+      changed->point = point;
+    }
+    restore();
+    const BodyResponse after = computeBodyResponse(bodies, moved, remainingBudget(options, start));
+    for (std::size_t b = 0; b < bodies.size(); ++b)
+      if (derivatives.velocity_offset[b] >= 0)
+        values.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) =
+            bodies[b]->velocity();
+    Eigen::Index row = velocity_count;
+    for (std::size_t c = 0; c < count; ++c) {
+      const ContactImpulse& impulse = after.impulses[c];
+      values(row++) = impulse.normal_impulse;
+      values.segment<3>(row) = impulse.friction_impulse;
+      row += 3;
+    }
+    for (std::size_t c = 0; c < count; ++c) {
+      const ContactPoint& contact = moved[c];
+      const Eigen::Vector3d slip =
+          bodies[static_cast<std::size_t>(contact.body_b)]->partPointVelocity(contact.part_b,
+                                                                              contact.point) -
+          bodies[static_cast<std::size_t>(contact.body_a)]->partPointVelocity(contact.part_a,
+                                                                              contact.point);
+      values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
+      modes[c] = modeCode(after.impulses[c]);
+    }
+    if (changed) *changed = kept;
+  };
+  joinGeometryColumns(derivatives.jacobian,
+                      differenceGeometry(prepared, m, count, evaluate, out.warnings), out);
+  return out;
+}
+
 // The linear method for general bodies (docs/uncertainty.md, "Robots"):
 // computeBodyImpactDerivatives() at the coefficients' means (prepared.mean_scene's), mean = its
 // prediction, the spread as the rigid-body path's (linearSpread()), the slip of a sliding contact
@@ -1161,60 +1221,17 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
     }
     // An uncertain normal or point: its columns by differences of the solver, after the
     // coefficients'; the bodies then go back to the prediction's velocities (slip_of() reads them).
-    const Eigen::MatrixXd* jacobian = &derivatives.jacobian;
-    Eigen::MatrixXd extended;
-    GeometryColumns geometry;
-    std::vector<Warning> geometry_warnings;
+    std::optional<GeometryJacobian> geometry;
     if (!prepared.geometry.empty()) {
-      const std::size_t count = contacts.size();
-      std::vector<ContactPoint> moved = mean_contacts;
-      for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
-      auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal,
-                          const Eigen::Vector3d& point, Eigen::VectorXd& values,
-                          std::vector<int>& modes) {
-        ContactPoint* changed =
-            u < prepared.contacts.size() ? &moved[prepared.contacts[u].contact] : nullptr;
-        const ContactPoint kept = changed ? *changed : ContactPoint();
-        if (changed) {
-          changed->normal = normal;
-          changed->point = point;
-        }
-        restore();
-        const BodyResponse after =
-            computeBodyResponse(bodies, moved, remainingBudget(options, start));
-        for (std::size_t b = 0; b < bodies.size(); ++b)
-          if (derivatives.velocity_offset[b] >= 0)
-            values.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) =
-                bodies[b]->velocity();
-        Eigen::Index row = velocity_count;
-        for (std::size_t c = 0; c < count; ++c) {
-          const ContactImpulse& impulse = after.impulses[c];
-          values(row++) = impulse.normal_impulse;
-          values.segment<3>(row) = impulse.friction_impulse;
-          row += 3;
-        }
-        for (std::size_t c = 0; c < count; ++c) {
-          const ContactPoint& contact = moved[c];
-          const Eigen::Vector3d slip =
-              bodies[static_cast<std::size_t>(contact.body_b)]->partPointVelocity(contact.part_b,
-                                                                                  contact.point) -
-              bodies[static_cast<std::size_t>(contact.body_a)]->partPointVelocity(contact.part_a,
-                                                                                  contact.point);
-          values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
-          modes[c] = modeCode(after.impulses[c]);
-        }
-        if (changed) *changed = kept;
-      };
-      geometry = differenceGeometry(prepared, m, count, evaluate, geometry_warnings);
+      geometry = bodyGeometryJacobian(bodies, mean_contacts, prepared, derivatives, restore,
+                                      options, start);
       for (std::size_t b = 0; b < bodies.size(); ++b)
         if (derivatives.velocity_offset[b] >= 0)
           bodies[b]->addVelocityChange(
               outcome.mean.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) -
               bodies[b]->velocity());
-      extended.resize(m, derivatives.jacobian.cols() + geometry.outcome.cols());
-      extended << derivatives.jacobian, geometry.outcome;
-      jacobian = &extended;
     }
+    const Eigen::MatrixXd* jacobian = geometry ? &geometry->jacobian : &derivatives.jacobian;
     auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
       const ContactPoint& contact = mean_contacts[c];
       for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
@@ -1228,9 +1245,9 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
       }
     };
     linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
-                 prepared, slip_of, prepared.geometry.empty() ? nullptr : &geometry.slip_speed,
-                 outcome);
-    for (Warning& warning : geometry_warnings) outcome.warnings.push_back(std::move(warning));
+                 prepared, slip_of, geometry ? &geometry->slip_speed : nullptr, outcome);
+    if (geometry)
+      for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   } catch (...) {
     restore();
     throw;
