@@ -1,5 +1,6 @@
 #include "collision_response/robot/urdf_text.h"
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -54,12 +55,9 @@ void requireUrdfText(const std::string& xml) {
     } else {
       refuse(xml, i, hexByte(lead) + " cannot start a UTF-8 sequence (the text must be UTF-8)");
     }
-    if (size - i < length) {
-      refuse(xml, i,
-             "a UTF-8 sequence cut short by the end of the text (" + hexByte(lead) + " needs " +
-                 std::to_string(length - 1) + " more byte(s))");
-    }
-    for (std::size_t k = 1; k < length; ++k) {
+    // The continuation bytes the text has, then (if it ends inside the sequence) the missing ones.
+    const std::size_t present = std::min(length, size - i);
+    for (std::size_t k = 1; k < present; ++k) {
       const std::uint8_t next = bytes[i + k];
       const bool ok = k == 1 ? next >= low && next <= high : next >= 0x80 && next <= 0xbf;
       if (!ok) {
@@ -67,6 +65,11 @@ void requireUrdfText(const std::string& xml) {
                hexByte(next) + " is not a valid continuation of the UTF-8 sequence started by " +
                    hexByte(lead) + " at byte " + std::to_string(i) + " (the text must be UTF-8)");
       }
+    }
+    if (present < length) {
+      refuse(xml, i,
+             "a UTF-8 sequence cut short by the end of the text (" + hexByte(lead) + " needs " +
+                 std::to_string(length - present) + " more byte(s))");
     }
     i += length;
   }

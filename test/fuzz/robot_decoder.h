@@ -9,7 +9,11 @@
 // collision geometry through linkCollisionGeometryFromUrdf()), JointStateCache::update(),
 // basePoseFromMsg() (no base pose: the identity stands in for tf2's look-up),
 // robotAtRequestState(), core::SceneValidator (bodies, options, contacts with the links' ids),
-// core::computeBodyResponse(), toMsg() and restingContactTorques(). Not covered: tf2, contact
+// core::computeBodyResponse(), toMsg() and restingContactTorques(), then (from the bytes left, if
+// any) the same request's outcome distribution, core::computeBodyOutcomeDistribution() on
+// pre-impact copies with the URDF's velocity limits, checked as the core target's plus one limit
+// probability per velocity unknown and the robot's copy back at its pre-impact velocities. Not
+// covered: tf2, contact
 // detection (the contacts are given), the service's message conversion of rigid bodies and
 // options (core values are given directly; validation is the same).
 //

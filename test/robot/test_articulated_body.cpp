@@ -480,13 +480,15 @@ TEST(ArticulatedBody, UrdfTextThatIsNotUtf8IsRefusedNamingTheByte) {
   const std::vector<Case> cases = {
       {head + "ok" + tail + "\xf0", head.size() + 2 + tail.size(), 6},  // cut at the end
       {head + "\xc3", at, 3},                                           // cut at the end
-      {head + "a" + std::string(1, '\0') + tail, at + 1, 3},            // a NUL
-      {head + "\xc0\xaf" + tail, at, 3},                                // overlong '/'
-      {head + "\xe0\x80\xaf" + tail, at + 1, 3},                        // overlong '/'
-      {head + "\xed\xa0\x80" + tail, at + 1, 3},                        // a surrogate
-      {head + "\xf4\x90\x80\x80" + tail, at + 1, 3},                    // beyond U+10FFFF
-      {head + "\xe2\x28\xa1" + tail, at + 1, 3},                        // '(' inside
-      {head + "x\x80" + tail, at + 1, 3},                               // a lone continuation
+      {head + "\xf0\x9f\xa4", at, 3},  // cut at the end, one byte short (needs 1 more byte)
+      {head + "\xe2\x28", at + 1, 3},  // at the end, and '(' inside: the '(' is named
+      {head + "a" + std::string(1, '\0') + tail, at + 1, 3},  // a NUL
+      {head + "\xc0\xaf" + tail, at, 3},                      // overlong '/'
+      {head + "\xe0\x80\xaf" + tail, at + 1, 3},              // overlong '/'
+      {head + "\xed\xa0\x80" + tail, at + 1, 3},              // a surrogate
+      {head + "\xf4\x90\x80\x80" + tail, at + 1, 3},          // beyond U+10FFFF
+      {head + "\xe2\x28\xa1" + tail, at + 1, 3},              // '(' inside
+      {head + "x\x80" + tail, at + 1, 3},                     // a lone continuation
       {head + "\xff" + tail, at, 3}};
   for (const Case& c : cases) {
     try {
@@ -498,6 +500,8 @@ TEST(ArticulatedBody, UrdfTextThatIsNotUtf8IsRefusedNamingTheByte) {
           "byte " + std::to_string(c.byte) + " (line " + std::to_string(c.line) + ")";
       EXPECT_NE(error.reason().find(expected), std::string::npos)
           << error.what() << " (expected " << expected << ")";
+      if (c.text == head + "\xf0\x9f\xa4")
+        EXPECT_NE(error.reason().find("needs 1 more byte"), std::string::npos) << error.what();
     }
   }
 }
