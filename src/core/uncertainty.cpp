@@ -339,14 +339,18 @@ std::string percentText(double fraction) {
 // dimension. The geometry's dimensions (after the coefficients') have
 // their columns after the coefficients' and `geometry_speed` (contacts x their count; null without
 // them): the derivatives of each contact's slip speed after the impact, which also moves with the
-// contact's own point and normal, not only with the bodies' velocities that slip_of() reads.
+// contact's own point and normal, not only with the bodies' velocities that slip_of() reads; and
+// `geometry_rate` (the same shape): the derivatives of the slip speed's own rate in the contact's
+// mu_d, which the margin's slope also holds (margin = mu_s - mu_d + s / s_mu, d margin / d x =
+// (ds/dx) / s_mu - s (d s_mu / dx) / s_mu^2).
 template <class SlipOf>
 double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                               const ContactImpulse& impulse, ImpactMode mode,
                               const Prepared& prepared, std::size_t c,
                               const int* column_of_dimension, const unsigned char* column_used,
                               const double* variance, double* gradient, SlipOf& slip_of,
-                              const Eigen::MatrixXd* geometry_speed) {
+                              const Eigen::MatrixXd* geometry_speed,
+                              const Eigen::MatrixXd* geometry_rate) {
   const Contact& contact = prepared.mean_scene.contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
@@ -394,8 +398,11 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
       if (k == mu_d_column) continue;  // mu_d decides how it slides, not whether it sticks
       gradient[j] = speed_rate(k) / by_mu_d;
     }
-    for (Eigen::Index j = coefficient_dims; j < dims; ++j)
-      gradient[j] = (*geometry_speed)(static_cast<Eigen::Index>(c), j - coefficient_dims) / by_mu_d;
+    for (Eigen::Index j = coefficient_dims; j < dims; ++j) {
+      const auto row = static_cast<Eigen::Index>(c);
+      gradient[j] = (*geometry_speed)(row, j - coefficient_dims) / by_mu_d -
+                    speed * (*geometry_rate)(row, j - coefficient_dims) / (by_mu_d * by_mu_d);
+    }
     if (mu_s_dimension >= 0) gradient[mu_s_dimension] += 1.0;
   }
   double margin_variance = 0.0;
@@ -487,13 +494,14 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
 // `jacobian` and `velocity_count` as linearStickProbability() takes them; `impulses` and `modes`:
 // the prediction's, one per contact.
 // With an uncertain normal or point, `jacobian` has the geometry's columns last and
-// `geometry_speed` is as linearStickProbability() takes it (differenceGeometry()); else null.
+// `geometry_speed` and `geometry_rate` are as linearStickProbability() takes them
+// (differenceGeometry()); else null.
 template <class SlipOf>
 void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                   const std::vector<ContactImpulse>& impulses,
                   const std::vector<ContactDerivativeMode>& modes, const Prepared& prepared,
                   SlipOf&& slip_of, const Eigen::MatrixXd* geometry_speed,
-                  OutcomeDistribution& outcome) {
+                  const Eigen::MatrixXd* geometry_rate, OutcomeDistribution& outcome) {
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = jacobian.rows();
   const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
@@ -564,7 +572,7 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   for (std::size_t c = 0; c < contacts; ++c)
     outcome.stick_probability[c] = linearStickProbability(
         jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c, column_of_dimension,
-        column_used, variance, gradient, slip_of, geometry_speed);
+        column_used, variance, gradient, slip_of, geometry_speed, geometry_rate);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -636,15 +644,18 @@ double tangentialSpeed(const Eigen::Vector3d& slip, const Eigen::Vector3d& norma
 // at least base / 1000, base = kGeometryStep [rad] for a tilt and kGeometryStep max(1, |p|_inf) [m]
 // for a point. `evaluate(u, normal, point, values, modes)` solves with prepared.contacts[u]'s
 // contact at that normal and point (every other contact as it is; every normal taken unit),
-// writes the m rows then the `contacts` slip speeds into `values`, and each contact's modeCode()
-// into `modes`; evaluate(npos, ...) solves at the mean geometry. The difference is kept within the
-// modes of the mean solve: where one side changes a contact's mode, it is one-sided on the other
-// side; where both do, or where the two one-sided differences disagree (the outcome jumps with no
-// contact changing its mode: a split of the impulse that is not unique), the column is the secant
-// over +-1 standard deviation. Each such dimension is named by a warning (once per field).
+// writes the m rows, then the `contacts` slip speeds, then their rates in each contact's own mu_d
+// (slipSpeedRate(); 0 for every contact unless one slides at the mean) into `values`, and each
+// contact's modeCode() into `modes`; evaluate(npos, ...) solves at the mean geometry. The
+// difference is kept within the modes of the mean solve: where one side changes a contact's mode,
+// it is one-sided on the other side; where both do, or where the two one-sided differences disagree
+// (the outcome jumps with no contact changing its mode: a split of the impulse that is not unique),
+// the column is the secant over +-1 standard deviation. Each such dimension is named by a warning
+// (once per field).
 struct GeometryColumns {
   Eigen::MatrixXd outcome;     // m x geometry dimensions
   Eigen::MatrixXd slip_speed;  // contacts x geometry dimensions [m/s per rad, or per m]
+  Eigen::MatrixXd speed_rate;  // the same of d(slip speed) / d(own mu_d) [m/s per rad, or per m]
 };
 
 constexpr double kGeometryStep = 1e-6;
@@ -664,9 +675,10 @@ template <class Evaluate>
 GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std::size_t contacts,
                                    Evaluate&& evaluate, std::vector<Warning>& warnings) {
   const auto count = static_cast<Eigen::Index>(prepared.geometry.size());
-  const Eigen::Index rows = m + static_cast<Eigen::Index>(contacts);
-  GeometryColumns columns{Eigen::MatrixXd(m, count),
-                          Eigen::MatrixXd(static_cast<Eigen::Index>(contacts), count)};
+  const auto c_rows = static_cast<Eigen::Index>(contacts);
+  const Eigen::Index rows = m + 2 * c_rows;
+  GeometryColumns columns{Eigen::MatrixXd(m, count), Eigen::MatrixXd(c_rows, count),
+                          Eigen::MatrixXd(c_rows, count)};
   Eigen::VectorXd plus(rows), minus(rows), mean(rows);
   std::vector<int> plus_modes(contacts), minus_modes(contacts), mean_modes(contacts);
   evaluate(static_cast<std::size_t>(-1), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), mean,
@@ -725,7 +737,8 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
       column = (plus - minus) / (2.0 * dimension.std_dev);
     }
     columns.outcome.col(g) = column.head(m);
-    columns.slip_speed.col(g) = column.tail(static_cast<Eigen::Index>(contacts));
+    columns.slip_speed.col(g) = column.segment(m, c_rows);
+    columns.speed_rate.col(g) = column.tail(c_rows);
     if (plus_kept && minus_kept && !secant) continue;
     static constexpr std::array<std::string_view, 5> kFields = {
         ".normal_std_dev", ".normal_std_dev", ".point_std_dev.x", ".point_std_dev.y",
@@ -757,8 +770,28 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
 struct GeometryJacobian {
   Eigen::MatrixXd jacobian;
   Eigen::MatrixXd slip_speed;
+  Eigen::MatrixXd speed_rate;
   std::vector<Warning> warnings;
 };
+
+// The rate of a contact's tangential slip speed |P slip| (P = I - n n^T, n = normalize(normal)) by
+// a parameter that moves the slip by `slip_rate` [m/s per unit]; 0 at zero slip (no direction).
+double slipSpeedRate(const Eigen::Vector3d& slip, const Eigen::Vector3d& normal,
+                     const Eigen::Vector3d& slip_rate) {
+  const Eigen::Vector3d n = normal.normalized();
+  const Eigen::Vector3d tangential = slip - n * n.dot(slip);
+  const double speed = tangential.norm();
+  if (speed == 0.0) return 0.0;
+  return tangential.dot(slip_rate - n * n.dot(slip_rate)) / speed;
+}
+
+// Whether a contact slides at the mean (then the geometry's differences also carry each slip
+// speed's rate in its own mu_d, which the sliding contact's stick margin reads).
+bool anySliding(const std::vector<ContactDerivativeMode>& modes) {
+  return std::any_of(modes.begin(), modes.end(), [](const ContactDerivativeMode& mode) {
+    return mode.mode == ImpactMode::kSliding;
+  });
+}
 
 // `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` the geometry's slip
 // speeds' rows: the end of rigidGeometryJacobian() and bodyGeometryJacobian().
@@ -767,6 +800,7 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
   out.jacobian.resize(coefficients.rows(), coefficients.cols() + columns.outcome.cols());
   out.jacobian << coefficients, columns.outcome;
   out.slip_speed = std::move(columns.slip_speed);
+  out.speed_rate = std::move(columns.speed_rate);
 }
 
 [[gnu::noinline]] GeometryJacobian rigidGeometryJacobian(
@@ -778,6 +812,14 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   Scene moved = prepared.mean_scene;
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
+  // With a contact sliding at the mean, each solve is differentiated by every contact's mu_d.
+  const bool rates = anySliding(derivatives.contacts);
+  DerivativeColumns mu_d_columns;
+  mu_d_columns.velocities = false;
+  mu_d_columns.coefficients.assign(3 * contacts, false);
+  for (std::size_t c = 0; c < contacts; ++c)
+    mu_d_columns.coefficients[3 * c + kDynamicFriction] = true;
+  const Eigen::Index velocity_count = derivatives.velocityCount();
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     Contact* changed =
@@ -788,20 +830,38 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
       changed->normal = normal;
       changed->point = point;
     }
+    std::optional<ImpactDerivatives> differentiated;
+    if (rates) {
+      differentiated = computeValidatedImpactDerivatives(
+          moved, contact_bodies, remainingBudget(options, start), mu_d_columns);
+    }
     const CollisionResult after =
-        computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
+        rates ? std::move(differentiated->result)
+              : computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
     fillOutcome(after, derivatives.movable_bodies,
                 [&](Eigen::Index r) -> double& { return values(r); });
+    const auto c_rows = static_cast<Eigen::Index>(contacts);
     for (std::size_t c = 0; c < contacts; ++c) {
       const Contact& contact = moved.contacts[c];
       Eigen::Vector3d slip = Eigen::Vector3d::Zero();
+      Eigen::Vector3d slip_rate = Eigen::Vector3d::Zero();  // by this contact's mu_d
+      const Eigen::Index k = velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
       for (const auto& [body, sign] :
            {std::pair{contact_bodies[c].second, 1.0}, std::pair{contact_bodies[c].first, -1.0}}) {
         const BodyState& state = after.bodies[static_cast<std::size_t>(body)];
-        slip += sign * (state.linear_velocity +
-                        state.angular_velocity.cross(contact.point - state.worldCom()));
+        const Eigen::Vector3d arm = contact.point - state.worldCom();
+        slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
+        if (!rates || state.immovable()) continue;
+        const auto at =
+            std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
+        const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
+        const Eigen::MatrixXd& jacobian = differentiated->jacobian;
+        slip_rate += sign * (jacobian.block<3, 1>(rows, k) +
+                             Eigen::Vector3d(jacobian.block<3, 1>(rows + 3, k)).cross(arm));
       }
       values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
+      values(m + c_rows + static_cast<Eigen::Index>(c)) =
+          rates ? slipSpeedRate(slip, contact.normal, slip_rate) : 0.0;
       modes[c] = modeCode(after.impulses[c]);
     }
     if (changed) {
@@ -873,7 +933,8 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     }
   };
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
-               prepared, slip_of, geometry ? &geometry->slip_speed : nullptr, outcome);
+               prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
+               geometry ? &geometry->speed_rate : nullptr, outcome);
   if (geometry)
     for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   return outcome;
@@ -1130,6 +1191,8 @@ template <class Restore>
   const std::size_t count = mean_contacts.size();
   std::vector<ContactPoint> moved = mean_contacts;
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
+  // With a contact sliding at the mean, each solve is differentiated (its mu_d columns read).
+  const bool rates = anySliding(derivatives.contacts);
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     ContactPoint* changed =
@@ -1140,7 +1203,12 @@ template <class Restore>
       changed->point = point;
     }
     restore();
-    const BodyResponse after = computeBodyResponse(bodies, moved, remainingBudget(options, start));
+    std::optional<BodyImpactDerivatives> differentiated;
+    if (rates)
+      differentiated = computeBodyImpactDerivatives(bodies, moved, remainingBudget(options, start));
+    const BodyResponse after =
+        rates ? std::move(differentiated->result)
+              : computeBodyResponse(bodies, moved, remainingBudget(options, start));
     for (std::size_t b = 0; b < bodies.size(); ++b)
       if (derivatives.velocity_offset[b] >= 0)
         values.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) =
@@ -1152,14 +1220,24 @@ template <class Restore>
       values.segment<3>(row) = impulse.friction_impulse;
       row += 3;
     }
+    const auto c_rows = static_cast<Eigen::Index>(count);
     for (std::size_t c = 0; c < count; ++c) {
       const ContactPoint& contact = moved[c];
-      const Eigen::Vector3d slip =
-          bodies[static_cast<std::size_t>(contact.body_b)]->partPointVelocity(contact.part_b,
-                                                                              contact.point) -
-          bodies[static_cast<std::size_t>(contact.body_a)]->partPointVelocity(contact.part_a,
-                                                                              contact.point);
+      Eigen::Vector3d slip = Eigen::Vector3d::Zero();
+      Eigen::Vector3d slip_rate = Eigen::Vector3d::Zero();  // by this contact's mu_d
+      const Eigen::Index k = velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
+      for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
+                                             std::tuple{contact.body_a, contact.part_a, -1.0}}) {
+        const BodyModel& model = *bodies[static_cast<std::size_t>(body)];
+        slip += sign * model.partPointVelocity(part, contact.point);
+        const int offset = derivatives.velocity_offset[static_cast<std::size_t>(body)];
+        if (!rates || offset < 0) continue;
+        slip_rate += sign * model.partPointJacobian(part, contact.point) *
+                     differentiated->jacobian.block(offset, k, model.velocityCount(), 1);
+      }
       values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
+      values(m + c_rows + static_cast<Eigen::Index>(c)) =
+          rates ? slipSpeedRate(slip, contact.normal, slip_rate) : 0.0;
       modes[c] = modeCode(after.impulses[c]);
     }
     if (changed) *changed = kept;
@@ -1245,7 +1323,8 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
       }
     };
     linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
-                 prepared, slip_of, geometry ? &geometry->slip_speed : nullptr, outcome);
+                 prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
+                 geometry ? &geometry->speed_rate : nullptr, outcome);
     if (geometry)
       for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   } catch (...) {

@@ -23,6 +23,7 @@
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
 #include "scenes.h"
+#include "stick_margin.h"
 #include "uncertainty_options.h"
 
 namespace core = collision_response::core;
@@ -479,6 +480,42 @@ TEST(GeometryUncertainty, LinearStickProbabilityMovesWithTheNormal) {
   const auto smp = core::computeOutcomeDistribution(scene, {uncertain}, newton(), sampled(8192));
   EXPECT_NEAR(smp.stick_probability[0], expected, 0.01);
   EXPECT_NEAR(lin.stick_probability[0], expected, 0.02);
+}
+
+// The same ball's linear stick margin to first order, against the test's own differences:
+// mu*(a, b) = mu_d - s / (ds/dmu_d), the mu_d at which the linearised slip speed s would vanish, s
+// the ball's tangential slip speed at the point after a solve with the normal (a, b, 1)
+// normalised; ds/dmu_d by central differences (1e-6) at each tilt, the margin's slope g by
+// central differences of mu* over the tilt (1e-4); P = Phi(margin / (sigma |g|)). The slope holds
+// the change with the normal of the slip speed and of its rate in mu_d alike.
+TEST(GeometryUncertainty, LinearStickMarginUnderAnUncertainNormalMatchesTheTestsOwnDifferences) {
+  const double vx = 2.7, mu_s = 0.25, mu_d = 0.2, sigma = 0.02;
+  auto speed = [&](double a, double b, double dynamic) {
+    core::Scene scene = fallingBall();
+    scene.bodies[1].linear_velocity.x() = vx;
+    scene.contacts[0].static_friction = mu_s;
+    scene.contacts[0].dynamic_friction = dynamic;
+    scene.contacts[0].normal = Vector3d(a, b, 1.0).normalized();
+    const core::CollisionResult after = core::computeResponse(scene, newton());
+    EXPECT_FALSE(after.impulses[0].sticking);
+    const core::BodyState& ball = after.bodies[1];
+    const Vector3d n = scene.contacts[0].normal;
+    const Vector3d u =
+        ball.linear_velocity + ball.angular_velocity.cross(scene.contacts[0].point - ball.position);
+    return (u - n.dot(u) * n).norm();  // the ground does not move
+  };
+  const double stick =
+      collision_response::testing::firstOrderStickProbability(speed, mu_s, mu_d, sigma);
+  ASSERT_GT(stick, 0.05) << "the margin must be reachable: the check is weak";
+
+  core::Scene scene = fallingBall();
+  scene.bodies[1].linear_velocity.x() = vx;
+  scene.contacts[0].static_friction = mu_s;
+  scene.contacts[0].dynamic_friction = mu_d;
+  ContactUncertainty uncertain;
+  uncertain.normal_std_dev = sigma;
+  const auto lin = core::computeOutcomeDistribution(scene, {uncertain}, newton(), linear());
+  EXPECT_NEAR(lin.stick_probability[0], stick, 1e-3);
 }
 
 // At the stick/slip switch itself the linear distribution holds on one side only, and says so.
