@@ -793,8 +793,9 @@ bool anySliding(const std::vector<ContactDerivativeMode>& modes) {
   });
 }
 
-// `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` the geometry's slip
-// speeds' rows: the end of rigidGeometryJacobian() and bodyGeometryJacobian().
+// `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` and `out.speed_rate`
+// the geometry's rows of the slip speeds and of their rates in mu_d: the end of
+// rigidGeometryJacobian() and bodyGeometryJacobian().
 void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& columns,
                          GeometryJacobian& out) {
   out.jacobian.resize(coefficients.rows(), coefficients.cols() + columns.outcome.cols());
