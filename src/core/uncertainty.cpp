@@ -738,7 +738,21 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
     }
     columns.outcome.col(g) = column.head(m);
     columns.slip_speed.col(g) = column.segment(m, c_rows);
-    columns.speed_rate.col(g) = column.tail(c_rows);
+    // The rates' rows only where they have a derivative: both sides keep the modes, no secant, and
+    // the two one-sided differences agree (a rate can jump where the outcome only kinks: a sliding
+    // direction moving between the friction pyramid's edges and facets, the derivatives' method
+    // switching); elsewhere 0, the margin's slope then without its rate term.
+    columns.speed_rate.col(g).setZero();
+    if (plus_kept && minus_kept && !secant && c_rows > 0) {
+      const auto rates = [&](const Eigen::VectorXd& v) { return v.tail(c_rows); };
+      const Eigen::VectorXd size =
+          rates(mean).cwiseAbs().cwiseMax(rates(plus).cwiseAbs()).cwiseMax(rates(minus).cwiseAbs());
+      const Eigen::VectorXd floor =
+          (1e-8 / h) * size.cwiseMax(size.maxCoeff()).array() + 0.1 * size.array() + 1e-300;
+      if (!onesidedDisagree((rates(plus) - rates(mean)) / h, (rates(mean) - rates(minus)) / h,
+                            floor))
+        columns.speed_rate.col(g) = column.tail(c_rows);
+    }
     if (plus_kept && minus_kept && !secant) continue;
     static constexpr std::array<std::string_view, 5> kFields = {
         ".normal_std_dev", ".normal_std_dev", ".point_std_dev.x", ".point_std_dev.y",
@@ -764,9 +778,9 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
 }
 
 // The Jacobian with the geometry's columns after the coefficients' (differenceGeometry()), the
-// slip speeds' rows and the warnings, for the linear method on a scene with an uncertain normal or
-// point; `start`: the call's, for its time budget. (Out of line: the coefficients-only path, whose
-// cost is measured against the prediction's, does not carry it.)
+// rows of the slip speeds and of their rates in mu_d, and the warnings, for the linear method on a
+// scene with an uncertain normal or point; `start`: the call's, for its time budget. (Out of line:
+// the coefficients-only path, whose cost is measured against the prediction's, does not carry it.)
 struct GeometryJacobian {
   Eigen::MatrixXd jacobian;
   Eigen::MatrixXd slip_speed;
@@ -785,12 +799,14 @@ double slipSpeedRate(const Eigen::Vector3d& slip, const Eigen::Vector3d& normal,
   return tangential.dot(slip_rate - n * n.dot(slip_rate)) / speed;
 }
 
-// Whether a contact slides at the mean (then the geometry's differences also carry each slip
-// speed's rate in its own mu_d, which the sliding contact's stick margin reads).
-bool anySliding(const std::vector<ContactDerivativeMode>& modes) {
-  return std::any_of(modes.begin(), modes.end(), [](const ContactDerivativeMode& mode) {
-    return mode.mode == ImpactMode::kSliding;
-  });
+// Whether a frictional contact slides at the mean (then the geometry's differences also carry
+// each slip speed's rate in its own mu_d, which that contact's stick margin reads; a frictionless
+// one, reported sliding, never sticks). `contacts`: anything with frictionless(), one per mode.
+template <class Contacts>
+bool anySliding(const std::vector<ContactDerivativeMode>& modes, const Contacts& contacts) {
+  for (std::size_t c = 0; c < modes.size(); ++c)
+    if (modes[c].mode == ImpactMode::kSliding && !contacts[c].frictionless()) return true;
+  return false;
 }
 
 // `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` and `out.speed_rate`
@@ -814,7 +830,7 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
   Scene moved = prepared.mean_scene;
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
   // With a contact sliding at the mean, each solve is differentiated by every contact's mu_d.
-  const bool rates = anySliding(derivatives.contacts);
+  const bool rates = anySliding(derivatives.contacts, moved.contacts);
   DerivativeColumns mu_d_columns;
   mu_d_columns.velocities = false;
   mu_d_columns.coefficients.assign(3 * contacts, false);
@@ -1179,8 +1195,10 @@ std::vector<std::string> bodyOutcomeLabels(Eigen::Index velocity_count, std::siz
 }
 
 // The robot path's counterpart of rigidGeometryJacobian(): each difference solves
-// computeBodyResponse() from the pre-impact velocities (`restore`) with the contact moved, and
-// reads the bodies' velocities after it; the bodies are left at the last solve's velocities.
+// computeBodyResponse() (computeBodyImpactDerivatives() when a frictional contact slides at the
+// mean: every column, of which the mu_d ones are read) from the pre-impact velocities (`restore`)
+// with the contact moved, and reads the bodies' velocities after it; the bodies are left at the
+// last solve's velocities.
 template <class Restore>
 [[gnu::noinline]] GeometryJacobian bodyGeometryJacobian(
     const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& mean_contacts,
@@ -1193,7 +1211,7 @@ template <class Restore>
   std::vector<ContactPoint> moved = mean_contacts;
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
   // With a contact sliding at the mean, each solve is differentiated (its mu_d columns read).
-  const bool rates = anySliding(derivatives.contacts);
+  const bool rates = anySliding(derivatives.contacts, moved);
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     ContactPoint* changed =
