@@ -820,6 +820,63 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
   out.speed_rate = std::move(columns.speed_rate);
 }
 
+// Adds the velocity of body b against body a (`bodies` = {a, b}, scene indices) at `point` after
+// the impact to `slip` [m/s, world] and, if `slip_rate` (3 x columns) is given, its derivative by
+// `jacobian`'s columns from `first` on to each of its columns. Rigid bodies: `jacobian`'s rows
+// are 6 per body of `movable_bodies`, in order; an immovable body has none (its motion is
+// prescribed: the inputs do not move it).
+void addRigidSlip(const CollisionResult& after, const std::vector<int>& movable_bodies,
+                  const std::pair<int, int>& bodies, const Eigen::Vector3d& point,
+                  const Eigen::MatrixXd& jacobian, Eigen::Index first, Eigen::Vector3d& slip,
+                  Eigen::MatrixXd* slip_rate) {
+  for (const auto& [body, sign] : {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
+    const BodyState& state = after.bodies[static_cast<std::size_t>(body)];
+    const Eigen::Vector3d arm = point - state.worldCom();
+    slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
+    if (!slip_rate || state.immovable()) continue;
+    const auto at = std::find(movable_bodies.begin(), movable_bodies.end(), body);
+    const Eigen::Index rows = 6 * (at - movable_bodies.begin());
+    for (Eigen::Index k = 0; k < slip_rate->cols(); ++k) {
+      const Eigen::Vector3d dv = jacobian.block<3, 1>(rows, first + k);
+      const Eigen::Vector3d dw = jacobian.block<3, 1>(rows + 3, first + k);
+      slip_rate->col(k) += sign * (dv + dw.cross(arm));
+    }
+  }
+}
+
+// The same for general bodies (computeBodyImpactDerivatives()'s layout: body b's velocity
+// unknowns from `velocity_offset[b]`, none where it is -1), at the contact's point, from the
+// bodies' current velocities and their point Jacobians.
+void addBodySlip(const std::vector<BodyModel*>& bodies, const std::vector<int>& velocity_offset,
+                 const ContactPoint& contact, const Eigen::MatrixXd& jacobian, Eigen::Index first,
+                 Eigen::Vector3d& slip, Eigen::MatrixXd* slip_rate) {
+  for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
+                                         std::tuple{contact.body_a, contact.part_a, -1.0}}) {
+    const BodyModel& model = *bodies[static_cast<std::size_t>(body)];
+    slip += sign * model.partPointVelocity(part, contact.point);
+    const int offset = velocity_offset[static_cast<std::size_t>(body)];
+    if (!slip_rate || offset < 0) continue;
+    slip_rate->noalias() += sign * model.partPointJacobian(part, contact.point) *
+                            jacobian.block(offset, first, model.velocityCount(), slip_rate->cols());
+  }
+}
+
+// The general-body outcome's rows (computeBodyOutcomeDistribution()) into `values`: the bodies'
+// current velocity unknowns at their offsets, then per contact the normal and friction impulses.
+void fillBodyOutcome(const std::vector<BodyModel*>& bodies, const std::vector<int>& velocity_offset,
+                     Eigen::Index velocity_count, const std::vector<ContactImpulse>& impulses,
+                     Eigen::VectorXd& values) {
+  for (std::size_t b = 0; b < bodies.size(); ++b)
+    if (velocity_offset[b] >= 0)
+      values.segment(velocity_offset[b], bodies[b]->velocityCount()) = bodies[b]->velocity();
+  Eigen::Index row = velocity_count;
+  for (const ContactImpulse& impulse : impulses) {
+    values(row++) = impulse.normal_impulse;
+    values.segment<3>(row) = impulse.friction_impulse;
+    row += 3;
+  }
+}
+
 [[gnu::noinline]] GeometryJacobian rigidGeometryJacobian(
     const Prepared& prepared, const ImpactDerivatives& derivatives,
     const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
@@ -837,6 +894,7 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
   for (std::size_t c = 0; c < contacts; ++c)
     mu_d_columns.coefficients[3 * c + kDynamicFriction] = true;
   const Eigen::Index velocity_count = derivatives.velocityCount();
+  Eigen::MatrixXd slip_rate(3, 1);  // a slip's rate by its contact's mu_d
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     Contact* changed =
@@ -861,24 +919,14 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
     for (std::size_t c = 0; c < contacts; ++c) {
       const Contact& contact = moved.contacts[c];
       Eigen::Vector3d slip = Eigen::Vector3d::Zero();
-      Eigen::Vector3d slip_rate = Eigen::Vector3d::Zero();  // by this contact's mu_d
-      const Eigen::Index k = velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
-      for (const auto& [body, sign] :
-           {std::pair{contact_bodies[c].second, 1.0}, std::pair{contact_bodies[c].first, -1.0}}) {
-        const BodyState& state = after.bodies[static_cast<std::size_t>(body)];
-        const Eigen::Vector3d arm = contact.point - state.worldCom();
-        slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
-        if (!rates || state.immovable()) continue;
-        const auto at =
-            std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
-        const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
-        const Eigen::MatrixXd& jacobian = differentiated->jacobian;
-        slip_rate += sign * (jacobian.block<3, 1>(rows, k) +
-                             Eigen::Vector3d(jacobian.block<3, 1>(rows + 3, k)).cross(arm));
-      }
+      slip_rate.setZero();
+      addRigidSlip(after, derivatives.movable_bodies, contact_bodies[c], contact.point,
+                   rates ? differentiated->jacobian : derivatives.jacobian,
+                   velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction, slip,
+                   rates ? &slip_rate : nullptr);
       values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
       values(m + c_rows + static_cast<Eigen::Index>(c)) =
-          rates ? slipSpeedRate(slip, contact.normal, slip_rate) : 0.0;
+          rates ? slipSpeedRate(slip, contact.normal, slip_rate.col(0)) : 0.0;
       modes[c] = modeCode(after.impulses[c]);
     }
     if (changed) {
@@ -925,29 +973,8 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   const Eigen::MatrixXd* jacobian = geometry ? &geometry->jacobian : &derivatives.jacobian;
   // The slip of a sliding contact from the bodies' twists after the impact and their rows.
   auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
-    const Contact& contact = prepared.mean_scene.contacts[c];
-    auto index = [&](const std::string& id) {
-      for (std::size_t b = 0; b < result.bodies.size(); ++b)
-        if (result.bodies[b].id == id) return static_cast<int>(b);
-      return -1;  // not a body of the scene (validation rules this out)
-    };
-    const std::pair<int, int> bodies{index(contact.body_a), index(contact.body_b)};
-    for (const auto& [body, sign] :
-         {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
-      if (body < 0) continue;
-      const BodyState& state = result.bodies[static_cast<std::size_t>(body)];
-      const Eigen::Vector3d arm = contact.point - state.worldCom();
-      slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
-      if (state.immovable()) continue;  // a prescribed motion: no rows, no derivatives
-      const auto at =
-          std::find(derivatives.movable_bodies.begin(), derivatives.movable_bodies.end(), body);
-      const Eigen::Index rows = 6 * (at - derivatives.movable_bodies.begin());
-      for (Eigen::Index k = 0; k < slip_rate.cols(); ++k) {
-        const Eigen::Vector3d dv = jacobian->block<3, 1>(rows, k);
-        const Eigen::Vector3d dw = jacobian->block<3, 1>(rows + 3, k);
-        slip_rate.col(k) += sign * (dv + dw.cross(arm));
-      }
-    }
+    addRigidSlip(result, derivatives.movable_bodies, contact_bodies[c],
+                 prepared.mean_scene.contacts[c].point, *jacobian, 0, slip, &slip_rate);
   };
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
                prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
@@ -1212,6 +1239,7 @@ template <class Restore>
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
   // With a contact sliding at the mean, each solve is differentiated (its mu_d columns read).
   const bool rates = anySliding(derivatives.contacts, moved);
+  Eigen::MatrixXd slip_rate(3, 1);  // a slip's rate by its contact's mu_d
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     ContactPoint* changed =
@@ -1228,35 +1256,19 @@ template <class Restore>
     const BodyResponse after =
         rates ? std::move(differentiated->result)
               : computeBodyResponse(bodies, moved, remainingBudget(options, start));
-    for (std::size_t b = 0; b < bodies.size(); ++b)
-      if (derivatives.velocity_offset[b] >= 0)
-        values.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) =
-            bodies[b]->velocity();
-    Eigen::Index row = velocity_count;
-    for (std::size_t c = 0; c < count; ++c) {
-      const ContactImpulse& impulse = after.impulses[c];
-      values(row++) = impulse.normal_impulse;
-      values.segment<3>(row) = impulse.friction_impulse;
-      row += 3;
-    }
+    fillBodyOutcome(bodies, derivatives.velocity_offset, velocity_count, after.impulses, values);
     const auto c_rows = static_cast<Eigen::Index>(count);
     for (std::size_t c = 0; c < count; ++c) {
       const ContactPoint& contact = moved[c];
       Eigen::Vector3d slip = Eigen::Vector3d::Zero();
-      Eigen::Vector3d slip_rate = Eigen::Vector3d::Zero();  // by this contact's mu_d
-      const Eigen::Index k = velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
-      for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
-                                             std::tuple{contact.body_a, contact.part_a, -1.0}}) {
-        const BodyModel& model = *bodies[static_cast<std::size_t>(body)];
-        slip += sign * model.partPointVelocity(part, contact.point);
-        const int offset = derivatives.velocity_offset[static_cast<std::size_t>(body)];
-        if (!rates || offset < 0) continue;
-        slip_rate += sign * model.partPointJacobian(part, contact.point) *
-                     differentiated->jacobian.block(offset, k, model.velocityCount(), 1);
-      }
+      slip_rate.setZero();
+      addBodySlip(bodies, derivatives.velocity_offset, contact,
+                  rates ? differentiated->jacobian : derivatives.jacobian,
+                  velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction, slip,
+                  rates ? &slip_rate : nullptr);
       values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
       values(m + c_rows + static_cast<Eigen::Index>(c)) =
-          rates ? slipSpeedRate(slip, contact.normal, slip_rate) : 0.0;
+          rates ? slipSpeedRate(slip, contact.normal, slip_rate.col(0)) : 0.0;
       modes[c] = modeCode(after.impulses[c]);
     }
     if (changed) *changed = kept;
@@ -1306,16 +1318,8 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
     const Eigen::Index m = derivatives.jacobian.rows();
     outcome.mean.resize(m);
     // The bodies are at their post-impact velocities: the prediction's, and the slips' base.
-    for (std::size_t b = 0; b < bodies.size(); ++b)
-      if (derivatives.velocity_offset[b] >= 0)
-        outcome.mean.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) =
-            bodies[b]->velocity();
-    Eigen::Index r = velocity_count;
-    for (const ContactImpulse& impulse : derivatives.result.impulses) {
-      outcome.mean(r++) = impulse.normal_impulse;
-      outcome.mean.segment<3>(r) = impulse.friction_impulse;
-      r += 3;
-    }
+    fillBodyOutcome(bodies, derivatives.velocity_offset, velocity_count,
+                    derivatives.result.impulses, outcome.mean);
     // An uncertain normal or point: its columns by differences of the solver, after the
     // coefficients'; the bodies then go back to the prediction's velocities (slip_of() reads them).
     std::optional<GeometryJacobian> geometry;
@@ -1330,16 +1334,8 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
     }
     const Eigen::MatrixXd* jacobian = geometry ? &geometry->jacobian : &derivatives.jacobian;
     auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
-      const ContactPoint& contact = mean_contacts[c];
-      for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
-                                             std::tuple{contact.body_a, contact.part_a, -1.0}}) {
-        const BodyModel& model = *bodies[static_cast<std::size_t>(body)];
-        slip += sign * model.partPointVelocity(part, contact.point);
-        const int offset = derivatives.velocity_offset[static_cast<std::size_t>(body)];
-        if (offset < 0) continue;  // prescribed motion: the coefficients do not move it
-        slip_rate.noalias() += sign * model.partPointJacobian(part, contact.point) *
-                               jacobian->middleRows(offset, model.velocityCount());
-      }
+      addBodySlip(bodies, derivatives.velocity_offset, mean_contacts[c], *jacobian, 0, slip,
+                  &slip_rate);
     };
     linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
                  prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
