@@ -100,7 +100,9 @@ struct Prepared {
   std::vector<std::pair<int, int>> contact_bodies;  // kSampled: validate()'s
 };
 
-double& coefficient(Contact& contact, int which) {
+// Contact or ContactPoint.
+template <class AnyContact>
+double& coefficient(AnyContact& contact, int which) {
   return which == kRestitution      ? contact.restitution
          : which == kStaticFriction ? contact.static_friction
                                     : contact.dynamic_friction;
@@ -326,6 +328,16 @@ std::string percentText(double fraction) {
   return std::string(NumberText::percent(fraction));
 }
 
+// gradient[j] -= curvature * rate(c, j) for each coefficient dimension j but contact c's own mu_d
+// (linearStickProbability()'s s_mu term).
+[[gnu::noinline]] void subtractRateTerms(const Eigen::MatrixXd& rate, std::size_t c,
+                                         double curvature, const int* column_of_dimension,
+                                         Eigen::Index mu_d_column, double* gradient) {
+  const auto row = static_cast<Eigen::Index>(c);
+  for (Eigen::Index j = 0; j < rate.cols(); ++j)
+    if (column_of_dimension[j] != mu_d_column) gradient[j] -= curvature * rate(row, j);
+}
+
 // The probability that contact c sticks, from the linearised margin of its mode at the means
 // (docs/uncertainty.md): sticking, mu_s P_n - |P_t|; sliding, mu_s minus the mu_d at which the
 // linearised slip speed would vanish.
@@ -342,7 +354,9 @@ std::string percentText(double fraction) {
 // contact's own point and normal, not only with the bodies' velocities that slip_of() reads; and
 // `geometry_rate` (the same shape): the derivatives of the slip speed's own rate in the contact's
 // mu_d, which the margin's slope also holds (margin = mu_s - mu_d + s / s_mu, d margin / d x =
-// (ds/dx) / s_mu - s (d s_mu / dx) / s_mu^2).
+// (ds/dx) / s_mu - s (d s_mu / dx) / s_mu^2). `coefficient_rate` (contacts x coefficient
+// dimensions; null: 0): the same change of s_mu with each uncertain coefficient
+// (differenceCoefficientRates()).
 template <class SlipOf>
 double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                               const ContactImpulse& impulse, ImpactMode mode,
@@ -350,7 +364,8 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
                               const int* column_of_dimension, const unsigned char* column_used,
                               const double* variance, double* gradient, SlipOf& slip_of,
                               const Eigen::MatrixXd* geometry_speed,
-                              const Eigen::MatrixXd* geometry_rate) {
+                              const Eigen::MatrixXd* geometry_rate,
+                              const Eigen::MatrixXd* coefficient_rate) {
   const Contact& contact = prepared.mean_scene.contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
@@ -393,15 +408,24 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
     const double by_mu_d = speed_rate(mu_d_column);
     if (!(by_mu_d < 0.0)) return 0.0;  // more friction does not slow the slip: it never sticks
     margin = contact.static_friction - contact.dynamic_friction + speed / by_mu_d;
+    const double curvature = speed / (by_mu_d * by_mu_d);  // the s_mu term's factor
     for (Eigen::Index j = 0; j < coefficient_dims; ++j) {
       const Eigen::Index k = column_of_dimension[j];
-      if (k == mu_d_column) continue;  // mu_d decides how it slides, not whether it sticks
+      // Its own mu_d decides how it slides, not whether it sticks (under Newton's law exactly: the
+      // sticking impulse does not read it); in the margin -1 + s_mu / s_mu cancel, and the rest,
+      // -s (d s_mu / d mu_d) / s_mu^2, is the proxy's curvature, not a change of the stick
+      // condition (with it, the sliding arm of test_robot_uncertainty, which never sticks at any
+      // mu_d, got 0.045).
+      if (k == mu_d_column) continue;
       gradient[j] = speed_rate(k) / by_mu_d;
     }
+    if (coefficient_rate)
+      subtractRateTerms(*coefficient_rate, c, curvature, column_of_dimension, mu_d_column,
+                        gradient);
     for (Eigen::Index j = coefficient_dims; j < dims; ++j) {
       const auto row = static_cast<Eigen::Index>(c);
       gradient[j] = (*geometry_speed)(row, j - coefficient_dims) / by_mu_d -
-                    speed * (*geometry_rate)(row, j - coefficient_dims) / (by_mu_d * by_mu_d);
+                    curvature * (*geometry_rate)(row, j - coefficient_dims);
     }
     if (mu_s_dimension >= 0) gradient[mu_s_dimension] += 1.0;
   }
@@ -495,13 +519,14 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
 // the prediction's, one per contact.
 // With an uncertain normal or point, `jacobian` has the geometry's columns last and
 // `geometry_speed` and `geometry_rate` are as linearStickProbability() takes them
-// (differenceGeometry()); else null.
+// (differenceGeometry()); else null. `coefficient_rate`: as linearStickProbability() takes it.
 template <class SlipOf>
 void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                   const std::vector<ContactImpulse>& impulses,
                   const std::vector<ContactDerivativeMode>& modes, const Prepared& prepared,
                   SlipOf&& slip_of, const Eigen::MatrixXd* geometry_speed,
-                  const Eigen::MatrixXd* geometry_rate, OutcomeDistribution& outcome) {
+                  const Eigen::MatrixXd* geometry_rate, const Eigen::MatrixXd* coefficient_rate,
+                  OutcomeDistribution& outcome) {
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = jacobian.rows();
   const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
@@ -572,7 +597,7 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   for (std::size_t c = 0; c < contacts; ++c)
     outcome.stick_probability[c] = linearStickProbability(
         jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c, column_of_dimension,
-        column_used, variance, gradient, slip_of, geometry_speed, geometry_rate);
+        column_used, variance, gradient, slip_of, geometry_speed, geometry_rate, coefficient_rate);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -809,6 +834,84 @@ bool anySliding(const std::vector<ContactDerivativeMode>& modes, const Contacts&
   return false;
 }
 
+// The change of each contact's slip-speed rate in its own mu_d, s_mu = ds/dmu_d, with each
+// uncertain coefficient (docs/uncertainty.md, "Linear"): rows the contacts, columns
+// prepared.dimensions. A sliding contact's stick margin mu_s - mu_d + s / s_mu has the slope
+// (ds/dx) / s_mu - s (ds_mu/dx) / s_mu^2 along a coefficient x; this is ds_mu/dx, by central
+// differences of the solver's derivatives with the coefficient at its mean +- h, h = min(1e-6,
+// sd / 100) but at least 1e-9. One-sided where the other side leaves the coefficient's range (e in
+// [0, 1], mu_d >= 0) or changes a contact's mode (modeCode()); 0 (the term left out) where both
+// sides change a mode, or where the two one-sided differences disagree (the rate jumps where the
+// outcome only kinks), and for mu_s, which moves neither s nor s_mu while the modes hold, and a
+// contact's mu_d when no other contact slides (its own margin does not read it:
+// linearStickProbability()). `sliding[c]`: whether contact c slides with friction at the mean.
+// `evaluate(j, value, rates, modes)` solves with dimension j's coefficient at `value` (j = npos:
+// every coefficient at its mean) and writes each contact's s_mu (0 unless it slides) and mode.
+template <class Evaluate>
+Eigen::MatrixXd differenceCoefficientRates(const Prepared& prepared,
+                                           const std::vector<bool>& sliding, Evaluate&& evaluate) {
+  const std::size_t contacts = sliding.size();
+  const auto sliding_count = std::count(sliding.begin(), sliding.end(), true);
+  const auto rows = static_cast<Eigen::Index>(contacts);
+  const auto dims = static_cast<Eigen::Index>(prepared.dimensions.size());
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(rows, dims);
+  Eigen::VectorXd mean(rows), plus(rows), minus(rows);
+  std::vector<int> mean_modes(contacts), plus_modes(contacts), minus_modes(contacts);
+  evaluate(static_cast<std::size_t>(-1), 0.0, mean, mean_modes);
+  for (Eigen::Index j = 0; j < dims; ++j) {
+    const auto& [index, which] = prepared.dimensions[static_cast<std::size_t>(j)];
+    if (which == kStaticFriction) continue;
+    if (which == kDynamicFriction &&
+        sliding_count == (sliding[prepared.contacts[index].contact] ? 1 : 0))
+      continue;
+    const CheckedDistribution& distribution =
+        prepared.contacts[index].distributions[static_cast<std::size_t>(which)];
+    const double value = distribution.mean();
+    const double h = std::max(std::min(1e-6, 0.01 * std::sqrt(distribution.variance())), 1e-9);
+    const double upper = which == kRestitution ? 1.0 : std::numeric_limits<double>::infinity();
+    bool plus_kept = false, minus_kept = false;
+    if (value + h <= upper) {
+      evaluate(static_cast<std::size_t>(j), value + h, plus, plus_modes);
+      plus_kept = plus_modes == mean_modes;
+    }
+    if (value - h >= 0.0) {
+      evaluate(static_cast<std::size_t>(j), value - h, minus, minus_modes);
+      minus_kept = minus_modes == mean_modes;
+    }
+    if (plus_kept && minus_kept) {
+      // As the geometry's rates (differenceGeometry()): round-off 1e-8 of the rates over h, and 0.1
+      // of a rate per unit of the coefficient.
+      const Eigen::VectorXd size =
+          mean.cwiseAbs().cwiseMax(plus.cwiseAbs()).cwiseMax(minus.cwiseAbs());
+      const Eigen::VectorXd floor =
+          (1e-8 / h) * size.cwiseMax(size.maxCoeff()).array() + 0.1 * size.array() + 1e-300;
+      if (!onesidedDisagree((plus - mean) / h, (mean - minus) / h, floor))
+        out.col(j) = (plus - minus) / (2.0 * h);
+    } else if (plus_kept) {
+      out.col(j) = (plus - mean) / h;
+    } else if (minus_kept) {
+      out.col(j) = (mean - minus) / h;
+    }
+  }
+  return out;
+}
+
+// Per contact, whether it slides with friction at the mean (its stick margin then reads
+// differenceCoefficientRates()); empty when no e or mu_d is uncertain or no contact slides.
+template <class Contacts>
+std::vector<bool> slidingForRates(const Prepared& prepared,
+                                  const std::vector<ContactDerivativeMode>& modes,
+                                  const Contacts& contacts) {
+  if (!anySliding(modes, contacts) ||
+      std::all_of(prepared.dimensions.begin(), prepared.dimensions.end(),
+                  [](const auto& dimension) { return dimension.second == kStaticFriction; }))
+    return {};
+  std::vector<bool> sliding(modes.size());
+  for (std::size_t c = 0; c < modes.size(); ++c)
+    sliding[c] = modes[c].mode == ImpactMode::kSliding && !contacts[c].frictionless();
+  return sliding;
+}
+
 // `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` and `out.speed_rate`
 // the geometry's rows of the slip speeds and of their rates in mu_d: the end of
 // rigidGeometryJacobian() and bodyGeometryJacobian().
@@ -877,6 +980,65 @@ void fillBodyOutcome(const std::vector<BodyModel*>& bodies, const std::vector<in
   }
 }
 
+// Per contact of a solve: its tangential slip speed at its point and normal [m/s] into `speeds`
+// (if given), that speed's rate in the contact's own mu_d (slipSpeedRate()) from `jacobian` (the
+// solve's derivatives with the mu_d columns; null: 0) into `rates`, and its modeCode() into
+// `modes`. `add_slip(c, jacobian, column, slip, slip_rate)` adds contact c's slip after the solve
+// and (slip_rate not null) its derivative by `jacobian`'s column `column`: addRigidSlip() or
+// addBodySlip().
+template <class Contacts, class AddSlip>
+void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& impulses,
+                const Eigen::MatrixXd* jacobian, Eigen::Index velocity_count, double* speeds,
+                double* rates, int* modes, AddSlip&& add_slip) {
+  static const Eigen::MatrixXd kNone;
+  Eigen::MatrixXd slip_rate(3, 1);
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    Eigen::Vector3d slip = Eigen::Vector3d::Zero();
+    slip_rate.setZero();
+    add_slip(c, jacobian ? *jacobian : kNone,
+             velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction, slip,
+             jacobian ? &slip_rate : nullptr);
+    if (speeds) speeds[c] = tangentialSpeed(slip, contacts[c].normal);
+    rates[c] = jacobian ? slipSpeedRate(slip, contacts[c].normal, slip_rate.col(0)) : 0.0;
+    modes[c] = modeCode(impulses[c]);
+  }
+}
+
+// slipSpeeds() of a rigid-body solve `after` (computeValidatedImpactDerivatives()'s jacobian).
+void rigidSlipSpeeds(const CollisionResult& after, const std::vector<int>& movable_bodies,
+                     const std::vector<std::pair<int, int>>& contact_bodies,
+                     const std::vector<Contact>& contacts, const Eigen::MatrixXd* jacobian,
+                     Eigen::Index velocity_count, double* speeds, double* rates, int* modes) {
+  slipSpeeds(contacts, after.impulses, jacobian, velocity_count, speeds, rates, modes,
+             [&](std::size_t c, const Eigen::MatrixXd& jacobian, Eigen::Index column,
+                 Eigen::Vector3d& slip, Eigen::MatrixXd* slip_rate) {
+               addRigidSlip(after, movable_bodies, contact_bodies[c], contacts[c].point, jacobian,
+                            column, slip, slip_rate);
+             });
+}
+
+// slipSpeeds() of general bodies (computeBodyImpactDerivatives()'s `jacobian`), from the bodies'
+// current velocities (the solve's answer) and the solve's `impulses`.
+void bodySlipSpeeds(const std::vector<BodyModel*>& bodies, const std::vector<int>& velocity_offset,
+                    const std::vector<ContactPoint>& contacts,
+                    const std::vector<ContactImpulse>& impulses, const Eigen::MatrixXd* jacobian,
+                    Eigen::Index velocity_count, double* speeds, double* rates, int* modes) {
+  slipSpeeds(contacts, impulses, jacobian, velocity_count, speeds, rates, modes,
+             [&](std::size_t c, const Eigen::MatrixXd& jacobian, Eigen::Index column,
+                 Eigen::Vector3d& slip, Eigen::MatrixXd* slip_rate) {
+               addBodySlip(bodies, velocity_offset, contacts[c], jacobian, column, slip, slip_rate);
+             });
+}
+
+// The derivative columns of every contact's mu_d alone (each slip speed's rate).
+DerivativeColumns muDColumns(std::size_t contacts) {
+  DerivativeColumns columns;
+  columns.velocities = false;
+  columns.coefficients.assign(3 * contacts, false);
+  for (std::size_t c = 0; c < contacts; ++c) columns.coefficients[3 * c + kDynamicFriction] = true;
+  return columns;
+}
+
 [[gnu::noinline]] GeometryJacobian rigidGeometryJacobian(
     const Prepared& prepared, const ImpactDerivatives& derivatives,
     const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
@@ -888,13 +1050,8 @@ void fillBodyOutcome(const std::vector<BodyModel*>& bodies, const std::vector<in
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
   // With a contact sliding at the mean, each solve is differentiated by every contact's mu_d.
   const bool rates = anySliding(derivatives.contacts, moved.contacts);
-  DerivativeColumns mu_d_columns;
-  mu_d_columns.velocities = false;
-  mu_d_columns.coefficients.assign(3 * contacts, false);
-  for (std::size_t c = 0; c < contacts; ++c)
-    mu_d_columns.coefficients[3 * c + kDynamicFriction] = true;
+  const DerivativeColumns mu_d_columns = muDColumns(contacts);
   const Eigen::Index velocity_count = derivatives.velocityCount();
-  Eigen::MatrixXd slip_rate(3, 1);  // a slip's rate by its contact's mu_d
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     Contact* changed =
@@ -915,20 +1072,9 @@ void fillBodyOutcome(const std::vector<BodyModel*>& bodies, const std::vector<in
               : computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
     fillOutcome(after, derivatives.movable_bodies,
                 [&](Eigen::Index r) -> double& { return values(r); });
-    const auto c_rows = static_cast<Eigen::Index>(contacts);
-    for (std::size_t c = 0; c < contacts; ++c) {
-      const Contact& contact = moved.contacts[c];
-      Eigen::Vector3d slip = Eigen::Vector3d::Zero();
-      slip_rate.setZero();
-      addRigidSlip(after, derivatives.movable_bodies, contact_bodies[c], contact.point,
-                   rates ? differentiated->jacobian : derivatives.jacobian,
-                   velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction, slip,
-                   rates ? &slip_rate : nullptr);
-      values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
-      values(m + c_rows + static_cast<Eigen::Index>(c)) =
-          rates ? slipSpeedRate(slip, contact.normal, slip_rate.col(0)) : 0.0;
-      modes[c] = modeCode(after.impulses[c]);
-    }
+    rigidSlipSpeeds(after, derivatives.movable_bodies, contact_bodies, moved.contacts,
+                    rates ? &differentiated->jacobian : nullptr, velocity_count, values.data() + m,
+                    values.data() + m + static_cast<Eigen::Index>(contacts), modes.data());
     if (changed) {
       changed->normal = kept_normal;
       changed->point = kept_point;
@@ -937,6 +1083,48 @@ void fillBodyOutcome(const std::vector<BodyModel*>& bodies, const std::vector<in
   joinGeometryColumns(derivatives.jacobian,
                       differenceGeometry(prepared, m, contacts, evaluate, out.warnings), out);
   return out;
+}
+
+// differenceCoefficientRates() for rigid bodies where slidingForRates() asks for it (else empty):
+// each perturbed solve differentiated by every contact's mu_d
+// (computeValidatedImpactDerivatives()); the means' rates from `derivatives` (which holds those
+// columns). `start`: the time budget's, if taken (the geometry's); else it starts here. (Out of
+// line, as rigidGeometryJacobian().)
+[[gnu::noinline]] Eigen::MatrixXd rigidCoefficientRates(
+    const Prepared& prepared, const ImpactDerivatives& derivatives,
+    const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
+    std::chrono::steady_clock::time_point start) {
+  const std::vector<bool> sliding =
+      slidingForRates(prepared, derivatives.contacts, prepared.mean_scene.contacts);
+  if (sliding.empty()) return {};
+  if (prepared.geometry.empty()) start = std::chrono::steady_clock::now();
+  Scene changed = prepared.mean_scene;
+  const DerivativeColumns mu_d_columns = muDColumns(changed.contacts.size());
+  const Eigen::Index velocity_count = derivatives.velocityCount();
+  auto evaluate = [&](std::size_t j, double value, Eigen::VectorXd& rates,
+                      std::vector<int>& modes) {
+    if (j >= prepared.dimensions.size()) {
+      rigidSlipSpeeds(derivatives.result, derivatives.movable_bodies, contact_bodies,
+                      changed.contacts, &derivatives.jacobian, velocity_count, nullptr,
+                      rates.data(), modes.data());
+      return;
+    }
+    const auto& [index, which] = prepared.dimensions[j];
+    Contact& contact = changed.contacts[prepared.contacts[index].contact];
+    const Contact& mean = prepared.mean_scene.contacts[prepared.contacts[index].contact];
+    coefficient(contact, which) = value;
+    // (mu_s no lower than mu_d, as validation requires: a sliding answer does not read it, and a
+    // contact that sticks instead shows in its mode.)
+    if (which == kDynamicFriction) contact.static_friction = std::max(mean.static_friction, value);
+    const ImpactDerivatives at = computeValidatedImpactDerivatives(
+        changed, contact_bodies, remainingBudget(options, start), mu_d_columns);
+    rigidSlipSpeeds(at.result, at.movable_bodies, contact_bodies, changed.contacts, &at.jacobian,
+                    velocity_count, nullptr, rates.data(), modes.data());
+    contact.restitution = mean.restitution;
+    contact.static_friction = mean.static_friction;
+    contact.dynamic_friction = mean.dynamic_friction;
+  };
+  return differenceCoefficientRates(prepared, sliding, evaluate);
 }
 
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
@@ -976,9 +1164,13 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     addRigidSlip(result, derivatives.movable_bodies, contact_bodies[c],
                  prepared.mean_scene.contacts[c].point, *jacobian, 0, slip, &slip_rate);
   };
+  // A sliding contact's margin along an uncertain e or mu_d: its rate s_mu's change with them.
+  const Eigen::MatrixXd coefficient_rate =
+      rigidCoefficientRates(prepared, derivatives, contact_bodies, options, start);
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
                prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
-               geometry ? &geometry->speed_rate : nullptr, outcome);
+               geometry ? &geometry->speed_rate : nullptr,
+               coefficient_rate.size() > 0 ? &coefficient_rate : nullptr, outcome);
   if (geometry)
     for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   return outcome;
@@ -1239,7 +1431,6 @@ template <class Restore>
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
   // With a contact sliding at the mean, each solve is differentiated (its mu_d columns read).
   const bool rates = anySliding(derivatives.contacts, moved);
-  Eigen::MatrixXd slip_rate(3, 1);  // a slip's rate by its contact's mu_d
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     ContactPoint* changed =
@@ -1257,25 +1448,48 @@ template <class Restore>
         rates ? std::move(differentiated->result)
               : computeBodyResponse(bodies, moved, remainingBudget(options, start));
     fillBodyOutcome(bodies, derivatives.velocity_offset, velocity_count, after.impulses, values);
-    const auto c_rows = static_cast<Eigen::Index>(count);
-    for (std::size_t c = 0; c < count; ++c) {
-      const ContactPoint& contact = moved[c];
-      Eigen::Vector3d slip = Eigen::Vector3d::Zero();
-      slip_rate.setZero();
-      addBodySlip(bodies, derivatives.velocity_offset, contact,
-                  rates ? differentiated->jacobian : derivatives.jacobian,
-                  velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction, slip,
-                  rates ? &slip_rate : nullptr);
-      values(m + static_cast<Eigen::Index>(c)) = tangentialSpeed(slip, contact.normal);
-      values(m + c_rows + static_cast<Eigen::Index>(c)) =
-          rates ? slipSpeedRate(slip, contact.normal, slip_rate.col(0)) : 0.0;
-      modes[c] = modeCode(after.impulses[c]);
-    }
+    bodySlipSpeeds(bodies, derivatives.velocity_offset, moved, after.impulses,
+                   rates ? &differentiated->jacobian : nullptr, velocity_count, values.data() + m,
+                   values.data() + m + static_cast<Eigen::Index>(count), modes.data());
     if (changed) *changed = kept;
   };
   joinGeometryColumns(derivatives.jacobian,
                       differenceGeometry(prepared, m, count, evaluate, out.warnings), out);
   return out;
+}
+
+// differenceCoefficientRates() for general bodies: each perturbed solve differentiated
+// (computeBodyImpactDerivatives(), its mu_d columns read) from the pre-impact velocities
+// (`restore`); the means' rates from `derivatives` and the bodies' current velocities, which must
+// be the prediction's when this is called. The bodies are left at the last solve's velocities.
+template <class Restore>
+[[gnu::noinline]] Eigen::MatrixXd bodyCoefficientRates(
+    const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& mean_contacts,
+    const Prepared& prepared, const std::vector<bool>& sliding,
+    const BodyImpactDerivatives& derivatives, Restore&& restore, const SolverOptions& options,
+    std::chrono::steady_clock::time_point start) {
+  std::vector<ContactPoint> changed = mean_contacts;
+  const Eigen::Index velocity_count = derivatives.velocity_count;
+  auto evaluate = [&](std::size_t j, double value, Eigen::VectorXd& rates,
+                      std::vector<int>& modes) {
+    if (j >= prepared.dimensions.size()) {
+      bodySlipSpeeds(bodies, derivatives.velocity_offset, changed, derivatives.result.impulses,
+                     &derivatives.jacobian, velocity_count, nullptr, rates.data(), modes.data());
+      return;
+    }
+    const auto& [index, which] = prepared.dimensions[j];
+    ContactPoint& contact = changed[prepared.contacts[index].contact];
+    const ContactPoint mean = contact;
+    coefficient(contact, which) = value;
+    if (which == kDynamicFriction) contact.static_friction = std::max(mean.static_friction, value);
+    restore();
+    const BodyImpactDerivatives at =
+        computeBodyImpactDerivatives(bodies, changed, remainingBudget(options, start));
+    bodySlipSpeeds(bodies, derivatives.velocity_offset, changed, at.result.impulses, &at.jacobian,
+                   velocity_count, nullptr, rates.data(), modes.data());
+    contact = mean;
+  };
+  return differenceCoefficientRates(prepared, sliding, evaluate);
 }
 
 // The linear method for general bodies (docs/uncertainty.md, "Robots"):
@@ -1322,15 +1536,29 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
                     derivatives.result.impulses, outcome.mean);
     // An uncertain normal or point: its columns by differences of the solver, after the
     // coefficients'; the bodies then go back to the prediction's velocities (slip_of() reads them).
-    std::optional<GeometryJacobian> geometry;
-    if (!prepared.geometry.empty()) {
-      geometry = bodyGeometryJacobian(bodies, mean_contacts, prepared, derivatives, restore,
-                                      options, start);
+    auto toPrediction = [&] {
       for (std::size_t b = 0; b < bodies.size(); ++b)
         if (derivatives.velocity_offset[b] >= 0)
           bodies[b]->addVelocityChange(
               outcome.mean.segment(derivatives.velocity_offset[b], bodies[b]->velocityCount()) -
               bodies[b]->velocity());
+    };
+    std::optional<GeometryJacobian> geometry;
+    if (!prepared.geometry.empty()) {
+      geometry = bodyGeometryJacobian(bodies, mean_contacts, prepared, derivatives, restore,
+                                      options, start);
+      toPrediction();
+    }
+    // A sliding contact's margin along an uncertain e or mu_d (as the rigid path's); the bodies
+    // then go back to the prediction's velocities too.
+    std::optional<Eigen::MatrixXd> coefficient_rate;
+    const std::vector<bool> sliding =
+        slidingForRates(prepared, derivatives.contacts, mean_contacts);
+    if (!sliding.empty()) {
+      coefficient_rate = bodyCoefficientRates(
+          bodies, mean_contacts, prepared, sliding, derivatives, restore, options,
+          prepared.geometry.empty() ? std::chrono::steady_clock::now() : start);
+      toPrediction();
     }
     const Eigen::MatrixXd* jacobian = geometry ? &geometry->jacobian : &derivatives.jacobian;
     auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
@@ -1339,7 +1567,8 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
     };
     linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
                  prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
-                 geometry ? &geometry->speed_rate : nullptr, outcome);
+                 geometry ? &geometry->speed_rate : nullptr,
+                 coefficient_rate ? &*coefficient_rate : nullptr, outcome);
     if (geometry)
       for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   } catch (...) {

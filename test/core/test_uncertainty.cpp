@@ -613,6 +613,30 @@ TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInE) {
   EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
 }
 
+// Sliding at the mean, with e ~ N(m, s) and mu_s > mu_d: the sphere slides at u_t - 3.5 mu_d
+// (1 + e) u_n, so mu* (the mu_d at which that slip would vanish) is k / (1 + e) and it sticks iff
+// mu_s >= k / (1 + e): exactly Phi((m - t) / s), t = k / mu_s - 1. The margin mu_s - k / (1 + e)
+// is not linear in e: to first order its slope is k / (1 + m)^2, which holds the change with e of
+// the slip's own rate in mu_d (s_mu = -3.5 (1 + e) u_n); with that change left out the slope is
+// mu_d / (1 + m) and the probability 0.106 instead of 0.167 (exact 0.159).
+TEST(Uncertainty, LinearStickProbabilityOfASlidingSphereInEHoldsTheMarginsSlope) {
+  const double m = 0.5, s = 0.05, t = 0.55;
+  const double mu_s = kStickK / (1.0 + t), mu_d = 0.8 * mu_s;
+  ContactUncertainty u;
+  u.restitution = CoefficientDistribution::normal(m, s);
+  const core::Scene scene = sphere(m, mu_s, mu_d);
+  ASSERT_FALSE(core::computeResponse(scene, newton()).impulses[0].sticking);
+  const double exact = 0.5 * std::erfc(-((m - t) / s) / std::sqrt(2.0));
+  const double margin = mu_s - kStickK / (1.0 + m);
+  const double first_order =
+      0.5 * std::erfc(-(margin / (s * kStickK / ((1.0 + m) * (1.0 + m)))) / std::sqrt(2.0));
+  const auto lin = core::computeOutcomeDistribution(scene, {u}, newton(), linear());
+  EXPECT_NEAR(lin.stick_probability[0], first_order, 1e-6);
+  EXPECT_NEAR(lin.stick_probability[0], exact, 0.01);
+  const auto smp = core::computeOutcomeDistribution(scene, {u}, newton(), sampled(4096));
+  EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
+}
+
 // The linear distribution of a multi-contact scene against its definition computed here: a box
 // landing on an edge (2 contacts, one island of the exact solver) and a sphere landing apart (its
 // own island, Newton's closed form), every contact sliding. Reference: the prediction at the means

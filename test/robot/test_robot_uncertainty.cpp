@@ -232,6 +232,17 @@ Strike slidingStrike(double e, double mu_s, double mu_d) {
   return s;
 }
 
+// The hand point's tangential slip speed [m/s] after a deterministic solve of `t`, which must
+// slide (the wall does not move).
+double slidingHandSpeed(Strike& t) {
+  std::vector<cr::BodyModel*> bodies{&t.arm, &t.wall};
+  const cr::BodyResponse response = cr::computeBodyResponse(bodies, {t.contact}, newton());
+  EXPECT_FALSE(response.impulses[0].sticking);
+  const Vector3d n = t.contact.normal;
+  const Vector3d v = t.arm.partPointVelocity(t.arm.linkIndex("hand"), t.contact.point);
+  return (v - n.dot(v) * n).norm();
+}
+
 // The outcome of one deterministic solve at (e, mu_s, mu_d): the arm's unknowns, then the
 // contact's normal and friction impulses, in the order of computeBodyOutcomeDistribution().
 VectorXd slidingOutcome(const Vector3d& theta) {
@@ -329,9 +340,10 @@ TEST(RobotUncertainty, LinearMatchesTheTestsOwnFiniteDifferences) {
   }
   // The stick probability of the sliding contact from the linearised margin (docs/uncertainty.md,
   // "Linear"): g = mu_s - mu*, mu* = mu_d + s / (-ds/dmu_d) the mu_d at which the linearised slip
-  // speed s would vanish, sd(g)^2 = (ds/de / ds/dmu_d)^2 sigma_e^2 + sigma_mu_s^2 (mu_d decides how
-  // it slides, not whether it sticks); s and its derivatives from the test's own solves and
-  // central differences of the hand point's tangential velocity.
+  // speed s would vanish, sd(g)^2 = (dmu*/de)^2 sigma_e^2 + sigma_mu_s^2 (mu_d decides how it
+  // slides, not whether it sticks); s and ds/dmu_d from the test's own solves and central
+  // differences (1e-6) of the hand point's tangential velocity, dmu*/de by central differences of
+  // mu* (1e-4): it holds both ds/de and the change of ds/dmu_d with e.
   auto slip = [&](const Vector3d& theta) {
     Strike t = slidingStrike(theta(0), theta(1), theta(2));
     std::vector<cr::BodyModel*> bodies{&t.arm, &t.wall};
@@ -349,8 +361,14 @@ TEST(RobotUncertainty, LinearMatchesTheTestsOwnFiniteDifferences) {
       (slip(theta + h * Vector3d::UnitZ()) - slip(theta - h * Vector3d::UnitZ())) / (2.0 * h);
   ASSERT_GT(s0, 1e-3);
   ASSERT_LT(s_d, 0.0);
+  ASSERT_GT(std::abs(s_e), 1e-3) << "e must move the slip";
+  auto mu_star = [&](double de) {
+    return collision_response::testing::stoppingFriction(
+        [&](double mu) { return slip(Vector3d(kE + de, kMuS, mu)); }, kMuD);
+  };
   const double margin = kMuS - (kMuD - s0 / s_d);
-  const double margin_sd = std::hypot(s_e / s_d * sigma(0), sigma(1));
+  const double g_e = -(mu_star(1e-4) - mu_star(-1e-4)) / 2e-4;
+  const double margin_sd = std::hypot(g_e * sigma(0), sigma(1));
   const double stick = 0.5 * std::erfc(-margin / margin_sd / std::sqrt(2.0));
   ASSERT_EQ(outcome.stick_probability.size(), 1u);
   EXPECT_NEAR(outcome.stick_probability[0], stick, 1e-5);
@@ -570,12 +588,7 @@ TEST(RobotUncertainty, LinearStickMarginUnderAnUncertainNormalMatchesTheTestsOwn
   auto speed = [&](double a, double b, double mu_d) {
     Strike t = slidingStrike(kE, kMuSHere, mu_d);
     t.contact.normal = (n0 + a * t1 + b * t2).normalized();
-    std::vector<cr::BodyModel*> bodies{&t.arm, &t.wall};
-    const cr::BodyResponse response = cr::computeBodyResponse(bodies, {t.contact}, newton());
-    EXPECT_FALSE(response.impulses[0].sticking);
-    const Vector3d n = t.contact.normal;
-    const Vector3d v = t.arm.partPointVelocity(t.arm.linkIndex("hand"), t.contact.point);
-    return (v - n.dot(v) * n).norm();  // the wall does not move
+    return slidingHandSpeed(t);
   };
   const double stick =
       collision_response::testing::firstOrderStickProbability(speed, kMuSHere, kMuD, sigma);
@@ -589,6 +602,44 @@ TEST(RobotUncertainty, LinearStickMarginUnderAnUncertainNormalMatchesTheTestsOwn
       {{&s.arm, &s.wall}}, {s.contact}, {u}, noLimits(s.arm.velocityCount()), newton(), linear());
   ASSERT_EQ(lin.stick_probability.size(), 1u);
   EXPECT_NEAR(lin.stick_probability[0], stick, 1e-3);
+}
+
+// (4d) The same sliding contact's stick margin along an uncertain e, to first order against the
+// test's own differences: mu*(x) = mu_d - s / (ds/dmu_d) with e moved by x, s the hand point's
+// tangential speed after a solve, ds/dmu_d by central differences (1e-6), the margin's slope by
+// central differences of mu* (1e-4). The slope holds the change of s's rate in mu_d with e
+// (without it the linear method gave 1.3e-5 here, against 0.035). Like the normal's (4b), this
+// margin is rough on this strike: 4096 samples give 0.27 (docs/uncertainty.md). An uncertain mu_d
+// alone leaves it at 0: under Newton's law the sticking impulse does not read mu_d, and this
+// strike never sticks at any mu_d (4096 samples: 0).
+TEST(RobotUncertainty, LinearStickMarginAlongAnUncertainEMatchesTheTestsOwnDifferences) {
+  constexpr double kMuSHere = 0.345, sigma = 0.12;
+  auto speed = [&](double e, double mu_d) {
+    Strike t = slidingStrike(e, kMuSHere, mu_d);
+    return slidingHandSpeed(t);
+  };
+  auto mu_star = [&](double de) {
+    return collision_response::testing::stoppingFriction(
+        [&](double mu) { return speed(kE + de, mu); }, kMuD);
+  };
+  const double stick =
+      collision_response::testing::firstOrderStickProbabilityAlong(mu_star, kMuSHere, sigma, 1e-4);
+  ASSERT_GT(stick, 0.02) << "the margin must be reachable: the check is weak";
+  auto linearWith = [&](const cr::ContactUncertainty& u) {
+    Strike s = slidingStrike(kE, kMuSHere, kMuD);
+    return cr::computeBodyOutcomeDistribution({{&s.arm, &s.wall}}, {s.contact}, {u},
+                                              noLimits(s.arm.velocityCount()), newton(), linear());
+  };
+  cr::ContactUncertainty u;
+  u.contact = 0;
+  u.restitution = cr::CoefficientDistribution::normal(kE, sigma);
+  const cr::OutcomeDistribution lin = linearWith(u);
+  ASSERT_EQ(lin.stick_probability.size(), 1u);
+  EXPECT_NEAR(lin.stick_probability[0], stick, 1e-3);
+  cr::ContactUncertainty only_mu_d;
+  only_mu_d.contact = 0;
+  only_mu_d.dynamic_friction = cr::CoefficientDistribution::normal(kMuD, 0.04);
+  EXPECT_EQ(linearWith(only_mu_d).stick_probability[0], 0.0);
 }
 
 // (5) Bad spreads are refused naming the field under either method; valid normal and point

@@ -31,4 +31,24 @@ double firstOrderStickProbability(Speed&& speed, double mu_s, double mu_d, doubl
   return 0.5 * std::erfc(-margin / (sigma * std::hypot(g_a, g_b)) / std::sqrt(2.0));
 }
 
+/// mu* = mu_d - s / (ds/dmu_d) at `mu_d`, from `speed(mu)`, the slip speed after a solve with
+/// dynamic friction mu (ds/dmu_d by central differences with step 1e-6).
+template <class Speed>
+double stoppingFriction(Speed&& speed, double mu_d) {
+  const double k = 1e-6;
+  const double rate = (speed(mu_d + k) - speed(mu_d - k)) / (2.0 * k);
+  EXPECT_LT(rate, 0.0) << "more friction must slow the slip";
+  return mu_d - speed(mu_d) / rate;
+}
+
+/// P(stick) = Phi(margin / (sigma |g|)) to first order in one uncertain coefficient x with
+/// standard deviation `sigma`: margin = mu_s - mu_star(0), g = -d mu_star / dx by central
+/// differences with step `h`; `mu_star(dx)` is stoppingFriction() with x moved by dx from its mean.
+template <class MuStar>
+double firstOrderStickProbabilityAlong(MuStar&& mu_star, double mu_s, double sigma, double h) {
+  const double g = -(mu_star(h) - mu_star(-h)) / (2.0 * h);
+  const double margin = mu_s - mu_star(0.0);
+  return 0.5 * std::erfc(-margin / (sigma * std::abs(g)) / std::sqrt(2.0));
+}
+
 }  // namespace collision_response::testing
