@@ -328,14 +328,31 @@ std::string percentText(double fraction) {
   return std::string(NumberText::percent(fraction));
 }
 
-// gradient[j] -= curvature * rate(c, j) for each coefficient dimension j but contact c's own mu_d
-// (linearStickProbability()'s s_mu term).
+// Under Newton's law a sliding contact sticks where its sticking impulse, the answer with that
+// contact held (its friction raised to kHeldFriction, which no impulse reaches), lies in its static
+// cone: the linear method's margin of such a contact is mu_s P_n - |P_t| of that held answer
+// (docs/uncertainty.md, "Linear"), with its gradient along every dimension (the coefficients' from
+// the held answer's derivatives, the geometry's by differences of held solves). Per contact: its
+// row, or -1 where the margin is the slip speed's (other laws, or a held answer that does not
+// stick); `row` is empty where no contact has one.
+struct HeldMargins {
+  std::vector<int> row;      // per contact
+  Eigen::VectorXd margin;    // [N s]
+  Eigen::MatrixXd gradient;  // rows x dimensions (the coefficients', then the geometry's)
+};
+
+// Friction a held contact cannot exceed (|P_t| <= 1000 P_n): any impulse that a solve with it
+// does not hold is not a sticking impulse the static cone could hold either.
+constexpr double kHeldFriction = 1e3;
+
+// gradient[j] -= curvature * rate(c, j) for each coefficient dimension j whose column is not
+// `skipped` (-1: none) (linearStickProbability()'s s_mu term).
 [[gnu::noinline]] void subtractRateTerms(const Eigen::MatrixXd& rate, std::size_t c,
                                          double curvature, const int* column_of_dimension,
-                                         Eigen::Index mu_d_column, double* gradient) {
+                                         Eigen::Index skipped, double* gradient) {
   const auto row = static_cast<Eigen::Index>(c);
   for (Eigen::Index j = 0; j < rate.cols(); ++j)
-    if (column_of_dimension[j] != mu_d_column) gradient[j] -= curvature * rate(row, j);
+    if (column_of_dimension[j] != skipped) gradient[j] -= curvature * rate(row, j);
 }
 
 // The probability that contact c sticks, from the linearised margin of its mode at the means
@@ -356,16 +373,16 @@ std::string percentText(double fraction) {
 // mu_d, which the margin's slope also holds (margin = mu_s - mu_d + s / s_mu, d margin / d x =
 // (ds/dx) / s_mu - s (d s_mu / dx) / s_mu^2). `coefficient_rate` (contacts x coefficient
 // dimensions; null: 0): the same change of s_mu with each uncertain coefficient
-// (differenceCoefficientRates()).
+// (differenceCoefficientRates()). `held`: Newton's held margins (null: none), which replace the
+// slip speed's margin where they have a row. `law`: the solve's (which margin a sliding contact
+// takes).
 template <class SlipOf>
-double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
-                              const ContactImpulse& impulse, ImpactMode mode,
-                              const Prepared& prepared, std::size_t c,
-                              const int* column_of_dimension, const unsigned char* column_used,
-                              const double* variance, double* gradient, SlipOf& slip_of,
-                              const Eigen::MatrixXd* geometry_speed,
-                              const Eigen::MatrixXd* geometry_rate,
-                              const Eigen::MatrixXd* coefficient_rate) {
+double linearStickProbability(
+    const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count, const ContactImpulse& impulse,
+    ImpactMode mode, const Prepared& prepared, std::size_t c, const int* column_of_dimension,
+    const unsigned char* column_used, const double* variance, double* gradient, SlipOf& slip_of,
+    const Eigen::MatrixXd* geometry_speed, const Eigen::MatrixXd* geometry_rate,
+    const Eigen::MatrixXd* coefficient_rate, const HeldMargins* held, ImpactLaw law) {
   const Contact& contact = prepared.mean_scene.contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
@@ -391,6 +408,10 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
                     direction.dot(jacobian.block<3, 1>(row + 1, k));
     }
     if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
+  } else if (held && c < held->row.size() && held->row[c] >= 0) {
+    const Eigen::Index r = held->row[c];
+    margin = held->margin(r);
+    for (Eigen::Index j = 0; j < dims; ++j) gradient[j] = held->gradient(r, j);
   } else {
     // Slip velocity of b relative to a at the point, tangential part, and its derivatives.
     const Eigen::Vector3d n = contact.normal.normalized();  // (unit within 1e-3)
@@ -407,27 +428,30 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
         velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
     const double by_mu_d = speed_rate(mu_d_column);
     if (!(by_mu_d < 0.0)) return 0.0;  // more friction does not slow the slip: it never sticks
-    margin = contact.static_friction - contact.dynamic_friction + speed / by_mu_d;
+    // mu* = mu_d - s / s_mu, the mu_d at which the linearised slip would stop at the impact's end.
+    // Poisson and Stronge slide with mu_d until the slip stops, then hold: the contact ends
+    // sticking iff the slip stops within the impact, margin mu_d - mu* = s / s_mu, which mu_s does
+    // not enter (holding it afterwards is taken as given). The one-pass law (and Newton's where no
+    // held answer sticks): mu_s - mu*, the static coefficient at which it would stick; there its
+    // own mu_d decides how it slides, not whether it sticks, and is left out.
+    const bool stops = law == ImpactLaw::kPoisson || law == ImpactLaw::kStronge;
+    margin = speed / by_mu_d;
+    if (!stops) margin += contact.static_friction - contact.dynamic_friction;
     const double curvature = speed / (by_mu_d * by_mu_d);  // the s_mu term's factor
     for (Eigen::Index j = 0; j < coefficient_dims; ++j) {
       const Eigen::Index k = column_of_dimension[j];
-      // Its own mu_d decides how it slides, not whether it sticks (under Newton's law exactly: the
-      // sticking impulse does not read it); in the margin -1 + s_mu / s_mu cancel, and the rest,
-      // -s (d s_mu / d mu_d) / s_mu^2, is the proxy's curvature, not a change of the stick
-      // condition (with it, the sliding arm of test_robot_uncertainty, which never sticks at any
-      // mu_d, got 0.045).
-      if (k == mu_d_column) continue;
-      gradient[j] = speed_rate(k) / by_mu_d;
+      if (!stops && k == mu_d_column) continue;
+      gradient[j] = speed_rate(k) / by_mu_d;  // (its own mu_d: 1)
     }
     if (coefficient_rate)
-      subtractRateTerms(*coefficient_rate, c, curvature, column_of_dimension, mu_d_column,
-                        gradient);
+      subtractRateTerms(*coefficient_rate, c, curvature, column_of_dimension,
+                        stops ? Eigen::Index{-1} : mu_d_column, gradient);
     for (Eigen::Index j = coefficient_dims; j < dims; ++j) {
       const auto row = static_cast<Eigen::Index>(c);
       gradient[j] = (*geometry_speed)(row, j - coefficient_dims) / by_mu_d -
                     curvature * (*geometry_rate)(row, j - coefficient_dims);
     }
-    if (mu_s_dimension >= 0) gradient[mu_s_dimension] += 1.0;
+    if (!stops && mu_s_dimension >= 0) gradient[mu_s_dimension] += 1.0;
   }
   double margin_variance = 0.0;
   for (Eigen::Index j = 0; j < dims; ++j) {
@@ -519,14 +543,15 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
 // the prediction's, one per contact.
 // With an uncertain normal or point, `jacobian` has the geometry's columns last and
 // `geometry_speed` and `geometry_rate` are as linearStickProbability() takes them
-// (differenceGeometry()); else null. `coefficient_rate`: as linearStickProbability() takes it.
+// (differenceGeometry()); else null. `coefficient_rate` and `held`: as linearStickProbability()
+// takes them.
 template <class SlipOf>
 void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                   const std::vector<ContactImpulse>& impulses,
                   const std::vector<ContactDerivativeMode>& modes, const Prepared& prepared,
                   SlipOf&& slip_of, const Eigen::MatrixXd* geometry_speed,
                   const Eigen::MatrixXd* geometry_rate, const Eigen::MatrixXd* coefficient_rate,
-                  OutcomeDistribution& outcome) {
+                  const HeldMargins* held, ImpactLaw law, OutcomeDistribution& outcome) {
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = jacobian.rows();
   const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
@@ -595,9 +620,10 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   outcome.stick_probability.resize(contacts);
   for (std::size_t c = 0; c < contacts; ++c)
-    outcome.stick_probability[c] = linearStickProbability(
-        jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c, column_of_dimension,
-        column_used, variance, gradient, slip_of, geometry_speed, geometry_rate, coefficient_rate);
+    outcome.stick_probability[c] =
+        linearStickProbability(jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c,
+                               column_of_dimension, column_used, variance, gradient, slip_of,
+                               geometry_speed, geometry_rate, coefficient_rate, held, law);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -836,22 +862,19 @@ bool anySliding(const std::vector<ContactDerivativeMode>& modes, const Contacts&
 
 // The change of each contact's slip-speed rate in its own mu_d, s_mu = ds/dmu_d, with each
 // uncertain coefficient (docs/uncertainty.md, "Linear"): rows the contacts, columns
-// prepared.dimensions. A sliding contact's stick margin mu_s - mu_d + s / s_mu has the slope
-// (ds/dx) / s_mu - s (ds_mu/dx) / s_mu^2 along a coefficient x; this is ds_mu/dx, by central
+// prepared.dimensions. A sliding contact's stick margin, s / s_mu plus a constant (mu_s - mu_d
+// under the one-pass law), has the slope (ds/dx) / s_mu - s (ds_mu/dx) / s_mu^2 along a
+// coefficient x; this is ds_mu/dx, by central
 // differences of the solver's derivatives with the coefficient at its mean +- h, h = min(1e-6,
 // sd / 100) but at least 1e-9. One-sided where the other side leaves the coefficient's range (e in
 // [0, 1], mu_d >= 0) or changes a contact's mode (modeCode()); 0 (the term left out) where both
 // sides change a mode, or where the two one-sided differences disagree (the rate jumps where the
-// outcome only kinks), and for mu_s, which moves neither s nor s_mu while the modes hold, and a
-// contact's mu_d when no other contact slides (its own margin does not read it:
-// linearStickProbability()). `sliding[c]`: whether contact c slides with friction at the mean.
+// outcome only kinks), and for mu_s, which moves neither s nor s_mu while the modes hold.
 // `evaluate(j, value, rates, modes)` solves with dimension j's coefficient at `value` (j = npos:
 // every coefficient at its mean) and writes each contact's s_mu (0 unless it slides) and mode.
 template <class Evaluate>
-Eigen::MatrixXd differenceCoefficientRates(const Prepared& prepared,
-                                           const std::vector<bool>& sliding, Evaluate&& evaluate) {
-  const std::size_t contacts = sliding.size();
-  const auto sliding_count = std::count(sliding.begin(), sliding.end(), true);
+Eigen::MatrixXd differenceCoefficientRates(const Prepared& prepared, std::size_t contacts,
+                                           Evaluate&& evaluate) {
   const auto rows = static_cast<Eigen::Index>(contacts);
   const auto dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(rows, dims);
@@ -861,9 +884,6 @@ Eigen::MatrixXd differenceCoefficientRates(const Prepared& prepared,
   for (Eigen::Index j = 0; j < dims; ++j) {
     const auto& [index, which] = prepared.dimensions[static_cast<std::size_t>(j)];
     if (which == kStaticFriction) continue;
-    if (which == kDynamicFriction &&
-        sliding_count == (sliding[prepared.contacts[index].contact] ? 1 : 0))
-      continue;
     const CheckedDistribution& distribution =
         prepared.contacts[index].distributions[static_cast<std::size_t>(which)];
     const double value = distribution.mean();
@@ -896,20 +916,86 @@ Eigen::MatrixXd differenceCoefficientRates(const Prepared& prepared,
   return out;
 }
 
-// Per contact, whether it slides with friction at the mean (its stick margin then reads
-// differenceCoefficientRates()); empty when no e or mu_d is uncertain or no contact slides.
+// Whether the stick margins read differenceCoefficientRates(): a contact slides with friction at
+// the means, an e or a mu_d is uncertain, and the law is not Newton's (whose sliding contacts take
+// their held margins: HeldMargins).
 template <class Contacts>
-std::vector<bool> slidingForRates(const Prepared& prepared,
-                                  const std::vector<ContactDerivativeMode>& modes,
-                                  const Contacts& contacts) {
-  if (!anySliding(modes, contacts) ||
-      std::all_of(prepared.dimensions.begin(), prepared.dimensions.end(),
-                  [](const auto& dimension) { return dimension.second == kStaticFriction; }))
-    return {};
-  std::vector<bool> sliding(modes.size());
-  for (std::size_t c = 0; c < modes.size(); ++c)
-    sliding[c] = modes[c].mode == ImpactMode::kSliding && !contacts[c].frictionless();
-  return sliding;
+bool needsCoefficientRates(const Prepared& prepared,
+                           const std::vector<ContactDerivativeMode>& modes,
+                           const Contacts& contacts, ImpactLaw law) {
+  return law != ImpactLaw::kNewton && anySliding(modes, contacts) &&
+         std::any_of(prepared.dimensions.begin(), prepared.dimensions.end(),
+                     [](const auto& dimension) { return dimension.second != kStaticFriction; });
+}
+
+// HeldMargins for Newton's law (else every row -1): for each contact that slides with friction
+// at the means, `differentiate(c, impulse, jacobian)` solves with contact c held and
+// differentiates by the uncertain coefficients (jacobian: rows velocity_count + 4 per contact,
+// columns velocity_count + 3 per contact, as ImpactDerivatives' and BodyImpactDerivatives'); a
+// held answer that sticks there gives the contact its row. The geometry's columns are differences
+// (differenceGeometry(), its warnings left to the outcome's own differences) of held solves:
+// `solve_moved(u, normal, point, c, impulses)` solves with contact c held and
+// prepared.contacts[u]'s contact at that normal and point (u = npos: the mean geometry) and writes
+// every contact's impulse.
+template <class Contacts, class Differentiate, class SolveMoved>
+HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDerivativeMode>& modes,
+                        const Contacts& contacts, ImpactLaw law, Eigen::Index velocity_count,
+                        Differentiate&& differentiate, SolveMoved&& solve_moved) {
+  HeldMargins out;
+  const std::size_t n = contacts.size();
+  out.row.assign(n, -1);
+  if (law != ImpactLaw::kNewton) return out;
+  std::vector<std::size_t> kept;
+  const auto coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
+  const Eigen::Index dims = coefficient_dims + static_cast<Eigen::Index>(prepared.geometry.size());
+  Eigen::MatrixXd jacobian;
+  ContactImpulse impulse;
+  auto marginOf = [&](std::size_t c, const ContactImpulse& at) {
+    return contacts[c].static_friction * at.normal_impulse - at.friction_impulse.norm();
+  };
+  for (std::size_t c = 0; c < n; ++c) {
+    if (modes[c].mode != ImpactMode::kSliding || contacts[c].frictionless()) continue;
+    differentiate(c, impulse, jacobian);
+    if (!impulse.sticking) continue;
+    const auto r = static_cast<Eigen::Index>(kept.size());
+    kept.push_back(c);
+    out.row[c] = static_cast<int>(r);
+    out.margin.conservativeResize(r + 1);
+    out.gradient.conservativeResize(r + 1, dims);
+    out.gradient.row(r).setZero();
+    out.margin(r) = marginOf(c, impulse);
+    const double tangential = impulse.friction_impulse.norm();
+    const Eigen::Vector3d direction = tangential > 0.0
+                                          ? Eigen::Vector3d(impulse.friction_impulse / tangential)
+                                          : Eigen::Vector3d::Zero();
+    const Eigen::Index impulse_row = velocity_count + 4 * static_cast<Eigen::Index>(c);
+    for (Eigen::Index j = 0; j < coefficient_dims; ++j) {
+      const auto& [index, which] = prepared.dimensions[static_cast<std::size_t>(j)];
+      const std::size_t other = prepared.contacts[index].contact;
+      const Eigen::Index k = velocity_count + 3 * static_cast<Eigen::Index>(other) + which;
+      out.gradient(r, j) = contacts[c].static_friction * jacobian(impulse_row, k) -
+                           direction.dot(jacobian.block<3, 1>(impulse_row + 1, k));
+      if (other == c && which == kStaticFriction) out.gradient(r, j) += impulse.normal_impulse;
+    }
+  }
+  const auto rows = static_cast<Eigen::Index>(kept.size());
+  if (rows == 0 || prepared.geometry.empty()) return out;
+  std::vector<ContactImpulse> impulses;
+  auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
+                      Eigen::VectorXd& values, std::vector<int>& found) {
+    values.setZero();
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      const std::size_t c = kept[static_cast<std::size_t>(r)];
+      solve_moved(u, normal, point, c, impulses);
+      values(r) = marginOf(c, impulses[c]);
+      for (std::size_t other = 0; other < n; ++other)
+        found[static_cast<std::size_t>(r) * n + other] = modeCode(impulses[other]);
+    }
+  };
+  std::vector<Warning> named;  // (the outcome's own differences name these dimensions)
+  out.gradient.rightCols(static_cast<Eigen::Index>(prepared.geometry.size())) =
+      differenceGeometry(prepared, rows, kept.size() * n, evaluate, named).outcome;
+  return out;
 }
 
 // `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` and `out.speed_rate`
@@ -1048,8 +1134,10 @@ DerivativeColumns muDColumns(std::size_t contacts) {
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   Scene moved = prepared.mean_scene;
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
-  // With a contact sliding at the mean, each solve is differentiated by every contact's mu_d.
-  const bool rates = anySliding(derivatives.contacts, moved.contacts);
+  // With a contact sliding at the mean, each solve is differentiated by every contact's mu_d (the
+  // slip speed's margin; under Newton's law the held margins replace it: HeldMargins).
+  const bool rates =
+      options.law != ImpactLaw::kNewton && anySliding(derivatives.contacts, moved.contacts);
   const DerivativeColumns mu_d_columns = muDColumns(contacts);
   const Eigen::Index velocity_count = derivatives.velocityCount();
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
@@ -1085,7 +1173,7 @@ DerivativeColumns muDColumns(std::size_t contacts) {
   return out;
 }
 
-// differenceCoefficientRates() for rigid bodies where slidingForRates() asks for it (else empty):
+// differenceCoefficientRates() for rigid bodies where needsCoefficientRates() (else empty):
 // each perturbed solve differentiated by every contact's mu_d
 // (computeValidatedImpactDerivatives()); the means' rates from `derivatives` (which holds those
 // columns). `start`: the time budget's, if taken (the geometry's); else it starts here. (Out of
@@ -1094,9 +1182,9 @@ DerivativeColumns muDColumns(std::size_t contacts) {
     const Prepared& prepared, const ImpactDerivatives& derivatives,
     const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
     std::chrono::steady_clock::time_point start) {
-  const std::vector<bool> sliding =
-      slidingForRates(prepared, derivatives.contacts, prepared.mean_scene.contacts);
-  if (sliding.empty()) return {};
+  if (!needsCoefficientRates(prepared, derivatives.contacts, prepared.mean_scene.contacts,
+                             options.law))
+    return {};
   if (prepared.geometry.empty()) start = std::chrono::steady_clock::now();
   Scene changed = prepared.mean_scene;
   const DerivativeColumns mu_d_columns = muDColumns(changed.contacts.size());
@@ -1124,7 +1212,55 @@ DerivativeColumns muDColumns(std::size_t contacts) {
     contact.static_friction = mean.static_friction;
     contact.dynamic_friction = mean.dynamic_friction;
   };
-  return differenceCoefficientRates(prepared, sliding, evaluate);
+  return differenceCoefficientRates(prepared, changed.contacts.size(), evaluate);
+}
+
+// heldMargins() for rigid bodies (computeValidatedImpactDerivatives() of the held scene, by the
+// uncertain coefficients' columns). `start`: the time budget's, if taken; else it starts here.
+[[gnu::noinline]] HeldMargins rigidHeldMargins(
+    const Prepared& prepared, const ImpactDerivatives& derivatives,
+    const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
+    std::chrono::steady_clock::time_point start) {
+  if (options.law != ImpactLaw::kNewton ||
+      !anySliding(derivatives.contacts, prepared.mean_scene.contacts))
+    return {};
+  if (prepared.geometry.empty()) start = std::chrono::steady_clock::now();
+  DerivativeColumns columns;
+  columns.velocities = false;
+  columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
+  for (const auto& [index, which] : prepared.dimensions)
+    columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
+        true;
+  Scene held = prepared.mean_scene;
+  Scene moved = prepared.mean_scene;
+  for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
+  auto hold = [](Contact& contact) {
+    contact.static_friction = kHeldFriction;
+    contact.dynamic_friction = kHeldFriction;
+  };
+  auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian) {
+    hold(held.contacts[c]);
+    ImpactDerivatives at = computeValidatedImpactDerivatives(
+        held, contact_bodies, remainingBudget(options, start), columns);
+    held.contacts[c] = prepared.mean_scene.contacts[c];
+    impulse = at.result.impulses[c];
+    jacobian = std::move(at.jacobian);
+  };
+  auto solve_moved = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
+                         std::size_t c, std::vector<ContactImpulse>& impulses) {
+    const std::vector<Contact> kept = moved.contacts;
+    if (u < prepared.contacts.size()) {
+      Contact& changed = moved.contacts[prepared.contacts[u].contact];
+      changed.normal = normal;
+      changed.point = point;
+    }
+    hold(moved.contacts[c]);
+    impulses =
+        computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start)).impulses;
+    moved.contacts = kept;
+  };
+  return heldMargins(prepared, derivatives.contacts, prepared.mean_scene.contacts, options.law,
+                     derivatives.velocityCount(), differentiate, solve_moved);
 }
 
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
@@ -1167,10 +1303,13 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   // A sliding contact's margin along an uncertain e or mu_d: its rate s_mu's change with them.
   const Eigen::MatrixXd coefficient_rate =
       rigidCoefficientRates(prepared, derivatives, contact_bodies, options, start);
+  // Newton's law: a sliding contact's margin from its held (sticking) answer instead.
+  const HeldMargins held = rigidHeldMargins(prepared, derivatives, contact_bodies, options, start);
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
                prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
                geometry ? &geometry->speed_rate : nullptr,
-               coefficient_rate.size() > 0 ? &coefficient_rate : nullptr, outcome);
+               coefficient_rate.size() > 0 ? &coefficient_rate : nullptr, &held, options.law,
+               outcome);
   if (geometry)
     for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   return outcome;
@@ -1429,8 +1568,9 @@ template <class Restore>
   const std::size_t count = mean_contacts.size();
   std::vector<ContactPoint> moved = mean_contacts;
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
-  // With a contact sliding at the mean, each solve is differentiated (its mu_d columns read).
-  const bool rates = anySliding(derivatives.contacts, moved);
+  // With a contact sliding at the mean, each solve is differentiated (its mu_d columns read; not
+  // under Newton's law, whose held margins replace the slip speed's: HeldMargins).
+  const bool rates = options.law != ImpactLaw::kNewton && anySliding(derivatives.contacts, moved);
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     ContactPoint* changed =
@@ -1465,9 +1605,8 @@ template <class Restore>
 template <class Restore>
 [[gnu::noinline]] Eigen::MatrixXd bodyCoefficientRates(
     const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& mean_contacts,
-    const Prepared& prepared, const std::vector<bool>& sliding,
-    const BodyImpactDerivatives& derivatives, Restore&& restore, const SolverOptions& options,
-    std::chrono::steady_clock::time_point start) {
+    const Prepared& prepared, const BodyImpactDerivatives& derivatives, Restore&& restore,
+    const SolverOptions& options, std::chrono::steady_clock::time_point start) {
   std::vector<ContactPoint> changed = mean_contacts;
   const Eigen::Index velocity_count = derivatives.velocity_count;
   auto evaluate = [&](std::size_t j, double value, Eigen::VectorXd& rates,
@@ -1489,7 +1628,50 @@ template <class Restore>
                    velocity_count, nullptr, rates.data(), modes.data());
     contact = mean;
   };
-  return differenceCoefficientRates(prepared, sliding, evaluate);
+  return differenceCoefficientRates(prepared, changed.size(), evaluate);
+}
+
+// heldMargins() for general bodies (computeBodyImpactDerivatives() of the held contacts, every
+// column), each solve from the pre-impact velocities (`restore`); the bodies are left at the last
+// solve's velocities.
+template <class Restore>
+[[gnu::noinline]] HeldMargins bodyHeldMargins(const std::vector<BodyModel*>& bodies,
+                                              const std::vector<ContactPoint>& mean_contacts,
+                                              const Prepared& prepared,
+                                              const BodyImpactDerivatives& derivatives,
+                                              Restore&& restore, const SolverOptions& options,
+                                              std::chrono::steady_clock::time_point start) {
+  std::vector<ContactPoint> held = mean_contacts;
+  std::vector<ContactPoint> moved = mean_contacts;
+  for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
+  auto hold = [](ContactPoint& contact) {
+    contact.static_friction = kHeldFriction;
+    contact.dynamic_friction = kHeldFriction;
+  };
+  auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian) {
+    hold(held[c]);
+    restore();
+    BodyImpactDerivatives at =
+        computeBodyImpactDerivatives(bodies, held, remainingBudget(options, start));
+    held[c] = mean_contacts[c];
+    impulse = at.result.impulses[c];
+    jacobian = std::move(at.jacobian);
+  };
+  auto solve_moved = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
+                         std::size_t c, std::vector<ContactImpulse>& impulses) {
+    const std::vector<ContactPoint> kept = moved;
+    if (u < prepared.contacts.size()) {
+      ContactPoint& changed = moved[prepared.contacts[u].contact];
+      changed.normal = normal;
+      changed.point = point;
+    }
+    hold(moved[c]);
+    restore();
+    impulses = computeBodyResponse(bodies, moved, remainingBudget(options, start)).impulses;
+    moved = kept;
+  };
+  return heldMargins(prepared, derivatives.contacts, mean_contacts, options.law,
+                     derivatives.velocity_count, differentiate, solve_moved);
 }
 
 // The linear method for general bodies (docs/uncertainty.md, "Robots"):
@@ -1552,11 +1734,9 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
     // A sliding contact's margin along an uncertain e or mu_d (as the rigid path's); the bodies
     // then go back to the prediction's velocities too.
     std::optional<Eigen::MatrixXd> coefficient_rate;
-    const std::vector<bool> sliding =
-        slidingForRates(prepared, derivatives.contacts, mean_contacts);
-    if (!sliding.empty()) {
+    if (needsCoefficientRates(prepared, derivatives.contacts, mean_contacts, options.law)) {
       coefficient_rate = bodyCoefficientRates(
-          bodies, mean_contacts, prepared, sliding, derivatives, restore, options,
+          bodies, mean_contacts, prepared, derivatives, restore, options,
           prepared.geometry.empty() ? std::chrono::steady_clock::now() : start);
       toPrediction();
     }
@@ -1565,10 +1745,18 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
       addBodySlip(bodies, derivatives.velocity_offset, mean_contacts[c], *jacobian, 0, slip,
                   &slip_rate);
     };
+    // Newton's law: a sliding contact's margin from its held (sticking) answer instead.
+    std::optional<HeldMargins> held;
+    if (options.law == ImpactLaw::kNewton && anySliding(derivatives.contacts, mean_contacts)) {
+      held = bodyHeldMargins(bodies, mean_contacts, prepared, derivatives, restore, options,
+                             prepared.geometry.empty() ? std::chrono::steady_clock::now() : start);
+      toPrediction();
+    }
     linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
                  prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
                  geometry ? &geometry->speed_rate : nullptr,
-                 coefficient_rate ? &*coefficient_rate : nullptr, outcome);
+                 coefficient_rate ? &*coefficient_rate : nullptr, held ? &*held : nullptr,
+                 options.law, outcome);
     if (geometry)
       for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   } catch (...) {

@@ -613,13 +613,14 @@ TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInE) {
   EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
 }
 
-// Sliding at the mean, with e ~ N(m, s) and mu_s > mu_d: the sphere slides at u_t - 3.5 mu_d
-// (1 + e) u_n, so mu* (the mu_d at which that slip would vanish) is k / (1 + e) and it sticks iff
-// mu_s >= k / (1 + e): exactly Phi((m - t) / s), t = k / mu_s - 1. The margin mu_s - k / (1 + e)
-// is not linear in e: to first order its slope is k / (1 + m)^2, which holds the change with e of
-// the slip's own rate in mu_d (s_mu = -3.5 (1 + e) u_n); with that change left out the slope is
-// mu_d / (1 + m) and the probability 0.106 instead of 0.167 (exact 0.159).
-TEST(Uncertainty, LinearStickProbabilityOfASlidingSphereInEHoldsTheMarginsSlope) {
+// Sliding at the mean, with e ~ N(m, s) and mu_s > mu_d: under Newton's law the sphere sticks iff
+// its sticking impulse lies in the static cone, mu_s (1 + e) m u_n >= 2 m u_t / 7, i.e. iff
+// e >= t = k / mu_s - 1: exactly Phi((m - t) / s). The linear method takes a sliding contact's
+// margin from its sticking impulse (the answer with the contact held), mu_s P_n - |P_t|, which is
+// linear in e: exact. (The margin of the slip speed, mu_s - mu* with mu* = k / (1 + e) the mu_d at
+// which the slip would stop, is not linear in e: its first order gives 0.167, and 0.106 with the
+// change of ds/dmu_d with e left out.)
+TEST(Uncertainty, LinearStickProbabilityOfASlidingSphereIsExactInE) {
   const double m = 0.5, s = 0.05, t = 0.55;
   const double mu_s = kStickK / (1.0 + t), mu_d = 0.8 * mu_s;
   ContactUncertainty u;
@@ -627,14 +628,52 @@ TEST(Uncertainty, LinearStickProbabilityOfASlidingSphereInEHoldsTheMarginsSlope)
   const core::Scene scene = sphere(m, mu_s, mu_d);
   ASSERT_FALSE(core::computeResponse(scene, newton()).impulses[0].sticking);
   const double exact = 0.5 * std::erfc(-((m - t) / s) / std::sqrt(2.0));
-  const double margin = mu_s - kStickK / (1.0 + m);
-  const double first_order =
-      0.5 * std::erfc(-(margin / (s * kStickK / ((1.0 + m) * (1.0 + m)))) / std::sqrt(2.0));
   const auto lin = core::computeOutcomeDistribution(scene, {u}, newton(), linear());
-  EXPECT_NEAR(lin.stick_probability[0], first_order, 1e-6);
-  EXPECT_NEAR(lin.stick_probability[0], exact, 0.01);
+  EXPECT_NEAR(lin.stick_probability[0], exact, 1e-6);
   const auto smp = core::computeOutcomeDistribution(scene, {u}, newton(), sampled(4096));
   EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
+}
+
+// Poisson and Stronge slide with mu_d until the slip stops, then hold: the sphere, sliding at the
+// means with mu_s = 1.3 mu_d (the band between mu_d N and mu_s N), ends sticking iff its slip stops
+// within the impact, 3.5 mu_d (1 + e) u_n >= u_t, i.e. iff mu_d (1 + e) >= k; mu_s does not enter.
+// With e ~ N(m, s): exactly Phi((m - t) / s), t = k / mu_d - 1; the linear margin mu_d - k / (1 +
+// e) to first order gives Phi((mu_d - k / (1 + m)) / (s k / (1 + m)^2)) (its slope holds the change
+// of ds/dmu_d with e). With mu_d ~ N(m_d, s_d) and e fixed: exactly Phi((m_d - k / (1 + e)) / s_d),
+// which the linear method gives exactly (the margin is linear in mu_d). (Before, the margin was
+// mu_s
+// - mu* under every law: 1.0 for the first case, and 0 or 1 for the second.)
+TEST(Uncertainty, LinearStickProbabilityOfASphereUnderImpulseSpaceLawsIsWhetherItsSlipStops) {
+  for (const core::ImpactLaw law : {core::ImpactLaw::kPoisson, core::ImpactLaw::kStronge}) {
+    SCOPED_TRACE(core::toString(law));
+    core::SolverOptions options;
+    options.law = law;
+    const double m = 0.5, s = 0.05, t = 0.55;
+    const double mu_d = kStickK / (1.0 + t), mu_s = 1.3 * mu_d;
+    const core::Scene scene = sphere(m, mu_s, mu_d);
+    ASSERT_FALSE(core::computeResponse(scene, options).impulses[0].sticking);
+    ContactUncertainty in_e;
+    in_e.restitution = CoefficientDistribution::normal(m, s);
+    const double exact = 0.5 * std::erfc(-((m - t) / s) / std::sqrt(2.0));
+    const double first_order =
+        0.5 * std::erfc(-((mu_d - kStickK / (1.0 + m)) / (s * kStickK / ((1.0 + m) * (1.0 + m)))) /
+                        std::sqrt(2.0));
+    const auto lin = core::computeOutcomeDistribution(scene, {in_e}, options, linear());
+    EXPECT_NEAR(lin.stick_probability[0], first_order, 1e-6);
+    EXPECT_NEAR(lin.stick_probability[0], exact, 0.01);
+    const auto smp = core::computeOutcomeDistribution(scene, {in_e}, options, sampled(4096));
+    EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
+
+    const double s_d = 0.002;
+    ContactUncertainty in_mu_d;
+    in_mu_d.dynamic_friction = CoefficientDistribution::normal(mu_d, s_d);
+    const double exact_d = 0.5 * std::erfc(-((mu_d - kStickK / (1.0 + m)) / s_d) / std::sqrt(2.0));
+    ASSERT_GT(exact_d, 0.05);
+    const auto lin_d = core::computeOutcomeDistribution(scene, {in_mu_d}, options, linear());
+    EXPECT_NEAR(lin_d.stick_probability[0], exact_d, 1e-6);
+    const auto smp_d = core::computeOutcomeDistribution(scene, {in_mu_d}, options, sampled(4096));
+    EXPECT_NEAR(smp_d.stick_probability[0], exact_d, 5e-3);
+  }
 }
 
 // The linear distribution of a multi-contact scene against its definition computed here: a box

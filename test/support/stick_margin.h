@@ -1,54 +1,39 @@
-// The reference for the linear method's stick probability of a sliding contact whose normal is
-// uncertain (test_geometry_uncertainty, test_robot_uncertainty), from the test's own differences
-// of the solver, independent of the library's derivatives.
+// The reference for the linear method's stick probability of a contact that slides at the means
+// under Newton's law (test_uncertainty, test_geometry_uncertainty, test_robot_uncertainty): the
+// first-order probability of the stick condition, computed from the test's own solves or closed
+// forms, independent of the library's derivatives. Under Newton's law a contact sticks iff its
+// sticking impulse P (the answer with the contact held: no slip at the end) lies in its static
+// cone, i.e. iff the margin g = mu_s P_n - |P_t| is >= 0.
 #pragma once
-
-#include <gtest/gtest.h>
 
 #include <cmath>
 
 namespace collision_response::testing {
 
-/// P(stick) = Phi(margin / (sigma |g|)) to first order in the normal's tilt (a, b), each tilt with
-/// standard deviation `sigma`: margin = mu_s - mu*(0, 0), mu*(a, b) = mu_d - s / (ds/dmu_d) the
-/// mu_d at which the linearised slip speed would vanish, g the margin's slope over the tilt.
-/// `speed(a, b, mu_d)` is the contact's tangential slip speed after a solve with the normal tilted
-/// by (a, b) along two orthonormal tangents (any pair: both tilts have the same sigma, so the
-/// margin's variance does not depend on the basis) and the given mu_d. ds/dmu_d by central
-/// differences with step 1e-6 at each tilt, g by central differences of mu* with step 1e-4.
-template <class Speed>
-double firstOrderStickProbability(Speed&& speed, double mu_s, double mu_d, double sigma) {
-  auto mu_star = [&](double a, double b) {
-    const double k = 1e-6;
-    const double rate = (speed(a, b, mu_d + k) - speed(a, b, mu_d - k)) / (2.0 * k);
-    EXPECT_LT(rate, 0.0) << "more friction must slow the slip";
-    return mu_d - speed(a, b, mu_d) / rate;
-  };
-  const double h = 1e-4;
-  const double g_a = -(mu_star(h, 0.0) - mu_star(-h, 0.0)) / (2.0 * h);
-  const double g_b = -(mu_star(0.0, h) - mu_star(0.0, -h)) / (2.0 * h);
-  const double margin = mu_s - mu_star(0.0, 0.0);
-  return 0.5 * std::erfc(-margin / (sigma * std::hypot(g_a, g_b)) / std::sqrt(2.0));
+/// P(g >= 0) = Phi(g(0, 0) / (sigma |grad g|)) to first order in two dimensions (a, b) with the
+/// same standard deviation `sigma` (a tilt of the normal along two orthonormal tangents: the
+/// margin's variance sigma^2 |grad g|^2 does not depend on the basis). `margin(a, b)` is g at
+/// (a, b); its gradient by central differences with step `h`.
+template <class Margin>
+double firstOrderStickProbability(Margin&& margin, double sigma, double h) {
+  const double g_a = (margin(h, 0.0) - margin(-h, 0.0)) / (2.0 * h);
+  const double g_b = (margin(0.0, h) - margin(0.0, -h)) / (2.0 * h);
+  return 0.5 * std::erfc(-margin(0.0, 0.0) / (sigma * std::hypot(g_a, g_b)) / std::sqrt(2.0));
 }
 
-/// mu* = mu_d - s / (ds/dmu_d) at `mu_d`, from `speed(mu)`, the slip speed after a solve with
-/// dynamic friction mu (ds/dmu_d by central differences with step 1e-6).
-template <class Speed>
-double stoppingFriction(Speed&& speed, double mu_d) {
-  const double k = 1e-6;
-  const double rate = (speed(mu_d + k) - speed(mu_d - k)) / (2.0 * k);
-  EXPECT_LT(rate, 0.0) << "more friction must slow the slip";
-  return mu_d - speed(mu_d) / rate;
+/// The same in one dimension x with standard deviation `sigma`: `margin(dx)` is g with x moved by
+/// dx from its mean.
+template <class Margin>
+double firstOrderStickProbabilityAlong(Margin&& margin, double sigma, double h) {
+  const double g_x = (margin(h) - margin(-h)) / (2.0 * h);
+  return 0.5 * std::erfc(-margin(0.0) / (sigma * std::abs(g_x)) / std::sqrt(2.0));
 }
 
-/// P(stick) = Phi(margin / (sigma |g|)) to first order in one uncertain coefficient x with
-/// standard deviation `sigma`: margin = mu_s - mu_star(0), g = -d mu_star / dx by central
-/// differences with step `h`; `mu_star(dx)` is stoppingFriction() with x moved by dx from its mean.
-template <class MuStar>
-double firstOrderStickProbabilityAlong(MuStar&& mu_star, double mu_s, double sigma, double h) {
-  const double g = -(mu_star(h) - mu_star(-h)) / (2.0 * h);
-  const double margin = mu_s - mu_star(0.0);
-  return 0.5 * std::erfc(-margin / (sigma * std::abs(g)) / std::sqrt(2.0));
+/// g = mu_s P_n - |P_t| of an impulse with normal part `normal_impulse` and tangential part
+/// `friction_impulse` (any vector type with norm()).
+template <class Vector>
+double stickMargin(double mu_s, double normal_impulse, const Vector& friction_impulse) {
+  return mu_s * normal_impulse - friction_impulse.norm();
 }
 
 }  // namespace collision_response::testing
