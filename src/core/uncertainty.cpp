@@ -333,8 +333,8 @@ std::string percentText(double fraction) {
 // cone: the linear method's margin of such a contact is mu_s P_n - |P_t| of that held answer
 // (docs/uncertainty.md, "Linear"), with its gradient along every dimension (the coefficients' from
 // the held answer's derivatives, the geometry's by differences of held solves). Per contact: its
-// row, or -1 where the margin is the slip speed's (other laws, or a held answer that does not
-// stick); `row` is empty where no contact has one.
+// row, or -1 (a held answer that does not stick: the contact cannot stick); `row` is empty where
+// no contact slides or the law is another.
 struct HeldMargins {
   std::vector<int> row;      // per contact
   Eigen::VectorXd margin;    // [N s]
@@ -345,19 +345,12 @@ struct HeldMargins {
 // does not hold is not a sticking impulse the static cone could hold either.
 constexpr double kHeldFriction = 1e3;
 
-// gradient[j] -= curvature * rate(c, j) for each coefficient dimension j whose column is not
-// `skipped` (-1: none) (linearStickProbability()'s s_mu term).
-[[gnu::noinline]] void subtractRateTerms(const Eigen::MatrixXd& rate, std::size_t c,
-                                         double curvature, const int* column_of_dimension,
-                                         Eigen::Index skipped, double* gradient) {
-  const auto row = static_cast<Eigen::Index>(c);
-  for (Eigen::Index j = 0; j < rate.cols(); ++j)
-    if (column_of_dimension[j] != skipped) gradient[j] -= curvature * rate(row, j);
-}
-
 // The probability that contact c sticks, from the linearised margin of its mode at the means
-// (docs/uncertainty.md): sticking, mu_s P_n - |P_t|; sliding, mu_s minus the mu_d at which the
-// linearised slip speed would vanish.
+// (docs/uncertainty.md, "Linear"): sticking, mu_s P_n - |P_t|; sliding, under Newton's law the
+// held answer's mu_s P_n - |P_t| (`held`); under Poisson's and Stronge's whether the slip stops
+// within the impact, s / s_mu (= mu_d - mu*), linearised in s; under the one-pass law mu_s - mu*;
+// s the slip speed after the impact, s_mu = ds/dmu_d (< 0), mu* = mu_d - s / s_mu the mu_d at
+// which the slip, linearised in mu_d, would vanish.
 // `jacobian`: the derivatives at the means, rows as OutcomeDistribution's (velocity_count velocity
 // rows, then 4 per contact), columns velocity_count, then e, mu_s, mu_d per contact (then any
 // others). `slip_of(c, slip, slip_rate)` adds the relative velocity of b against a at the contact's
@@ -365,24 +358,19 @@ constexpr double kHeldFriction = 1e3;
 // `slip_rate` (3 x columns), both given zero; it is called for a sliding contact only.
 // `column_used[j]`: whether the Jacobian's column of dimension j has a nonzero entry; `variance[j]`
 // the dimension's variance (dimensionVariance()). `gradient`: a workspace of one entry per
-// dimension. The geometry's dimensions (after the coefficients') have
-// their columns after the coefficients' and `geometry_speed` (contacts x their count; null without
-// them): the derivatives of each contact's slip speed after the impact, which also moves with the
-// contact's own point and normal, not only with the bodies' velocities that slip_of() reads; and
-// `geometry_rate` (the same shape): the derivatives of the slip speed's own rate in the contact's
-// mu_d, which the margin's slope also holds (margin = mu_s - mu_d + s / s_mu, d margin / d x =
-// (ds/dx) / s_mu - s (d s_mu / dx) / s_mu^2). `coefficient_rate` (contacts x coefficient
-// dimensions; null: 0): the same change of s_mu with each uncertain coefficient
-// (differenceCoefficientRates()). `held`: Newton's held margins (null: none), which replace the
-// slip speed's margin where they have a row. `law`: the solve's (which margin a sliding contact
-// takes).
+// dimension. The geometry's dimensions (after the coefficients') have their columns after the
+// coefficients' and `geometry_speed` (contacts x their count; null without them): the derivatives
+// of each contact's slip speed after the impact, which also moves with the contact's own point and
+// normal, not only with the bodies' velocities that slip_of() reads. `held`: Newton's held margins
+// (null: none). `law`: the solve's (which margin a sliding contact takes).
 template <class SlipOf>
-double linearStickProbability(
-    const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count, const ContactImpulse& impulse,
-    ImpactMode mode, const Prepared& prepared, std::size_t c, const int* column_of_dimension,
-    const unsigned char* column_used, const double* variance, double* gradient, SlipOf& slip_of,
-    const Eigen::MatrixXd* geometry_speed, const Eigen::MatrixXd* geometry_rate,
-    const Eigen::MatrixXd* coefficient_rate, const HeldMargins* held, ImpactLaw law) {
+double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
+                              const ContactImpulse& impulse, ImpactMode mode,
+                              const Prepared& prepared, std::size_t c,
+                              const int* column_of_dimension, const unsigned char* column_used,
+                              const double* variance, double* gradient, SlipOf& slip_of,
+                              const Eigen::MatrixXd* geometry_speed, const HeldMargins* held,
+                              ImpactLaw law) {
   const Contact& contact = prepared.mean_scene.contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
@@ -408,7 +396,10 @@ double linearStickProbability(
                     direction.dot(jacobian.block<3, 1>(row + 1, k));
     }
     if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
-  } else if (held && c < held->row.size() && held->row[c] >= 0) {
+  } else if (law == ImpactLaw::kNewton) {
+    // No held answer that sticks: no sticking impulse within friction kHeldFriction, so none that
+    // a static cone holds.
+    if (!held || c >= held->row.size() || held->row[c] < 0) return 0.0;
     const Eigen::Index r = held->row[c];
     margin = held->margin(r);
     for (Eigen::Index j = 0; j < dims; ++j) gradient[j] = held->gradient(r, j);
@@ -428,29 +419,24 @@ double linearStickProbability(
         velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction;
     const double by_mu_d = speed_rate(mu_d_column);
     if (!(by_mu_d < 0.0)) return 0.0;  // more friction does not slow the slip: it never sticks
-    // mu* = mu_d - s / s_mu, the mu_d at which the linearised slip would stop at the impact's end.
     // Poisson and Stronge slide with mu_d until the slip stops, then hold: the contact ends
-    // sticking iff the slip stops within the impact, margin mu_d - mu* = s / s_mu, which mu_s does
-    // not enter (holding it afterwards is taken as given). The one-pass law (and Newton's where no
-    // held answer sticks): mu_s - mu*, the static coefficient at which it would stick; there its
-    // own mu_d decides how it slides, not whether it sticks, and is left out.
+    // sticking iff its slip stops within the impact, s <= 0 for the slip speed s extended past its
+    // zero, margin s / s_mu (= mu_d - mu*, in units of mu), its gradient (ds/dx) / s_mu with s_mu
+    // held at the means: linear in s (which the bodies' velocities make nearly affine in the
+    // coefficients), not in mu* (s_mu moves too: linearising mu* was further from the samples,
+    // docs/uncertainty.md). mu_s does not enter (holding the stopped slip is taken as given). The
+    // one-pass law: mu_s - mu*, the static coefficient at which it would stick, its own mu_d left
+    // out (it decides how the contact slides, not whether it sticks).
     const bool stops = law == ImpactLaw::kPoisson || law == ImpactLaw::kStronge;
     margin = speed / by_mu_d;
     if (!stops) margin += contact.static_friction - contact.dynamic_friction;
-    const double curvature = speed / (by_mu_d * by_mu_d);  // the s_mu term's factor
     for (Eigen::Index j = 0; j < coefficient_dims; ++j) {
       const Eigen::Index k = column_of_dimension[j];
       if (!stops && k == mu_d_column) continue;
       gradient[j] = speed_rate(k) / by_mu_d;  // (its own mu_d: 1)
     }
-    if (coefficient_rate)
-      subtractRateTerms(*coefficient_rate, c, curvature, column_of_dimension,
-                        stops ? Eigen::Index{-1} : mu_d_column, gradient);
-    for (Eigen::Index j = coefficient_dims; j < dims; ++j) {
-      const auto row = static_cast<Eigen::Index>(c);
-      gradient[j] = (*geometry_speed)(row, j - coefficient_dims) / by_mu_d -
-                    curvature * (*geometry_rate)(row, j - coefficient_dims);
-    }
+    for (Eigen::Index j = coefficient_dims; j < dims; ++j)
+      gradient[j] = (*geometry_speed)(static_cast<Eigen::Index>(c), j - coefficient_dims) / by_mu_d;
     if (!stops && mu_s_dimension >= 0) gradient[mu_s_dimension] += 1.0;
   }
   double margin_variance = 0.0;
@@ -542,16 +528,14 @@ double linearStickProbability(
 // `jacobian` and `velocity_count` as linearStickProbability() takes them; `impulses` and `modes`:
 // the prediction's, one per contact.
 // With an uncertain normal or point, `jacobian` has the geometry's columns last and
-// `geometry_speed` and `geometry_rate` are as linearStickProbability() takes them
-// (differenceGeometry()); else null. `coefficient_rate` and `held`: as linearStickProbability()
-// takes them.
+// `geometry_speed` is as linearStickProbability() takes it (differenceGeometry()); else null.
+// `held` and `law`: as linearStickProbability() takes them.
 template <class SlipOf>
 void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                   const std::vector<ContactImpulse>& impulses,
                   const std::vector<ContactDerivativeMode>& modes, const Prepared& prepared,
-                  SlipOf&& slip_of, const Eigen::MatrixXd* geometry_speed,
-                  const Eigen::MatrixXd* geometry_rate, const Eigen::MatrixXd* coefficient_rate,
-                  const HeldMargins* held, ImpactLaw law, OutcomeDistribution& outcome) {
+                  SlipOf&& slip_of, const Eigen::MatrixXd* geometry_speed, const HeldMargins* held,
+                  ImpactLaw law, OutcomeDistribution& outcome) {
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = jacobian.rows();
   const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
@@ -620,10 +604,9 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   outcome.stick_probability.resize(contacts);
   for (std::size_t c = 0; c < contacts; ++c)
-    outcome.stick_probability[c] =
-        linearStickProbability(jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c,
-                               column_of_dimension, column_used, variance, gradient, slip_of,
-                               geometry_speed, geometry_rate, coefficient_rate, held, law);
+    outcome.stick_probability[c] = linearStickProbability(
+        jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c, column_of_dimension,
+        column_used, variance, gradient, slip_of, geometry_speed, held, law);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -695,9 +678,8 @@ double tangentialSpeed(const Eigen::Vector3d& slip, const Eigen::Vector3d& norma
 // at least base / 1000, base = kGeometryStep [rad] for a tilt and kGeometryStep max(1, |p|_inf) [m]
 // for a point. `evaluate(u, normal, point, values, modes)` solves with prepared.contacts[u]'s
 // contact at that normal and point (every other contact as it is; every normal taken unit),
-// writes the m rows, then the `contacts` slip speeds, then their rates in each contact's own mu_d
-// (slipSpeedRate(); 0 for every contact unless one slides at the mean) into `values`, and each
-// contact's modeCode() into `modes`; evaluate(npos, ...) solves at the mean geometry. The
+// writes the m rows, then the `contacts` slip speeds into `values`, and each contact's modeCode()
+// into `modes`; evaluate(npos, ...) solves at the mean geometry. The
 // difference is kept within the modes of the mean solve: where one side changes a contact's mode,
 // it is one-sided on the other side; where both do, or where the two one-sided differences disagree
 // (the outcome jumps with no contact changing its mode: a split of the impulse that is not unique),
@@ -706,7 +688,6 @@ double tangentialSpeed(const Eigen::Vector3d& slip, const Eigen::Vector3d& norma
 struct GeometryColumns {
   Eigen::MatrixXd outcome;     // m x geometry dimensions
   Eigen::MatrixXd slip_speed;  // contacts x geometry dimensions [m/s per rad, or per m]
-  Eigen::MatrixXd speed_rate;  // the same of d(slip speed) / d(own mu_d) [m/s per rad, or per m]
 };
 
 constexpr double kGeometryStep = 1e-6;
@@ -727,9 +708,8 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
                                    Evaluate&& evaluate, std::vector<Warning>& warnings) {
   const auto count = static_cast<Eigen::Index>(prepared.geometry.size());
   const auto c_rows = static_cast<Eigen::Index>(contacts);
-  const Eigen::Index rows = m + 2 * c_rows;
-  GeometryColumns columns{Eigen::MatrixXd(m, count), Eigen::MatrixXd(c_rows, count),
-                          Eigen::MatrixXd(c_rows, count)};
+  const Eigen::Index rows = m + c_rows;
+  GeometryColumns columns{Eigen::MatrixXd(m, count), Eigen::MatrixXd(c_rows, count)};
   Eigen::VectorXd plus(rows), minus(rows), mean(rows);
   std::vector<int> plus_modes(contacts), minus_modes(contacts), mean_modes(contacts);
   evaluate(static_cast<std::size_t>(-1), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), mean,
@@ -789,21 +769,6 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
     }
     columns.outcome.col(g) = column.head(m);
     columns.slip_speed.col(g) = column.segment(m, c_rows);
-    // The rates' rows only where they have a derivative: both sides keep the modes, no secant, and
-    // the two one-sided differences agree (a rate can jump where the outcome only kinks: a sliding
-    // direction moving between the friction pyramid's edges and facets, the derivatives' method
-    // switching); elsewhere 0, the margin's slope then without its rate term.
-    columns.speed_rate.col(g).setZero();
-    if (plus_kept && minus_kept && !secant && c_rows > 0) {
-      const auto rates = [&](const Eigen::VectorXd& v) { return v.tail(c_rows); };
-      const Eigen::VectorXd size =
-          rates(mean).cwiseAbs().cwiseMax(rates(plus).cwiseAbs()).cwiseMax(rates(minus).cwiseAbs());
-      const Eigen::VectorXd floor =
-          (1e-8 / h) * size.cwiseMax(size.maxCoeff()).array() + 0.1 * size.array() + 1e-300;
-      if (!onesidedDisagree((rates(plus) - rates(mean)) / h, (rates(mean) - rates(minus)) / h,
-                            floor))
-        columns.speed_rate.col(g) = column.tail(c_rows);
-    }
     if (plus_kept && minus_kept && !secant) continue;
     static constexpr std::array<std::string_view, 5> kFields = {
         ".normal_std_dev", ".normal_std_dev", ".point_std_dev.x", ".point_std_dev.y",
@@ -829,30 +794,18 @@ GeometryColumns differenceGeometry(const Prepared& prepared, Eigen::Index m, std
 }
 
 // The Jacobian with the geometry's columns after the coefficients' (differenceGeometry()), the
-// rows of the slip speeds and of their rates in mu_d, and the warnings, for the linear method on a
+// rows of the slip speeds, and the warnings, for the linear method on a
 // scene with an uncertain normal or point; `start`: the call's, for its time budget. (Out of line:
 // the coefficients-only path, whose cost is measured against the prediction's, does not carry it.)
 struct GeometryJacobian {
   Eigen::MatrixXd jacobian;
   Eigen::MatrixXd slip_speed;
-  Eigen::MatrixXd speed_rate;
   std::vector<Warning> warnings;
 };
 
-// The rate of a contact's tangential slip speed |P slip| (P = I - n n^T, n = normalize(normal)) by
-// a parameter that moves the slip by `slip_rate` [m/s per unit]; 0 at zero slip (no direction).
-double slipSpeedRate(const Eigen::Vector3d& slip, const Eigen::Vector3d& normal,
-                     const Eigen::Vector3d& slip_rate) {
-  const Eigen::Vector3d n = normal.normalized();
-  const Eigen::Vector3d tangential = slip - n * n.dot(slip);
-  const double speed = tangential.norm();
-  if (speed == 0.0) return 0.0;
-  return tangential.dot(slip_rate - n * n.dot(slip_rate)) / speed;
-}
-
-// Whether a frictional contact slides at the mean (then the geometry's differences also carry
-// each slip speed's rate in its own mu_d, which that contact's stick margin reads; a frictionless
-// one, reported sliding, never sticks). `contacts`: anything with frictionless(), one per mode.
+// Whether a frictional contact slides at the mean (under Newton's law its stick margin then needs
+// its held answer: HeldMargins; a frictionless one, reported sliding, never sticks). `contacts`:
+// anything with frictionless(), one per mode.
 template <class Contacts>
 bool anySliding(const std::vector<ContactDerivativeMode>& modes, const Contacts& contacts) {
   for (std::size_t c = 0; c < modes.size(); ++c)
@@ -860,75 +813,7 @@ bool anySliding(const std::vector<ContactDerivativeMode>& modes, const Contacts&
   return false;
 }
 
-// The change of each contact's slip-speed rate in its own mu_d, s_mu = ds/dmu_d, with each
-// uncertain coefficient (docs/uncertainty.md, "Linear"): rows the contacts, columns
-// prepared.dimensions. A sliding contact's stick margin, s / s_mu plus a constant (mu_s - mu_d
-// under the one-pass law), has the slope (ds/dx) / s_mu - s (ds_mu/dx) / s_mu^2 along a
-// coefficient x; this is ds_mu/dx, by central
-// differences of the solver's derivatives with the coefficient at its mean +- h, h = min(1e-6,
-// sd / 100) but at least 1e-9. One-sided where the other side leaves the coefficient's range (e in
-// [0, 1], mu_d >= 0) or changes a contact's mode (modeCode()); 0 (the term left out) where both
-// sides change a mode, or where the two one-sided differences disagree (the rate jumps where the
-// outcome only kinks), and for mu_s, which moves neither s nor s_mu while the modes hold.
-// `evaluate(j, value, rates, modes)` solves with dimension j's coefficient at `value` (j = npos:
-// every coefficient at its mean) and writes each contact's s_mu (0 unless it slides) and mode.
-template <class Evaluate>
-Eigen::MatrixXd differenceCoefficientRates(const Prepared& prepared, std::size_t contacts,
-                                           Evaluate&& evaluate) {
-  const auto rows = static_cast<Eigen::Index>(contacts);
-  const auto dims = static_cast<Eigen::Index>(prepared.dimensions.size());
-  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(rows, dims);
-  Eigen::VectorXd mean(rows), plus(rows), minus(rows);
-  std::vector<int> mean_modes(contacts), plus_modes(contacts), minus_modes(contacts);
-  evaluate(static_cast<std::size_t>(-1), 0.0, mean, mean_modes);
-  for (Eigen::Index j = 0; j < dims; ++j) {
-    const auto& [index, which] = prepared.dimensions[static_cast<std::size_t>(j)];
-    if (which == kStaticFriction) continue;
-    const CheckedDistribution& distribution =
-        prepared.contacts[index].distributions[static_cast<std::size_t>(which)];
-    const double value = distribution.mean();
-    const double h = std::max(std::min(1e-6, 0.01 * std::sqrt(distribution.variance())), 1e-9);
-    const double upper = which == kRestitution ? 1.0 : std::numeric_limits<double>::infinity();
-    bool plus_kept = false, minus_kept = false;
-    if (value + h <= upper) {
-      evaluate(static_cast<std::size_t>(j), value + h, plus, plus_modes);
-      plus_kept = plus_modes == mean_modes;
-    }
-    if (value - h >= 0.0) {
-      evaluate(static_cast<std::size_t>(j), value - h, minus, minus_modes);
-      minus_kept = minus_modes == mean_modes;
-    }
-    if (plus_kept && minus_kept) {
-      // As the geometry's rates (differenceGeometry()): round-off 1e-8 of the rates over h, and 0.1
-      // of a rate per unit of the coefficient.
-      const Eigen::VectorXd size =
-          mean.cwiseAbs().cwiseMax(plus.cwiseAbs()).cwiseMax(minus.cwiseAbs());
-      const Eigen::VectorXd floor =
-          (1e-8 / h) * size.cwiseMax(size.maxCoeff()).array() + 0.1 * size.array() + 1e-300;
-      if (!onesidedDisagree((plus - mean) / h, (mean - minus) / h, floor))
-        out.col(j) = (plus - minus) / (2.0 * h);
-    } else if (plus_kept) {
-      out.col(j) = (plus - mean) / h;
-    } else if (minus_kept) {
-      out.col(j) = (mean - minus) / h;
-    }
-  }
-  return out;
-}
-
-// Whether the stick margins read differenceCoefficientRates(): a contact slides with friction at
-// the means, an e or a mu_d is uncertain, and the law is not Newton's (whose sliding contacts take
-// their held margins: HeldMargins).
-template <class Contacts>
-bool needsCoefficientRates(const Prepared& prepared,
-                           const std::vector<ContactDerivativeMode>& modes,
-                           const Contacts& contacts, ImpactLaw law) {
-  return law != ImpactLaw::kNewton && anySliding(modes, contacts) &&
-         std::any_of(prepared.dimensions.begin(), prepared.dimensions.end(),
-                     [](const auto& dimension) { return dimension.second != kStaticFriction; });
-}
-
-// HeldMargins for Newton's law (else every row -1): for each contact that slides with friction
+// HeldMargins for Newton's law (else `row` empty): for each contact that slides with friction
 // at the means, `differentiate(c, impulse, jacobian)` solves with contact c held and
 // differentiates by the uncertain coefficients (jacobian: rows velocity_count + 4 per contact,
 // columns velocity_count + 3 per contact, as ImpactDerivatives' and BodyImpactDerivatives'); a
@@ -942,9 +827,9 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
                         const Contacts& contacts, ImpactLaw law, Eigen::Index velocity_count,
                         Differentiate&& differentiate, SolveMoved&& solve_moved) {
   HeldMargins out;
+  if (law != ImpactLaw::kNewton) return out;
   const std::size_t n = contacts.size();
   out.row.assign(n, -1);
-  if (law != ImpactLaw::kNewton) return out;
   std::vector<std::size_t> kept;
   const auto coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   const Eigen::Index dims = coefficient_dims + static_cast<Eigen::Index>(prepared.geometry.size());
@@ -998,15 +883,13 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
   return out;
 }
 
-// `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` and `out.speed_rate`
-// the geometry's rows of the slip speeds and of their rates in mu_d: the end of
-// rigidGeometryJacobian() and bodyGeometryJacobian().
+// `out.jacobian` = [coefficients | the geometry's columns], `out.slip_speed` the geometry's rows of
+// the slip speeds: the end of rigidGeometryJacobian() and bodyGeometryJacobian().
 void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& columns,
                          GeometryJacobian& out) {
   out.jacobian.resize(coefficients.rows(), coefficients.cols() + columns.outcome.cols());
   out.jacobian << coefficients, columns.outcome;
   out.slip_speed = std::move(columns.slip_speed);
-  out.speed_rate = std::move(columns.speed_rate);
 }
 
 // Adds the velocity of body b against body a (`bodies` = {a, b}, scene indices) at `point` after
@@ -1067,62 +950,17 @@ void fillBodyOutcome(const std::vector<BodyModel*>& bodies, const std::vector<in
 }
 
 // Per contact of a solve: its tangential slip speed at its point and normal [m/s] into `speeds`
-// (if given), that speed's rate in the contact's own mu_d (slipSpeedRate()) from `jacobian` (the
-// solve's derivatives with the mu_d columns; null: 0) into `rates`, and its modeCode() into
-// `modes`. `add_slip(c, jacobian, column, slip, slip_rate)` adds contact c's slip after the solve
-// and (slip_rate not null) its derivative by `jacobian`'s column `column`: addRigidSlip() or
-// addBodySlip().
+// and its modeCode() into `modes`. `add_slip(c, slip)` adds contact c's slip after the solve:
+// addRigidSlip() or addBodySlip().
 template <class Contacts, class AddSlip>
 void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& impulses,
-                const Eigen::MatrixXd* jacobian, Eigen::Index velocity_count, double* speeds,
-                double* rates, int* modes, AddSlip&& add_slip) {
-  static const Eigen::MatrixXd kNone;
-  Eigen::MatrixXd slip_rate(3, 1);
+                double* speeds, int* modes, AddSlip&& add_slip) {
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     Eigen::Vector3d slip = Eigen::Vector3d::Zero();
-    slip_rate.setZero();
-    add_slip(c, jacobian ? *jacobian : kNone,
-             velocity_count + 3 * static_cast<Eigen::Index>(c) + kDynamicFriction, slip,
-             jacobian ? &slip_rate : nullptr);
-    if (speeds) speeds[c] = tangentialSpeed(slip, contacts[c].normal);
-    rates[c] = jacobian ? slipSpeedRate(slip, contacts[c].normal, slip_rate.col(0)) : 0.0;
+    add_slip(c, slip);
+    speeds[c] = tangentialSpeed(slip, contacts[c].normal);
     modes[c] = modeCode(impulses[c]);
   }
-}
-
-// slipSpeeds() of a rigid-body solve `after` (computeValidatedImpactDerivatives()'s jacobian).
-void rigidSlipSpeeds(const CollisionResult& after, const std::vector<int>& movable_bodies,
-                     const std::vector<std::pair<int, int>>& contact_bodies,
-                     const std::vector<Contact>& contacts, const Eigen::MatrixXd* jacobian,
-                     Eigen::Index velocity_count, double* speeds, double* rates, int* modes) {
-  slipSpeeds(contacts, after.impulses, jacobian, velocity_count, speeds, rates, modes,
-             [&](std::size_t c, const Eigen::MatrixXd& jacobian, Eigen::Index column,
-                 Eigen::Vector3d& slip, Eigen::MatrixXd* slip_rate) {
-               addRigidSlip(after, movable_bodies, contact_bodies[c], contacts[c].point, jacobian,
-                            column, slip, slip_rate);
-             });
-}
-
-// slipSpeeds() of general bodies (computeBodyImpactDerivatives()'s `jacobian`), from the bodies'
-// current velocities (the solve's answer) and the solve's `impulses`.
-void bodySlipSpeeds(const std::vector<BodyModel*>& bodies, const std::vector<int>& velocity_offset,
-                    const std::vector<ContactPoint>& contacts,
-                    const std::vector<ContactImpulse>& impulses, const Eigen::MatrixXd* jacobian,
-                    Eigen::Index velocity_count, double* speeds, double* rates, int* modes) {
-  slipSpeeds(contacts, impulses, jacobian, velocity_count, speeds, rates, modes,
-             [&](std::size_t c, const Eigen::MatrixXd& jacobian, Eigen::Index column,
-                 Eigen::Vector3d& slip, Eigen::MatrixXd* slip_rate) {
-               addBodySlip(bodies, velocity_offset, contacts[c], jacobian, column, slip, slip_rate);
-             });
-}
-
-// The derivative columns of every contact's mu_d alone (each slip speed's rate).
-DerivativeColumns muDColumns(std::size_t contacts) {
-  DerivativeColumns columns;
-  columns.velocities = false;
-  columns.coefficients.assign(3 * contacts, false);
-  for (std::size_t c = 0; c < contacts; ++c) columns.coefficients[3 * c + kDynamicFriction] = true;
-  return columns;
 }
 
 [[gnu::noinline]] GeometryJacobian rigidGeometryJacobian(
@@ -1134,12 +972,6 @@ DerivativeColumns muDColumns(std::size_t contacts) {
   const std::size_t contacts = prepared.mean_scene.contacts.size();
   Scene moved = prepared.mean_scene;
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
-  // With a contact sliding at the mean, each solve is differentiated by every contact's mu_d (the
-  // slip speed's margin; under Newton's law the held margins replace it: HeldMargins).
-  const bool rates =
-      options.law != ImpactLaw::kNewton && anySliding(derivatives.contacts, moved.contacts);
-  const DerivativeColumns mu_d_columns = muDColumns(contacts);
-  const Eigen::Index velocity_count = derivatives.velocityCount();
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     Contact* changed =
@@ -1150,19 +982,15 @@ DerivativeColumns muDColumns(std::size_t contacts) {
       changed->normal = normal;
       changed->point = point;
     }
-    std::optional<ImpactDerivatives> differentiated;
-    if (rates) {
-      differentiated = computeValidatedImpactDerivatives(
-          moved, contact_bodies, remainingBudget(options, start), mu_d_columns);
-    }
     const CollisionResult after =
-        rates ? std::move(differentiated->result)
-              : computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
+        computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
     fillOutcome(after, derivatives.movable_bodies,
                 [&](Eigen::Index r) -> double& { return values(r); });
-    rigidSlipSpeeds(after, derivatives.movable_bodies, contact_bodies, moved.contacts,
-                    rates ? &differentiated->jacobian : nullptr, velocity_count, values.data() + m,
-                    values.data() + m + static_cast<Eigen::Index>(contacts), modes.data());
+    slipSpeeds(moved.contacts, after.impulses, values.data() + m, modes.data(),
+               [&](std::size_t c, Eigen::Vector3d& slip) {
+                 addRigidSlip(after, derivatives.movable_bodies, contact_bodies[c],
+                              moved.contacts[c].point, derivatives.jacobian, 0, slip, nullptr);
+               });
     if (changed) {
       changed->normal = kept_normal;
       changed->point = kept_point;
@@ -1173,50 +1001,8 @@ DerivativeColumns muDColumns(std::size_t contacts) {
   return out;
 }
 
-// differenceCoefficientRates() for rigid bodies where needsCoefficientRates() (else empty):
-// each perturbed solve differentiated by every contact's mu_d
-// (computeValidatedImpactDerivatives()); the means' rates from `derivatives` (which holds those
-// columns). `start`: the time budget's, if taken (the geometry's); else it starts here. (Out of
-// line, as rigidGeometryJacobian().)
-[[gnu::noinline]] Eigen::MatrixXd rigidCoefficientRates(
-    const Prepared& prepared, const ImpactDerivatives& derivatives,
-    const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
-    std::chrono::steady_clock::time_point start) {
-  if (!needsCoefficientRates(prepared, derivatives.contacts, prepared.mean_scene.contacts,
-                             options.law))
-    return {};
-  if (prepared.geometry.empty()) start = std::chrono::steady_clock::now();
-  Scene changed = prepared.mean_scene;
-  const DerivativeColumns mu_d_columns = muDColumns(changed.contacts.size());
-  const Eigen::Index velocity_count = derivatives.velocityCount();
-  auto evaluate = [&](std::size_t j, double value, Eigen::VectorXd& rates,
-                      std::vector<int>& modes) {
-    if (j >= prepared.dimensions.size()) {
-      rigidSlipSpeeds(derivatives.result, derivatives.movable_bodies, contact_bodies,
-                      changed.contacts, &derivatives.jacobian, velocity_count, nullptr,
-                      rates.data(), modes.data());
-      return;
-    }
-    const auto& [index, which] = prepared.dimensions[j];
-    Contact& contact = changed.contacts[prepared.contacts[index].contact];
-    const Contact& mean = prepared.mean_scene.contacts[prepared.contacts[index].contact];
-    coefficient(contact, which) = value;
-    // (mu_s no lower than mu_d, as validation requires: a sliding answer does not read it, and a
-    // contact that sticks instead shows in its mode.)
-    if (which == kDynamicFriction) contact.static_friction = std::max(mean.static_friction, value);
-    const ImpactDerivatives at = computeValidatedImpactDerivatives(
-        changed, contact_bodies, remainingBudget(options, start), mu_d_columns);
-    rigidSlipSpeeds(at.result, at.movable_bodies, contact_bodies, changed.contacts, &at.jacobian,
-                    velocity_count, nullptr, rates.data(), modes.data());
-    contact.restitution = mean.restitution;
-    contact.static_friction = mean.static_friction;
-    contact.dynamic_friction = mean.dynamic_friction;
-  };
-  return differenceCoefficientRates(prepared, changed.contacts.size(), evaluate);
-}
-
 // heldMargins() for rigid bodies (computeValidatedImpactDerivatives() of the held scene, by the
-// uncertain coefficients' columns). `start`: the time budget's, if taken; else it starts here.
+// uncertain coefficients' columns). `start`: the call's, for its time budget.
 [[gnu::noinline]] HeldMargins rigidHeldMargins(
     const Prepared& prepared, const ImpactDerivatives& derivatives,
     const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
@@ -1224,7 +1010,6 @@ DerivativeColumns muDColumns(std::size_t contacts) {
   if (options.law != ImpactLaw::kNewton ||
       !anySliding(derivatives.contacts, prepared.mean_scene.contacts))
     return {};
-  if (prepared.geometry.empty()) start = std::chrono::steady_clock::now();
   DerivativeColumns columns;
   columns.velocities = false;
   columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
@@ -1265,9 +1050,9 @@ DerivativeColumns muDColumns(std::size_t contacts) {
 
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
                                        const RequestLimits& limits) {
-  // The call's start, for the geometry's differences' budget (read only when they are needed).
-  const auto start = prepared.geometry.empty() ? std::chrono::steady_clock::time_point{}
-                                               : std::chrono::steady_clock::now();
+  // The call's start: every solve after the mean's (the geometry's differences, the sliding
+  // contacts' margins) shares what is left of options.time_budget.
+  const auto start = std::chrono::steady_clock::now();
   // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
   // probability of a sliding contact reads it), are computed.
   const std::vector<std::pair<int, int>> contact_bodies =
@@ -1300,15 +1085,10 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     addRigidSlip(result, derivatives.movable_bodies, contact_bodies[c],
                  prepared.mean_scene.contacts[c].point, *jacobian, 0, slip, &slip_rate);
   };
-  // A sliding contact's margin along an uncertain e or mu_d: its rate s_mu's change with them.
-  const Eigen::MatrixXd coefficient_rate =
-      rigidCoefficientRates(prepared, derivatives, contact_bodies, options, start);
-  // Newton's law: a sliding contact's margin from its held (sticking) answer instead.
+  // Newton's law: a sliding contact's margin from its held (sticking) answer.
   const HeldMargins held = rigidHeldMargins(prepared, derivatives, contact_bodies, options, start);
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
-               prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
-               geometry ? &geometry->speed_rate : nullptr,
-               coefficient_rate.size() > 0 ? &coefficient_rate : nullptr, &held, options.law,
+               prepared, slip_of, geometry ? &geometry->slip_speed : nullptr, &held, options.law,
                outcome);
   if (geometry)
     for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
@@ -1553,10 +1333,8 @@ std::vector<std::string> bodyOutcomeLabels(Eigen::Index velocity_count, std::siz
 }
 
 // The robot path's counterpart of rigidGeometryJacobian(): each difference solves
-// computeBodyResponse() (computeBodyImpactDerivatives() when a frictional contact slides at the
-// mean: every column, of which the mu_d ones are read) from the pre-impact velocities (`restore`)
-// with the contact moved, and reads the bodies' velocities after it; the bodies are left at the
-// last solve's velocities.
+// computeBodyResponse() from the pre-impact velocities (`restore`) with the contact moved, and
+// reads the bodies' velocities after it; the bodies are left at the last solve's velocities.
 template <class Restore>
 [[gnu::noinline]] GeometryJacobian bodyGeometryJacobian(
     const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& mean_contacts,
@@ -1568,9 +1346,6 @@ template <class Restore>
   const std::size_t count = mean_contacts.size();
   std::vector<ContactPoint> moved = mean_contacts;
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
-  // With a contact sliding at the mean, each solve is differentiated (its mu_d columns read; not
-  // under Newton's law, whose held margins replace the slip speed's: HeldMargins).
-  const bool rates = options.law != ImpactLaw::kNewton && anySliding(derivatives.contacts, moved);
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
     ContactPoint* changed =
@@ -1581,54 +1356,18 @@ template <class Restore>
       changed->point = point;
     }
     restore();
-    std::optional<BodyImpactDerivatives> differentiated;
-    if (rates)
-      differentiated = computeBodyImpactDerivatives(bodies, moved, remainingBudget(options, start));
-    const BodyResponse after =
-        rates ? std::move(differentiated->result)
-              : computeBodyResponse(bodies, moved, remainingBudget(options, start));
+    const BodyResponse after = computeBodyResponse(bodies, moved, remainingBudget(options, start));
     fillBodyOutcome(bodies, derivatives.velocity_offset, velocity_count, after.impulses, values);
-    bodySlipSpeeds(bodies, derivatives.velocity_offset, moved, after.impulses,
-                   rates ? &differentiated->jacobian : nullptr, velocity_count, values.data() + m,
-                   values.data() + m + static_cast<Eigen::Index>(count), modes.data());
+    slipSpeeds(moved, after.impulses, values.data() + m, modes.data(),
+               [&](std::size_t c, Eigen::Vector3d& slip) {
+                 addBodySlip(bodies, derivatives.velocity_offset, moved[c], derivatives.jacobian, 0,
+                             slip, nullptr);
+               });
     if (changed) *changed = kept;
   };
   joinGeometryColumns(derivatives.jacobian,
                       differenceGeometry(prepared, m, count, evaluate, out.warnings), out);
   return out;
-}
-
-// differenceCoefficientRates() for general bodies: each perturbed solve differentiated
-// (computeBodyImpactDerivatives(), its mu_d columns read) from the pre-impact velocities
-// (`restore`); the means' rates from `derivatives` and the bodies' current velocities, which must
-// be the prediction's when this is called. The bodies are left at the last solve's velocities.
-template <class Restore>
-[[gnu::noinline]] Eigen::MatrixXd bodyCoefficientRates(
-    const std::vector<BodyModel*>& bodies, const std::vector<ContactPoint>& mean_contacts,
-    const Prepared& prepared, const BodyImpactDerivatives& derivatives, Restore&& restore,
-    const SolverOptions& options, std::chrono::steady_clock::time_point start) {
-  std::vector<ContactPoint> changed = mean_contacts;
-  const Eigen::Index velocity_count = derivatives.velocity_count;
-  auto evaluate = [&](std::size_t j, double value, Eigen::VectorXd& rates,
-                      std::vector<int>& modes) {
-    if (j >= prepared.dimensions.size()) {
-      bodySlipSpeeds(bodies, derivatives.velocity_offset, changed, derivatives.result.impulses,
-                     &derivatives.jacobian, velocity_count, nullptr, rates.data(), modes.data());
-      return;
-    }
-    const auto& [index, which] = prepared.dimensions[j];
-    ContactPoint& contact = changed[prepared.contacts[index].contact];
-    const ContactPoint mean = contact;
-    coefficient(contact, which) = value;
-    if (which == kDynamicFriction) contact.static_friction = std::max(mean.static_friction, value);
-    restore();
-    const BodyImpactDerivatives at =
-        computeBodyImpactDerivatives(bodies, changed, remainingBudget(options, start));
-    bodySlipSpeeds(bodies, derivatives.velocity_offset, changed, at.result.impulses, &at.jacobian,
-                   velocity_count, nullptr, rates.data(), modes.data());
-    contact = mean;
-  };
-  return differenceCoefficientRates(prepared, changed.size(), evaluate);
 }
 
 // heldMargins() for general bodies (computeBodyImpactDerivatives() of the held contacts, every
@@ -1687,9 +1426,9 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
                                            const Prepared& prepared,
                                            const Eigen::VectorXd& velocity_limits,
                                            const SolverOptions& options) {
-  // The call's start, for the geometry's differences' budget (read only when they are needed).
-  const auto start = prepared.geometry.empty() ? std::chrono::steady_clock::time_point{}
-                                               : std::chrono::steady_clock::now();
+  // The call's start: every solve after the mean's (the geometry's differences, the sliding
+  // contacts' margins) shares what is left of options.time_budget.
+  const auto start = std::chrono::steady_clock::now();
   std::vector<ContactPoint> mean_contacts = contacts;
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     const Contact& mean = prepared.mean_scene.contacts[c];
@@ -1731,32 +1470,21 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
                                       options, start);
       toPrediction();
     }
-    // A sliding contact's margin along an uncertain e or mu_d (as the rigid path's); the bodies
-    // then go back to the prediction's velocities too.
-    std::optional<Eigen::MatrixXd> coefficient_rate;
-    if (needsCoefficientRates(prepared, derivatives.contacts, mean_contacts, options.law)) {
-      coefficient_rate = bodyCoefficientRates(
-          bodies, mean_contacts, prepared, derivatives, restore, options,
-          prepared.geometry.empty() ? std::chrono::steady_clock::now() : start);
-      toPrediction();
-    }
     const Eigen::MatrixXd* jacobian = geometry ? &geometry->jacobian : &derivatives.jacobian;
     auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
       addBodySlip(bodies, derivatives.velocity_offset, mean_contacts[c], *jacobian, 0, slip,
                   &slip_rate);
     };
-    // Newton's law: a sliding contact's margin from its held (sticking) answer instead.
+    // Newton's law: a sliding contact's margin from its held (sticking) answer; the bodies then
+    // go back to the prediction's velocities too.
     std::optional<HeldMargins> held;
     if (options.law == ImpactLaw::kNewton && anySliding(derivatives.contacts, mean_contacts)) {
-      held = bodyHeldMargins(bodies, mean_contacts, prepared, derivatives, restore, options,
-                             prepared.geometry.empty() ? std::chrono::steady_clock::now() : start);
+      held = bodyHeldMargins(bodies, mean_contacts, prepared, derivatives, restore, options, start);
       toPrediction();
     }
     linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
                  prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
-                 geometry ? &geometry->speed_rate : nullptr,
-                 coefficient_rate ? &*coefficient_rate : nullptr, held ? &*held : nullptr,
-                 options.law, outcome);
+                 held ? &*held : nullptr, options.law, outcome);
     if (geometry)
       for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   } catch (...) {

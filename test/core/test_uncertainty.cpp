@@ -271,9 +271,9 @@ TEST(Uncertainty, StickProbabilityOfASphereMatchesTheClosedForm) {
 }
 
 // With e fixed and mu_s ~ N(m, s), the sphere sticks with probability Phi((m - t) / s),
-// t = k / (1 + e): exactly linear in mu_s on both sides (sticking: the margin mu_s P_n - |P_t| is
-// linear in mu_s; sliding: the slip u_t - 3.5 mu_d (1 + e) u_n is linear in mu_d), so the linear
-// method gives it exactly from either mode.
+// t = k / (1 + e): exactly linear in mu_s on both sides (sticking, the margin mu_s P_n - |P_t|;
+// sliding, under Newton's law, the same margin of the sticking impulse, the answer with the
+// contact held), so the linear method gives it exactly from either mode.
 TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInMuS) {
   const double e = 0.4;
   const double t = kStickK / (1.0 + e);
@@ -637,12 +637,11 @@ TEST(Uncertainty, LinearStickProbabilityOfASlidingSphereIsExactInE) {
 // Poisson and Stronge slide with mu_d until the slip stops, then hold: the sphere, sliding at the
 // means with mu_s = 1.3 mu_d (the band between mu_d N and mu_s N), ends sticking iff its slip stops
 // within the impact, 3.5 mu_d (1 + e) u_n >= u_t, i.e. iff mu_d (1 + e) >= k; mu_s does not enter.
-// With e ~ N(m, s): exactly Phi((m - t) / s), t = k / mu_d - 1; the linear margin mu_d - k / (1 +
-// e) to first order gives Phi((mu_d - k / (1 + m)) / (s k / (1 + m)^2)) (its slope holds the change
-// of ds/dmu_d with e). With mu_d ~ N(m_d, s_d) and e fixed: exactly Phi((m_d - k / (1 + e)) / s_d),
-// which the linear method gives exactly (the margin is linear in mu_d). (Before, the margin was
-// mu_s
-// - mu* under every law: 1.0 for the first case, and 0 or 1 for the second.)
+// With e ~ N(m, s): exactly Phi((m - t) / s), t = k / mu_d - 1; with mu_d ~ N(m_d, s_d) and e
+// fixed: exactly Phi((m_d - k / (1 + e)) / s_d). The linear method's margin, the slip speed s =
+// u_t - 3.5 mu_d (1 + e) u_n over its rate in mu_d at the means, is affine in both: exact. (Before,
+// the margin was mu_s - mu* under every law: the linear method said 1.0 in both cases;
+// linearising mu* = mu_d - s / s_mu in e, s_mu = -3.5 (1 + e) u_n moving too, gives 0.1666.)
 TEST(Uncertainty, LinearStickProbabilityOfASphereUnderImpulseSpaceLawsIsWhetherItsSlipStops) {
   for (const core::ImpactLaw law : {core::ImpactLaw::kPoisson, core::ImpactLaw::kStronge}) {
     SCOPED_TRACE(core::toString(law));
@@ -655,12 +654,8 @@ TEST(Uncertainty, LinearStickProbabilityOfASphereUnderImpulseSpaceLawsIsWhetherI
     ContactUncertainty in_e;
     in_e.restitution = CoefficientDistribution::normal(m, s);
     const double exact = 0.5 * std::erfc(-((m - t) / s) / std::sqrt(2.0));
-    const double first_order =
-        0.5 * std::erfc(-((mu_d - kStickK / (1.0 + m)) / (s * kStickK / ((1.0 + m) * (1.0 + m)))) /
-                        std::sqrt(2.0));
     const auto lin = core::computeOutcomeDistribution(scene, {in_e}, options, linear());
-    EXPECT_NEAR(lin.stick_probability[0], first_order, 1e-6);
-    EXPECT_NEAR(lin.stick_probability[0], exact, 0.01);
+    EXPECT_NEAR(lin.stick_probability[0], exact, 1e-6);
     const auto smp = core::computeOutcomeDistribution(scene, {in_e}, options, sampled(4096));
     EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3);
 
