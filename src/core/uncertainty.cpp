@@ -339,6 +339,9 @@ struct HeldMargins {
   std::vector<int> row;      // per contact
   Eigen::VectorXd margin;    // [N s]
   Eigen::MatrixXd gradient;  // rows x dimensions (the coefficients', then the geometry's)
+  // The geometry dimensions whose held differences changed a mode or took the secant
+  // (differenceGeometry()'s warnings), for the fields the outcome's own differences did not name.
+  std::vector<Warning> warnings;
 };
 
 // Friction a held contact cannot exceed (|P_t| <= 1000 P_n): any impulse that a solve with it
@@ -445,7 +448,11 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
     margin_variance += gradient[j] * gradient[j] * variance[j];
   }
   if (margin_variance == 0.0) return margin >= 0.0 ? 1.0 : 0.0;
-  return standardNormalCdf(margin / std::sqrt(margin_variance));
+  const double z = margin / std::sqrt(margin_variance);
+  // (A slip rate in mu_d next to 0 can overflow the margin and its slope: their ratio is then
+  // no number, and the probability that of the margin's sign.)
+  if (!std::isfinite(z)) return margin >= 0.0 ? 1.0 : 0.0;
+  return standardNormalCdf(z);
 }
 
 // S S^T into `out` (m x m, column-major), S = `s` (m x used, column-major). Rows x a few columns:
@@ -813,12 +820,20 @@ bool anySliding(const std::vector<ContactDerivativeMode>& modes, const Contacts&
   return false;
 }
 
+// Appends each of `from` whose field no warning in `to` names yet.
+void addNewWarnings(const std::vector<Warning>& from, std::vector<Warning>& to) {
+  for (const Warning& warning : from)
+    if (std::none_of(to.begin(), to.end(),
+                     [&](const Warning& had) { return had.field == warning.field; }))
+      to.push_back(warning);
+}
+
 // HeldMargins for Newton's law (else `row` empty): for each contact that slides with friction
 // at the means, `differentiate(c, impulse, jacobian)` solves with contact c held and
 // differentiates by the uncertain coefficients (jacobian: rows velocity_count + 4 per contact,
 // columns velocity_count + 3 per contact, as ImpactDerivatives' and BodyImpactDerivatives'); a
 // held answer that sticks there gives the contact its row. The geometry's columns are differences
-// (differenceGeometry(), its warnings left to the outcome's own differences) of held solves:
+// (differenceGeometry(), its warnings kept in HeldMargins::warnings) of held solves:
 // `solve_moved(u, normal, point, c, impulses)` solves with contact c held and
 // prepared.contacts[u]'s contact at that normal and point (u = npos: the mean geometry) and writes
 // every contact's impulse.
@@ -877,9 +892,8 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
         found[static_cast<std::size_t>(r) * n + other] = modeCode(impulses[other]);
     }
   };
-  std::vector<Warning> named;  // (the outcome's own differences name these dimensions)
   out.gradient.rightCols(static_cast<Eigen::Index>(prepared.geometry.size())) =
-      differenceGeometry(prepared, rows, kept.size() * n, evaluate, named).outcome;
+      differenceGeometry(prepared, rows, kept.size() * n, evaluate, out.warnings).outcome;
   return out;
 }
 
@@ -1054,14 +1068,16 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   // contacts' margins) shares what is left of options.time_budget.
   const auto start = std::chrono::steady_clock::now();
   // Only the columns of the uncertain coefficients, and each contact's mu_d (the linearised stick
-  // probability of a sliding contact reads it), are computed.
+  // probability of a sliding contact reads it, but for Newton's law: its held margins), are
+  // computed.
   const std::vector<std::pair<int, int>> contact_bodies =
       validate(prepared.mean_scene, options, limits);
   DerivativeColumns columns;
   columns.velocities = false;
   columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
-  for (std::size_t c = 0; c < prepared.mean_scene.contacts.size(); ++c)
-    columns.coefficients[3 * c + kDynamicFriction] = true;
+  if (options.law != ImpactLaw::kNewton)
+    for (std::size_t c = 0; c < prepared.mean_scene.contacts.size(); ++c)
+      columns.coefficients[3 * c + kDynamicFriction] = true;
   for (const auto& [index, which] : prepared.dimensions)
     columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
         true;
@@ -1092,6 +1108,7 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
                outcome);
   if (geometry)
     for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
+  addNewWarnings(held.warnings, outcome.warnings);
   return outcome;
 }
 
@@ -1487,6 +1504,7 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
                  held ? &*held : nullptr, options.law, outcome);
     if (geometry)
       for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
+    if (held) addNewWarnings(held->warnings, outcome.warnings);
   } catch (...) {
     restore();
     throw;

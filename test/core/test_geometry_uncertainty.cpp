@@ -441,6 +441,8 @@ TEST(GeometryUncertainty, LinearOnASlidingSpinningBoxMatchesDifferencesAndSample
   }
 }
 
+namespace {
+
 // The ball of the closed form sliding in x at vx onto the ground, its normal (a, b, 1) normalised:
 // the margin mu_s P_n - |P_t| [N s] of the impulse that stops its slip under Newton's law, P =
 // K^-1 (-e u_n n - u) with K = I / m + [r]^T [r] / I_ball (r = (0, 0, -R) from the centre to the
@@ -458,6 +460,7 @@ double ballStickMargin(double a, double b, double vx, double mu_s) {
   const double p_n = p.dot(n);
   return collision_response::testing::stickMargin(mu_s, p_n, Vector3d(p - p_n * n));
 }
+}  // namespace
 
 // The stick probability moves with the normal too. The ball sliding in x at vx = 2.7 m/s with
 // mu_s = 0.25 > mu_d = 0.2, its normal tilted with sigma = 0.02. At the mean normal it slides (its
@@ -507,6 +510,50 @@ TEST(GeometryUncertainty, LinearStickMarginUnderAnUncertainNormalIsTheClosedForm
   uncertain.normal_std_dev = sigma;
   const auto lin = core::computeOutcomeDistribution(scene, {uncertain}, newton(), linear());
   EXPECT_NEAR(lin.stick_probability[0], stick, 1e-4);
+}
+
+// Under Poisson's law the ball slides with mu_d until its slip stops: it ends sticking iff the slip
+// stops within the impact (mu_s does not enter). The ball sliding at vx = 2.7 m/s with mu_d = 0.25
+// < mu_s = 0.3, whose slip just fails to stop at the mean normal (it stops from mu_d = 0.257), its
+// normal tilted with sigma = 0.02: the linear probability against the first order of the test's
+// own solves, the ball's slip speed at the tilted normal over its rate in mu_d at the mean (central
+// differences), to 1e-3, and against 8192 samples to 0.03 (0.371 against 0.350: the stop condition
+// curves over the tilt, as Newton's stick condition does for the same ball, 0.3706 against 0.358).
+TEST(GeometryUncertainty, LinearStickProbabilityUnderPoissonIsWhetherTheSlipStops) {
+  const double vx = 2.7, mu_s = 0.3, mu_d = 0.25, sigma = 0.02;
+  core::SolverOptions poisson = newton();
+  poisson.law = core::ImpactLaw::kPoisson;
+  auto scene_at = [&](double a, double b, double dynamic) {
+    core::Scene scene = fallingBall();
+    scene.bodies[1].linear_velocity.x() = vx;
+    scene.contacts[0].static_friction = mu_s;
+    scene.contacts[0].dynamic_friction = dynamic;
+    scene.contacts[0].normal = Vector3d(a, b, 1.0).normalized();
+    return scene;
+  };
+  auto speed = [&](double a, double b, double dynamic) {
+    const core::Scene scene = scene_at(a, b, dynamic);
+    const core::CollisionResult after = core::computeResponse(scene, poisson);
+    EXPECT_FALSE(after.impulses[0].sticking);
+    const core::BodyState& ball = after.bodies[1];
+    const Vector3d n = scene.contacts[0].normal;
+    const Vector3d u =
+        ball.linear_velocity + ball.angular_velocity.cross(scene.contacts[0].point - ball.position);
+    return (u - n.dot(u) * n).norm();  // the ground does not move
+  };
+  const double rate = collision_response::testing::slipRateInMuD(
+      [&](double dynamic) { return speed(0.0, 0.0, dynamic); }, mu_d);
+  ASSERT_LT(rate, 0.0);
+  const double stick = collision_response::testing::firstOrderStickProbability(
+      [&](double a, double b) { return speed(a, b, mu_d) / rate; }, sigma, 1e-6);
+  ASSERT_GT(stick, 0.05) << "the margin must be reachable: the check is weak";
+  ContactUncertainty uncertain;
+  uncertain.normal_std_dev = sigma;
+  const core::Scene scene = scene_at(0.0, 0.0, mu_d);
+  const auto lin = core::computeOutcomeDistribution(scene, {uncertain}, poisson, linear());
+  EXPECT_NEAR(lin.stick_probability[0], stick, 1e-3);
+  const auto smp = core::computeOutcomeDistribution(scene, {uncertain}, poisson, sampled(8192));
+  EXPECT_NEAR(lin.stick_probability[0], smp.stick_probability[0], 0.03);
 }
 
 // At the stick/slip switch itself the linear distribution holds on one side only, and says so.

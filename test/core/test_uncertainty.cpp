@@ -277,16 +277,24 @@ TEST(Uncertainty, StickProbabilityOfASphereMatchesTheClosedForm) {
 TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInMuS) {
   const double e = 0.4;
   const double t = kStickK / (1.0 + e);
-  for (const double m : {t + 0.009, t - 0.006}) {
-    const double s = 0.005;
-    ContactUncertainty u;
-    u.static_friction = CoefficientDistribution::normal(m, s);
-    const double exact = 0.5 * std::erfc(-((m - t) / s) / std::sqrt(2.0));
-    const auto lin = core::computeOutcomeDistribution(sphere(e, m, 0.01), {u}, newton(), linear());
-    EXPECT_NEAR(lin.stick_probability[0], exact, 1e-6) << m;
-    const auto smp =
-        core::computeOutcomeDistribution(sphere(e, m, 0.01), {u}, newton(), sampled(4096));
-    EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3) << m;
+  // The one-pass law (a central contact: the frictionless impulse, then the friction that stops
+  // the slip if mu_s allows it) has the same condition; its sliding margin is mu_s - mu*, mu* =
+  // mu_d - s / s_mu = k / (1 + e), linear in mu_s too.
+  for (const core::ImpactLaw law : {core::ImpactLaw::kNewton, core::ImpactLaw::kSeedOnePass}) {
+    SCOPED_TRACE(core::toString(law));
+    core::SolverOptions options = newton();
+    options.law = law;
+    for (const double m : {t + 0.009, t - 0.006}) {
+      const double s = 0.005;
+      ContactUncertainty u;
+      u.static_friction = CoefficientDistribution::normal(m, s);
+      const double exact = 0.5 * std::erfc(-((m - t) / s) / std::sqrt(2.0));
+      const auto lin = core::computeOutcomeDistribution(sphere(e, m, 0.01), {u}, options, linear());
+      EXPECT_NEAR(lin.stick_probability[0], exact, 1e-6) << m;
+      const auto smp =
+          core::computeOutcomeDistribution(sphere(e, m, 0.01), {u}, options, sampled(4096));
+      EXPECT_NEAR(smp.stick_probability[0], exact, 5e-3) << m;
+    }
   }
 }
 

@@ -88,8 +88,8 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
 /// kLinear: computeBodyImpactDerivatives() on copies[0] at the coefficients' means (the other
 /// copies are not used), mean = its prediction, covariance = J S J^T over the uncertain
 /// coefficients' columns, quantiles and stick probabilities and warnings as
-/// computeOutcomeDistribution()'s kLinear (a sliding contact's slip from the bodies' point
-/// Jacobians); limit_probability[r] = P(|v_r| > limit_r) under N(mean_r, covariance_rr) (sd = 0:
+/// computeOutcomeDistribution()'s kLinear (a sliding contact's margin from its held answer
+/// under Newton's law, else from its slip, read from the bodies' point Jacobians); limit_probability[r] = P(|v_r| > limit_r) under N(mean_r, covariance_rr) (sd = 0:
 /// exactly 0 or 1); copies[0] ends at its pre-impact velocities, also when the call throws. An
 /// uncertain normal or point as computeOutcomeDistribution()'s kLinear takes it (differences of
 /// computeBodyResponse() on copies[0], the robot's Jacobian taken at the moved point).
