@@ -862,7 +862,7 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
     out.row[c] = static_cast<int>(r);
     out.margin.conservativeResize(r + 1);
     out.gradient.conservativeResize(r + 1, dims);
-    out.gradient.row(r).setZero();
+    for (Eigen::Index j = 0; j < dims; ++j) out.gradient(r, j) = 0.0;  // (row() of 0 columns: UB)
     out.margin(r) = marginOf(c, impulse);
     const double tangential = impulse.friction_impulse.norm();
     const Eigen::Vector3d direction = tangential > 0.0
