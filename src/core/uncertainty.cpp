@@ -348,6 +348,82 @@ struct HeldMargins {
 // does not hold is not a sticking impulse the static cone could hold either.
 constexpr double kHeldFriction = 1e3;
 
+// Holds a contact (Contact or ContactPoint): its friction raised to kHeldFriction.
+template <class AnyContact>
+void hold(AnyContact& contact) {
+  contact.static_friction = kHeldFriction;
+  contact.dynamic_friction = kHeldFriction;
+}
+
+// A held solve's scratch change of `contacts` (Contact or ContactPoint): contact c held and, if
+// `moved` is given, that contact moved to `normal` and `point`; undone by the destructor.
+template <class AnyContact>
+class HeldChange {
+ public:
+  HeldChange(std::vector<AnyContact>& contacts, std::size_t c, AnyContact* moved,
+             const Eigen::Vector3d& normal, const Eigen::Vector3d& point)
+      : held_(contacts[c]),
+        static_friction_(held_.static_friction),
+        dynamic_friction_(held_.dynamic_friction),
+        moved_(moved) {
+    if (moved_) {
+      normal_ = moved_->normal;
+      point_ = moved_->point;
+      moved_->normal = normal;
+      moved_->point = point;
+    }
+    hold(held_);
+  }
+  ~HeldChange() {
+    held_.static_friction = static_friction_;
+    held_.dynamic_friction = dynamic_friction_;
+    if (moved_) {
+      moved_->normal = normal_;
+      moved_->point = point_;
+    }
+  }
+  HeldChange(const HeldChange&) = delete;
+  HeldChange& operator=(const HeldChange&) = delete;
+
+ private:
+  AnyContact& held_;
+  double static_friction_, dynamic_friction_;
+  AnyContact* moved_;
+  Eigen::Vector3d normal_, point_;
+};
+
+// The sampling dimension of contact c's mu_s, -1 if it is not uncertain.
+int staticFrictionDimension(const Prepared& prepared, std::size_t c) {
+  for (const UncertainContact& uncertain : prepared.contacts)
+    if (uncertain.contact == c) return uncertain.dimension[kStaticFriction];
+  return -1;
+}
+
+// The static cone's margin mu_s P_n - |P_t| [N s] of a contact's impulse.
+double coneMargin(double mu_s, const ContactImpulse& impulse) {
+  return mu_s * impulse.normal_impulse - impulse.friction_impulse.norm();
+}
+
+// coneMargin()'s slope into gradient[j] for each j < count with column(j) >= 0: by `jacobian`'s
+// column column(j), its rows from `impulse_row` the contact's P_n then P_t; plus P_n along
+// `mu_s_dimension` (the contact's own mu_s, if uncertain: -1 otherwise).
+template <class Column>
+void coneMarginSlope(double mu_s, const ContactImpulse& impulse, const Eigen::MatrixXd& jacobian,
+                     Eigen::Index impulse_row, Eigen::Index count, Column&& column,
+                     int mu_s_dimension, double* gradient) {
+  const double tangential = impulse.friction_impulse.norm();
+  const Eigen::Vector3d direction = tangential > 0.0
+                                        ? Eigen::Vector3d(impulse.friction_impulse / tangential)
+                                        : Eigen::Vector3d::Zero();
+  for (Eigen::Index j = 0; j < count; ++j) {
+    const Eigen::Index k = column(j);
+    if (k < 0) continue;
+    gradient[j] =
+        mu_s * jacobian(impulse_row, k) - direction.dot(jacobian.block<3, 1>(impulse_row + 1, k));
+  }
+  if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
+}
+
 // The probability that contact c sticks, from the linearised margin of its mode at the means
 // (docs/uncertainty.md, "Linear"): sticking, mu_s P_n - |P_t|; sliding, under Newton's law the
 // held answer's mu_s P_n - |P_t| (`held`); under Poisson's and Stronge's whether the slip stops
@@ -379,26 +455,17 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
   const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
   const Eigen::Index dims = coefficient_dims + static_cast<Eigen::Index>(prepared.geometry.size());
-  // The dimension of this contact's mu_s, if uncertain.
-  int mu_s_dimension = -1;
-  for (const UncertainContact& uncertain : prepared.contacts)
-    if (uncertain.contact == c) mu_s_dimension = uncertain.dimension[kStaticFriction];
+  const int mu_s_dimension = staticFrictionDimension(prepared, c);
   std::fill(gradient, gradient + dims, 0.0);
   double margin = 0.0;
   const Eigen::Index row = velocity_count + 4 * static_cast<Eigen::Index>(c);
   if (mode == ImpactMode::kSticking) {
-    const double tangential = impulse.friction_impulse.norm();
-    const Eigen::Vector3d direction = tangential > 0.0
-                                          ? Eigen::Vector3d(impulse.friction_impulse / tangential)
-                                          : Eigen::Vector3d::Zero();
-    margin = contact.static_friction * impulse.normal_impulse - tangential;
-    for (Eigen::Index j = 0; j < dims; ++j) {
-      if (!column_used[j]) continue;  // a zero column: its gradient entry stays 0
-      const Eigen::Index k = column_of_dimension[j];
-      gradient[j] = contact.static_friction * jacobian(row, k) -
-                    direction.dot(jacobian.block<3, 1>(row + 1, k));
-    }
-    if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
+    margin = coneMargin(contact.static_friction, impulse);
+    // (A zero column: its gradient entry stays 0.)
+    coneMarginSlope(
+        contact.static_friction, impulse, jacobian, row, dims,
+        [&](Eigen::Index j) { return column_used[j] ? Eigen::Index{column_of_dimension[j]} : -1; },
+        mu_s_dimension, gradient);
   } else if (law == ImpactLaw::kNewton) {
     // No held answer that sticks: no sticking impulse within friction kHeldFriction, so none that
     // a static cone holds.
@@ -828,7 +895,7 @@ void addNewWarnings(const std::vector<Warning>& from, std::vector<Warning>& to) 
       to.push_back(warning);
 }
 
-// HeldMargins for Newton's law (else `row` empty): for each contact that slides with friction
+// HeldMargins (Newton's law): for each contact that slides with friction
 // at the means, `differentiate(c, impulse, jacobian)` solves with contact c held and
 // differentiates by the uncertain coefficients (jacobian: rows velocity_count + 4 per contact,
 // columns velocity_count + 3 per contact, as ImpactDerivatives' and BodyImpactDerivatives'); a
@@ -839,10 +906,9 @@ void addNewWarnings(const std::vector<Warning>& from, std::vector<Warning>& to) 
 // every contact's impulse.
 template <class Contacts, class Differentiate, class SolveMoved>
 HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDerivativeMode>& modes,
-                        const Contacts& contacts, ImpactLaw law, Eigen::Index velocity_count,
+                        const Contacts& contacts, Eigen::Index velocity_count,
                         Differentiate&& differentiate, SolveMoved&& solve_moved) {
   HeldMargins out;
-  if (law != ImpactLaw::kNewton) return out;
   const std::size_t n = contacts.size();
   out.row.assign(n, -1);
   std::vector<std::size_t> kept;
@@ -850,9 +916,7 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
   const Eigen::Index dims = coefficient_dims + static_cast<Eigen::Index>(prepared.geometry.size());
   Eigen::MatrixXd jacobian;
   ContactImpulse impulse;
-  auto marginOf = [&](std::size_t c, const ContactImpulse& at) {
-    return contacts[c].static_friction * at.normal_impulse - at.friction_impulse.norm();
-  };
+  std::vector<double> slope(static_cast<std::size_t>(dims));
   for (std::size_t c = 0; c < n; ++c) {
     if (modes[c].mode != ImpactMode::kSliding || contacts[c].frictionless()) continue;
     differentiate(c, impulse, jacobian);
@@ -862,21 +926,19 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
     out.row[c] = static_cast<int>(r);
     out.margin.conservativeResize(r + 1);
     out.gradient.conservativeResize(r + 1, dims);
-    for (Eigen::Index j = 0; j < dims; ++j) out.gradient(r, j) = 0.0;  // (row() of 0 columns: UB)
-    out.margin(r) = marginOf(c, impulse);
-    const double tangential = impulse.friction_impulse.norm();
-    const Eigen::Vector3d direction = tangential > 0.0
-                                          ? Eigen::Vector3d(impulse.friction_impulse / tangential)
-                                          : Eigen::Vector3d::Zero();
-    const Eigen::Index impulse_row = velocity_count + 4 * static_cast<Eigen::Index>(c);
-    for (Eigen::Index j = 0; j < coefficient_dims; ++j) {
-      const auto& [index, which] = prepared.dimensions[static_cast<std::size_t>(j)];
-      const std::size_t other = prepared.contacts[index].contact;
-      const Eigen::Index k = velocity_count + 3 * static_cast<Eigen::Index>(other) + which;
-      out.gradient(r, j) = contacts[c].static_friction * jacobian(impulse_row, k) -
-                           direction.dot(jacobian.block<3, 1>(impulse_row + 1, k));
-      if (other == c && which == kStaticFriction) out.gradient(r, j) += impulse.normal_impulse;
-    }
+    out.margin(r) = coneMargin(contacts[c].static_friction, impulse);
+    std::fill(slope.begin(), slope.end(), 0.0);
+    coneMarginSlope(
+        contacts[c].static_friction, impulse, jacobian,
+        velocity_count + 4 * static_cast<Eigen::Index>(c), coefficient_dims,
+        [&](Eigen::Index j) {
+          const auto& [index, which] = prepared.dimensions[static_cast<std::size_t>(j)];
+          return velocity_count + 3 * static_cast<Eigen::Index>(prepared.contacts[index].contact) +
+                 which;
+        },
+        staticFrictionDimension(prepared, c), slope.data());
+    // (Element by element: row() of a matrix of 0 columns offsets a null pointer.)
+    for (Eigen::Index j = 0; j < dims; ++j) out.gradient(r, j) = slope[static_cast<std::size_t>(j)];
   }
   const auto rows = static_cast<Eigen::Index>(kept.size());
   if (rows == 0 || prepared.geometry.empty()) return out;
@@ -887,7 +949,7 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
     for (Eigen::Index r = 0; r < rows; ++r) {
       const std::size_t c = kept[static_cast<std::size_t>(r)];
       solve_moved(u, normal, point, c, impulses);
-      values(r) = marginOf(c, impulses[c]);
+      values(r) = coneMargin(contacts[c].static_friction, impulses[c]);
       for (std::size_t other = 0; other < n; ++other)
         found[static_cast<std::size_t>(r) * n + other] = modeCode(impulses[other]);
     }
@@ -1015,50 +1077,36 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
   return out;
 }
 
-// heldMargins() for rigid bodies (computeValidatedImpactDerivatives() of the held scene, by the
-// uncertain coefficients' columns). `start`: the call's, for its time budget.
+// heldMargins() for rigid bodies under Newton's law (else none):
+// computeValidatedImpactDerivatives() of the held scene by `columns` (the mean's: the uncertain
+// coefficients'). `start`: the call's, for its time budget.
 [[gnu::noinline]] HeldMargins rigidHeldMargins(
     const Prepared& prepared, const ImpactDerivatives& derivatives,
-    const std::vector<std::pair<int, int>>& contact_bodies, const SolverOptions& options,
-    std::chrono::steady_clock::time_point start) {
+    const std::vector<std::pair<int, int>>& contact_bodies, const DerivativeColumns& columns,
+    const SolverOptions& options, std::chrono::steady_clock::time_point start) {
   if (options.law != ImpactLaw::kNewton ||
       !anySliding(derivatives.contacts, prepared.mean_scene.contacts))
     return {};
-  DerivativeColumns columns;
-  columns.velocities = false;
-  columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
-  for (const auto& [index, which] : prepared.dimensions)
-    columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
-        true;
-  Scene held = prepared.mean_scene;
-  Scene moved = prepared.mean_scene;
+  Scene held = prepared.mean_scene;   // at the mean geometry, as the mean's derivatives
+  Scene moved = prepared.mean_scene;  // every normal unit, as differenceGeometry() takes them
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
-  auto hold = [](Contact& contact) {
-    contact.static_friction = kHeldFriction;
-    contact.dynamic_friction = kHeldFriction;
-  };
   auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian) {
-    hold(held.contacts[c]);
+    const HeldChange<Contact> change(held.contacts, c, nullptr, {}, {});
     ImpactDerivatives at = computeValidatedImpactDerivatives(
         held, contact_bodies, remainingBudget(options, start), columns);
-    held.contacts[c] = prepared.mean_scene.contacts[c];
     impulse = at.result.impulses[c];
     jacobian = std::move(at.jacobian);
   };
   auto solve_moved = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                          std::size_t c, std::vector<ContactImpulse>& impulses) {
-    const std::vector<Contact> kept = moved.contacts;
-    if (u < prepared.contacts.size()) {
-      Contact& changed = moved.contacts[prepared.contacts[u].contact];
-      changed.normal = normal;
-      changed.point = point;
-    }
-    hold(moved.contacts[c]);
+    const HeldChange<Contact> change(
+        moved.contacts, c,
+        u < prepared.contacts.size() ? &moved.contacts[prepared.contacts[u].contact] : nullptr,
+        normal, point);
     impulses =
         computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start)).impulses;
-    moved.contacts = kept;
   };
-  return heldMargins(prepared, derivatives.contacts, prepared.mean_scene.contacts, options.law,
+  return heldMargins(prepared, derivatives.contacts, prepared.mean_scene.contacts,
                      derivatives.velocityCount(), differentiate, solve_moved);
 }
 
@@ -1102,7 +1150,8 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
                  prepared.mean_scene.contacts[c].point, *jacobian, 0, slip, &slip_rate);
   };
   // Newton's law: a sliding contact's margin from its held (sticking) answer.
-  const HeldMargins held = rigidHeldMargins(prepared, derivatives, contact_bodies, options, start);
+  const HeldMargins held =
+      rigidHeldMargins(prepared, derivatives, contact_bodies, columns, options, start);
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
                prepared, slip_of, geometry ? &geometry->slip_speed : nullptr, &held, options.law,
                outcome);
@@ -1397,37 +1446,27 @@ template <class Restore>
                                               const BodyImpactDerivatives& derivatives,
                                               Restore&& restore, const SolverOptions& options,
                                               std::chrono::steady_clock::time_point start) {
-  std::vector<ContactPoint> held = mean_contacts;
-  std::vector<ContactPoint> moved = mean_contacts;
+  std::vector<ContactPoint> held = mean_contacts;                  // at the mean geometry
+  std::vector<ContactPoint> moved = mean_contacts;                 // every normal unit
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
-  auto hold = [](ContactPoint& contact) {
-    contact.static_friction = kHeldFriction;
-    contact.dynamic_friction = kHeldFriction;
-  };
   auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian) {
-    hold(held[c]);
+    const HeldChange<ContactPoint> change(held, c, nullptr, {}, {});
     restore();
     BodyImpactDerivatives at =
         computeBodyImpactDerivatives(bodies, held, remainingBudget(options, start));
-    held[c] = mean_contacts[c];
     impulse = at.result.impulses[c];
     jacobian = std::move(at.jacobian);
   };
   auto solve_moved = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                          std::size_t c, std::vector<ContactImpulse>& impulses) {
-    const std::vector<ContactPoint> kept = moved;
-    if (u < prepared.contacts.size()) {
-      ContactPoint& changed = moved[prepared.contacts[u].contact];
-      changed.normal = normal;
-      changed.point = point;
-    }
-    hold(moved[c]);
+    const HeldChange<ContactPoint> change(
+        moved, c, u < prepared.contacts.size() ? &moved[prepared.contacts[u].contact] : nullptr,
+        normal, point);
     restore();
     impulses = computeBodyResponse(bodies, moved, remainingBudget(options, start)).impulses;
-    moved = kept;
   };
-  return heldMargins(prepared, derivatives.contacts, mean_contacts, options.law,
-                     derivatives.velocity_count, differentiate, solve_moved);
+  return heldMargins(prepared, derivatives.contacts, mean_contacts, derivatives.velocity_count,
+                     differentiate, solve_moved);
 }
 
 // The linear method for general bodies (docs/uncertainty.md, "Robots"):
