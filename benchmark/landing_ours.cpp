@@ -203,6 +203,10 @@ class CubeTableGaps final : public core::GapQuery {
       contact.point = Eigen::Vector3d(p.x(), p.y(), p.z());
       contact.normal = Eigen::Vector3d::UnitZ();
       contact.gap = p.z();
+      // A corner is a material point of the cube on the table's plane, and every corner within
+      // the range is listed: what detection::ShapeGaps promises for a box on a plane, so the
+      // episode bounds each corner's gap as it does for the users' boxes.
+      contact.point_on_plane = true;
       contact.restitution = c_.e;
       contact.static_friction = c_.mu_s;
       contact.dynamic_friction = c_.mu_d;

@@ -674,7 +674,9 @@ BodyEpisodeResult BodyEpisode::run() {
         }
         time_ = options_.horizon;
         query();
-        finish(EpisodeEnd::kHorizon);
+        // Nothing touching there: the bodies flew apart over the last step (as the rigid
+        // episode's end, docs/physics.md "Ends").
+        finish(touching_.empty() ? EpisodeEnd::kSeparated : EpisodeEnd::kHorizon);
       }
       break;
     }

@@ -741,9 +741,13 @@ EpisodeResult Episode::run() {
       if (touching_.empty()) {
         finish(EpisodeEnd::kSeparated);  // the bound shows no contact before the horizon
       } else {
+        // Touching now (a contact an impact has just left opening, or one at rest): the step
+        // bounds every gap to the horizon, so nothing closes on the way. What touches there
+        // decides the end: nothing (the bodies flew apart after the impact) is `separated`.
         advance(remaining);
         time_ = options_.horizon;
-        finish(EpisodeEnd::kHorizon);
+        query();
+        finish(touching_.empty() ? EpisodeEnd::kSeparated : EpisodeEnd::kHorizon);
       }
       break;
     }

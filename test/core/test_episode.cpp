@@ -923,6 +923,39 @@ TEST(Episode, EndsAtSeparationOrHorizonWithoutAnImpact) {
   EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kCapped);
 }
 
+// A ball dropped 0.2 m (it lands at sqrt(2 h / g) = 0.202 s at 1.98 m/s) bounces with e = 0.5 and
+// rises; the horizon comes 0.05 s after the bounce, before it can fall back (its apex is 0.1 s
+// after it). The step from the bounce, where the ball still touches the floor, covers the rest of
+// the horizon: the episode ends there in flight, `separated` (not `horizon`, which says a pair
+// still touches), in the ballistic state the bounce's answer gives in closed form.
+TEST(Episode, BallFlyingOffAfterItsBounceEndsSeparatedAtTheHorizon) {
+  const double R = 0.05, e = 0.5, h = 0.2;
+  const PointsAndPlanes geometry({Vector3d::UnitZ()}, {Vector3d::Zero()}, R, {e, 0.3, 0.3});
+  for (const core::ImpactLaw law : {core::ImpactLaw::kNewton, core::ImpactLaw::kStronge}) {
+    core::EpisodeOptions options = episodeOptions(law);
+    const double landing = std::sqrt(2.0 * h / kG);
+    options.horizon = landing + 0.05;
+    const core::EpisodeResult r =
+        core::computeEpisode({floorBody(), ball(1.0, R, h)}, geometry, options);
+    ASSERT_EQ(r.impacts.size(), 1u) << core::toString(law);
+    EXPECT_EQ(r.end, core::EpisodeEnd::kSeparated);
+    EXPECT_EQ(r.outcomes[1], core::BodyOutcome::kSeparated);
+    EXPECT_EQ(r.end_time, options.horizon);
+    // The bounce within the tolerance of the closed-form landing, reversing e of the speed then.
+    const double t1 = r.impacts[0].time;
+    EXPECT_NEAR(t1, landing, options.contact_tolerance / (kG * landing));
+    const double v1 = kG * t1;  // falling speed at the bounce [m/s]
+    const core::BodyState& after = r.impacts[0].bodies_after[1];
+    EXPECT_NEAR(after.linear_velocity.z(), e * v1, 1e-9);
+    // Ballistic from there to the horizon.
+    const double dt = options.horizon - t1;
+    EXPECT_NEAR(r.bodies[1].linear_velocity.z(), e * v1 - kG * dt, 1e-9);
+    EXPECT_NEAR(r.bodies[1].position.z(), after.position.z() + e * v1 * dt - 0.5 * kG * dt * dt,
+                1e-9);
+    EXPECT_GT(r.bodies[1].position.z() - R, 0.03);  // well clear of the floor
+  }
+}
+
 TEST(Episode, ToStringNamesEveryEnumerator) {
   EXPECT_STREQ(core::toString(core::EpisodeEnd::kSeparated), "separated");
   EXPECT_STREQ(core::toString(core::EpisodeEnd::kSustainedContact), "sustained_contact");

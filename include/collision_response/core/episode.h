@@ -18,9 +18,10 @@ struct EpisodeOptions {
   /// Uniform gravity, world [m/s^2]; finite. Free flight is ballistic under it; resting contacts
   /// are analysed under the bodies' weights m g (plus their own force / torque).
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
-  /// Longest time followed [s], > 0: an episode still in flight or still bouncing at t = horizon
-  /// ends there (EpisodeEnd::kHorizon); separated bodies that will not touch again before it end
-  /// the episode at once (kSeparated).
+  /// Longest time followed [s], > 0: an episode with a pair still touching at t = horizon ends
+  /// there (EpisodeEnd::kHorizon); separated bodies that will not touch again before it end the
+  /// episode at once (kSeparated), as do bodies that fly apart over the last step and touch
+  /// nothing at the horizon (kSeparated at the horizon).
   double horizon = 1.0;
   /// Most impacts followed, >= 1; the next one ends the episode (EpisodeEnd::kImpactCap).
   int max_impacts = 100;
@@ -55,7 +56,7 @@ struct EpisodeImpact {
 enum class EpisodeEnd {
   kSeparated,         ///< every contact separated, and no pair touches again before the horizon
   kSustainedContact,  ///< contacts stay closed: the resting analysis (EpisodeResult::resting)
-  kHorizon,           ///< still in flight or in contact at t = horizon
+  kHorizon,           ///< a pair still touching at t = horizon (or an impact there)
   kImpactCap,         ///< max_impacts reached
   kTimeBudget,        ///< solver.time_budget ran out
 };
