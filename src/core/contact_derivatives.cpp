@@ -222,6 +222,22 @@ Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
   return p;
 }
 
+}  // namespace
+
+Vector3d pyramidFacetNormal(const Vector3d& n, const Vector3d& u, const Vector3d& friction) {
+  const Pyramid p = pyramidOf(n, u);
+  const double x = friction.dot(p.t1), y = friction.dot(p.t2);
+  if (x == 0.0 && y == 0.0) return Vector3d::Zero();
+  // The sector of the angle atan2(y, x) in [0, 2 pi), and the facet's middle angle.
+  constexpr double kSector = 2.0 * kPi / kD;
+  double angle = std::atan2(y, x);
+  if (angle < 0.0) angle += 2.0 * kPi;
+  const double middle = (std::floor(angle / kSector) + 0.5) * kSector;
+  return std::cos(middle) * p.t1 + std::sin(middle) * p.t2;
+}
+
+namespace {
+
 // The all-sticking system F_P dP = -rhs with F_P = W = J M^-1 J^T (every contact's rows those of
 // a sticking contact), in the least-norm sense of the general path below without decomposing the
 // 3m x 3m W: with J of full column rank (more contact rows than body unknowns, a face on its

@@ -20,8 +20,11 @@
 #include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/compute_response.h"
+#include "collision_response/core/constants.h"
+#include "collision_response/core/contact_derivatives.h"
 #include "collision_response/core/contact_space.h"
 #include "collision_response/core/errors.h"
+#include "collision_response/core/exact_solver.h"
 #include "collision_response/core/halton_sequence.h"
 #include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/percent_text.h"
@@ -399,29 +402,70 @@ int staticFrictionDimension(const Prepared& prepared, std::size_t c) {
   return -1;
 }
 
-// The static cone's margin mu_s P_n - |P_t| [N s] of a contact's impulse.
-double coneMargin(double mu_s, const ContactImpulse& impulse) {
-  return mu_s * impulse.normal_impulse - impulse.friction_impulse.norm();
+// Where a solve decides whether a contact sticks, its static friction bounds the sticking
+// impulse by the static cone |P_t| <= mu_s P_n, except in an island Newton's exact solver pivots
+// on (Lemke or its modes: SolveReport::iterations > 0), which decides on the static pyramid of
+// its LCP (pyramidFacetNormal(): facet . P_t <= cos(pi / D) mu_s P_n for the facet around P_t),
+// up to 7.6 % inside the cone; its all-sticking answer (no pivot), the closed forms and the
+// iterative solver decide on the cone (docs/uncertainty.md, "Linear").
+struct StaticBound {
+  bool pyramid = false;
+  Eigen::Vector3d facet = Eigen::Vector3d::Zero();  // unit, the pyramid's facet around P_t
+};
+
+// cos(pi / D): a pyramid facet's distance from the axis per unit of mu P_n.
+const double kFacetDistance = std::cos(kPi / kPyramidDirections);
+
+// The bound of contact c, of normal `normal`, with `impulse` its answer in a solve whose islands
+// are `islands`; `u_before()` gives its relative velocity v_b - v_a before the impact [m/s, world]
+// (called for a pyramid only).
+template <class VelocityBefore>
+StaticBound staticBound(const std::vector<SolveReport>& islands, std::size_t c,
+                        const Eigen::Vector3d& normal, VelocityBefore&& u_before,
+                        const ContactImpulse& impulse) {
+  StaticBound bound;
+  for (const SolveReport& island : islands) {
+    if (std::find(island.contacts.begin(), island.contacts.end(), static_cast<int>(c)) ==
+        island.contacts.end())
+      continue;
+    bound.pyramid = island.method == SolvedBy::kExact && island.iterations > 0;
+    break;
+  }
+  if (bound.pyramid)
+    bound.facet = pyramidFacetNormal(normal.normalized(), u_before(), impulse.friction_impulse);
+  return bound;
 }
 
-// coneMargin()'s slope into gradient[j] for each j < count with column(j) >= 0: by `jacobian`'s
-// column column(j), its rows from `impulse_row` the contact's P_n then P_t; plus P_n along
-// `mu_s_dimension` (the contact's own mu_s, if uncertain: -1 otherwise).
+// The static margin [N s] of a contact's impulse: mu_s P_n - |P_t| on the cone, cos(pi / D)
+// mu_s P_n - facet . P_t on the pyramid (>= 0: inside).
+double staticMargin(double mu_s, const ContactImpulse& impulse, const StaticBound& bound) {
+  if (!bound.pyramid) return mu_s * impulse.normal_impulse - impulse.friction_impulse.norm();
+  return kFacetDistance * mu_s * impulse.normal_impulse - bound.facet.dot(impulse.friction_impulse);
+}
+
+// staticMargin()'s slope into gradient[j] for each j < count with column(j) >= 0: by `jacobian`'s
+// column column(j), its rows from `impulse_row` the contact's P_n then P_t; plus P_n's share
+// along `mu_s_dimension` (the contact's own mu_s, if uncertain: -1 otherwise). The pyramid's
+// facet is held where it is (it turns with the normal and the pre-impact slip, not with the
+// coefficients).
 template <class Column>
-void coneMarginSlope(double mu_s, const ContactImpulse& impulse, const Eigen::MatrixXd& jacobian,
-                     Eigen::Index impulse_row, Eigen::Index count, Column&& column,
-                     int mu_s_dimension, double* gradient) {
-  const double tangential = impulse.friction_impulse.norm();
-  const Eigen::Vector3d direction = tangential > 0.0
-                                        ? Eigen::Vector3d(impulse.friction_impulse / tangential)
-                                        : Eigen::Vector3d::Zero();
+void staticMarginSlope(double mu_s, const ContactImpulse& impulse, const StaticBound& bound,
+                       const Eigen::MatrixXd& jacobian, Eigen::Index impulse_row,
+                       Eigen::Index count, Column&& column, int mu_s_dimension, double* gradient) {
+  const double share = bound.pyramid ? kFacetDistance : 1.0;
+  Eigen::Vector3d direction = bound.facet;
+  if (!bound.pyramid) {
+    const double tangential = impulse.friction_impulse.norm();
+    direction = tangential > 0.0 ? Eigen::Vector3d(impulse.friction_impulse / tangential)
+                                 : Eigen::Vector3d::Zero();
+  }
   for (Eigen::Index j = 0; j < count; ++j) {
     const Eigen::Index k = column(j);
     if (k < 0) continue;
-    gradient[j] =
-        mu_s * jacobian(impulse_row, k) - direction.dot(jacobian.block<3, 1>(impulse_row + 1, k));
+    gradient[j] = share * mu_s * jacobian(impulse_row, k) -
+                  direction.dot(jacobian.block<3, 1>(impulse_row + 1, k));
   }
-  if (mu_s_dimension >= 0) gradient[mu_s_dimension] += impulse.normal_impulse;
+  if (mu_s_dimension >= 0) gradient[mu_s_dimension] += share * impulse.normal_impulse;
 }
 
 // The probability that contact c sticks, from the linearised margin of its mode at the means
@@ -449,7 +493,7 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
                               const int* column_of_dimension, const unsigned char* column_used,
                               const double* variance, double* gradient, SlipOf& slip_of,
                               const Eigen::MatrixXd* geometry_speed, const HeldMargins* held,
-                              ImpactLaw law) {
+                              const StaticBound& bound, ImpactLaw law) {
   const Contact& contact = prepared.mean_scene.contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
@@ -460,10 +504,10 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
   double margin = 0.0;
   const Eigen::Index row = velocity_count + 4 * static_cast<Eigen::Index>(c);
   if (mode == ImpactMode::kSticking) {
-    margin = coneMargin(contact.static_friction, impulse);
+    margin = staticMargin(contact.static_friction, impulse, bound);
     // (A zero column: its gradient entry stays 0.)
-    coneMarginSlope(
-        contact.static_friction, impulse, jacobian, row, dims,
+    staticMarginSlope(
+        contact.static_friction, impulse, bound, jacobian, row, dims,
         [&](Eigen::Index j) { return column_used[j] ? Eigen::Index{column_of_dimension[j]} : -1; },
         mu_s_dimension, gradient);
   } else if (law == ImpactLaw::kNewton) {
@@ -603,13 +647,14 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
 // the prediction's, one per contact.
 // With an uncertain normal or point, `jacobian` has the geometry's columns last and
 // `geometry_speed` is as linearStickProbability() takes it (differenceGeometry()); else null.
-// `held` and `law`: as linearStickProbability() takes them.
-template <class SlipOf>
+// `held` and `law`: as linearStickProbability() takes them; `bound_of(c)`: the static bound
+// (staticBound()) of sticking contact c in the prediction.
+template <class SlipOf, class BoundOf>
 void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
                   const std::vector<ContactImpulse>& impulses,
                   const std::vector<ContactDerivativeMode>& modes, const Prepared& prepared,
-                  SlipOf&& slip_of, const Eigen::MatrixXd* geometry_speed, const HeldMargins* held,
-                  ImpactLaw law, OutcomeDistribution& outcome) {
+                  SlipOf&& slip_of, BoundOf&& bound_of, const Eigen::MatrixXd* geometry_speed,
+                  const HeldMargins* held, ImpactLaw law, OutcomeDistribution& outcome) {
   outcome.method = UncertaintyMethod::kLinear;
   const Eigen::Index m = jacobian.rows();
   const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
@@ -680,7 +725,8 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
   for (std::size_t c = 0; c < contacts; ++c)
     outcome.stick_probability[c] = linearStickProbability(
         jacobian, velocity_count, impulses[c], modes[c].mode, prepared, c, column_of_dimension,
-        column_used, variance, gradient, slip_of, geometry_speed, held, law);
+        column_used, variance, gradient, slip_of, geometry_speed, held,
+        modes[c].mode == ImpactMode::kSticking ? bound_of(c) : StaticBound{}, law);
   outcome.warnings.reserve(prepared.warnings.size() + prepared.contacts.size() + 2 * contacts);
   outcome.warnings = prepared.warnings;
   for (const UncertainContact& uncertain : prepared.contacts) {
@@ -896,14 +942,14 @@ void addNewWarnings(const std::vector<Warning>& from, std::vector<Warning>& to) 
 }
 
 // HeldMargins (Newton's law): for each contact that slides with friction
-// at the means, `differentiate(c, impulse, jacobian)` solves with contact c held and
+// at the means, `differentiate(c, impulse, jacobian, bound)` solves with contact c held and
 // differentiates by the uncertain coefficients (jacobian: rows velocity_count + 4 per contact,
 // columns velocity_count + 3 per contact, as ImpactDerivatives' and BodyImpactDerivatives'); a
-// held answer that sticks there gives the contact its row. The geometry's columns are differences
-// (differenceGeometry(), its warnings kept in HeldMargins::warnings) of held solves:
-// `solve_moved(u, normal, point, c, impulses)` solves with contact c held and
-// prepared.contacts[u]'s contact at that normal and point (u = npos: the mean geometry) and writes
-// every contact's impulse.
+// held answer that sticks there gives the contact its row, its margin on the bound (staticBound())
+// of the held solve. The geometry's columns are differences (differenceGeometry(), its warnings
+// kept in HeldMargins::warnings) of held solves: `solve_moved(u, normal, point, c, impulses,
+// bound)` solves with contact c held and prepared.contacts[u]'s contact at that normal and point
+// (u = npos: the mean geometry), writes every contact's impulse and contact c's bound there.
 template <class Contacts, class Differentiate, class SolveMoved>
 HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDerivativeMode>& modes,
                         const Contacts& contacts, Eigen::Index velocity_count,
@@ -916,20 +962,21 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
   const Eigen::Index dims = coefficient_dims + static_cast<Eigen::Index>(prepared.geometry.size());
   Eigen::MatrixXd jacobian;
   ContactImpulse impulse;
+  StaticBound bound;
   std::vector<double> slope(static_cast<std::size_t>(dims));
   for (std::size_t c = 0; c < n; ++c) {
     if (modes[c].mode != ImpactMode::kSliding || contacts[c].frictionless()) continue;
-    differentiate(c, impulse, jacobian);
+    differentiate(c, impulse, jacobian, bound);
     if (!impulse.sticking) continue;
     const auto r = static_cast<Eigen::Index>(kept.size());
     kept.push_back(c);
     out.row[c] = static_cast<int>(r);
     out.margin.conservativeResize(r + 1);
     out.gradient.conservativeResize(r + 1, dims);
-    out.margin(r) = coneMargin(contacts[c].static_friction, impulse);
+    out.margin(r) = staticMargin(contacts[c].static_friction, impulse, bound);
     std::fill(slope.begin(), slope.end(), 0.0);
-    coneMarginSlope(
-        contacts[c].static_friction, impulse, jacobian,
+    staticMarginSlope(
+        contacts[c].static_friction, impulse, bound, jacobian,
         velocity_count + 4 * static_cast<Eigen::Index>(c), coefficient_dims,
         [&](Eigen::Index j) {
           const auto& [index, which] = prepared.dimensions[static_cast<std::size_t>(j)];
@@ -948,8 +995,8 @@ HeldMargins heldMargins(const Prepared& prepared, const std::vector<ContactDeriv
     values.setZero();
     for (Eigen::Index r = 0; r < rows; ++r) {
       const std::size_t c = kept[static_cast<std::size_t>(r)];
-      solve_moved(u, normal, point, c, impulses);
-      values(r) = coneMargin(contacts[c].static_friction, impulses[c]);
+      solve_moved(u, normal, point, c, impulses, bound);
+      values(r) = staticMargin(contacts[c].static_friction, impulses[c], bound);
       for (std::size_t other = 0; other < n; ++other)
         found[static_cast<std::size_t>(r) * n + other] = modeCode(impulses[other]);
     }
@@ -968,6 +1015,29 @@ void joinGeometryColumns(const Eigen::MatrixXd& coefficients, GeometryColumns&& 
   out.slip_speed = std::move(columns.slip_speed);
 }
 
+// The relative velocity u = v_b - v_a [m/s, world] at `point` of bodies `bodies` = {a, b} (indices
+// of `states`) in the states' twists.
+Eigen::Vector3d rigidRelativeVelocity(const std::vector<BodyState>& states,
+                                      const std::pair<int, int>& bodies,
+                                      const Eigen::Vector3d& point) {
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();
+  for (const auto& [body, sign] : {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
+    const BodyState& state = states[static_cast<std::size_t>(body)];
+    u += sign * (state.linear_velocity + state.angular_velocity.cross(point - state.worldCom()));
+  }
+  return u;
+}
+
+// The same of a contact between general bodies at their current velocities.
+Eigen::Vector3d bodyRelativeVelocity(const std::vector<BodyModel*>& bodies,
+                                     const ContactPoint& contact) {
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();
+  for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
+                                         std::tuple{contact.body_a, contact.part_a, -1.0}})
+    u += sign * bodies[static_cast<std::size_t>(body)]->partPointVelocity(part, contact.point);
+  return u;
+}
+
 // Adds the velocity of body b against body a (`bodies` = {a, b}, scene indices) at `point` after
 // the impact to `slip` [m/s, world] and, if `slip_rate` (3 x columns) is given, its derivative by
 // `jacobian`'s columns from `first` on to each of its columns. Rigid bodies: `jacobian`'s rows
@@ -977,11 +1047,12 @@ void addRigidSlip(const CollisionResult& after, const std::vector<int>& movable_
                   const std::pair<int, int>& bodies, const Eigen::Vector3d& point,
                   const Eigen::MatrixXd& jacobian, Eigen::Index first, Eigen::Vector3d& slip,
                   Eigen::MatrixXd* slip_rate) {
+  slip += rigidRelativeVelocity(after.bodies, bodies, point);
+  if (!slip_rate) return;
   for (const auto& [body, sign] : {std::pair{bodies.second, 1.0}, std::pair{bodies.first, -1.0}}) {
     const BodyState& state = after.bodies[static_cast<std::size_t>(body)];
+    if (state.immovable()) continue;
     const Eigen::Vector3d arm = point - state.worldCom();
-    slip += sign * (state.linear_velocity + state.angular_velocity.cross(arm));
-    if (!slip_rate || state.immovable()) continue;
     const auto at = std::find(movable_bodies.begin(), movable_bodies.end(), body);
     const Eigen::Index rows = 6 * (at - movable_bodies.begin());
     for (Eigen::Index k = 0; k < slip_rate->cols(); ++k) {
@@ -998,12 +1069,13 @@ void addRigidSlip(const CollisionResult& after, const std::vector<int>& movable_
 void addBodySlip(const std::vector<BodyModel*>& bodies, const std::vector<int>& velocity_offset,
                  const ContactPoint& contact, const Eigen::MatrixXd& jacobian, Eigen::Index first,
                  Eigen::Vector3d& slip, Eigen::MatrixXd* slip_rate) {
+  slip += bodyRelativeVelocity(bodies, contact);
+  if (!slip_rate) return;
   for (const auto& [body, part, sign] : {std::tuple{contact.body_b, contact.part_b, 1.0},
                                          std::tuple{contact.body_a, contact.part_a, -1.0}}) {
     const BodyModel& model = *bodies[static_cast<std::size_t>(body)];
-    slip += sign * model.partPointVelocity(part, contact.point);
     const int offset = velocity_offset[static_cast<std::size_t>(body)];
-    if (!slip_rate || offset < 0) continue;
+    if (offset < 0) continue;
     slip_rate->noalias() += sign * model.partPointJacobian(part, contact.point) *
                             jacobian.block(offset, first, model.velocityCount(), slip_rate->cols());
   }
@@ -1090,21 +1162,34 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
   Scene held = prepared.mean_scene;   // at the mean geometry, as the mean's derivatives
   Scene moved = prepared.mean_scene;  // every normal unit, as differenceGeometry() takes them
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
-  auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian) {
+  // Contact c's bound in a held solve of `scene` (the bodies' twists before the impact: the
+  // scene's).
+  auto bound_of = [&](const Scene& scene, const CollisionResult& result, std::size_t c) {
+    const Contact& contact = scene.contacts[c];
+    return staticBound(
+        result.islands, c, contact.normal,
+        [&] { return rigidRelativeVelocity(scene.bodies, contact_bodies[c], contact.point); },
+        result.impulses[c]);
+  };
+  auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian,
+                           StaticBound& bound) {
     const HeldChange<Contact> change(held.contacts, c, nullptr, {}, {});
     ImpactDerivatives at = computeValidatedImpactDerivatives(
         held, contact_bodies, remainingBudget(options, start), columns);
     impulse = at.result.impulses[c];
+    bound = bound_of(held, at.result, c);
     jacobian = std::move(at.jacobian);
   };
   auto solve_moved = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
-                         std::size_t c, std::vector<ContactImpulse>& impulses) {
+                         std::size_t c, std::vector<ContactImpulse>& impulses, StaticBound& bound) {
     const HeldChange<Contact> change(
         moved.contacts, c,
         u < prepared.contacts.size() ? &moved.contacts[prepared.contacts[u].contact] : nullptr,
         normal, point);
-    impulses =
-        computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start)).impulses;
+    CollisionResult result =
+        computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
+    bound = bound_of(moved, result, c);
+    impulses = std::move(result.impulses);
   };
   return heldMargins(prepared, derivatives.contacts, prepared.mean_scene.contacts,
                      derivatives.velocityCount(), differentiate, solve_moved);
@@ -1152,9 +1237,19 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   // Newton's law: a sliding contact's margin from its held (sticking) answer.
   const HeldMargins held =
       rigidHeldMargins(prepared, derivatives, contact_bodies, columns, options, start);
+  auto bound_of = [&](std::size_t c) {
+    const Contact& contact = prepared.mean_scene.contacts[c];
+    return staticBound(
+        result.islands, c, contact.normal,
+        [&] {
+          return rigidRelativeVelocity(prepared.mean_scene.bodies, contact_bodies[c],
+                                       contact.point);
+        },
+        result.impulses[c]);
+  };
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
-               prepared, slip_of, geometry ? &geometry->slip_speed : nullptr, &held, options.law,
-               outcome);
+               prepared, slip_of, bound_of, geometry ? &geometry->slip_speed : nullptr, &held,
+               options.law, outcome);
   if (geometry)
     for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));
   addNewWarnings(held.warnings, outcome.warnings);
@@ -1449,21 +1544,29 @@ template <class Restore>
   std::vector<ContactPoint> held = mean_contacts;                  // at the mean geometry
   std::vector<ContactPoint> moved = mean_contacts;                 // every normal unit
   for (ContactPoint& contact : moved) contact.normal.normalize();  // (validated: nonzero)
-  auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian) {
+  auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian,
+                           StaticBound& bound) {
     const HeldChange<ContactPoint> change(held, c, nullptr, {}, {});
     restore();
+    const Eigen::Vector3d u_before = bodyRelativeVelocity(bodies, held[c]);
     BodyImpactDerivatives at =
         computeBodyImpactDerivatives(bodies, held, remainingBudget(options, start));
     impulse = at.result.impulses[c];
+    bound = staticBound(
+        at.result.islands, c, held[c].normal, [&] { return u_before; }, impulse);
     jacobian = std::move(at.jacobian);
   };
   auto solve_moved = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
-                         std::size_t c, std::vector<ContactImpulse>& impulses) {
+                         std::size_t c, std::vector<ContactImpulse>& impulses, StaticBound& bound) {
     const HeldChange<ContactPoint> change(
         moved, c, u < prepared.contacts.size() ? &moved[prepared.contacts[u].contact] : nullptr,
         normal, point);
     restore();
-    impulses = computeBodyResponse(bodies, moved, remainingBudget(options, start)).impulses;
+    const Eigen::Vector3d u_before = bodyRelativeVelocity(bodies, moved[c]);
+    BodyResponse result = computeBodyResponse(bodies, moved, remainingBudget(options, start));
+    bound = staticBound(
+        result.islands, c, moved[c].normal, [&] { return u_before; }, result.impulses[c]);
+    impulses = std::move(result.impulses);
   };
   return heldMargins(prepared, derivatives.contacts, mean_contacts, derivatives.velocity_count,
                      differentiate, solve_moved);
@@ -1502,6 +1605,12 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
   };
   OutcomeDistribution outcome;
   Eigen::Index velocity_count = 0;
+  // The contacts' relative velocities before the impact, for their static pyramids (an island of
+  // one contact has none).
+  std::vector<Eigen::Vector3d> u_before(contacts.size(), Eigen::Vector3d::Zero());
+  if (contacts.size() > 1)
+    for (std::size_t c = 0; c < contacts.size(); ++c)
+      u_before[c] = bodyRelativeVelocity(bodies, mean_contacts[c]);
   try {
     const BodyImpactDerivatives derivatives =
         computeBodyImpactDerivatives(bodies, mean_contacts, options);
@@ -1538,8 +1647,13 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
       held = bodyHeldMargins(bodies, mean_contacts, prepared, derivatives, restore, options, start);
       toPrediction();
     }
+    auto bound_of = [&](std::size_t c) {
+      return staticBound(
+          derivatives.result.islands, c, mean_contacts[c].normal, [&] { return u_before[c]; },
+          derivatives.result.impulses[c]);
+    };
     linearSpread(*jacobian, velocity_count, derivatives.result.impulses, derivatives.contacts,
-                 prepared, slip_of, geometry ? &geometry->slip_speed : nullptr,
+                 prepared, slip_of, bound_of, geometry ? &geometry->slip_speed : nullptr,
                  held ? &*held : nullptr, options.law, outcome);
     if (geometry)
       for (Warning& warning : geometry->warnings) outcome.warnings.push_back(std::move(warning));

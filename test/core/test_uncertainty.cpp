@@ -79,6 +79,37 @@ core::Scene sphere(double e, double mu_s, double mu_d) {
   return scene;
 }
 
+core::BodyState groundBody() {
+  core::BodyState ground;
+  ground.id = "ground";
+  return ground;
+}
+
+// A box (1 kg, body-frame inertia diag(0.05, 0.08, 0.1) kg m^2) at (0, 0, 0.25) m, falling at
+// (1, 0.5, -2) m/s and turning at (0.3, -0.2, 0.1) rad/s: the landings of the multi-contact tests.
+core::BodyState landingBox() {
+  core::BodyState box;
+  box.id = "box";
+  box.mass = 1.0;
+  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
+  box.position = {0.0, 0.0, 0.25};
+  box.linear_velocity = {1.0, 0.5, -2.0};
+  box.angular_velocity = {0.3, -0.2, 0.1};
+  return box;
+}
+
+// A uniform ball of radius 0.1 m named "ball", not turning.
+core::BodyState solidBall(double mass, const Eigen::Vector3d& position,
+                          const Eigen::Vector3d& velocity) {
+  core::BodyState ball;
+  ball.id = "ball";
+  ball.mass = mass;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.4 * mass * 0.1 * 0.1;
+  ball.position = position;
+  ball.linear_velocity = velocity;
+  return ball;
+}
+
 bool hasWarning(const core::OutcomeDistribution& outcome, const std::string& field) {
   return std::any_of(outcome.warnings.begin(), outcome.warnings.end(),
                      [&](const core::Warning& w) { return w.field == field; });
@@ -688,21 +719,8 @@ TEST(Uncertainty, LinearStickProbabilityOfASphereUnderImpulseSpaceLawsIsWhetherI
 // quantiles mean -/+ 1.645 sd. With e and mu_d uncertain at the 3 contacts, 6 columns enter the
 // covariance (more than the 4 its kernel sums at once).
 TEST(Uncertainty, LinearDistributionOfSeveralContactsIsJSJtOfCentralDifferences) {
-  core::BodyState ground;
-  ground.id = "ground";
-  core::BodyState box;
-  box.id = "box";
-  box.mass = 1.0;
-  box.inertia = Eigen::Vector3d(0.05, 0.08, 0.1).asDiagonal();
-  box.position = {0.0, 0.0, 0.25};
-  box.linear_velocity = {1.0, 0.5, -2.0};
-  box.angular_velocity = {0.3, -0.2, 0.1};
-  core::BodyState ball;
-  ball.id = "ball";
-  ball.mass = 2.0;
-  ball.inertia = Eigen::Matrix3d::Identity() * 0.4 * 2.0 * 0.1 * 0.1;
-  ball.position = {3.0, 0.0, 0.1};
-  ball.linear_velocity = {2.5, -0.8, -1.5};
+  const core::BodyState ground = groundBody(), box = landingBox();
+  const core::BodyState ball = solidBall(2.0, {3.0, 0.0, 0.1}, {2.5, -0.8, -1.5});
   core::Scene scene;
   scene.bodies = {ground, box, ball};
   auto contact = [](const char* body, const Eigen::Vector3d& point, double mu_s, double mu_d) {
@@ -790,5 +808,98 @@ TEST(Uncertainty, LinearDistributionOfSeveralContactsIsJSJtOfCentralDifferences)
         EXPECT_EQ(lin.covariance(r, k), lin.covariance(k, r));
       }
     }
+  }
+}
+
+// A box landing on the ground (contact 0) while a ball strikes its top (contact 1): one island of
+// Newton's exact solver, two contacts on different bodies (no redundancy: the sticking impulses are
+// unique), contact 0 sliding at the means with mu_s just below where it would stick (mu_s > mu_d),
+// e of both contacts uncertain. Contact 0 sticks iff its sticking impulse P (the answer with it
+// held: its friction raised to 100, which no impulse reaches; the ball's contact as it is) lies
+// inside the static bound the solver decides on (docs/uncertainty.md, "Linear"):
+//  - the ball's contact frictionless: the solver's all-sticking answer (no pivot) holds contact 0,
+//    and it tests the static cone, margin g = mu_s P_n - |P_t|;
+//  - the ball's contact sliding (mu 0.05): the all-sticking answer fails there, the solver pivots
+//    on its LCP, whose static friction is the pyramid of 8 directions turned to contact 0's slip
+//    before the impact (d_0 along it), margin g = cos(pi / 8) mu_s P_n - m . P_t with m the
+//    outward normal of the facet around P_t (up to 7.6 % inside the cone; with the cone's margin
+//    the linear method said 0.5 where the samples say 0, as it did on the edge of a box: 0.40
+//    against 0.03).
+// Reference: g from the test's own held solves, its gradient in the two e's by central
+// differences, Phi(g / sd(g)); and samples of the solver (4096).
+TEST(Uncertainty, LinearStickProbabilityInAnIslandIsOnTheBoundTheSolverDecidesOn) {
+  const core::BodyState ground = groundBody(), box = landingBox();
+  const core::BodyState ball = solidBall(0.5, {0.2, 0.0, 0.6}, {-0.5, 0.3, -4.0});
+  core::Contact ground_box;
+  ground_box.body_a = "ground";
+  ground_box.body_b = "box";
+  ground_box.point = {-0.3, 0.1, 0.0};
+  ground_box.normal = {0.0, 0.0, 1.0};
+  ground_box.restitution = 0.5;
+  core::Contact box_ball = ground_box;
+  box_ball.body_a = "box";
+  box_ball.body_b = "ball";
+  box_ball.point = {0.2, 0.0, 0.5};
+  // Contact 0's relative velocity before the impact (the ground at rest) and its pyramid's first
+  // direction: along its slip.
+  const Eigen::Vector3d u0 =
+      box.linear_velocity + box.angular_velocity.cross(ground_box.point - box.position);
+  const Eigen::Vector3d n = ground_box.normal;
+  const Eigen::Vector3d t1 = (u0 - u0.dot(n) * n).normalized(), t2 = n.cross(t1);
+  const double e_sd = 0.05, kSector = 2.0 * M_PI / 8.0;
+  for (const bool pyramid : {false, true}) {
+    SCOPED_TRACE(pyramid ? "the ball's contact sliding: the pyramid" : "frictionless: the cone");
+    core::Scene scene;
+    scene.bodies = {ground, box, ball};
+    scene.contacts = {ground_box, box_ball};
+    scene.contacts[1].static_friction = scene.contacts[1].dynamic_friction = pyramid ? 0.05 : 0.0;
+    auto held = [&](double d0, double d1) {
+      core::Scene moved = scene;
+      moved.contacts[0].restitution += d0;
+      moved.contacts[1].restitution += d1;
+      moved.contacts[0].static_friction = moved.contacts[0].dynamic_friction = 100.0;
+      return core::computeResponse(moved, newton());
+    };
+    const core::CollisionResult at_mean = held(0.0, 0.0);
+    ASSERT_EQ(at_mean.islands.size(), 1u);
+    ASSERT_TRUE(at_mean.impulses[0].sticking);
+    ASSERT_FALSE(at_mean.impulses[1].sticking);
+    // No pivot: the all-sticking answer; pivots: the LCP.
+    ASSERT_EQ(at_mean.islands[0].iterations > 0, pyramid);
+    // The facet around the held friction at the means (the pyramid's margin is affine in P there).
+    const Eigen::Vector3d P_t = at_mean.impulses[0].friction_impulse;
+    double angle = std::atan2(P_t.dot(t2), P_t.dot(t1));
+    if (angle < 0.0) angle += 2.0 * M_PI;
+    const double middle = (std::floor(angle / kSector) + 0.5) * kSector;
+    const Eigen::Vector3d facet = std::cos(middle) * t1 + std::sin(middle) * t2;
+    const double share = pyramid ? std::cos(M_PI / 8.0) : 1.0;
+    auto bound = [&](const core::ContactImpulse& p) {  // what mu_s P_n must reach
+      return pyramid ? facet.dot(p.friction_impulse) / share : p.friction_impulse.norm();
+    };
+    // Just below the bound at the means: sliding there, sticking for larger e.
+    const double mu_s = 0.99 * bound(at_mean.impulses[0]) / at_mean.impulses[0].normal_impulse;
+    scene.contacts[0].static_friction = mu_s;
+    scene.contacts[0].dynamic_friction = 0.8 * mu_s;
+    ASSERT_FALSE(core::computeResponse(scene, newton()).impulses[0].sticking);
+    auto margin = [&](double d0, double d1) {
+      const core::ContactImpulse p = held(d0, d1).impulses[0];
+      return share * (mu_s * p.normal_impulse - bound(p));
+    };
+    const double h = 1e-6;
+    const double g0 = (margin(h, 0.0) - margin(-h, 0.0)) / (2.0 * h);
+    const double g1 = (margin(0.0, h) - margin(0.0, -h)) / (2.0 * h);
+    const double reference =
+        0.5 * std::erfc(-margin(0.0, 0.0) / (e_sd * std::hypot(g0, g1)) / std::sqrt(2.0));
+    ASSERT_GT(reference, 0.05);
+    ASSERT_LT(reference, 0.5);
+    std::vector<ContactUncertainty> both(2);
+    for (std::size_t c = 0; c < 2; ++c) {
+      both[c].contact = c;
+      both[c].restitution = CoefficientDistribution::normal(0.5, e_sd);
+    }
+    const auto lin = core::computeOutcomeDistribution(scene, both, newton(), linear());
+    EXPECT_NEAR(lin.stick_probability[0], reference, 1e-6);
+    const auto smp = core::computeOutcomeDistribution(scene, both, newton(), sampled(4096));
+    EXPECT_NEAR(smp.stick_probability[0], reference, 0.02);
   }
 }

@@ -101,6 +101,16 @@ struct NewtonIsland {
   mutable Eigen::MatrixXd W_;
 };
 
+/// The exact solver's static pyramid (kPyramidDirections directions d_k = cos(2 pi k / D) t1 +
+/// sin(2 pi k / D) t2, t1 along the contact's pre-impact slip when it slides, tangentBasis(n)
+/// otherwise) at a contact of unit normal `n` and pre-impact relative velocity `u` = v_b - v_a
+/// [m/s]: the unit outward normal (tangential, world) of the facet between the two directions
+/// around the friction impulse `friction` [N s] (on b). Its facet lies at cos(pi / D) mu P_n from
+/// the axis: the impulse is inside the pyramid of friction mu iff facet . P_t <= cos(pi / D) mu
+/// P_n. Zero for a zero tangential impulse.
+Eigen::Vector3d pyramidFacetNormal(const Eigen::Vector3d& n, const Eigen::Vector3d& u,
+                                   const Eigen::Vector3d& friction);
+
 /// Implicit differentiation of the exact solver's answer on `island` (solveExact()): each contact
 /// contributes three equations of its final mode (no impulse, sticking, sliding on a pyramid edge
 /// or facet), F(P, u, theta) = 0, and F_P dP = -(F_u du + F_theta dtheta). `all_sticking`: the
