@@ -21,6 +21,7 @@
 #include "collision_response/core/errors.h"
 #include "collision_response/core/halton_sequence.h"
 #include "collision_response/core/percent_text.h"
+#include "collision_response/core/rigid_body.h"
 #include "collision_response/core/standard_normal.h"
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/worker_pool.h"
@@ -901,5 +902,18 @@ TEST(Uncertainty, LinearStickProbabilityInAnIslandIsOnTheBoundTheSolverDecidesOn
     EXPECT_NEAR(lin.stick_probability[0], reference, 1e-6);
     const auto smp = core::computeOutcomeDistribution(scene, both, newton(), sampled(4096));
     EXPECT_NEAR(smp.stick_probability[0], reference, 0.02);
+    // The same bodies through the general-body path (the robots'), as free rigid BodyModels.
+    std::vector<core::RigidBody> models;
+    for (const core::BodyState& body : scene.bodies) models.push_back(core::makeRigidBody(body));
+    const std::vector<core::BodyModel*> set = {&models[0], &models[1], &models[2]};
+    std::vector<core::ContactPoint> points;
+    for (std::size_t c = 0; c < 2; ++c) {
+      const core::Contact& k = scene.contacts[c];
+      points.emplace_back(static_cast<int>(c), static_cast<int>(c) + 1, k.point, k.normal,
+                          k.restitution, k.static_friction, k.dynamic_friction);
+    }
+    const auto body_lin = core::computeBodyOutcomeDistribution(
+        {set}, points, both, Eigen::VectorXd::Constant(12, 1e3), newton(), linear());
+    EXPECT_NEAR(body_lin.stick_probability[0], reference, 1e-6);
   }
 }
