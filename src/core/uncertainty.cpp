@@ -1605,12 +1605,11 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
   };
   OutcomeDistribution outcome;
   Eigen::Index velocity_count = 0;
-  // The contacts' relative velocities before the impact, for their static pyramids (an island of
-  // one contact has none).
-  std::vector<Eigen::Vector3d> u_before(contacts.size(), Eigen::Vector3d::Zero());
-  if (contacts.size() > 1)
-    for (std::size_t c = 0; c < contacts.size(); ++c)
-      u_before[c] = bodyRelativeVelocity(bodies, mean_contacts[c]);
+  // The contacts' relative velocities before the impact, for their static pyramids (an island the
+  // exact solver pivots on: also one contact under SolverMethod::kExact).
+  std::vector<Eigen::Vector3d> u_before(contacts.size());
+  for (std::size_t c = 0; c < contacts.size(); ++c)
+    u_before[c] = bodyRelativeVelocity(bodies, mean_contacts[c]);
   try {
     const BodyImpactDerivatives derivatives =
         computeBodyImpactDerivatives(bodies, mean_contacts, options);
