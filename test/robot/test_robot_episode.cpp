@@ -704,6 +704,17 @@ TEST(RobotEpisode, SlidingAndTurningBoxStopsWhereThePlanarCoulombReferenceStops)
 
 namespace {
 
+// A 1 kg ball (inertia 0.001 kg m^2), not turning, at `position` moving at `velocity`.
+cr::BodyState movingBall(const Vector3d& position, const Vector3d& velocity) {
+  cr::BodyState ball;
+  ball.id = "ball";
+  ball.mass = 1.0;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.001;
+  ball.position = position;
+  ball.linear_velocity = velocity;
+  return ball;
+}
+
 // Closed-form convex geometry (GapQuery::convex() true): geometry body 0 a fixed sphere of radius
 // `fixed_radius` at `fixed_centre`, body 1 a ball of radius
 // `ball_radius` centred on its part's reference point (BodyState::com of the pose given; a robot
@@ -741,13 +752,10 @@ TEST(RobotEpisode, BallThrownUpFromASphereComesBackAtTheClosedFormTime) {
   BallAndObstacle geometry;
   cr::BodyState floor;
   floor.id = "fixed sphere";
-  cr::BodyState ball;
-  ball.id = "ball";
-  ball.mass = 1.0;
-  ball.inertia = Eigen::Matrix3d::Identity() * 0.001;
   const double gap0 = 0.01, v0 = 1.0;
-  ball.position = Vector3d(0.0, 0.0, geometry.ball_radius + geometry.fixed_radius + gap0);
-  ball.linear_velocity = Vector3d(0.0, 0.0, v0);
+  const cr::BodyState ball =
+      movingBall(Vector3d(0.0, 0.0, geometry.ball_radius + geometry.fixed_radius + gap0),
+                 Vector3d(0.0, 0.0, v0));
   cr::RigidEpisodeBody floor_body(floor), ball_body(ball);
   std::vector<cr::EpisodeBody*> bodies = {&floor_body, &ball_body};
   std::vector<cr::EpisodePart> parts = {{0, 0}, {1, 0}};
@@ -764,6 +772,58 @@ TEST(RobotEpisode, BallThrownUpFromASphereComesBackAtTheClosedFormTime) {
   EXPECT_LE(r.impacts[0].time, t_c + 1e-9);
   EXPECT_GE(r.impacts[0].time, t_c - options.contact_tolerance / speed - 1e-9);
   EXPECT_NEAR(r.impacts[0].impulses[0].normal_velocity_before, -speed, 1e-4 * speed);
+}
+
+// A ball (radius 5 cm) on a floor plane z = 0: geometry body 0 the floor, body 1 the ball.
+class BallOnFloor final : public cr::GapQuery {
+ public:
+  void gaps(const std::vector<cr::BodyState>& bodies, double range,
+            std::vector<cr::GapContact>& out) const override {
+    out.clear();
+    const Vector3d centre = bodies[1].position + bodies[1].orientation * bodies[1].com;
+    cr::GapContact c;
+    c.body_a = 0;
+    c.body_b = 1;
+    c.normal = Vector3d::UnitZ();
+    c.gap = centre.z() - kRadius;
+    c.point = centre - kRadius * Vector3d::UnitZ();
+    c.restitution = 0.5;
+    if (c.gap <= range) out.push_back(c);
+  }
+  double radius(int body) const override { return body == 1 ? kRadius : kInf; }
+  int bodyCount() const override { return 2; }
+  static constexpr double kRadius = 0.05;
+};
+
+// A ball touching the floor (gap half the 0.1 mm tolerance) and leaving it at 0.1 m/s, with a
+// horizon of 0.9 ms. A touching pair is stepped by about a tolerance at its speed bound, 2 tol /
+// (v + sqrt(v^2 + 2 g tol)) = 0.955 ms here, which covers the horizon: the episode takes that one
+// step, and at the horizon the gap is 0.05 + 0.09 - 0.004 = 0.136 mm, beyond the tolerance:
+// nothing touches there, so it ends `separated` at the horizon (not `horizon`, which says a pair
+// still touches), as the rigid-body episode does.
+TEST(RobotEpisode, BallLeavingTheFloorWithinTheLastStepEndsSeparatedAtTheHorizon) {
+  BallOnFloor geometry;
+  cr::BodyState floor;
+  floor.id = "floor";
+  const double tolerance = 1e-4, v = 0.1;
+  const cr::BodyState ball =
+      movingBall(Vector3d(0.0, 0.0, BallOnFloor::kRadius + 0.5 * tolerance), Vector3d(0.0, 0.0, v));
+  cr::RigidEpisodeBody floor_body(floor), ball_body(ball);
+  std::vector<cr::EpisodeBody*> bodies = {&floor_body, &ball_body};
+  std::vector<cr::EpisodePart> parts = {{0, 0}, {1, 0}};
+  cr::EpisodeOptions options;
+  options.gravity = Vector3d(0.0, 0.0, -kG);
+  options.horizon = 9e-4;
+  options.contact_tolerance = tolerance;
+  const cr::BodyEpisodeResult r = cr::computeBodyEpisode(bodies, parts, geometry, options);
+  EXPECT_TRUE(r.impacts.empty());
+  EXPECT_EQ(r.end, cr::EpisodeEnd::kSeparated);
+  EXPECT_EQ(r.end_time, options.horizon);
+  EXPECT_EQ(r.outcomes[1], cr::BodyOutcome::kSeparated);
+  // In free flight there.
+  const double H = options.horizon;
+  EXPECT_NEAR(ball_body.state().position.z() - BallOnFloor::kRadius,
+              0.5 * tolerance + v * H - 0.5 * kG * H * H, 1e-12);
 }
 
 // theta'' = -m g L cos(theta) / (m L^2 + I_c) of ball_pendulum.urdf (m = 1 kg, L = 1 m,
