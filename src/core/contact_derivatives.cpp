@@ -194,6 +194,12 @@ struct Pyramid {
     const double angle = 2.0 * kPi * k / kD;
     return std::cos(angle) * t1 + std::sin(angle) * t2;
   }
+  // The sector [d_k, d_k+1] a tangential vector t lies in: k in 0..D-1 by its angle from t1.
+  int sector(const Vector3d& t) const {
+    double angle = std::atan2(t.dot(t2), t.dot(t1));
+    if (angle < 0.0) angle += 2.0 * kPi;
+    return static_cast<int>(std::floor(angle * kD / (2.0 * kPi))) % kD;
+  }
   // d t1 / du = (I - t1 t1^T)(I - n n^T) / |slip| (built where it is read: only a sliding
   // contact's rows need it).
   Matrix3d T1(const Vector3d& n) const {
@@ -226,13 +232,9 @@ Pyramid pyramidOf(const Vector3d& n, const Vector3d& u) {
 
 Vector3d pyramidFacetNormal(const Vector3d& n, const Vector3d& u, const Vector3d& friction) {
   const Pyramid p = pyramidOf(n, u);
-  const double x = friction.dot(p.t1), y = friction.dot(p.t2);
-  if (x == 0.0 && y == 0.0) return Vector3d::Zero();
-  // The sector of the angle atan2(y, x) in [0, 2 pi), and the facet's middle angle.
-  constexpr double kSector = 2.0 * kPi / kD;
-  double angle = std::atan2(y, x);
-  if (angle < 0.0) angle += 2.0 * kPi;
-  const double middle = (std::floor(angle / kSector) + 0.5) * kSector;
+  if (friction.dot(p.t1) == 0.0 && friction.dot(p.t2) == 0.0) return Vector3d::Zero();
+  // The middle of the facet between d_k and d_k+1 (its outward normal).
+  const double middle = 2.0 * kPi * (p.sector(friction) + 0.5) / kD;
   return std::cos(middle) * p.t1 + std::sin(middle) * p.t2;
 }
 
@@ -404,11 +406,6 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     }
     if (P_n <= kSwitchTolerance * P_scale) flagSwitch(mode, "P_n = 0 while active; active side");
     // Index of the edge the friction impulse (or, frictionless, the slip's opposite) is nearest.
-    auto sector = [&](const Vector3d& t) {
-      double angle = std::atan2(t.dot(pyramid().t2), t.dot(pyramid().t1));
-      if (angle < 0.0) angle += 2.0 * kPi;
-      return static_cast<int>(std::floor(angle * kD / (2.0 * kPi))) % kD;
-    };
     if (contact.frictionless()) {
       mode.mode = ImpactMode::kSliding;
       every_row_sticking = false;
@@ -439,7 +436,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     };
     auto frictionSector = [&]() {
       FrictionSector f;
-      f.k = sector(P_t);
+      f.k = pyramid().sector(P_t);
       f.k1 = (f.k + 1) % kD;
       const Pyramid& p = pyramid();
       f.d_k = p.direction(f.k);

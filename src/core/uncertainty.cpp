@@ -1038,6 +1038,18 @@ Eigen::Vector3d bodyRelativeVelocity(const std::vector<BodyModel*>& bodies,
   return u;
 }
 
+// staticBound() of contact c in `result`, a solve of rigid-body `scene` (the bodies' twists before
+// the impact: the scene's; `contact_bodies` as validate() gives them).
+StaticBound rigidStaticBound(const Scene& scene,
+                             const std::vector<std::pair<int, int>>& contact_bodies,
+                             const CollisionResult& result, std::size_t c) {
+  const Contact& contact = scene.contacts[c];
+  return staticBound(
+      result.islands, c, contact.normal,
+      [&] { return rigidRelativeVelocity(scene.bodies, contact_bodies[c], contact.point); },
+      result.impulses[c]);
+}
+
 // Adds the velocity of body b against body a (`bodies` = {a, b}, scene indices) at `point` after
 // the impact to `slip` [m/s, world] and, if `slip_rate` (3 x columns) is given, its derivative by
 // `jacobian`'s columns from `first` on to each of its columns. Rigid bodies: `jacobian`'s rows
@@ -1162,22 +1174,13 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
   Scene held = prepared.mean_scene;   // at the mean geometry, as the mean's derivatives
   Scene moved = prepared.mean_scene;  // every normal unit, as differenceGeometry() takes them
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
-  // Contact c's bound in a held solve of `scene` (the bodies' twists before the impact: the
-  // scene's).
-  auto bound_of = [&](const Scene& scene, const CollisionResult& result, std::size_t c) {
-    const Contact& contact = scene.contacts[c];
-    return staticBound(
-        result.islands, c, contact.normal,
-        [&] { return rigidRelativeVelocity(scene.bodies, contact_bodies[c], contact.point); },
-        result.impulses[c]);
-  };
   auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian,
                            StaticBound& bound) {
     const HeldChange<Contact> change(held.contacts, c, nullptr, {}, {});
     ImpactDerivatives at = computeValidatedImpactDerivatives(
         held, contact_bodies, remainingBudget(options, start), columns);
     impulse = at.result.impulses[c];
-    bound = bound_of(held, at.result, c);
+    bound = rigidStaticBound(held, contact_bodies, at.result, c);
     jacobian = std::move(at.jacobian);
   };
   auto solve_moved = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
@@ -1188,7 +1191,7 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
         normal, point);
     CollisionResult result =
         computeValidatedResponse(moved, contact_bodies, remainingBudget(options, start));
-    bound = bound_of(moved, result, c);
+    bound = rigidStaticBound(moved, contact_bodies, result, c);
     impulses = std::move(result.impulses);
   };
   return heldMargins(prepared, derivatives.contacts, prepared.mean_scene.contacts,
@@ -1238,14 +1241,7 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   const HeldMargins held =
       rigidHeldMargins(prepared, derivatives, contact_bodies, columns, options, start);
   auto bound_of = [&](std::size_t c) {
-    const Contact& contact = prepared.mean_scene.contacts[c];
-    return staticBound(
-        result.islands, c, contact.normal,
-        [&] {
-          return rigidRelativeVelocity(prepared.mean_scene.bodies, contact_bodies[c],
-                                       contact.point);
-        },
-        result.impulses[c]);
+    return rigidStaticBound(prepared.mean_scene, contact_bodies, result, c);
   };
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
                prepared, slip_of, bound_of, geometry ? &geometry->slip_speed : nullptr, &held,
