@@ -99,7 +99,7 @@ struct OurMethod {
   std::function<void(const Prepared&, std::vector<core::RigidBody>& work,
                      std::vector<core::ContactImpulse>& impulses)>
       solve;
-  /// Optional: work counts of one run on an instance (integrator: Runge-Kutta steps, segments).
+  /// Optional: work counts of one run on an instance (integrator: Taylor steps, segments).
   std::function<core::ImpulseSpaceDetail(const Prepared&)> stats = nullptr;
 };
 
@@ -384,8 +384,7 @@ int main(int argc, char** argv) {
       }
       char note[96] = "";
       if (m.stats)
-        std::snprintf(note, sizeof note, "mean %.1f Runge-Kutta steps, %.1f segments", steps,
-                      segments);
+        std::snprintf(note, sizeof note, "mean %.1f Taylor steps, %.1f segments", steps, segments);
       w.row(s, "ours", m.curve, m.param, m.reference_law, "yes", ns, total, other, note);
     }
     const std::string expressible =

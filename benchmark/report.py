@@ -31,10 +31,11 @@ PEER_NAMES = {"bullet": "Bullet", "ode": "ODE", "simbody": "Simbody"}
 # met again is simply not listed).
 WHY_MISSED = {
     "BM_Stronge_3D/9": "in 3D the slip direction turns during the impact, so Routh's method has "
-    "no closed form there and integrates the slip with about 38 adaptive Dormand-Prince (5th "
-    "order) steps per contact at 1e-9, some 90 ns each. A higher-order integrator, or quadrature "
-    "in the slip angle (the slip equation is homogeneous of degree one in u_t, so the angle "
-    "follows an autonomous equation of its own), would cut the steps.",
+    "no closed form there and follows the slip in Taylor steps in the clock xi (order 13 at "
+    "1e-9; about 5.6 steps per contact, 19 k instructions; docs/physics.md, \"Rotating slip in "
+    "3D: Taylor steps\"). The path's nearest complex singularity bounds each step; quadrature in "
+    "the slip angle (the slip equation is homogeneous of degree one in u_t, so the angle follows "
+    "an autonomous equation of its own) might take fewer evaluations.",
     "BM_Cube4_Stronge_SimultaneousConsistent": "each step of the simultaneous integration "
     "solves a complementarity problem on the compressing contacts (N^T W G, a complete "
     "orthogonal decomposition, Lemke only when that fails); the cube takes 12 steps.",

@@ -308,7 +308,8 @@ inline Y4 slipField(const Problem& pr, const Y4& y) {
   return {{sigma, -(pr.mu_d * u_t.x), -(pr.mu_d * u_t.y), sigma * u_n}};
 }
 
-// Dormand-Prince 5(4) tableau (as the integrator's).
+// Dormand-Prince 5(4) tableau (this sensitivity integration's own; the prediction takes Taylor
+// steps, impulse_space_integrator.cpp: the two paths agree to their tolerances).
 constexpr double a21 = 1.0 / 5;
 constexpr double a31 = 3.0 / 40, a32 = 9.0 / 40;
 constexpr double a41 = 44.0 / 45, a42 = -56.0 / 15, a43 = 32.0 / 9;

@@ -14,9 +14,10 @@
 //   0) end: Poisson p = (1 + e) p_c; Stronge W = (1 - e^2) W_c
 //
 // Rotating slip is integrated in xi with dp/dxi = sigma, which removes the 1/sigma singularity of
-// ds/dp at stick: dP_t/dxi = -mu_d u_t, dW/dxi = sigma u_n are Lipschitz, and stick becomes an
-// equilibrium approached exponentially. The last piece into stick is taken in closed form
-// (approachStick) once the slip direction has settled near an attracting direction.
+// ds/dp at stick: dP_t/dxi = -mu_d u_t, dW/dxi = sigma u_n are analytic while sigma > 0, and stick
+// becomes an equilibrium approached exponentially. The steps are Taylor polynomials of the path
+// (slip_taylor.h), each as long as its truncation allows. The last piece into stick is taken in
+// closed form (approachStick) once the slip direction has settled near an attracting direction.
 // Fallback: a segment or step budget overrun, or a segment that can never end (impossible for
 // positive definite K, where u_n falling during compression forces the slip to slow), finishes
 // the impact with the perfectly plastic sticking impulse -K^-1 u (u' = 0, no energy gain).
@@ -29,14 +30,12 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 #include <limits>
 
 #include "collision_response/core/friction_disk.h"
-#include "collision_response/core/hermite_root.h"
 #include "collision_response/core/least_norm.h"
 #include "collision_response/core/single_contact.h"
+#include "collision_response/core/slip_taylor.h"
 #include "collision_response/core/stick_approach.h"
 
 namespace collision_response::core {
@@ -206,19 +205,6 @@ bool stickOrResume(const Problem& pr, State& st, bool& sticking) {
   return advanceLinear(pr, st, -pr.mu_d * resumeDirection(pr), kInf);
 }
 
-// Dormand-Prince 5(4) tableau.
-constexpr double a21 = 1.0 / 5;
-constexpr double a31 = 3.0 / 40, a32 = 9.0 / 40;
-constexpr double a41 = 44.0 / 45, a42 = -56.0 / 15, a43 = 32.0 / 9;
-constexpr double a51 = 19372.0 / 6561, a52 = -25360.0 / 2187, a53 = 64448.0 / 6561,
-                 a54 = -212.0 / 729;
-constexpr double a61 = 9017.0 / 3168, a62 = -355.0 / 33, a63 = 46732.0 / 5247, a64 = 49.0 / 176,
-                 a65 = -5103.0 / 18656;
-constexpr double b1 = 35.0 / 384, b3 = 500.0 / 1113, b4 = 125.0 / 192, b5 = -2187.0 / 6784,
-                 b6 = 11.0 / 84;
-constexpr double e1 = 71.0 / 57600, e3 = -71.0 / 16695, e4 = 71.0 / 1920, e5 = -17253.0 / 339200,
-                 e6 = 22.0 / 525, e7 = -1.0 / 40;
-
 /// d(p, P_t, W)/dxi while sliding, with dp/dxi = sigma.
 inline Vec4 slipField(const Problem& pr, const Vec4& y) {
   const double p = y[0], P1 = y[1], P2 = y[2];
@@ -227,23 +213,6 @@ inline Vec4 slipField(const Problem& pr, const Vec4& y) {
   const double u_n = pr.u0_n + pr.b.x() * P1 + pr.b.y() * P2 + pr.c * p;
   const double sigma = std::sqrt(u1 * u1 + u2 * u2);
   return Vec4(sigma, -pr.mu_d * u1, -pr.mu_d * u2, sigma * u_n);
-}
-
-/// One Dormand-Prince step of size h from (y, f = F(y)); returns y1, f1 = F(y1) and the error
-/// estimate (max norm, scaled by the impulse scale J and the work scale V_n J).
-double dopriStep(const Problem& pr, const Vec4& y, const Vec4& f, double h, Vec4& y1, Vec4& f1) {
-  const Vec4& k1 = f;
-  const Vec4 k2 = slipField(pr, y + h * (a21 * k1));
-  const Vec4 k3 = slipField(pr, y + h * (a31 * k1 + a32 * k2));
-  const Vec4 k4 = slipField(pr, y + h * (a41 * k1 + a42 * k2 + a43 * k3));
-  const Vec4 k5 = slipField(pr, y + h * (a51 * k1 + a52 * k2 + a53 * k3 + a54 * k4));
-  const Vec4 k6 = slipField(pr, y + h * (a61 * k1 + a62 * k2 + a63 * k3 + a64 * k4 + a65 * k5));
-  y1 = y + h * (b1 * k1 + b3 * k3 + b4 * k4 + b5 * k5 + b6 * k6);
-  f1 = slipField(pr, y1);
-  Vec4 err = h * (e1 * k1 + e3 * k3 + e4 * k4 + e5 * k5 + e6 * k6 + e7 * f1);
-  err.head<3>() /= pr.J;
-  err[3] /= pr.J * pr.V_n;
-  return err.cwiseAbs().maxCoeff();
 }
 
 /// The event of the current phase as a linear function grad.y + offset of the state: u_n during
@@ -484,32 +453,92 @@ SeriesResult seriesToStop(const Problem& pr, State& st, StickApproach& approach,
   return SeriesResult::kTaken;
 }
 
-/// x^(-1/5) for the step-size control, x > 0 finite: a first guess from the exponent bits (the
-/// bit pattern of a double is close to 2^52 (log2 x + 1023)), then three Newton steps on
-/// y^5 x = 1 (relative error below 3e-6 from 1e-12 to 1e12). std::pow costs several times more,
-/// and the controller needs no more than a few digits.
-inline double inverseFifthRoot(double x) {
-  std::int64_t bits;
-  std::memcpy(&bits, &x, sizeof bits);
-  constexpr std::int64_t kOne = std::int64_t{1023} << 52;
-  bits = kOne + (kOne - bits) / 5;
-  double y;
-  std::memcpy(&y, &bits, sizeof y);
-  for (int i = 0; i < 3; ++i) {
-    const double y2 = y * y;
-    y *= 1.2 - 0.2 * x * y2 * y2 * y;
+/// The Taylor order of the slip's steps at a step tolerance eps (relative): about -0.6 ln eps,
+/// from 12 to 24 (15 at the default tolerance). Higher orders take longer steps at O(n^2) each;
+/// measured on the real tosses' contacts (docs/physics.md, "Rotating slip in 3D: Taylor steps").
+int taylorOrder(double eps) {
+  return std::clamp(static_cast<int>(std::lround(-0.6 * std::log(eps))), 12, 24);
+}
+
+/// The longest step t (in the path's clock s = xi rate) with the truncation within eps (scaled by
+/// the impulse scale J and the work scale V_n J): sizes m_k of the last two orders k = n - 1, n
+/// (two, so that one small by chance does not pass), t = kTaylorSafety (eps / m_k)^(1/k), and no
+/// more than half the ratio estimate m_(n-1) / m_n of the series' radius, nor 64 (|sigma'| / sigma
+/// <= rate: sigma changes at most e^64-fold). Sets `truncation` to m_n t^n, the step's error
+/// estimate (relative, as eps).
+double taylorStep(const SlipTaylor& path, const Problem& pr, double eps, double& truncation) {
+  constexpr double kTaylorSafety = 0.9;
+  const int n = path.order();
+  const double m_n = path.size(n, pr.V_n) / pr.J;
+  const double m_last = path.size(n - 1, pr.V_n) / pr.J;
+  double t = 64.0;
+  if (m_n > 0.0) {
+    const double root = std::pow(eps / m_n, 1.0 / n);  // m_n root^n = eps
+    // The order before at that step: m_last root^(n - 1) = m_last eps / (m_n root).
+    t = std::min(t, m_last <= m_n * root ? root : std::pow(eps / m_last, 1.0 / (n - 1)));
+    if (m_last > 0.0) t = std::min(t, 0.5 * m_last / m_n);
+  } else if (m_last > 0.0) {
+    t = std::min(t, std::pow(eps / m_last, 1.0 / (n - 1)));
   }
-  return y;
+  t *= kTaylorSafety;
+  double power = m_n;
+  for (int k = 0; k < n; ++k) power *= t;
+  truncation = power;
+  return t;
+}
+
+/// The first s in (0, h] where the event's polynomial `e` (below 0 at s = 0) reaches 0, or -1 if
+/// it does not within the step. A monotone event (`monotone`) reaches 0 within the step if and
+/// only if it does at h. Otherwise the polynomial is sampled at kEventSamples points (a crossing
+/// and return between two of them would need the path to turn within a sixteenth of a step, at
+/// most a fifth of the series' radius) and the first sample at or above 0 brackets the root.
+/// Newton's method kept in the bracket by bisection finds it to round-off of the event's values.
+double eventRoot(const double* e, int order, double h, bool monotone) {
+  constexpr int kEventSamples = 16;
+  double slope;
+  double lo = 0.0, hi = -1.0, v_hi = 0.0;
+  if (monotone) {
+    v_hi = SlipTaylor::value(e, order, h, slope);
+    if (v_hi >= 0.0) hi = h;
+  } else {
+    for (int i = 1; i <= kEventSamples; ++i) {
+      const double s = h * i / kEventSamples;
+      double v = e[order];
+      for (int k = order - 1; k >= 0; --k) v = v * s + e[k];
+      if (v >= 0.0) {
+        hi = s;
+        v_hi = v;
+        break;
+      }
+      lo = s;
+    }
+  }
+  if (hi < 0.0) return -1.0;
+  const double v_tol = 1e-14 * (std::abs(e[0]) + std::abs(v_hi));
+  double t = hi;
+  for (int i = 0; i < 100; ++i) {
+    const double v = SlipTaylor::value(e, order, t, slope);
+    if (std::abs(v) <= v_tol) break;
+    (v > 0.0 ? hi : lo) = t;
+    if (hi - lo <= 1e-15 * h) break;
+    const double newton = slope > 0.0 ? t - v / slope : -1.0;
+    t = newton > lo && newton < hi ? newton : 0.5 * (lo + hi);
+  }
+  return t;
 }
 
 /// Rotating slip: integrates until the impact ends or slip stops (returns with `stuck` set after
-/// the closed-form last piece). Returns false if the step budget is exhausted.
+/// the closed-form last piece). Taylor steps (SlipTaylor) in the clock s = xi rate, each as long as
+/// its truncation allows (taylorStep()) and checked at its end: the polynomial's rate against the
+/// field there, else the step is halved. An event inside a step (maximum compression, the end of
+/// the impact) is located on the step's polynomial (eventRoot()) and polished by one step along the
+/// field. Returns false if the step budget is exhausted or the path leaves the finite numbers.
 bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail& stats) {
   const double rate = pr.b.norm() + pr.mu_d * pr.A.norm();  // bounds |d u_t/dxi| / sigma
-  const double h_max = 2.0 / rate;                          // inside DP5's stability region
-  Vec4 y = st.vec();
-  Vec4 f = slipField(pr, y);
-  double h = std::min(h_max, 0.05 * pr.J / std::max(f[0], kStickSpeed * pr.V));
+  if (!(rate > 0.0 && rate < kInf)) return false;
+  const double clock = 1.0 / rate;  // [kg]
+  const double eps = kStepShare * pr.tol;
+  const int order = taylorOrder(eps);
   // The closed-form approach to stop (stick_approach.h), tried on a slip with m >=
   // kSeriesExponent once within kSeriesReach of the series' radius of its final direction s*,
   // and again each time it has turned 30 % closer (the cosine of the angle to s* above
@@ -518,6 +547,8 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
   bool series = approach.build(pr.A, pr.b, pr.c, pr.mu_d, pr.slip(st.p, st.P_t).normalized()) &&
                 approach.exponent() >= kSeriesExponent;
   double retry_cos = series ? std::cos(std::min(3.0, kSeriesReach * approach.radius())) : 2.0;
+  SlipTaylor path;
+  double event[SlipTaylor::kMaxOrder + 1];
   while (true) {
     if (series) {
       const Vec2 u_t = pr.slip(st.p, st.P_t);
@@ -532,8 +563,6 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
         series = result == SeriesResult::kNotConverged;
         const Vec2 u_now = pr.slip(st.p, st.P_t);
         retry_cos = std::cos(0.7 * approach.distance(u_now.normalized()));
-        y = st.vec();
-        f = slipField(pr, y);
       }
     }
     if (approachStick(pr, st)) {
@@ -542,51 +571,58 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
     }
     if (stats.steps >= kMaxSteps) return false;
     ++stats.steps;
-    Vec4 y1, f1;
-    h = std::min(h, h_max);
-    const double err = dopriStep(pr, y, f, h, y1, f1) / (kStepShare * pr.tol);
-    if (!(err <= 1.0)) {
-      h *= std::isfinite(err) ? std::max(0.2, 0.9 * inverseFifthRoot(err)) : 0.2;
-      continue;
+    const Vec4 y = st.vec();
+    // (approachStick() has taken a slip at or below kStickSpeed: sigma > 0 here.)
+    if (!path.expand(pr.A, pr.b, pr.c, pr.u0_t, pr.u0_n, pr.mu_d, y, order, clock)) return false;
+    double truncation;
+    double h = taylorStep(path, pr, eps, truncation);
+    // The check at the step's end: the polynomial's rate against the field (clock F(y)); the
+    // truncation's rate is about n / h times its value, so a mismatch beyond 10 n eps / h (scaled
+    // as the state) says the step overreached the series: halve it.
+    Vec4 y1 = path.at(h);
+    for (int halvings = 0;; ++halvings) {
+      const Vec4 mismatch = path.rate(h) - clock * slipField(pr, y1);
+      const double scaled =
+          std::max(mismatch.head<3>().cwiseAbs().maxCoeff(), std::abs(mismatch[3]) / pr.V_n) / pr.J;
+      if (scaled * h <= 10.0 * order * eps || halvings == 30) break;
+      h *= 0.5;
+      truncation *= std::pow(0.5, order);
+      y1 = path.at(h);
     }
-    stats.error_estimate += err * kStepShare * pr.tol;
+    if (!y1.allFinite() || !(h > 0.0)) return false;
+    stats.error_estimate += truncation;
     Vec4 grad;
     double offset;
     phaseEvent(pr, st, grad, offset);
-    const double ev1 = grad.dot(y1) + offset;
-    if (ev1 >= 0.0) {
-      // Locate the event, retake the step to it, polish with one Euler step on the event value.
-      const double ev0 = grad.dot(y) + offset;
-      const double theta =
-          ev0 < 0.0 ? hermiteRoot(ev0, h * grad.dot(f), ev1, h * grad.dot(f1)) : 0.0;
-      if (theta > 0.0) {
-        ++stats.steps;
-        dopriStep(pr, y, f, theta * h, y1, f1);
-      } else {
-        y1 = y;
-        f1 = f;
-      }
-      const double slope = grad.dot(f1);
-      if (slope > 0.0) y1 -= ((grad.dot(y1) + offset) / slope) * f1;
+    // The events are monotone along the slide where du_n/dp = K_nn - mu_d K_tn.s >= K_nn - mu_d
+    // |K_tn| > 0 (u_n rises, and with it W once u_n >= 0 in restitution), and Poisson's end
+    // (p - p_end, dp/dxi = sigma > 0) always.
+    const bool monotone = pr.c > pr.mu_d * pr.b.norm() || (st.restitution && !pr.stronge);
+    if (monotone && grad.dot(y1) + offset < 0.0) {
       st.set(y1);
-      if (!st.restitution) {
-        beginRestitution(pr, st);
-      } else {
-        if (pr.stronge)
-          st.W = st.W_end;
-        else
-          st.p = st.p_end;
-        st.done = true;
-      }
-      if (st.done) return true;
-      y = st.vec();
-      f = slipField(pr, y);
       continue;
     }
-    y = y1;
-    f = f1;
-    st.set(y);
-    h *= std::min(5.0, 0.9 * inverseFifthRoot(std::max(err, 1e-10)));
+    path.linear(grad, offset, event);
+    const double t = event[0] >= 0.0 ? 0.0 : eventRoot(event, path.order(), h, monotone);
+    if (t < 0.0) {
+      st.set(y1);
+      continue;
+    }
+    y1 = path.at(t);
+    const Vec4 f1 = slipField(pr, y1);
+    const double slope = grad.dot(f1);
+    if (slope > 0.0) y1 -= ((grad.dot(y1) + offset) / slope) * f1;
+    st.set(y1);
+    if (!st.restitution) {
+      beginRestitution(pr, st);
+    } else {
+      if (pr.stronge)
+        st.W = st.W_end;
+      else
+        st.p = st.p_end;
+      st.done = true;
+    }
+    if (st.done) return true;
   }
 }
 

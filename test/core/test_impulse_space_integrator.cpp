@@ -17,6 +17,7 @@
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/constants.h"
 #include "collision_response/core/contact_point.h"
+#include "collision_response/core/contact_space.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/single_contact.h"
@@ -1028,6 +1029,102 @@ TEST(ImpulseSpaceIntegrator, Issue22GrazingStrongeContactImpulseWithinTolerance)
     EXPECT_LE((after.linear_velocity - v_ref).norm(), 10.0 * tol * v_ref.norm());
     EXPECT_LE((after.angular_velocity - w_ref).norm(), 10.0 * tol * w_ref.norm());
     EXPECT_GE(result.impulses[0].normal_velocity_after, 0.0);  // Stronge separates
+  }
+}
+
+// A contact whose normal velocity, under strong friction (mu_d |K_tn| > K_nn), rises to 0 and
+// falls back within what a Taylor step of the slip covers: maximum compression is there, where
+// u_n first reaches 0. The first Taylor-step version checked the event's sign at the step's end
+// only and missed it (P_n 62.85 N s under Poisson's law against 2.54). Found by review
+// (2026-11-27). Poisson's law: the slip never stops here, so the reference is a plain RK4
+// integration in xi written here (steps of 1e-5 kg, the first zero of u_n and the end p =
+// (1 + e) p_c located by linear interpolation within a step: error ~1e-10 of the impulse).
+TEST(ImpulseSpaceIntegrator, CompressionEndThatReturnsWithinAStepIsFound) {
+  Matrix3d K;
+  K << 1.35903, 0.654231, 0.314156,  //
+      0.654231, 1.53658, 1.22623,    //
+      0.314156, 1.22623, 1.07324;
+  const Vector3d u(-1.94371, 2.23524, -0.235348);
+  const double e = 0.333458, mu = 1.05888;
+  const double coupling = mu * K.block<2, 1>(0, 2).norm();
+  ASSERT_GT(coupling, K(2, 2));  // u_n can fall while sliding
+  // The reference: y = (P_x, P_y, p), u = u0 + K P, dP/dxi = |u_t| n - mu u_t.
+  using V3 = Vector3d;
+  const auto field = [&](const V3& P) {
+    const V3 v = u + K * P;
+    const V3 u_t(v.x(), v.y(), 0.0);
+    const double sigma = u_t.norm();
+    return V3(-mu * v.x(), -mu * v.y(), sigma);
+  };
+  V3 P = V3::Zero();
+  const double h = 1e-5;
+  double p_c = -1.0, p_end = -1.0;
+  int crossings = 0;
+  for (int i = 0; i < 10000000 && p_end < 0.0; ++i) {
+    const V3 k1 = field(P), k2 = field(P + 0.5 * h * k1), k3 = field(P + 0.5 * h * k2),
+             k4 = field(P + h * k3);
+    const V3 next = P + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    ASSERT_GT(std::hypot((u + K * next).x(), (u + K * next).y()), 1e-3);  // it keeps sliding
+    const double un0 = (u + K * P).z(), un1 = (u + K * next).z();
+    if (p_c < 0.0 && un0 < 0.0 && un1 >= 0.0) {
+      p_c = P.z() + (next.z() - P.z()) * (-un0 / (un1 - un0));
+      ++crossings;
+    }
+    if (p_c >= 0.0 && next.z() >= (1.0 + e) * p_c) {
+      const double f = ((1.0 + e) * p_c - P.z()) / (next.z() - P.z());
+      P += f * (next - P);
+      p_end = P.z();
+      break;
+    }
+    P = next;
+  }
+  ASSERT_GT(p_end, 0.0);
+  for (const double tol : {1e-10, 1e-13}) {
+    SCOPED_TRACE(::testing::Message() << "tol " << tol);
+    cr::ImpulseSpaceDetail detail;
+    const cr::ContactImpulse imp = cr::integrateSingleContact(
+        contactInBasis(K, e, mu, mu), u, cr::ImpactLaw::kPoisson, tol, &detail);
+    EXPECT_FALSE(detail.fallback);
+    EXPECT_NEAR(detail.compression_impulse, p_c, 1e-8 * p_c);
+    const Vector3d total = imp.total(Vector3d::UnitZ());
+    EXPECT_LE((total - P).norm(), 1e-8 * P.norm())
+        << "P " << total.transpose() << " reference " << P.transpose();
+  }
+}
+
+// Scaling every mass by 1 / s scales K by s and the impulse by 1 / s: the integration is the same
+// in scaled units. Checked from s = 1e-20 to 1e21 (the validation admits masses from 1e-15 to 1e15
+// kg and lever arms up to 1e6 m) on turning slips: the first Taylor-step version expanded in xi
+// (kg), whose coefficients overflowed at K ~ 1e18 1/kg (a NaN impulse).
+TEST(ImpulseSpaceIntegrator, ImpulseScalesWithTheInverseMass) {
+  std::mt19937_64 rng(2211);
+  for (int trial = 0; trial < 20; ++trial) {
+    const RandomCase c = offCentreCase(rng, false);
+    const Vector3d& n = c.row.normal;
+    cr::ProblemContact contact;
+    contact.delassus = spaceOf(c.row, c.a.body, c.b.body).K;
+    contact.normal = n;
+    cr::tangentBasis(n, contact.tangent1, contact.tangent2);
+    contact.restitution = c.row.restitution;
+    contact.static_friction = c.row.static_friction;
+    contact.dynamic_friction = c.row.dynamic_friction;
+    const Vector3d u = velocityAt(c.row, c.a.body, c.b.body);
+    for (const bool stronge : {false, true}) {
+      const cr::ImpactLaw law = stronge ? cr::ImpactLaw::kStronge : cr::ImpactLaw::kPoisson;
+      cr::ImpulseSpaceDetail base_detail;
+      const Vector3d base =
+          cr::integrateSingleContact(contact, u, law, 1e-10, &base_detail).total(n);
+      ASSERT_FALSE(base_detail.fallback) << "trial " << trial;
+      for (const double s : {1e-20, 1e-15, 1e15, 1e18, 1e21}) {
+        cr::ProblemContact scaled = contact;
+        scaled.delassus *= s;
+        cr::ImpulseSpaceDetail detail;
+        const Vector3d P = cr::integrateSingleContact(scaled, u, law, 1e-10, &detail).total(n);
+        EXPECT_FALSE(detail.fallback) << "trial " << trial << " scale " << s;
+        EXPECT_LE((s * P - base).norm(), 1e-12 * base.norm())
+            << "trial " << trial << " scale " << s << " stronge " << stronge;
+      }
+    }
   }
 }
 

@@ -30,8 +30,8 @@ namespace collision_response::core {
 ///   compression ends at u_n(p_c) = 0 with work W_c = integral_0^p_c u_n dp (< 0);
 ///   Poisson ends at p = (1 + e) p_c, Stronge when integral_p_c^p u_n dp = -e^2 W_c.
 /// Segments with a constant slip direction (planar and central impacts, sticking, slip resumed
-/// after a stop) are solved in closed form; a rotating 3D slip direction is integrated with an
-/// adaptive Dormand-Prince 5(4) method to `tolerance` (local error relative to the impulse scale).
+/// after a stop) are solved in closed form; a rotating 3D slip direction is followed in adaptive
+/// Taylor steps (slip_taylor.h) to `tolerance` (local error relative to the impulse scale).
 /// Under kStronge the kinetic energy never increases and the contact separates (u_n' >= 0).
 ///
 /// Singular K (least_norm.h's threshold): n^T K n = 0 gives a zero impulse (u_n' = u_n: nothing

@@ -35,9 +35,9 @@ const char* toString(SolvedBy method);
 
 /// Detail of an impulse-space integration (integrateSingleContact()).
 struct ImpulseSpaceDetail {
-  std::size_t steps = 0;     ///< Runge-Kutta steps attempted (accepted and rejected)
+  std::size_t steps = 0;     ///< Taylor steps of a turning slip (each one expansion)
   std::size_t segments = 0;  ///< pieces of constant contact mode (slip, stick, resumed slip)
-  /// Sum of the accepted local error estimates, relative to the impulse scale |u| / (n^T K n).
+  /// Sum of the steps' truncation estimates, relative to the impulse scale J (docs/physics.md).
   double error_estimate = 0.0;
   double compression_impulse = 0.0;  ///< p_c, the normal impulse at maximum compression [N s]
   double compression_work = 0.0;     ///< W_c = integral of u_n dp over [0, p_c] [J], <= 0
