@@ -188,6 +188,34 @@ TEST(SlipTaylor, LinearEventPolynomialAgreesWithState) {
   }
 }
 
+// The clock: an expansion in s = xi / T is the one in xi with Y_k scaled by T^k; its rate (rate(),
+// which the integrator checks against the field at each step's end) is T times the field at the
+// start and the central difference of the polynomial elsewhere.
+TEST(SlipTaylor, ScaledClockAndRateAgreeWithThePolynomial) {
+  Equations q;
+  q.A << 1.4, 0.5, 0.5, 0.8;
+  q.b = Vector2d(-0.3, 0.25);
+  q.u0_t = Vector2d(0.9, -0.6);
+  const Vector4d y0(0.05, -0.01, 0.02, -0.04);
+  const double T = 0.37;
+  cr::SlipTaylor in_xi, in_s;
+  ASSERT_TRUE(expand(in_xi, q, y0, 14));
+  ASSERT_TRUE(in_s.expand(q.A, q.b, q.c, q.u0_t, q.u0_n, q.mu, y0, 14, T));
+  for (int k = 0; k <= 14; ++k) {
+    const Vector4d expected = in_xi.coefficient(k) * std::pow(T, k);
+    EXPECT_LT((in_s.coefficient(k) - expected).cwiseAbs().maxCoeff(),
+              1e-13 * std::max(1e-3, expected.cwiseAbs().maxCoeff()))
+        << "order " << k;
+  }
+  EXPECT_LT((in_s.rate(0.0) - T * field(q, y0)).cwiseAbs().maxCoeff(), 1e-14);
+  for (const double s : {0.1, 0.3}) {
+    const double h = 1e-5;
+    const Vector4d difference = (in_s.at(s + h) - in_s.at(s - h)) / (2.0 * h);
+    EXPECT_LT((in_s.rate(s) - difference).cwiseAbs().maxCoeff(), 1e-8) << "s " << s;
+    EXPECT_LT((in_s.rate(s) - T * field(q, in_s.at(s))).cwiseAbs().maxCoeff(), 1e-9) << "s " << s;
+  }
+}
+
 // A zero slip has no expansion (the clock stops): expand() says so and forms nothing.
 TEST(SlipTaylor, ZeroSlipHasNoExpansion) {
   Equations q;
