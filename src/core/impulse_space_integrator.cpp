@@ -503,8 +503,7 @@ double eventRoot(const double* e, int order, double h, bool monotone) {
   } else {
     for (int i = 1; i <= kEventSamples; ++i) {
       const double s = h * i / kEventSamples;
-      double v = e[order];
-      for (int k = order - 1; k >= 0; --k) v = v * s + e[k];
+      const double v = SlipTaylor::value(e, order, s);
       if (v >= 0.0) {
         hi = s;
         v_hi = v;
@@ -539,6 +538,10 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
   const double clock = 1.0 / rate;  // [kg]
   const double eps = kStepShare * pr.tol;
   const int order = taylorOrder(eps);
+  // The events are monotone along the slide where du_n/dp = K_nn - mu_d K_tn.s >= K_nn - mu_d
+  // |K_tn| > 0 (u_n rises, and with it W once u_n >= 0 in restitution), and Poisson's end
+  // (p - p_end, dp/dxi = sigma > 0) always.
+  const bool normal_rises = pr.c > pr.mu_d * pr.b.norm();
   // The closed-form approach to stop (stick_approach.h), tried on a slip with m >=
   // kSeriesExponent once within kSeriesReach of the series' radius of its final direction s*,
   // and again each time it has turned 30 % closer (the cosine of the angle to s* above
@@ -594,10 +597,7 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
     Vec4 grad;
     double offset;
     phaseEvent(pr, st, grad, offset);
-    // The events are monotone along the slide where du_n/dp = K_nn - mu_d K_tn.s >= K_nn - mu_d
-    // |K_tn| > 0 (u_n rises, and with it W once u_n >= 0 in restitution), and Poisson's end
-    // (p - p_end, dp/dxi = sigma > 0) always.
-    const bool monotone = pr.c > pr.mu_d * pr.b.norm() || (st.restitution && !pr.stronge);
+    const bool monotone = normal_rises || (st.restitution && !pr.stronge);
     if (monotone && grad.dot(y1) + offset < 0.0) {
       st.set(y1);
       continue;

@@ -107,6 +107,12 @@ void SlipTaylor::linear(const Eigen::Vector4d& grad, double offset, double* e) c
   e[0] += offset;
 }
 
+double SlipTaylor::value(const double* e, int order, double t) {
+  double v = e[order];
+  for (int k = order - 1; k >= 0; --k) v = v * t + e[k];
+  return v;
+}
+
 double SlipTaylor::value(const double* e, int order, double t, double& slope) {
   double v = e[order], d = 0.0;
   for (int k = order - 1; k >= 0; --k) {

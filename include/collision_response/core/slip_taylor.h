@@ -49,6 +49,8 @@ class SlipTaylor {
   void linear(const Eigen::Vector4d& grad, double offset, double* e) const;
   /// sum_k e_k t^k and its derivative in t (Horner).
   static double value(const double* e, int order, double t, double& slope);
+  /// sum_k e_k t^k alone (Horner; the same sums as the value above).
+  static double value(const double* e, int order, double t);
 
  private:
   int order_ = 0;
