@@ -36,6 +36,7 @@
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/robot/articulated_body.h"
+#include "collision_response/robot/joint_position_coordinates.h"
 #include "collision_response/robot/urdf_loader.h"
 #include "robot_scene.h"
 
@@ -183,6 +184,31 @@ core::SolverOptions armOptions(core::ImpactLaw law) {
   return core::computeBodyImpactDerivatives({&s.arm, &s.box}, s.contacts, options);
 }
 
+// The same with the arm's 9 joint positions as coordinates too: in closed form (`closed_form`:
+// each coordinate names the arm, ConfigurationCoordinate::body) or by central differences of the
+// whole prediction (the body left out, as before the closed form).
+[[gnu::noipa]] core::BodyImpactDerivatives differentiateArmPositionsOnce(
+    ArmScene& s, const core::SolverOptions& options,
+    const std::vector<core::ConfigurationCoordinate>& coordinates) {
+  s.reset();
+  return core::computeBodyImpactDerivatives({&s.arm, &s.box}, s.contacts, options, coordinates);
+}
+// The same call under another name, for the differenced columns' instruction count (noipa: GCC
+// would fold the two identical functions into one).
+[[gnu::noipa]] core::BodyImpactDerivatives differenceArmPositionsOnce(
+    ArmScene& s, const core::SolverOptions& options,
+    const std::vector<core::ConfigurationCoordinate>& coordinates) {
+  s.reset();
+  return core::computeBodyImpactDerivatives({&s.arm, &s.box}, s.contacts, options, coordinates);
+}
+std::vector<core::ConfigurationCoordinate> armPositions(ArmScene& s, bool closed_form) {
+  std::vector<core::ConfigurationCoordinate> out = rb::jointPositionCoordinates(s.arm);
+  if (!closed_form) {
+    for (core::ConfigurationCoordinate& c : out) c.body = nullptr;
+  }
+  return out;
+}
+
 // The linear outcome distribution of the same strike (computeBodyOutcomeDistribution(), kLinear):
 // e ~ N(0.5, 0.05), mu_s ~ N(0.6, 0.03), mu_d ~ N(0.5, 0.03), the arm's URDF velocity limits.
 struct ArmUncertainty {
@@ -244,6 +270,19 @@ void BM_Derivatives_ArmNewton(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(differentiateArmOnce(s, options));
 }
 
+// Argument: 1 in closed form, 0 by differences.
+void BM_Derivatives_ArmNewtonJointPositions(benchmark::State& state) {
+  ArmScene s;
+  const core::SolverOptions options = armOptions(core::ImpactLaw::kNewton);
+  const std::vector<core::ConfigurationCoordinate> coordinates =
+      armPositions(s, state.range(0) == 1);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(state.range(0) == 1
+                                 ? differentiateArmPositionsOnce(s, options, coordinates)
+                                 : differenceArmPositionsOnce(s, options, coordinates));
+  }
+}
+
 void BM_Linear_ArmNewton(benchmark::State& state) {
   ArmScene s;
   const ArmUncertainty u(s);
@@ -265,6 +304,7 @@ BENCHMARK(BM_Predict_ArmPoisson);
 BENCHMARK(BM_Derivatives_ArmPoisson);
 BENCHMARK(BM_Predict_ArmNewton);
 BENCHMARK(BM_Derivatives_ArmNewton);
+BENCHMARK(BM_Derivatives_ArmNewtonJointPositions)->Arg(1)->Arg(0);
 BENCHMARK(BM_Linear_ArmNewton);
 BENCHMARK(BM_Linear_ArmStronge);
 BENCHMARK(BM_Predict_SingleSliding);
@@ -299,6 +339,16 @@ int main(int argc, char** argv) {
       benchmark::DoNotOptimize(core::computeBodyResponse({&s.arm, &s.box}, s.contacts, options));
       benchmark::DoNotOptimize(predictArmOnce(s, options));
       benchmark::DoNotOptimize(differentiateArmOnce(s, options));
+      // With the joint positions: '*differentiateArmPositionsOnce*' counts the call in closed
+      // form, '*differenceArmPositionsOnce*' the one by differences.
+      for (const bool closed_form : {true, false}) {
+        const std::vector<core::ConfigurationCoordinate> coordinates = armPositions(s, closed_form);
+        const core::BodyImpactDerivatives d =
+            closed_form ? differentiateArmPositionsOnce(s, options, coordinates)
+                        : differenceArmPositionsOnce(s, options, coordinates);
+        std::printf("joint positions %s: %s\n", closed_form ? "closed form" : "differenced",
+                    core::toString(d.coordinate_method));
+      }
       const ArmUncertainty u(s);
       core::UncertaintyOptions linear;  // a warm-up call of the linear method, not counted
       linear.method = core::UncertaintyMethod::kLinear;

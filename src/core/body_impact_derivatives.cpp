@@ -4,8 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <tuple>
+#include <utility>
 
 #include "collision_response/core/approach_warnings.h"
 #include "collision_response/core/contact_derivatives.h"
@@ -94,7 +96,8 @@ VectorXd evaluate(const std::vector<BodyModel*>& bodies, const std::vector<Conta
 
 // The contacts of one island in contact space over all the bodies' unknowns (N columns, the
 // layout's): rows 3i..3i+2 of J = J_b - J_a at contact i's point (J(p) of each side with
-// unknowns), M^-1 J^T, u = J v + the velocity of a side without unknowns, before (`before`) and
+// unknowns), M^-1 J^T, u = J v + the velocity of a side without unknowns and the part of a side's
+// point velocity its unknowns do not give (a robot's locked joints), before (`before`) and
 // after (`after`, the prediction's) the impact, the impulse and the coefficients.
 NewtonIsland contactSpace(const std::vector<BodyModel*>& bodies,
                           const std::vector<ContactPoint>& contacts, const std::vector<int>& island,
@@ -117,8 +120,15 @@ NewtonIsland contactSpace(const std::vector<BodyModel*>& bodies,
         continue;
       }
       const int n = bodies[body]->velocityCount();
-      s.J.block(3 * i, offset[body], 3, n) +=
-          sign * bodies[body]->partPointJacobian(part, contact.point);
+      const Eigen::Matrix<double, 3, Eigen::Dynamic> J =
+          bodies[body]->partPointJacobian(part, contact.point);
+      s.J.block(3 * i, offset[body], 3, n) += sign * J;
+      // What the unknowns do not give: a robot's locked joints moving at their kept velocities
+      // (a free rigid body's point velocity is J v exactly).
+      if (bodies[body]->asRigidBody() == nullptr) {
+        prescribed += sign * (bodies[body]->partPointVelocity(part, contact.point) -
+                              J * bodies[body]->velocity());
+      }
       s.MinvJt.block(offset[body], 3 * i, n, 3) +=
           sign * bodies[body]->partInverseMassJacobianTranspose(part, contact.point);
     }
@@ -255,18 +265,172 @@ bool predictLoneContact(const std::vector<BodyModel*>& bodies,
   return true;
 }
 
+// The call's configuration coordinates, when every one names a body of the call that can
+// differentiate by it (ConfigurationCoordinate::body, index): per coordinate that body's index in
+// `bodies` and the coordinate's index among the body's own. `done` stays true while every island
+// so far wrote its columns in closed form (analyticIsland()); otherwise the columns are
+// differenced.
+struct AnalyticCoordinates {
+  std::vector<int> body, index;
+  bool done = true;
+};
+
+std::optional<AnalyticCoordinates> analyticCoordinatesOf(
+    const std::vector<BodyModel*>& bodies,
+    const std::vector<ConfigurationCoordinate>& coordinates) {
+  if (coordinates.empty()) return std::nullopt;
+  AnalyticCoordinates out;
+  for (const ConfigurationCoordinate& coordinate : coordinates) {
+    const auto found = std::find(bodies.begin(), bodies.end(), coordinate.body);
+    if (coordinate.body == nullptr || found == bodies.end() || coordinate.index < 0 ||
+        coordinate.index >= coordinate.body->configurationCount()) {
+      return std::nullopt;
+    }
+    out.body.push_back(static_cast<int>(found - bodies.begin()));
+    out.index.push_back(coordinate.index);
+  }
+  return out;
+}
+
+// An island's contact space moved by the configuration coordinates (docs/physics.md,
+// "Derivatives with respect to a robot's joint positions"), at fixed impulses: `change.pre` the
+// change of u, `change.post` that of u' = u + W P beyond it, and `moved` (N x Q) the change of the
+// bodies' velocities after the impact, M^-1 (dJ^T P - dM (v' - v)).
+void configurationChange(const std::vector<BodyModel*>& bodies,
+                         const std::vector<ContactPoint>& contacts, const NewtonIsland& s,
+                         const std::vector<int>& offset, const VectorXd& before,
+                         const VectorXd& after, const AnalyticCoordinates& coordinates,
+                         ConfigurationChange& change, MatrixXd& moved) {
+  const Index m = static_cast<Index>(s.contacts.size()), N = s.J.cols();
+  const Index Q = static_cast<Index>(coordinates.body.size());
+  change.pre.setZero(3 * m, Q);
+  change.post.setZero(3 * m, Q);
+  moved.setZero(N, Q);
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    std::vector<std::pair<Index, int>> columns;  // (the call's column, the body's own index)
+    for (Index k = 0; k < Q; ++k) {
+      if (coordinates.body[k] == static_cast<int>(b)) columns.emplace_back(k, coordinates.index[k]);
+    }
+    if (columns.empty()) continue;
+    const BodyModel& body = *bodies[b];
+    const int n = offset[b] >= 0 ? body.velocityCount() : 0;
+    const VectorXd change_v = n > 0 ? VectorXd((after - before).segment(offset[b], n)) : VectorXd();
+    // The body's own motion is read where it is now (the prediction's, after the impact): its
+    // point velocities' change is that before the impact plus dJ (v_now - v).
+    const VectorXd moved_now =
+        n > 0 ? VectorXd(body.velocity() - before.segment(offset[b], n)) : VectorXd();
+    const bool now_after = n == 0 || moved_now == change_v;
+    MatrixXd g;  // dJ^T P - dM (v' - v), the body's own columns
+    bool touched = false;
+    for (Index i = 0; i < m; ++i) {
+      const ContactPoint& contact = contacts[s.contacts[i]];
+      const Eigen::Vector3d& P = s.state[static_cast<std::size_t>(i)].P;
+      for (const auto& [side, part, sign] : {std::tuple{contact.body_a, contact.part_a, -1.0},
+                                             std::tuple{contact.body_b, contact.part_b, 1.0}}) {
+        if (side != static_cast<int>(b)) continue;
+        if (!touched) {
+          touched = true;
+          if (n > 0) g = -body.massMatrixProductByConfiguration(change_v);
+        }
+        Eigen::Matrix<double, 3, Eigen::Dynamic> pre =
+            body.partPointVelocityByConfiguration(part, contact.point);
+        Eigen::Matrix<double, 3, Eigen::Dynamic> post;
+        if (n > 0) {
+          post = body.partJacobianProductByConfiguration(part, contact.point, change_v);
+          pre -= now_after
+                     ? post
+                     : body.partJacobianProductByConfiguration(part, contact.point, moved_now);
+          g += sign * body.partJacobianTransposeProductByConfiguration(part, contact.point, P);
+        }
+        for (const auto& [k, own] : columns) {
+          change.pre.block<3, 1>(3 * i, k) += sign * pre.col(own);
+          if (n > 0) change.post.block<3, 1>(3 * i, k) += sign * post.col(own);
+        }
+      }
+    }
+    if (!touched || n == 0) continue;
+    const MatrixXd dv = body.inverseMassTimes(g);
+    for (const auto& [k, own] : columns) moved.block(offset[b], k, n, 1) = dv.col(own);
+  }
+  change.post.noalias() += s.J * moved;
+}
+
+// dK = d(J M^-1 J^T) of a lone contact along each configuration coordinate (3 x 3 each):
+// dJ M^-1 J^T + J M^-1 dJ^T - J M^-1 dM M^-1 J^T, body by body (the coordinates' bodies).
+std::vector<Eigen::Matrix3d> contactMassChange(const std::vector<BodyModel*>& bodies,
+                                               const ContactPoint& contact, const NewtonIsland& s,
+                                               const std::vector<int>& offset,
+                                               const AnalyticCoordinates& coordinates) {
+  const Index Q = static_cast<Index>(coordinates.body.size());
+  std::vector<Eigen::Matrix3d> dK(static_cast<std::size_t>(Q), Eigen::Matrix3d::Zero());
+  // Each body once (a robot's two links touching each other: both sides, one body).
+  const int sides = contact.body_a == contact.body_b ? 1 : 2;
+  for (int side_index = 0; side_index < sides; ++side_index) {
+    const int b = side_index == 0 ? contact.body_a : contact.body_b;
+    const BodyModel& body = *bodies[b];
+    const int n = offset[b] >= 0 ? body.velocityCount() : 0;
+    if (n == 0) continue;                        // no unknowns: K does not depend on it
+    std::vector<std::pair<Index, int>> columns;  // (the call's column, the body's own index)
+    for (Index k = 0; k < Q; ++k) {
+      if (coordinates.body[k] == b) columns.emplace_back(k, coordinates.index[k]);
+    }
+    if (columns.empty()) continue;
+    const MatrixXd X = s.MinvJt.block(offset[b], 0, n, 3);  // this body's M^-1 J^T
+    const MatrixXd J = s.J.block(0, offset[b], 3, n);
+    for (int j = 0; j < 3; ++j) {
+      MatrixXd h = -body.massMatrixProductByConfiguration(X.col(j));  // n x the body's own
+      Eigen::Matrix<double, 3, Eigen::Dynamic> dJX =
+          Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, h.cols());
+      for (const auto& [side, part, sign] : {std::tuple{contact.body_a, contact.part_a, -1.0},
+                                             std::tuple{contact.body_b, contact.part_b, 1.0}}) {
+        if (side != b) continue;
+        dJX += sign * body.partJacobianProductByConfiguration(part, contact.point, X.col(j));
+        h += sign * body.partJacobianTransposeProductByConfiguration(part, contact.point,
+                                                                     Eigen::Vector3d::Unit(j));
+      }
+      const Eigen::Matrix<double, 3, Eigen::Dynamic> column = dJX + J * body.inverseMassTimes(h);
+      for (const auto& [k, own] : columns)
+        dK[static_cast<std::size_t>(k)].col(j) += column.col(own);
+    }
+  }
+  return dK;
+}
+
+// Writes an island's configuration columns (the last Q of out.jacobian): the velocities after,
+// `moved` + M^-1 J^T dP/dq, and the island's impulse rows.
+void scatterCoordinates(const NewtonIsland& s, const MatrixXd& moved, const MatrixXd& dP_dq,
+                        Index N, Index C, MatrixXd& jacobian) {
+  const Index Q = moved.cols(), first = N + 3 * C;
+  jacobian.block(0, first, N, Q) += moved + s.MinvJt * dP_dq;
+  for (std::size_t i = 0; i < s.contacts.size(); ++i) {
+    const Eigen::Vector3d& n = s.state[i].normal;
+    const Index row = N + 4 * static_cast<Index>(s.contacts[i]);
+    const auto dP = dP_dq.middleRows<3>(3 * static_cast<Index>(i));
+    jacobian.block(row, first, 1, Q) = n.transpose() * dP;
+    jacobian.block(row + 1, first, 3, Q) = (Eigen::Matrix3d::Identity() - n * n.transpose()) * dP;
+  }
+}
+
 // The analytic derivative of one island (docs/physics.md, "General bodies (robots)"), written
 // into out.jacobian and out.contacts: Newton's closed form (one contact) or the exact solver's
 // final mode, or one contact integrated in impulse space (Poisson, Stronge). False where the
 // island is differenced instead (another solver, a singular K, redundant contacts sliding with
 // friction, an integration that fell back).
+// `coordinates` (if given): the configuration columns too, in closed form for Newton's law
+// (coordinates->done set false where they cannot be: the impulse-space laws, redundant contacts).
 bool analyticIsland(const std::vector<BodyModel*>& bodies,
                     const std::vector<ContactPoint>& contacts, const SolveReport& report,
                     const SolverOptions& options, const VectorXd& before, const VectorXd& after,
-                    const LoneContact& lone, BodyImpactDerivatives& out) {
+                    const LoneContact& lone, BodyImpactDerivatives& out,
+                    AnalyticCoordinates* coordinates) {
   const Index N = out.velocity_count;
+  const Index C = static_cast<Index>(contacts.size());
   const AnalyticIsland kind = analyticIslandOf(report, options.law);
   if (kind == AnalyticIsland::kNone) return false;
+  // The impulse-space laws' sensitivity carries no derivative by K: differenced.
+  if (kind == AnalyticIsland::kImpulseSpaceContact && coordinates != nullptr) {
+    coordinates->done = false;
+  }
   if (kind == AnalyticIsland::kImpulseSpaceContact && lone.valid) {
     // Taken before the prediction (predictLoneContact()), on the same contact space.
     out.contacts[report.contacts[0]] = lone.mode;
@@ -275,14 +439,22 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
   }
   const NewtonIsland s = contactSpace(bodies, contacts, report.contacts, out.velocity_offset, N,
                                       before, after, out.result);
+  const bool configuration = coordinates != nullptr && coordinates->done;
+  ConfigurationChange change;
+  MatrixXd moved, dP_dq;
+  if (configuration) {
+    configurationChange(bodies, contacts, s, out.velocity_offset, before, after, *coordinates,
+                        change, moved);
+  }
   MatrixXd dP_dv, dP_dtheta;
   if (kind == AnalyticIsland::kNewtonExact) {
     // The exact solver's answer came without a pivot (iterations 0) when every contact was
     // active and sticking inside its static cone (exact_solver.h).
     if (!differentiateNewtonIsland(s, report.iterations == 0, DerivativeColumns{}, dP_dv, dP_dtheta,
-                                   out.contacts)) {
+                                   out.contacts, configuration ? &change : nullptr, &dP_dq)) {
       return false;
     }
+    if (configuration && dP_dq.size() == 0 && change.pre.size() > 0) coordinates->done = false;
   } else {
     // One contact: its impulse is a function of its 3x3 W = J M^-1 J^T and u = J v (+ the part
     // of a body without unknowns), so dP/dv = dP/du J.
@@ -290,10 +462,16 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
     const ContactPoint& contact = contacts[c];
     const Eigen::Matrix3d W = s.J.lazyProduct(s.MinvJt);
     Eigen::Matrix3d dP_du, dP_dtheta3;
+    const bool closed_form = kind == AnalyticIsland::kNewtonClosedForm;
+    const std::vector<Eigen::Matrix3d> dK =
+        configuration && closed_form
+            ? contactMassChange(bodies, contact, s, out.velocity_offset, *coordinates)
+            : std::vector<Eigen::Matrix3d>{};
+    Eigen::Matrix<double, 3, Eigen::Dynamic> dP_dK;
     const bool done =
-        kind == AnalyticIsland::kNewtonClosedForm
+        closed_form
             ? differentiateNewtonContact(contact.normal, W, s.state[0].u, s.state[0].coefficients,
-                                         dP_du, dP_dtheta3, out.contacts[c])
+                                         dP_du, dP_dtheta3, out.contacts[c], dK, &dP_dK)
             : differentiateImpulseSpace(contact.normal, W, s.state[0].u, contact.restitution,
                                         contact.static_friction, contact.dynamic_friction,
                                         options.law, options.integration_tolerance, dP_du,
@@ -301,8 +479,10 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
     if (!done) return false;
     dP_dv = dP_du.lazyProduct(s.J);
     dP_dtheta = dP_dtheta3;
+    if (configuration && closed_form) dP_dq = dP_du * change.pre + dP_dK;
   }
   scatter(s, dP_dv, dP_dtheta, N, out.jacobian);
+  if (configuration && coordinates->done) scatterCoordinates(s, moved, dP_dq, N, C, out.jacobian);
   return true;
 }
 
@@ -398,11 +578,17 @@ BodyImpactDerivatives computeBodyImpactDerivatives(
     out.contacts[c].mode = modeOf(out.result.impulses[c]);
 
   // Analytic island by island (islands are independent: each writes its own bodies' and
-  // contacts' entries); if one cannot be, every column is differenced.
+  // contacts' entries); if one cannot be, every column is differenced. The configuration
+  // coordinates' columns too, where every coordinate's body differentiates by it and every island
+  // can (an island without an impulse adds nothing to them).
+  std::optional<AnalyticCoordinates> analytic_coordinates =
+      analyticCoordinatesOf(bodies, coordinates);
+  AnalyticCoordinates* by_coordinates = analytic_coordinates ? &*analytic_coordinates : nullptr;
   bool analytic = true;
   for (const SolveReport& report : out.result.islands) {
     if (markNoImpulseIsland(report, out.result.impulses, out.contacts)) continue;
-    if (!analyticIsland(bodies, contacts, report, options, before, after, lone, out)) {
+    if (!analyticIsland(bodies, contacts, report, options, before, after, lone, out,
+                        by_coordinates)) {
       analytic = false;
       break;
     }
@@ -475,13 +661,19 @@ BodyImpactDerivatives computeBodyImpactDerivatives(
       }
     }
   }
+  const bool coordinates_done = analytic && by_coordinates != nullptr && by_coordinates->done;
+  if (coordinates_done) out.coordinate_method = DerivativeMethod::kAnalytic;
+  if (!coordinates_done && !coordinates.empty()) {
+    out.jacobian.rightCols(out.coordinate_count).setZero();  // islands written before one failed
+  }
   try {
-    differenceCoordinates(
-        coordinates, contacts,
-        [&](const std::vector<ContactPoint>& cs, std::vector<ImpactMode>* modes) {
-          return evaluate(bodies, cs, options, end, before, out.velocity_offset, N, modes);
-        },
-        out);
+    if (!coordinates_done)
+      differenceCoordinates(
+          coordinates, contacts,
+          [&](const std::vector<ContactPoint>& cs, std::vector<ImpactMode>* modes) {
+            return evaluate(bodies, cs, options, end, before, out.velocity_offset, N, modes);
+          },
+          out);
   } catch (...) {
     // A perturbed solve ran out of time or failed, or a coordinate could not be set (a robot's
     // M singular at q +- h): the bodies go back to their configuration and the prediction's

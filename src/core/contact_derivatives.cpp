@@ -83,12 +83,15 @@ const MatrixXd& NewtonIsland::W() const {
 
 bool differentiateNewtonContact(const Vector3d& n, const Matrix3d& K, const Vector3d& u,
                                 const NewtonCoefficients& contact, Matrix3d& dP_du,
-                                Matrix3d& dP_dtheta, ContactDerivativeMode& mode) {
+                                Matrix3d& dP_dtheta, ContactDerivativeMode& mode,
+                                const std::vector<Matrix3d>& dK,
+                                Eigen::Matrix<double, 3, Eigen::Dynamic>* dP_dK) {
   const double e = contact.restitution, mu_s = contact.static_friction,
                mu_d = contact.dynamic_friction;
   const double u_n = n.dot(u);
   dP_du.setZero();
   dP_dtheta.setZero();
+  if (dP_dK != nullptr) dP_dK->setZero(3, static_cast<Index>(dK.size()));
   mode.method = DerivativeMethod::kAnalytic;
   if (!(u_n < 0.0)) {
     mode.mode = ImpactMode::kNoImpulse;
@@ -125,15 +128,26 @@ bool differentiateNewtonContact(const Vector3d& n, const Matrix3d& K, const Vect
       const double dalpha = -alpha * n.dot(K * s) / K_nn;
       dP_dtheta.col(kDynamic) = dalpha * n + alpha * s;
     }
+    // dP = -(n^T dK n) / K_nn P.
+    for (std::size_t k = 0; dP_dK != nullptr && k < dK.size(); ++k) {
+      dP_dK->col(static_cast<Index>(k)) = (u_n * (1.0 + e) * n.dot(dK[k] * n) / (K_nn * K_nn)) * n;
+    }
     flagSwitch(mode,
                "frictionless: the friction columns are one-sided, for increasing coefficients");
     return true;
   }
+  // The sticking impulse's change with K: dq = -K^-1 dK q.
+  const auto stickingByK = [&] {
+    for (std::size_t k = 0; dP_dK != nullptr && k < dK.size(); ++k) {
+      dP_dK->col(static_cast<Index>(k)) = -K_inv * (dK[k] * q);
+    }
+  };
   const double limit = mu_s * q_n;
   if (q_n >= 0.0 && q_t_norm <= limit) {
     mode.mode = ImpactMode::kSticking;
     dP_du = dq_du;
     dP_dtheta.col(kRestitution) = dq_de;
+    stickingByK();
     if (q_t_norm >= (1.0 - kSwitchTolerance) * limit) {
       flagSwitch(mode, "stick/slide: |P_t| = mu_s P_n; sticking side");
     }
@@ -150,6 +164,7 @@ bool differentiateNewtonContact(const Vector3d& n, const Matrix3d& K, const Vect
     mode.mode = ImpactMode::kSticking;
     dP_du = dq_du;
     dP_dtheta.col(kRestitution) = dq_de;
+    stickingByK();
     flagSwitch(mode, "no sliding impulse exists (n^T K (n + mu_d d) <= 0): the sticking impulse");
     return true;
   }
@@ -177,6 +192,13 @@ bool differentiateNewtonContact(const Vector3d& n, const Matrix3d& K, const Vect
   dP_du = direction * dalpha_du + alpha * mu_d * ds_du;
   dP_dtheta.col(kRestitution) = dalpha_de * direction + alpha * mu_d * ds_de;
   dP_dtheta.col(kDynamic) = dalpha_dmu * direction + alpha * s;
+  // Through K: the sticking impulse (dq = -K^-1 dK q, hence s) and the denominator.
+  for (std::size_t k = 0; dP_dK != nullptr && k < dK.size(); ++k) {
+    const Vector3d ds = ds_dq * (-K_inv * (dK[k] * q));
+    const double dden = n.dot(dK[k] * direction) + mu_d * nK.dot(ds);
+    dP_dK->col(static_cast<Index>(k)) =
+        (-(alpha / denominator) * dden) * direction + alpha * mu_d * ds;
+  }
   return true;
 }
 
@@ -331,7 +353,8 @@ bool solveSticking(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd& solutio
 
 bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
                                const DerivativeColumns& columns, MatrixXd& dP_dv,
-                               MatrixXd& dP_dtheta, std::vector<ContactDerivativeMode>& modes) {
+                               MatrixXd& dP_dtheta, std::vector<ContactDerivativeMode>& modes,
+                               const ConfigurationChange* configuration, MatrixXd* dP_dq) {
   const Index m = static_cast<Index>(s.contacts.size());
   // F_u and F_theta are block diagonal (a contact's rows depend on its own u and coefficients):
   // their 3 x 3 diagonal blocks are stacked, rows 3i..3i+2 of each holding contact i's.
@@ -342,9 +365,13 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     return F_P;
   };
   using Blocks = Eigen::Matrix<double, Eigen::Dynamic, 3>;
-  // F_u is read only for the velocity columns: without them it is neither allocated nor filled.
-  const bool velocities = columns.velocities;
+  // F_u is read only for the velocity and configuration columns: without them it is neither
+  // allocated nor filled. F_post, the part of F_u through u' = u + W P (at fixed P), only for the
+  // configuration columns, whose W moves too.
+  const Index Q = configuration != nullptr ? configuration->pre.cols() : 0;
+  const bool velocities = columns.velocities || Q > 0;
   Blocks F_u = velocities ? Blocks::Zero(3 * m, 3) : Blocks(), F_theta = Blocks::Zero(3 * m, 3);
+  Blocks F_post = Q > 0 ? Blocks::Zero(3 * m, 3) : Blocks();
   double u_reference = 0.0, P_scale = 0.0;
   for (Index i = 0; i < m; ++i) {
     u_reference = std::max(u_reference, s.state[i].u.norm());
@@ -393,6 +420,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     auto normalRow = [&]() {
       FP().block(r, 0, 1, 3 * m) = n.transpose() * s.W().middleRows<3>(r);
       if (velocities) F_u.block<1, 3>(r, 0) = (1.0 + (approaching ? e : 0.0)) * n.transpose();
+      if (Q > 0) F_post.block<1, 3>(r, 0) = n.transpose();
       if (approaching) F_theta(r, kRestitution) = u_n;
     };
     if (!(P_n > kPyramidRoundOff * P_scale) && P_t.norm() <= kPyramidRoundOff * P_scale) {
@@ -452,6 +480,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       // (F_P's rows: W's, filled if F_P is decomposed.)
       if (velocities)
         F_u.block<3, 3>(r, 0) = Matrix3d::Identity() + (approaching ? e : 0.0) * n * n.transpose();
+      if (Q > 0) F_post.block<3, 3>(r, 0).setIdentity();
       if (approaching) F_theta.block<3, 1>(r, kRestitution) = u_n * n;
       // The all-sticking answer (no pivot) is bounded by the static cone, Lemke's and the modes'
       // by the pyramid (static, or dynamic for a contact that slid in an earlier round).
@@ -508,6 +537,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       FP().block(r + 1, 0, 1, 3 * m) = g.transpose() * s.W().middleRows<3>(r);
       if (velocities)
         F_u.block<1, 3>(r + 1, 0) = g.transpose() + u_after.transpose() * (D_k - D_k1);
+      if (Q > 0) F_post.block<1, 3>(r + 1, 0) = g.transpose();
       FP().block<1, 3>(r + 2, r) = c.transpose() - mu * n.transpose();
       if (velocities) F_u.block<1, 3>(r + 2, 0) = P.transpose() * (D_k + D_k1) / facet;
       F_theta(r + 2, kDynamic) = -P_n;
@@ -520,6 +550,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   // (the velocities' derivatives are the same for every solution).
   const Index L = s.J.cols();
   const Index V = columns.velocities ? L : 0;
+  if (dP_dq != nullptr) dP_dq->setZero(3 * m, Q);
   // Island coefficient columns solved (on the stack for islands of up to 16 contacts).
   std::array<Index, 48> small_theta;
   std::vector<Index> large_theta;
@@ -541,8 +572,8 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     dP_dv.resize(0, 0);  // not asked for: empty
   }
   dP_dtheta.setZero(3 * m, 3 * m);
-  if (V + T == 0) return true;
-  MatrixXd rhs(3 * m, V + T);
+  if (V + T + Q == 0) return true;
+  MatrixXd rhs(3 * m, V + T + Q);
   if (V > 0) {
     for (Index i = 0; i < m; ++i) {
       rhs.block(3 * i, 0, 3, L).noalias() = F_u.block<3, 3>(3 * i, 0) * s.J.middleRows<3>(3 * i);
@@ -554,8 +585,19 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
     rhs.col(V + t).setZero();
     rhs.block<3, 1>(k - k % 3, V + t) = F_theta.block<3, 1>(k - k % 3, k % 3);
   }
+  // A configuration column: u moves by `pre`, and u' at fixed P by `pre` + `post`.
+  for (Index i = 0; Q > 0 && i < m; ++i) {
+    rhs.block(3 * i, V + T, 3, Q).noalias() =
+        F_u.block<3, 3>(3 * i, 0) * configuration->pre.middleRows<3>(3 * i) +
+        F_post.block<3, 3>(3 * i, 0) * configuration->post.middleRows<3>(3 * i);
+  }
   MatrixXd solution;
-  if (!every_row_sticking || !solveSticking(s, rhs, solution)) {
+  // Redundant contacts (F_P singular): the impulses' least-norm change is the derivative of the
+  // least-norm impulses only where F_P does not move; under a configuration change it does.
+  bool redundant = false;
+  if (every_row_sticking && solveSticking(s, rhs, solution)) {
+    redundant = 3 * m > L;  // more contact rows than unknowns: W singular
+  } else {
     for (Index i = 0; i < m; ++i) {  // the sticking contacts' rows: W's
       if (modes[s.contacts[i]].mode == ImpactMode::kSticking) {
         FP().block(3 * i, 0, 3, 3 * m) = s.W().middleRows<3>(3 * i);
@@ -574,11 +616,20 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
       }
       return false;
     }
+    redundant = cod.rank() < 3 * m;
     solution = cod.solve(rhs);
   }
   if (V > 0) dP_dv = -solution.leftCols(L);
   for (Index t = 0; t < T; ++t) {
     dP_dtheta.col(theta_columns[t]) = -solution.col(V + t);
+  }
+  // Redundant: no configuration columns (empty dP_dq; the caller differences them).
+  if (Q > 0 && dP_dq != nullptr) {
+    if (redundant) {
+      dP_dq->resize(0, 0);
+    } else {
+      *dP_dq = -solution.middleCols(V + T, Q);
+    }
   }
   return true;
 }

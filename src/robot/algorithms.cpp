@@ -326,6 +326,26 @@ void solveMassMatrix(const RobotData& data, Eigen::VectorXd& x) {
   solveWithCholesky(data.cholesky, data.unknowns, x);
 }
 
+void solveMassMatrix(const RobotData& data, Eigen::MatrixXd& x) {
+  // Column by column in plain loops (the row loops above would allocate a dynamic row per step,
+  // and Eigen's blocked triangular solves cost more than the solve for a few unknowns).
+  const int n = data.unknowns;
+  const Eigen::MatrixXd& L = data.cholesky;
+  for (Eigen::Index c = 0; c < x.cols(); ++c) {
+    double* y = x.col(c).data();
+    for (int i = 0; i < n; ++i) {  // L y = x
+      double r = y[i];
+      for (int k = 0; k < i; ++k) r -= L(i, k) * y[k];
+      y[i] = r / L(i, i);
+    }
+    for (int i = n - 1; i >= 0; --i) {  // L^T x = y
+      double r = y[i];
+      for (int k = i + 1; k < n; ++k) r -= L(k, i) * y[k];
+      y[i] = r / L(i, i);
+    }
+  }
+}
+
 Eigen::Matrix<double, 3, Eigen::Dynamic> pointJacobian(const RobotModel& model,
                                                        const RobotData& data, int link,
                                                        const Eigen::Vector3d& point) {

@@ -4,6 +4,7 @@
 
 #include "collision_response/core/errors.h"
 #include "collision_response/robot/articulated_body_algorithm.h"
+#include "collision_response/robot/configuration_derivatives.h"
 
 namespace collision_response::robot {
 namespace {
@@ -68,6 +69,7 @@ void ArticulatedBody::setLockedJoints(const std::vector<bool>& locked) {
 }
 
 void ArticulatedBody::rebuild() {
+  configuration_count_ = static_cast<int>(configurationJoints(*model_).size());
   updateUnknowns(*model_, data_);
   forwardKinematics(*model_, data_);
   computeMassMatrix(*model_, data_);
@@ -205,6 +207,35 @@ Eigen::Vector3d ArticulatedBody::partPointFreeAcceleration(int part,
   const KDL::Twist& twist = data_.twists[link];
   const Eigen::Vector3d w(twist.rot.x(), twist.rot.y(), twist.rot.z());
   return a.linear + a.angular.cross(point) + w.cross(velocityAt(twist, point));
+}
+
+Eigen::Matrix<double, 3, Eigen::Dynamic> ArticulatedBody::partPointVelocityByConfiguration(
+    int part, const Eigen::Vector3d& point) const {
+  return pointVelocityByConfiguration(*model_, data_, part < 0 ? model_->defaultLink() : part,
+                                      point);
+}
+
+Eigen::Matrix<double, 3, Eigen::Dynamic> ArticulatedBody::partJacobianProductByConfiguration(
+    int part, const Eigen::Vector3d& point, const Eigen::VectorXd& x) const {
+  return jacobianProductByConfiguration(*model_, data_, part < 0 ? model_->defaultLink() : part,
+                                        point, x);
+}
+
+Eigen::MatrixXd ArticulatedBody::partJacobianTransposeProductByConfiguration(
+    int part, const Eigen::Vector3d& point, const Eigen::Vector3d& force) const {
+  return jacobianTransposeProductByConfiguration(
+      *model_, data_, part < 0 ? model_->defaultLink() : part, point, force);
+}
+
+Eigen::MatrixXd ArticulatedBody::massMatrixProductByConfiguration(const Eigen::VectorXd& x) const {
+  return robot::massMatrixProductByConfiguration(*model_, data_, x);
+}
+
+Eigen::MatrixXd ArticulatedBody::inverseMassTimes(const Eigen::MatrixXd& x) const {
+  requireRegular();
+  Eigen::MatrixXd out = x;
+  solveMassMatrix(data_, out);
+  return out;
 }
 
 }  // namespace collision_response::robot

@@ -10,6 +10,8 @@ std::vector<core::ConfigurationCoordinate> jointPositionCoordinates(ArticulatedB
     if (body.mimicRoot(j) != j) continue;
     core::ConfigurationCoordinate coordinate;
     coordinate.value = body.jointPositions()(j);
+    coordinate.body = &body;  // the body's configuration coordinates are these, in this order
+    coordinate.index = static_cast<int>(out.size());
     coordinate.set = [&body, j](double x) {
       Eigen::VectorXd q = body.jointPositions();
       q(j) = x;

@@ -332,8 +332,11 @@ ImpactDerivatives toMsg(const core::BodyImpactDerivatives& derivatives, int rigi
     columns.push_back("robots[" + std::to_string(robot) + "].joint_state.position[" +
                       std::to_string(joint) + "]");
   }
-  return derivativesMsg(derivatives.method, derivatives.jacobian, std::move(rows),
-                        std::move(columns), derivatives.contacts);
+  ImpactDerivatives msg = derivativesMsg(derivatives.method, derivatives.jacobian, std::move(rows),
+                                         std::move(columns), derivatives.contacts);
+  if (!coordinate_joints.empty())
+    msg.joint_position_method = core::toString(derivatives.coordinate_method);
+  return msg;
 }
 
 }  // namespace collision_response

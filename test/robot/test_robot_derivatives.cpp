@@ -631,6 +631,39 @@ TEST(RobotDerivatives, JointPositionColumnsMatchTheTwoLinkClosedForm) {
   EXPECT_EQ(plain.jacobian, d.jacobian.leftCols(5));
 }
 
+// The closed-form columns never move the robot: coordinates whose set() throws give the same
+// columns under Newton's law as those that work (the shipped arm's hand striking a ball), and the
+// differenced law (Stronge) throws.
+TEST(RobotDerivatives, ClosedFormJointPositionColumnsDoNotMoveTheRobot) {
+  std::mt19937 rng(4);
+  rb::ArticulatedBody arm = randomArm(rng);
+  const int hand = arm.linkIndex("hand");
+  const Vector3d p = arm.linkPose(hand).translation();
+  const Vector3d normal = Vector3d(0.3, -0.2, 1.0).normalized();
+  const cr::RigidBody ball = sphere(0.5, 0.05, p + 0.05 * normal, -1.5 * normal);
+  cr::ContactPoint contact(0, 1, p, normal, 0.5, 0.6, 0.5);
+  contact.part_a = hand;
+  const VectorXd q = arm.jointPositions(), qdot = arm.jointVelocities();
+  cr::RigidBody struck = ball;
+  std::vector<cr::ConfigurationCoordinate> coordinates = rb::jointPositionCoordinates(arm);
+  const cr::BodyImpactDerivatives working = cr::computeBodyImpactDerivatives(
+      {&arm, &struck}, {contact}, withLaw(cr::ImpactLaw::kNewton), coordinates);
+  EXPECT_EQ(working.coordinate_method, cr::DerivativeMethod::kAnalytic);
+  for (cr::ConfigurationCoordinate& c : coordinates)
+    c.set = [](double) { throw std::runtime_error("moved"); };
+  arm.setState(q, qdot);
+  struck = ball;
+  const cr::BodyImpactDerivatives d = cr::computeBodyImpactDerivatives(
+      {&arm, &struck}, {contact}, withLaw(cr::ImpactLaw::kNewton), coordinates);
+  EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kAnalytic);
+  EXPECT_EQ(d.jacobian, working.jacobian);
+  arm.setState(q, qdot);
+  struck = ball;
+  EXPECT_THROW(cr::computeBodyImpactDerivatives({&arm, &struck}, {contact},
+                                                withLaw(cr::ImpactLaw::kStronge), coordinates),
+               std::runtime_error);
+}
+
 // A coordinate whose perturbed solve fails (here its setter throws on the minus side, as a robot's
 // setState() does where M(q - h) is singular): the error goes on, and the arm is back at its q and
 // at the prediction's velocities (the closed form's).
@@ -721,6 +754,10 @@ TEST(RobotDerivatives, ShippedArmJointPositionColumnsMatchCentralDifferences) {
                                          rb::jointPositionCoordinates(differentiated, &joints));
     ASSERT_EQ(static_cast<int>(joints.size()), arm.jointCount());  // no mimic joints
     ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+    // Newton's closed form: in closed form; Stronge's sensitivity has no K derivative: differenced.
+    EXPECT_EQ(d.coordinate_method, law == cr::ImpactLaw::kNewton
+                                       ? cr::DerivativeMethod::kAnalytic
+                                       : cr::DerivativeMethod::kFiniteDifference);
     MatrixXd want(n + 10, arm.jointCount());
     for (int k = 0; k < arm.jointCount(); ++k) {
       VectorXd plus = q, minus = q;
@@ -776,6 +813,7 @@ TEST(RobotDerivatives, MimicGripperJointPositionColumnsMoveTheLeader) {
   };
   ASSERT_GT(d.result.impulses[0].normal_impulse, 0.0);
   ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
+  EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kAnalytic);
   for (std::size_t k = 0; k < joints.size(); ++k) {
     VectorXd plus = q, minus = q;
     plus(joints[k]) += 1e-6;
@@ -788,4 +826,230 @@ TEST(RobotDerivatives, MimicGripperJointPositionColumnsMoveTheLeader) {
         << want.transpose();
   }
   EXPECT_EQ(differentiated.jointPositions()(2), differentiated.jointPositions()(f1));
+}
+
+// ---- Joint-position columns in closed form (Newton's law) ------------------------------------
+// Robots (fixed or floating bases, a locked joint) and a ball, every robot's joint positions as
+// coordinates; the columns against the test's own central differences of computeBodyResponse()
+// with one joint moved by setState() on copies (step 1e-6 rad), the contacts held in the world.
+namespace {
+
+struct PosedRobot {
+  rb::ArticulatedBody body;
+  VectorXd q, qdot;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  Vector3d base_v = Vector3d::Zero(), base_w = Vector3d::Zero();
+  void pose() { body.setState(q, qdot, base, base_v, base_w); }
+};
+
+struct RobotsAndBall {
+  std::vector<PosedRobot> robots;
+  cr::RigidBody ball;
+  std::vector<cr::ContactPoint> contacts;  // bodies: robots 0..R-1, then the ball
+  cr::SolverOptions options = withLaw(cr::ImpactLaw::kNewton);
+
+  // The library's outputs with robot r's joint `joint` moved by dq (the others as posed); with
+  // `velocity`, robot r's velocity unknown `joint` moved by dq instead (r = robots.size(): the
+  // ball's twist entry).
+  VectorXd outputs(std::size_t r, int joint, double dq, bool velocity = false) const {
+    std::vector<PosedRobot> copies = robots;
+    cr::RigidBody b = ball;
+    if (!velocity) {
+      copies[r].q(joint) += dq;
+    } else if (r == robots.size()) {
+      (joint < 3 ? b.linear_velocity(joint) : b.angular_velocity(joint - 3)) += dq;
+    } else {
+      PosedRobot& c = copies[r];
+      const int base = c.body.baseType() == rb::BaseType::kFloating ? 6 : 0;
+      if (joint < base) {
+        (joint < 3 ? c.base_v(joint) : c.base_w(joint - 3)) += dq;
+      } else {
+        c.qdot(c.body.jointOfUnknown(joint)) += dq;
+      }
+    }
+    std::vector<cr::BodyModel*> bodies;
+    Eigen::Index n = 6;
+    for (PosedRobot& copy : copies) {
+      copy.pose();
+      bodies.push_back(&copy.body);
+      n += copy.body.velocityCount();
+    }
+    bodies.push_back(&b);
+    const cr::BodyResponse result = cr::computeBodyResponse(bodies, contacts, options);
+    VectorXd out(n + 4 * static_cast<Eigen::Index>(contacts.size()));
+    Eigen::Index row = 0;
+    for (const cr::BodyModel* body : bodies) {
+      out.segment(row, body->velocityCount()) = body->velocity();
+      row += body->velocityCount();
+    }
+    for (const cr::ContactImpulse& impulse : result.impulses) {
+      out(row) = impulse.normal_impulse;
+      out.segment<3>(row + 1) = impulse.friction_impulse;
+      row += 4;
+    }
+    return out;
+  }
+
+  // Differentiates and checks every velocity and coordinate column (failures labelled `label`);
+  // returns the derivatives.
+  cr::BodyImpactDerivatives check(const std::string& label, double tolerance = 1e-6) {
+    SCOPED_TRACE(label + ", " + std::to_string(contacts.size()) + " contacts");
+    std::vector<cr::BodyModel*> bodies;
+    std::vector<cr::ConfigurationCoordinate> coordinates;
+    std::vector<std::pair<std::size_t, int>> joint_of;  // per coordinate: robot, joint
+    std::vector<PosedRobot> differentiated = robots;
+    for (std::size_t r = 0; r < differentiated.size(); ++r) {
+      differentiated[r].pose();
+      bodies.push_back(&differentiated[r].body);
+      std::vector<int> joints;
+      for (cr::ConfigurationCoordinate& c :
+           rb::jointPositionCoordinates(differentiated[r].body, &joints))
+        coordinates.push_back(std::move(c));
+      for (const int j : joints) joint_of.emplace_back(r, j);
+    }
+    cr::RigidBody b = ball;
+    bodies.push_back(&b);
+    const cr::BodyImpactDerivatives d =
+        cr::computeBodyImpactDerivatives(bodies, contacts, options, coordinates);
+    // The velocity columns (a locked joint's kept velocity moves u: not in J v).
+    Eigen::Index column = 0;
+    for (std::size_t r = 0; r <= robots.size(); ++r) {
+      const int n = r < robots.size() ? robots[r].body.velocityCount() : 6;
+      for (int k = 0; k < n; ++k, ++column) {
+        const VectorXd want = (outputs(r, k, 1e-6, true) - outputs(r, k, -1e-6, true)) / 2e-6;
+        EXPECT_LE((d.jacobian.col(column) - want).cwiseAbs().maxCoeff(),
+                  tolerance * std::max(1.0, want.cwiseAbs().maxCoeff()))
+            << "body " << r << " velocity unknown " << k;
+      }
+    }
+    const Eigen::Index first = d.jacobian.cols() - d.coordinate_count;
+    for (std::size_t k = 0; k < joint_of.size(); ++k) {
+      const auto [r, joint] = joint_of[k];
+      const VectorXd want = (outputs(r, joint, 1e-6) - outputs(r, joint, -1e-6)) / 2e-6;
+      const VectorXd got = d.jacobian.col(first + static_cast<Eigen::Index>(k));
+      EXPECT_LE((got - want).cwiseAbs().maxCoeff(),
+                tolerance * std::max(1.0, want.cwiseAbs().maxCoeff()))
+          << "robot " << r << " joint " << joint << "\ngot  " << got.transpose() << "\nwant "
+          << want.transpose();
+    }
+    return d;
+  }
+};
+
+bool anyAtSwitch(const cr::BodyImpactDerivatives& d) {
+  for (const cr::ContactDerivativeMode& mode : d.contacts) {
+    if (mode.at_switch) return true;
+  }
+  return false;
+}
+
+PosedRobot randomPosedArm(std::mt19937& rng, rb::BaseType base, bool lock) {
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI), unit(-1.0, 1.0);
+  PosedRobot r{rb::robotFromUrdfFile(kArm7, base)};
+  const int n = r.body.jointCount();
+  r.q.resize(n);
+  r.qdot.resize(n);
+  for (int i = 0; i < n; ++i) {
+    r.q(i) = i < 7 ? angle(rng) : 0.02;
+    r.qdot(i) = i < 7 ? unit(rng) : 0.0;
+  }
+  if (lock) {
+    std::vector<bool> locked(n, false);
+    locked[3] = true;  // its velocity kept, its position still shapes M and J
+    r.body.setLockedJoints(locked);
+  }
+  if (base == rb::BaseType::kFloating) {
+    r.base = Eigen::Translation3d(0.1, 0.2, -0.1) *
+             Eigen::AngleAxisd(angle(rng), Vector3d(unit(rng), unit(rng), 1.0).normalized());
+    r.base_v = Vector3d(unit(rng), unit(rng), unit(rng)) * 0.3;
+    r.base_w = Vector3d(unit(rng), unit(rng), unit(rng)) * 0.3;
+  }
+  r.pose();
+  return r;
+}
+
+}  // namespace
+
+// One contact (Newton's closed form) and two (the exact solver's final mode) between the arm's
+// hand and a ball, on fixed and floating bases with and without a locked joint, mu_s 0.8 > mu_d
+// 0.3 (the band between mu_d N and mu_s N) or 0.15 = 0.15: sticking and sliding both met. Every
+// column in closed form (coordinate_method) and equal to the differences.
+TEST(RobotDerivatives, NewtonJointPositionColumnsAreClosedFormAcrossModes) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int sticking = 0, sliding = 0, islands = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    RobotsAndBall s;
+    const rb::BaseType base = trial % 2 ? rb::BaseType::kFloating : rb::BaseType::kFixed;
+    s.robots.push_back(randomPosedArm(rng, base, trial % 3 == 0));
+    rb::ArticulatedBody& arm = s.robots[0].body;
+    const int hand = arm.linkIndex(trial % 4 < 2 ? "hand" : "link5");
+    const Vector3d p = arm.linkPose(hand) * Vector3d(0.02, -0.01, 0.03);
+    const Vector3d n = Vector3d(unit(rng), unit(rng), 1.0).normalized();  // hand -> ball
+    s.ball = sphere(0.4, 0.05, p + 0.05 * n, -1.2 * n + 0.6 * Vector3d(unit(rng), unit(rng), 0));
+    const bool band = trial % 4 != 3;
+    cr::ContactPoint contact(0, 1, p, n, 0.4, band ? 0.8 : 0.15, band ? 0.3 : 0.15);
+    contact.part_a = hand;
+    s.contacts.push_back(contact);
+    if (trial % 2 == 0) {  // a second point of the hand on the ball: one island of two
+      cr::ContactPoint second = contact;
+      const Vector3d t = n.unitOrthogonal();
+      second.point = p + 0.03 * t;
+      second.normal = (n - 0.4 * t).normalized();
+      s.contacts.push_back(second);
+    }
+    const cr::BodyImpactDerivatives d = s.check("trial " + std::to_string(trial));
+    const bool at_switch = anyAtSwitch(d);
+    if (at_switch) continue;
+    EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kAnalytic) << "trial " << trial;
+    islands += s.contacts.size() > 1;
+    for (const cr::ContactDerivativeMode& mode : d.contacts) {
+      sticking += mode.mode == cr::ImpactMode::kSticking;
+      sliding += mode.mode == cr::ImpactMode::kSliding;
+    }
+  }
+  EXPECT_GE(sticking, 3);
+  EXPECT_GE(sliding, 3);
+  EXPECT_GE(islands, 3);
+}
+
+// Two robots striking each other (two arms facing each other across 0.9 m; the contact at a world
+// point of the first arm's hand, where the second's link6 also has a material point): both
+// robots' joints are coordinates, and K moves with either. Then both strike the ball too.
+TEST(RobotDerivatives, TwoRobotsJointPositionColumnsAreClosedForm) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int trial = 0; trial < 6; ++trial) {
+    RobotsAndBall s;
+    s.robots.push_back(randomPosedArm(rng, rb::BaseType::kFixed, false));
+    s.robots.push_back(randomPosedArm(rng, rb::BaseType::kFixed, trial % 2 == 1));
+    s.robots[1].base =
+        Eigen::Translation3d(0.9, 0.0, 0.0) * Eigen::AngleAxisd(M_PI, Vector3d::UnitZ());
+    s.robots[1].pose();
+    const int hand = s.robots[0].body.linkIndex("hand");
+    const int other = s.robots[1].body.linkIndex("link6");
+    const Vector3d p = s.robots[0].body.linkPose(hand).translation();
+    const Vector3d u =
+        s.robots[1].body.partPointVelocity(other, p) - s.robots[0].body.partPointVelocity(hand, p);
+    // From robot 0 to robot 1, approaching: n . u < 0.
+    const Vector3d n =
+        (-u.normalized() + 0.3 * Vector3d(unit(rng), unit(rng), unit(rng))).normalized();
+    if (!(n.dot(u) < -0.05)) continue;
+    cr::ContactPoint contact(0, 1, p, n, 0.3, 0.5, 0.3);
+    contact.part_a = hand;
+    contact.part_b = other;
+    s.contacts.push_back(contact);
+    s.ball = sphere(0.4, 0.05, p + Vector3d(0, 0, 0.3), Vector3d(0, 0, -1.0));
+    if (trial >= 3) {  // the second robot's hand also meets the ball
+      const int hand1 = s.robots[1].body.linkIndex("hand");
+      const Vector3d q = s.robots[1].body.linkPose(hand1).translation();
+      s.ball = sphere(0.4, 0.05, q + Vector3d(0, 0, 0.05), Vector3d(0.2, 0, -1.0));
+      cr::ContactPoint strike(1, 2, q, Vector3d::UnitZ(), 0.5, 0.6, 0.4);
+      strike.part_a = hand1;
+      s.contacts.push_back(strike);
+    }
+    const cr::BodyImpactDerivatives d = s.check("trial " + std::to_string(trial));
+    const bool at_switch = anyAtSwitch(d);
+    if (!at_switch) EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kAnalytic);
+  }
 }

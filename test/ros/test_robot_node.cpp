@@ -448,6 +448,8 @@ TEST_F(RobotNodeTest, DerivativesWithRobotsThroughTheService) {
   const auto with_q = call(srv);
   ASSERT_TRUE(with_q.success) << with_q.message;
   const cr::ImpactDerivatives& dq = with_q.derivatives;
+  EXPECT_EQ(frictional.derivatives.joint_position_method, "");
+  EXPECT_EQ(dq.joint_position_method, "analytic");  // Newton's closed form at one contact
   ASSERT_EQ(dq.rows, frictional.derivatives.rows);
   ASSERT_EQ(dq.columns, static_cast<uint32_t>(6 + joints + 3 + joints));
   for (int k = 0; k < joints; ++k) {

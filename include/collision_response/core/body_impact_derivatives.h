@@ -32,6 +32,11 @@ struct BodyImpactDerivatives {
   /// kAnalytic when every impacting contact was differentiated in closed form, else
   /// kFiniteDifference.
   DerivativeMethod method = DerivativeMethod::kAnalytic;
+  /// How the configuration coordinates' columns were taken: kAnalytic in closed form (every
+  /// coordinate names its body, ConfigurationCoordinate::body, and every island with an impulse
+  /// is analytic under Newton's law without redundant contacts), else kFiniteDifference (also
+  /// without coordinates).
+  DerivativeMethod coordinate_method = DerivativeMethod::kFiniteDifference;
   std::vector<ContactDerivativeMode> contacts;  ///< one per contact
 
   /// d (velocities after) / d (velocities before).
@@ -74,10 +79,18 @@ struct BodyImpactDerivatives {
 /// (one-sided where a coefficient sits at its bound), each contact reported kFiniteDifference;
 /// the differences are not mode-checked (a column across a stick/slip switch mixes both sides).
 /// The columns of `coordinates` (a robot's joint positions, robot/joint_position_coordinates.h)
-/// are central differences of computeBodyResponse() with the coordinate moved by +-h (h = 1e-6
-/// max(1, |value|)) and the contacts' points and normals held where they are in the world: the
+/// are the derivatives with the contacts' points and normals held where they are in the world: the
 /// derivative of the impact at that contact when the bodies' models (M(q), the links' Jacobians at
-/// the point) change, not of where the bodies would touch. A column whose perturbed solve changes
+/// the point) change, not of where the bodies would touch. In closed form (coordinate_method
+/// kAnalytic; docs/physics.md, "Derivatives with respect to a robot's joint positions") when every
+/// coordinate names its body (ConfigurationCoordinate::body) and every island with an impulse is
+/// Newton's closed form or the exact solver's final mode without redundant contacts: the
+/// coordinate moves u by dJ v and, at fixed impulses, the velocities after by
+/// M^-1 (dJ^T P - dM (v' - v)), and the island's equations give dP (the closed form through
+/// dK = d(J M^-1 J^T)). Otherwise (the impulse-space laws, whose sensitivity carries no derivative
+/// by K; redundant contacts; a coordinate without its body) central differences of
+/// computeBodyResponse() with the coordinate moved by +-h (h = 1e-6 max(1, |value|)) through its
+/// set(). A column whose perturbed solve changes
 /// a contact's mode (no impulse, sticking, sliding) on one side is one-sided on the other (the
 /// contact reported at_switch); on both sides, central, mixing both modes, also reported. The
 /// coordinates end at their values, also when the call throws; the bodies' velocities end at the

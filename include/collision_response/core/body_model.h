@@ -65,6 +65,37 @@ class BodyModel {
   /// The free rigid body behind this model (the solvers' closed-form fast path), or nullptr.
   virtual const RigidBody* asRigidBody() const { return nullptr; }
 
+  // --- Configuration derivatives (docs/physics.md, "Derivatives with respect to a robot's joint
+  // positions"): a body whose M and J depend on coordinates q of its own (a robot's joint
+  // positions, robot/configuration_derivatives.h) gives their derivatives, so that the impact can
+  // be differentiated by them in closed form (core::computeBodyImpactDerivatives()). Columns: the
+  // body's configurationCount() coordinates, in its order; per rad (revolute) or m (prismatic). A
+  // world point p named with a part is the part's material point at p, held in the world.
+  /// The number of configuration coordinates this body can differentiate by (0: none, the default).
+  virtual int configurationCount() const { return 0; }
+  /// d/dq of the world velocity of the material point of `part` at p at the body's own motion
+  /// (prescribed motion included), 3 x configurationCount() [m/s per coordinate unit].
+  virtual Eigen::Matrix<double, 3, Eigen::Dynamic> partPointVelocityByConfiguration(
+      int /*part*/, const Eigen::Vector3d& /*point*/) const {
+    return Eigen::Matrix<double, 3, Eigen::Dynamic>(3, 0);
+  }
+  /// d/dq of J(p) x for the unknowns' values x (velocityCount()), 3 x configurationCount().
+  virtual Eigen::Matrix<double, 3, Eigen::Dynamic> partJacobianProductByConfiguration(
+      int /*part*/, const Eigen::Vector3d& /*point*/, const Eigen::VectorXd& /*x*/) const {
+    return Eigen::Matrix<double, 3, Eigen::Dynamic>(3, 0);
+  }
+  /// d/dq of J(p)^T F, velocityCount() x configurationCount() (F [N] or [N s] applied at p).
+  virtual Eigen::MatrixXd partJacobianTransposeProductByConfiguration(
+      int /*part*/, const Eigen::Vector3d& /*point*/, const Eigen::Vector3d& /*force*/) const {
+    return Eigen::MatrixXd(velocityCount(), 0);
+  }
+  /// d/dq of M x, velocityCount() x configurationCount().
+  virtual Eigen::MatrixXd massMatrixProductByConfiguration(const Eigen::VectorXd& /*x*/) const {
+    return Eigen::MatrixXd(velocityCount(), 0);
+  }
+  /// M^-1 x for every column of x (velocityCount() rows); needed where configurationCount() > 0.
+  virtual Eigen::MatrixXd inverseMassTimes(const Eigen::MatrixXd& x) const { return x; }
+
   /// Applies the impulse P [N s] at world p: v += M^-1 J(p)^T P.
   void applyImpulseAt(const Eigen::Vector3d& point, const Eigen::Vector3d& impulse) {
     if (velocityCount() > 0) addVelocityChange(inverseMassJacobianTranspose(point) * impulse);

@@ -62,10 +62,14 @@ bool markNoImpulseIsland(const SolveReport& island, const std::vector<ContactImp
 /// its unit normal n (from a to b), its K = J M^-1 J^T [1/kg] and its pre-impact relative velocity
 /// u = v_b - v_a [m/s] (world). Sets `mode` (its mode, kAnalytic, the switch flags). False when K
 /// is singular or a sliding contact has no slip direction (the caller then differences).
+/// `dP_dK` (if given) receives, per change dK[k] of K (symmetric, [1/kg]), the impulse's change
+/// dP [N s] (3 x dK.size()): a robot's joint positions move its K (body_impact_derivatives.h).
 bool differentiateNewtonContact(const Eigen::Vector3d& n, const Eigen::Matrix3d& K,
                                 const Eigen::Vector3d& u, const NewtonCoefficients& coefficients,
                                 Eigen::Matrix3d& dP_du, Eigen::Matrix3d& dP_dtheta,
-                                ContactDerivativeMode& mode);
+                                ContactDerivativeMode& mode,
+                                const std::vector<Eigen::Matrix3d>& dK = {},
+                                Eigen::Matrix<double, 3, Eigen::Dynamic>* dP_dK = nullptr);
 
 /// One contact of a NewtonIsland, in world coordinates.
 struct NewtonContactState {
@@ -111,6 +115,13 @@ struct NewtonIsland {
 Eigen::Vector3d pyramidFacetNormal(const Eigen::Vector3d& n, const Eigen::Vector3d& u,
                                    const Eigen::Vector3d& friction);
 
+/// Changes of an island's contact space along Q directions (a robot's joint positions), 3m x Q
+/// each: `pre` the change of u (the pre-impact relative velocities), `post` the further change of
+/// u' = u + W P at fixed impulses, (dW) P [m/s per unit of the direction].
+struct ConfigurationChange {
+  Eigen::MatrixXd pre, post;
+};
+
 /// Implicit differentiation of the exact solver's answer on `island` (solveExact()): each contact
 /// contributes three equations of its final mode (no impulse, sticking, sliding on a pyramid edge
 /// or facet), F(P, u, theta) = 0, and F_P dP = -(F_u du + F_theta dtheta). `all_sticking`: the
@@ -119,10 +130,15 @@ Eigen::Vector3d pyramidFacetNormal(const Eigen::Vector3d& n, const Eigen::Vector
 /// 3m, per contact e, mu_s, mu_d; only the coefficient columns `columns` asks for, by the caller's
 /// contact index, the rest 0) and sets modes[contacts[i]] (mode, kAnalytic, switch flags). False
 /// for redundant contacts sliding with friction (impulses not unique: the caller differences;
-/// the contacts are flagged).
+/// the contacts are flagged). With `configuration`, also dP/dq (3m x Q) into `dP_dq`: the rows'
+/// dependence on u (F_u) takes `pre`, their dependence on u' (the W rows of F_P) `post`; left
+/// empty (0 x 0) for redundant contacts (F_P singular), whose least-norm impulses' change with a
+/// moving W is not the least-norm change (the caller differences those columns).
 bool differentiateNewtonIsland(const NewtonIsland& island, bool all_sticking,
                                const DerivativeColumns& columns, Eigen::MatrixXd& dP_dv,
                                Eigen::MatrixXd& dP_dtheta,
-                               std::vector<ContactDerivativeMode>& modes);
+                               std::vector<ContactDerivativeMode>& modes,
+                               const ConfigurationChange* configuration = nullptr,
+                               Eigen::MatrixXd* dP_dq = nullptr);
 
 }  // namespace collision_response::core

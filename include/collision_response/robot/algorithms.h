@@ -39,6 +39,7 @@ void requireRegular(const RobotData& data, const std::string& field = "joint_mod
 /// x <- M^-1 x by the factor (every column), data.unknowns rows.
 void solveMassMatrix(const RobotData& data, Eigen::Matrix<double, Eigen::Dynamic, 3>& x);
 void solveMassMatrix(const RobotData& data, Eigen::VectorXd& x);
+void solveMassMatrix(const RobotData& data, Eigen::MatrixXd& x);
 
 /// J(p) of the material point of `link` at world p, 3 x unknowns (a follower's column folded into
 /// its root's: J_root += multiplier * J_joint).

@@ -237,6 +237,18 @@ class ArticulatedBody final : public core::BodyModel {
   /// links' accelerations for freeAcceleration(), computed on the first call after a change of
   /// state or loads (not thread-safe on one object, as setState() is not).
   Eigen::Vector3d partPointFreeAcceleration(int part, const Eigen::Vector3d& point) const override;
+  /// The configuration coordinates: the joints that mimic no other, locked ones included, in
+  /// joint order (configurationJoints(), jointPositionCoordinates()); their derivatives from
+  /// robot/configuration_derivatives.h at this state.
+  int configurationCount() const override { return configuration_count_; }
+  Eigen::Matrix<double, 3, Eigen::Dynamic> partPointVelocityByConfiguration(
+      int part, const Eigen::Vector3d& point) const override;
+  Eigen::Matrix<double, 3, Eigen::Dynamic> partJacobianProductByConfiguration(
+      int part, const Eigen::Vector3d& point, const Eigen::VectorXd& x) const override;
+  Eigen::MatrixXd partJacobianTransposeProductByConfiguration(
+      int part, const Eigen::Vector3d& point, const Eigen::Vector3d& force) const override;
+  Eigen::MatrixXd massMatrixProductByConfiguration(const Eigen::VectorXd& x) const override;
+  Eigen::MatrixXd inverseMassTimes(const Eigen::MatrixXd& x) const override;
 
  private:
   void rebuild();  // unknowns from the locks, then kinematics, M and its factor
@@ -246,6 +258,7 @@ class ArticulatedBody final : public core::BodyModel {
 
   std::shared_ptr<const RobotModel> model_;
   RobotData data_;
+  int configuration_count_ = 0;  // configurationJoints(*model_).size(), set with the model
 };
 
 }  // namespace collision_response::robot

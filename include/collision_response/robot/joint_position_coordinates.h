@@ -13,7 +13,10 @@ namespace collision_response::robot {
 /// included (their positions shape M(q) and the links' Jacobians as the free ones' do), in joint
 /// order; `joints` (if given) receives each coordinate's joint index. set(x) is setState() with
 /// that joint at x [rad | m] and the rest of the state (positions, velocities, base pose and twist)
-/// as it is. The coordinates hold `body` by reference: it must outlive them.
+/// as it is. Each names the body and its index among the body's configuration coordinates
+/// (core::ConfigurationCoordinate::body, index; ArticulatedBody::configurationCount()), so that
+/// the impact is differentiated by it in closed form where its island is. The coordinates hold
+/// `body` by reference: it must outlive them.
 std::vector<core::ConfigurationCoordinate> jointPositionCoordinates(
     ArticulatedBody& body, std::vector<int>* joints = nullptr);
 
