@@ -7,7 +7,8 @@
 #           as text, with <mimic> tags; a ~robots entry; joint-state messages; a RobotState with
 #           locked joints, base pose and twist, gravity and torques; contacts on links) through
 #           the node's robot path (ServedRobot, robotAtRequestState(), core::computeBodyResponse(),
-#           toMsg(); src/core, src/detection, src/robot and the ROS-free part of src/ros, with the
+#           toMsg(), the outcome distribution and the derivatives by the joint positions; src/core,
+#           src/detection, src/robot and the ROS-free part of src/ros, with the
 #           messages' headers generated here by gencpp); inputs decoded by test/fuzz/robot_decoder.h.
 #  - episode: test/fuzz/fuzz_episode.cpp, impact episodes (bodies with boxes, spheres, cylinders,
 #           cones, small meshes and planes, materials, gravity, horizon, impact cap, contact

@@ -12,7 +12,9 @@
 // core::computeBodyResponse(), toMsg() and restingContactTorques(), then (from the bytes left, if
 // any) the same request's outcome distribution, core::computeBodyOutcomeDistribution() on
 // pre-impact copies with the URDF's velocity limits, checked as the core target's plus one limit
-// probability per velocity unknown and the robot's copy back at its pre-impact velocities. Not
+// probability per velocity unknown and the robot's copy back at its pre-impact velocities, then
+// (on an odd byte after those) core::computeBodyImpactDerivatives() with the robot's joint
+// positions as coordinates: finite, the robot back at its q and the prediction's velocities. Not
 // covered: tf2, contact
 // detection (the contacts are given), the service's message conversion of rigid bodies and
 // options (core values are given directly; validation is the same).
@@ -44,12 +46,14 @@
 #include <string>
 #include <vector>
 
+#include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
 #include "collision_response/core/body_state.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/uncertainty.h"
 #include "collision_response/core/validation.h"
+#include "collision_response/robot/joint_position_coordinates.h"
 #include "collision_response/ros/robot_conversion.h"
 #include "collision_response/ros/served_robot.h"
 #include "collision_response/ros/server_parameters.h"
@@ -717,9 +721,9 @@ inline RobotOutcome runRobotInput(const std::uint8_t* data, std::size_t size,
       std::fflush(stdout);
       text.str("");
     }
-    // Pre-impact copies of the bodies, for the outcome distribution below.
-    std::vector<core::RigidBody> rigid_copy = rigid;
-    robot::ArticulatedBody robot_copy = robot;
+    // Pre-impact copies of the bodies, for the outcome distribution and the derivatives below.
+    std::vector<core::RigidBody> rigid_copy = rigid, rigid_derivatives = rigid;
+    robot::ArticulatedBody robot_copy = robot, robot_derivatives = robot;
     const core::BodyResponse result = core::computeBodyResponse(models, points, options);
     std_msgs::Header header;
     header.frame_id = "world";
@@ -771,6 +775,27 @@ inline RobotOutcome runRobotInput(const std::uint8_t* data, std::size_t size,
       if (outcome.bug.empty() &&
           !((robot_copy.velocity() - before).norm() <= 1e-9 * (1.0 + before.norm())))
         outcome.bug = "uncertainty: the robot's copy did not end at its pre-impact velocities";
+    }
+    // The same request's derivatives with the robot's joint positions as coordinates (closed
+    // form or differences, core::computeBodyImpactDerivatives()), on a byte left that is odd:
+    // finite, the robot back at its joint positions and at the prediction's velocities.
+    if (outcome.bug.empty() && bytes.byte() % 2 == 1) {
+      std::vector<core::BodyModel*> copies;
+      for (core::RigidBody& body : rigid_derivatives) copies.push_back(&body);
+      copies.push_back(&robot_derivatives);
+      const Eigen::VectorXd q = robot_derivatives.jointPositions();
+      const core::BodyImpactDerivatives d = core::computeBodyImpactDerivatives(
+          copies, points, options, robot::jointPositionCoordinates(robot_derivatives));
+      text << "derivatives: " << core::toString(d.method) << ", joint positions "
+           << core::toString(d.coordinate_method) << "\n";
+      const Eigen::VectorXd after = robot.velocity();
+      if (!d.jacobian.allFinite()) {
+        outcome.bug = "derivatives: a non-finite entry";
+      } else if (robot_derivatives.jointPositions() != q) {
+        outcome.bug = "derivatives: the robot did not end at its joint positions";
+      } else if (!((robot_derivatives.velocity() - after).norm() <= 1e-6 * (1.0 + after.norm()))) {
+        outcome.bug = "derivatives: the robot did not end at the prediction's velocities";
+      }
     }
   } catch (const core::InvalidInput& error) {
     outcome.invalid = error.what();

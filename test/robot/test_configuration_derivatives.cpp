@@ -163,3 +163,32 @@ TEST(ConfigurationDerivatives, MimicGripperWithAMultiplier) {
     }
   }
 }
+
+// The arm with joint5 following joint2 (multiplier -0.7, offset 0.1: root and follower on one
+// path, so that a derivative carries both multipliers), its group free or locked, fixed and
+// floating bases.
+TEST(ConfigurationDerivatives, ArmWithAMimicOnTheSamePath) {
+  std::mt19937 rng(13);
+  for (const rb::BaseType base : {rb::BaseType::kFixed, rb::BaseType::kFloating}) {
+    for (const bool lock_root : {false, true}) {
+      Case c{rb::robotFromUrdfFile(ARM7_URDF, base), {}, {}};
+      c.body.setMimicJoints({{"joint5", "joint2", -0.7, 0.1}});
+      const int joints = c.body.jointCount();
+      ASSERT_EQ(rb::configurationJoints(c.body.model()).size(),
+                static_cast<std::size_t>(joints - 1));
+      if (lock_root) {
+        std::vector<bool> locked(joints, false);
+        locked[c.body.jointIndex("joint2")] = true;
+        c.body.setLockedJoints(locked);
+      }
+      for (int trial = 0; trial < 3; ++trial) {
+        c.q = random(joints, 1.5, rng);
+        c.qdot = random(joints, 1.0, rng);
+        c.base_w = base == rb::BaseType::kFloating ? Vector3d(0.1, -0.2, 0.3) : Vector3d::Zero();
+        double largest = checkAgainstDifferences(c, c.body.linkCount() - 1, rng);
+        largest = std::max(largest, checkAgainstDifferences(c, c.body.linkIndex("link6"), rng));
+        EXPECT_GT(largest, 0.1);
+      }
+    }
+  }
+}

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <stdexcept>
 
 namespace collision_response::core {
 
@@ -72,29 +73,34 @@ class BodyModel {
   // body's configurationCount() coordinates, in its order; per rad (revolute) or m (prismatic). A
   // world point p named with a part is the part's material point at p, held in the world.
   /// The number of configuration coordinates this body can differentiate by (0: none, the default).
+  /// A body that returns more than 0 overrides every method below; their defaults refuse
+  /// (std::logic_error), so that a model missing one fails loudly instead of differentiating
+  /// with a wrong answer.
   virtual int configurationCount() const { return 0; }
   /// d/dq of the world velocity of the material point of `part` at p at the body's own motion
   /// (prescribed motion included), 3 x configurationCount() [m/s per coordinate unit].
   virtual Eigen::Matrix<double, 3, Eigen::Dynamic> partPointVelocityByConfiguration(
       int /*part*/, const Eigen::Vector3d& /*point*/) const {
-    return Eigen::Matrix<double, 3, Eigen::Dynamic>(3, 0);
+    throw std::logic_error("BodyModel::partPointVelocityByConfiguration() not provided");
   }
   /// d/dq of J(p) x for the unknowns' values x (velocityCount()), 3 x configurationCount().
   virtual Eigen::Matrix<double, 3, Eigen::Dynamic> partJacobianProductByConfiguration(
       int /*part*/, const Eigen::Vector3d& /*point*/, const Eigen::VectorXd& /*x*/) const {
-    return Eigen::Matrix<double, 3, Eigen::Dynamic>(3, 0);
+    throw std::logic_error("BodyModel::partJacobianProductByConfiguration() not provided");
   }
   /// d/dq of J(p)^T F, velocityCount() x configurationCount() (F [N] or [N s] applied at p).
   virtual Eigen::MatrixXd partJacobianTransposeProductByConfiguration(
       int /*part*/, const Eigen::Vector3d& /*point*/, const Eigen::Vector3d& /*force*/) const {
-    return Eigen::MatrixXd(velocityCount(), 0);
+    throw std::logic_error("BodyModel::partJacobianTransposeProductByConfiguration() not provided");
   }
   /// d/dq of M x, velocityCount() x configurationCount().
   virtual Eigen::MatrixXd massMatrixProductByConfiguration(const Eigen::VectorXd& /*x*/) const {
-    return Eigen::MatrixXd(velocityCount(), 0);
+    throw std::logic_error("BodyModel::massMatrixProductByConfiguration() not provided");
   }
-  /// M^-1 x for every column of x (velocityCount() rows); needed where configurationCount() > 0.
-  virtual Eigen::MatrixXd inverseMassTimes(const Eigen::MatrixXd& x) const { return x; }
+  /// M^-1 x for every column of x (velocityCount() rows).
+  virtual Eigen::MatrixXd inverseMassTimes(const Eigen::MatrixXd& /*x*/) const {
+    throw std::logic_error("BodyModel::inverseMassTimes() not provided");
+  }
 
   /// Applies the impulse P [N s] at world p: v += M^-1 J(p)^T P.
   void applyImpulseAt(const Eigen::Vector3d& point, const Eigen::Vector3d& impulse) {
