@@ -271,9 +271,9 @@ void BM_Derivatives_ArmNewton(benchmark::State& state) {
 }
 
 // Argument: 1 in closed form, 0 by differences.
-void BM_Derivatives_ArmNewtonJointPositions(benchmark::State& state) {
+void armJointPositions(benchmark::State& state, core::ImpactLaw law) {
   ArmScene s;
-  const core::SolverOptions options = armOptions(core::ImpactLaw::kNewton);
+  const core::SolverOptions options = armOptions(law);
   const std::vector<core::ConfigurationCoordinate> coordinates =
       armPositions(s, state.range(0) == 1);
   for (auto _ : state) {
@@ -281,6 +281,12 @@ void BM_Derivatives_ArmNewtonJointPositions(benchmark::State& state) {
                                  ? differentiateArmPositionsOnce(s, options, coordinates)
                                  : differenceArmPositionsOnce(s, options, coordinates));
   }
+}
+void BM_Derivatives_ArmNewtonJointPositions(benchmark::State& state) {
+  armJointPositions(state, core::ImpactLaw::kNewton);
+}
+void BM_Derivatives_ArmStrongeJointPositions(benchmark::State& state) {
+  armJointPositions(state, core::ImpactLaw::kStronge);
 }
 
 void BM_Linear_ArmNewton(benchmark::State& state) {
@@ -305,6 +311,7 @@ BENCHMARK(BM_Derivatives_ArmPoisson);
 BENCHMARK(BM_Predict_ArmNewton);
 BENCHMARK(BM_Derivatives_ArmNewton);
 BENCHMARK(BM_Derivatives_ArmNewtonJointPositions)->Arg(1)->Arg(0);
+BENCHMARK(BM_Derivatives_ArmStrongeJointPositions)->Arg(1)->Arg(0);
 BENCHMARK(BM_Linear_ArmNewton);
 BENCHMARK(BM_Linear_ArmStronge);
 BENCHMARK(BM_Predict_SingleSliding);

@@ -411,6 +411,39 @@ void scatterCoordinates(const NewtonIsland& s, const MatrixXd& moved, const Matr
   }
 }
 
+// The configuration columns of one contact integrated in impulse space (Poisson, Stronge): the
+// sensitivity with K's entries too (differentiateImpulseSpaceByK()), dP = dP/du du + dP/dK dK,
+// written like the Newton islands'. False if the sensitivity refuses (the caller differences).
+bool impulseSpaceCoordinates(const std::vector<BodyModel*>& bodies,
+                             const std::vector<ContactPoint>& contacts, const SolveReport& report,
+                             const SolverOptions& options, const VectorXd& before,
+                             const VectorXd& after, BodyImpactDerivatives& out,
+                             const AnalyticCoordinates& coordinates) {
+  const Index N = out.velocity_count;
+  const NewtonIsland s = contactSpace(bodies, contacts, report.contacts, out.velocity_offset, N,
+                                      before, after, out.result);
+  ConfigurationChange change;
+  MatrixXd moved;
+  configurationChange(bodies, contacts, s, out.velocity_offset, before, after, coordinates, change,
+                      moved);
+  const ContactPoint& contact = contacts[report.contacts[0]];
+  const std::vector<Eigen::Matrix3d> dK =
+      contactMassChange(bodies, contact, s, out.velocity_offset, coordinates);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> dP_dK;
+  Eigen::Matrix3d dP_du;
+  ContactDerivativeMode mode;
+  if (!differentiateImpulseSpaceByK(contact.normal, s.J.lazyProduct(s.MinvJt), s.state[0].u,
+                                    contact.restitution, contact.static_friction,
+                                    contact.dynamic_friction, options.law,
+                                    options.integration_tolerance, dK, dP_dK, dP_du, mode) ||
+      mode.mode != modeOf(out.result.impulses[report.contacts[0]])) {
+    return false;  // (a mode other than the prediction's: the two runs disagree at a switch)
+  }
+  scatterCoordinates(s, moved, dP_du * change.pre + dP_dK, N, static_cast<Index>(contacts.size()),
+                     out.jacobian);
+  return true;
+}
+
 // The analytic derivative of one island (docs/physics.md, "General bodies (robots)"), written
 // into out.jacobian and out.contacts: Newton's closed form (one contact) or the exact solver's
 // final mode, or one contact integrated in impulse space (Poisson, Stronge). False where the
@@ -427,8 +460,9 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
   const Index C = static_cast<Index>(contacts.size());
   const AnalyticIsland kind = analyticIslandOf(report, options.law);
   if (kind == AnalyticIsland::kNone) return false;
-  // The impulse-space laws' sensitivity carries no derivative by K: differenced.
-  if (kind == AnalyticIsland::kImpulseSpaceContact && coordinates != nullptr) {
+  if (kind == AnalyticIsland::kImpulseSpaceContact && coordinates != nullptr && coordinates->done &&
+      !impulseSpaceCoordinates(bodies, contacts, report, options, before, after, out,
+                               *coordinates)) {
     coordinates->done = false;
   }
   if (kind == AnalyticIsland::kImpulseSpaceContact && lone.valid) {
@@ -439,7 +473,8 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
   }
   const NewtonIsland s = contactSpace(bodies, contacts, report.contacts, out.velocity_offset, N,
                                       before, after, out.result);
-  const bool configuration = coordinates != nullptr && coordinates->done;
+  const bool configuration = coordinates != nullptr && coordinates->done &&
+                             kind != AnalyticIsland::kImpulseSpaceContact;  // (written above)
   ConfigurationChange change;
   MatrixXd moved, dP_dq;
   if (configuration) {

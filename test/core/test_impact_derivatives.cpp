@@ -831,6 +831,77 @@ TEST(ImpactDerivatives, ImpulseSpaceSeriesToTheStopMatchesCentralDifferences) {
   }
 }
 
+// differentiateImpulseSpaceByK(): the impulse's change along a change dK of K (a robot's joint
+// positions move K), against central differences of integrateSingleContact() (at 1e-14) with K
+// moved by +-h dK, on random symmetric positive definite K, random symmetric dK, random approaching
+// u and coefficients: the anisotropic K of the series' test (turning slips that stop, then stick
+// or resume), the general ones above, central contacts (K_tn = 0, where the prediction's central
+// stop is a closed form) and frictionless ones; every mode met. Each to 1e-6 of itself; dP/du as
+// differentiateImpulseSpace() gives it (1e-6).
+TEST(ImpactDerivatives, ImpulseSpaceDerivativeByTheMassMatrixMatchesCentralDifferences) {
+  RandomSource random(2631);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int checked = 0, sticking = 0, sliding = 0, central = 0;
+    for (int trial = 0; trial < 400 && checked < 40; ++trial) {
+      const Matrix3d R = random.rotation().toRotationMatrix();
+      const int kind = trial % 4;  // anisotropic, general, central, frictionless
+      const Vector3d eigen =
+          kind == 0 ? Vector3d(random.uniform(0.05, 0.3), random.uniform(1.0, 4.0),
+                               random.uniform(0.5, 2.0))
+                    : Vector3d(random.vec(0.1, 2.0).cwiseAbs() + Vector3d::Constant(0.05));
+      cr::ProblemContact c;
+      c.delassus = R * eigen.asDiagonal() * R.transpose();
+      c.normal = random.vec(-1.0, 1.0).normalized();
+      if (kind == 2) {  // K_tn = 0: n an eigenvector of K
+        c.normal = R.col(2);
+      }
+      cr::tangentBasis(c.normal, c.tangent1, c.tangent2);
+      c.restitution = random.uniform(0.1, 0.9);
+      c.static_friction = kind == 3 ? 0.0 : random.uniform(0.05, 1.5);
+      c.dynamic_friction = random.uniform(0.4, 1.0) * c.static_friction;
+      const Vector3d u = random.vec(-1.0, 1.0) - 1.2 * c.normal;
+      Matrix3d S = Matrix3d::Zero();
+      for (int i = 0; i < 3; ++i) S.col(i) = random.vec(-1.0, 1.0);
+      const Matrix3d dK = 0.5 * (S + S.transpose());
+      Eigen::Matrix<double, 3, Eigen::Dynamic> dP_dK;
+      Matrix3d dP_du, dP_du_plain, dP_dc;
+      cr::ContactDerivativeMode mode, plain;
+      if (!cr::differentiateImpulseSpaceByK(c.normal, c.delassus, u, c.restitution,
+                                            c.static_friction, c.dynamic_friction, law, 1e-12, {dK},
+                                            dP_dK, dP_du, mode)) {
+        continue;
+      }
+      ASSERT_TRUE(cr::differentiateImpulseSpace(c.normal, c.delassus, u, c.restitution,
+                                                c.static_friction, c.dynamic_friction, law, 1e-12,
+                                                dP_du_plain, dP_dc, plain));
+      if (mode.at_switch || mode.mode == cr::ImpactMode::kNoImpulse) continue;
+      const auto impulse = [&](const Matrix3d& K) {
+        cr::ProblemContact moved = c;
+        moved.delassus = K;
+        const cr::ContactImpulse i = cr::integrateSingleContact(moved, u, law, 1e-14);
+        return Vector3d(i.total(c.normal));
+      };
+      const double h = 1e-6;
+      const Vector3d want = (impulse(c.delassus + h * dK) - impulse(c.delassus - h * dK)) / (2 * h);
+      EXPECT_LE((dP_dK.col(0) - want).norm(), 1e-6 * std::max(want.norm(), 1e-3))
+          << cr::toString(law) << " trial " << trial << " (" << cr::toString(mode.mode) << ")\n"
+          << dP_dK.col(0).transpose() << "\n"
+          << want.transpose();
+      EXPECT_LE((dP_du - dP_du_plain).cwiseAbs().maxCoeff(),
+                1e-6 * dP_du_plain.cwiseAbs().maxCoeff())
+          << cr::toString(law) << " trial " << trial;
+      ++checked;
+      sticking += mode.mode == cr::ImpactMode::kSticking;
+      sliding += mode.mode == cr::ImpactMode::kSliding;
+      central += kind == 2;
+    }
+    EXPECT_GE(checked, 40) << cr::toString(law);
+    EXPECT_GE(sticking, 5) << cr::toString(law);
+    EXPECT_GE(sliding, 5) << cr::toString(law);
+    EXPECT_GE(central, 5) << cr::toString(law);
+  }
+}
+
 // ---- Labels, bodies without impact, bad input --------------------------------------------------
 
 TEST(ImpactDerivatives, LabelsAreTheRequestAndResponseFieldNames) {

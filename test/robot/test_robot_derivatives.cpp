@@ -633,7 +633,7 @@ TEST(RobotDerivatives, JointPositionColumnsMatchTheTwoLinkClosedForm) {
 
 // The closed-form columns never move the robot: coordinates whose set() throws give the same
 // columns under Newton's law as those that work (the shipped arm's hand striking a ball), and the
-// differenced law (Stronge) throws.
+// same coordinates without their body (differenced through set()) throw.
 TEST(RobotDerivatives, ClosedFormJointPositionColumnsDoNotMoveTheRobot) {
   std::mt19937 rng(4);
   rb::ArticulatedBody arm = randomArm(rng);
@@ -659,8 +659,9 @@ TEST(RobotDerivatives, ClosedFormJointPositionColumnsDoNotMoveTheRobot) {
   EXPECT_EQ(d.jacobian, working.jacobian);
   arm.setState(q, qdot);
   struck = ball;
+  for (cr::ConfigurationCoordinate& c : coordinates) c.body = nullptr;
   EXPECT_THROW(cr::computeBodyImpactDerivatives({&arm, &struck}, {contact},
-                                                withLaw(cr::ImpactLaw::kStronge), coordinates),
+                                                withLaw(cr::ImpactLaw::kNewton), coordinates),
                std::runtime_error);
 }
 
@@ -754,10 +755,8 @@ TEST(RobotDerivatives, ShippedArmJointPositionColumnsMatchCentralDifferences) {
                                          rb::jointPositionCoordinates(differentiated, &joints));
     ASSERT_EQ(static_cast<int>(joints.size()), arm.jointCount());  // no mimic joints
     ASSERT_FALSE(d.contacts[0].at_switch) << d.contacts[0].switch_detail;
-    // Newton's closed form: in closed form; Stronge's sensitivity has no K derivative: differenced.
-    EXPECT_EQ(d.coordinate_method, law == cr::ImpactLaw::kNewton
-                                       ? cr::DerivativeMethod::kAnalytic
-                                       : cr::DerivativeMethod::kFiniteDifference);
+    // Newton's closed form, Stronge's sensitivity with K's entries: both in closed form.
+    EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kAnalytic);
     MatrixXd want(n + 10, arm.jointCount());
     for (int k = 0; k < arm.jointCount(); ++k) {
       VectorXd plus = q, minus = q;
@@ -1107,8 +1106,8 @@ TEST(RobotDerivatives, LockedArmJointPositionColumnsAndTheRedundantFallback) {
 // One contact under Poisson and Stronge, the arm with a locked joint moving at its kept velocity:
 // the prediction computeBodyImpactDerivatives() writes from the contact's sensitivity equals
 // computeBodyResponse()'s (it used to leave the locked joint out of u: P_n 0.517 against 0.282 N s
-// on one such strike), and every column equals the differences (the joint positions' by
-// differences: coordinate_method).
+// on one such strike), and every column equals the differences (the joint positions' in closed
+// form: the sensitivity with K's entries).
 TEST(RobotDerivatives, ImpulseSpaceLoneContactWithAMovingLockedJoint) {
   std::mt19937 rng(23);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -1130,7 +1129,7 @@ TEST(RobotDerivatives, ImpulseSpaceLoneContactWithAMovingLockedJoint) {
       s.contacts.push_back(contact);
       const cr::BodyImpactDerivatives d =
           s.check(std::string(cr::toString(law)) + " trial " + std::to_string(trial));
-      EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kFiniteDifference);
+      if (!anyAtSwitch(d)) EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kAnalytic);
       cr::RigidBody ball = s.ball;
       rb::ArticulatedBody predicted = arm;
       const cr::BodyResponse want =
@@ -1140,6 +1139,54 @@ TEST(RobotDerivatives, ImpulseSpaceLoneContactWithAMovingLockedJoint) {
       EXPECT_LE((d.result.impulses[0].friction_impulse - want.impulses[0].friction_impulse).norm(),
                 1e-9 * std::max(1.0, want.impulses[0].normal_impulse));
     }
+  }
+}
+
+// One contact under Poisson and Stronge (the sensitivity carrying K's six entries: dP = dP/du du +
+// dP/dK dK), the arm's hand or link5 struck by a ball on fixed and floating bases, with a locked
+// joint, with joint5 mimicking joint2, mu_s 0.8 > mu_d 0.3, 0.15 = 0.15 or frictionless: sticking
+// (after a turning slip stops, or from the start) and sliding both met; every column against the
+// test's differences at integration tolerance 1e-14, 1e-6.
+TEST(RobotDerivatives, ImpulseSpaceJointPositionColumnsAreClosedForm) {
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    int closed = 0, sticking = 0, sliding = 0;
+    for (int trial = 0; trial < 16; ++trial) {
+      RobotsAndBall s;
+      s.options = withLaw(law);
+      s.options.integration_tolerance = 1e-14;
+      const rb::BaseType base = trial % 2 ? rb::BaseType::kFloating : rb::BaseType::kFixed;
+      s.robots.push_back(randomPosedArm(rng, base, trial % 3 == 0 ? Locks::kJoint3 : Locks::kNone,
+                                        trial % 5 == 2));
+      rb::ArticulatedBody& arm = s.robots[0].body;
+      const int link = arm.linkIndex(trial % 4 < 2 ? "hand" : "link5");
+      const Vector3d p = arm.linkPose(link) * Vector3d(0.02, -0.01, 0.03);
+      const Vector3d n = Vector3d(unit(rng), unit(rng), 1.0).normalized();
+      s.ball = sphere(0.4, 0.05, p + 0.05 * n, -1.2 * n + 0.8 * Vector3d(unit(rng), unit(rng), 0));
+      const bool without_friction = trial % 5 == 4, band = trial % 4 != 3;
+      cr::ContactPoint contact(0, 1, p, n, 0.5,
+                               without_friction ? 0.0
+                               : band           ? 0.8
+                                                : 0.15,
+                               without_friction ? 0.0
+                               : band           ? 0.3
+                                                : 0.15);
+      contact.part_a = link;
+      s.contacts.push_back(contact);
+      const cr::BodyImpactDerivatives d =
+          s.check(std::string(cr::toString(law)) + " trial " + std::to_string(trial));
+      if (anyAtSwitch(d)) continue;
+      EXPECT_EQ(d.coordinate_method, cr::DerivativeMethod::kAnalytic) << "trial " << trial;
+      closed += d.coordinate_method == cr::DerivativeMethod::kAnalytic;
+      sticking += d.contacts[0].mode == cr::ImpactMode::kSticking;
+      sliding += d.contacts[0].mode == cr::ImpactMode::kSliding;
+    }
+    std::printf("%s: %d of 16 in closed form, %d sticking, %d sliding\n", cr::toString(law), closed,
+                sticking, sliding);
+    EXPECT_GE(closed, 10);
+    EXPECT_GE(sticking, 2);
+    EXPECT_GE(sliding, 2);
   }
 }
 

@@ -34,8 +34,8 @@ struct BodyImpactDerivatives {
   DerivativeMethod method = DerivativeMethod::kAnalytic;
   /// How the configuration coordinates' columns were taken: kAnalytic in closed form (every
   /// coordinate names its body, ConfigurationCoordinate::body, and every island with an impulse
-  /// is analytic under Newton's law without redundant contacts), else kFiniteDifference (also
-  /// without coordinates).
+  /// is analytic: Newton's law without redundant contacts, or one contact under Poisson or
+  /// Stronge), else kFiniteDifference (also without coordinates).
   DerivativeMethod coordinate_method = DerivativeMethod::kFiniteDifference;
   std::vector<ContactDerivativeMode> contacts;  ///< one per contact
 
@@ -84,11 +84,12 @@ struct BodyImpactDerivatives {
 /// the point) change, not of where the bodies would touch. In closed form (coordinate_method
 /// kAnalytic; docs/physics.md, "Derivatives with respect to a robot's joint positions") when every
 /// coordinate names its body (ConfigurationCoordinate::body) and every island with an impulse is
-/// Newton's closed form or the exact solver's final mode without redundant contacts: the
-/// coordinate moves u by dJ v and, at fixed impulses, the velocities after by
-/// M^-1 (dJ^T P - dM (v' - v)), and the island's equations give dP (the closed form through
-/// dK = d(J M^-1 J^T)). Otherwise (the impulse-space laws, whose sensitivity carries no derivative
-/// by K; redundant contacts; a coordinate without its body) central differences of
+/// Newton's closed form, the exact solver's final mode without redundant contacts, or one contact
+/// integrated under Poisson or Stronge: the coordinate moves u by dJ v and, at fixed impulses, the
+/// velocities after by M^-1 (dJ^T P - dM (v' - v)), and the island's equations give dP (one
+/// contact through dK = d(J M^-1 J^T) too: the closed form's, or the sensitivity carrying K's
+/// entries, differentiateImpulseSpaceByK()). Otherwise (several contacts under Poisson or Stronge;
+/// redundant contacts; a coordinate without its body) central differences of
 /// computeBodyResponse() with the coordinate moved by +-h (h = 1e-6 max(1, |value|)) through its
 /// set(). A column whose perturbed solve changes
 /// a contact's mode (no impulse, sticking, sliding) on one side is one-sided on the other (the

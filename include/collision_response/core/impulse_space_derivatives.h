@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <vector>
 
 #include "collision_response/core/impact_derivatives.h"
 #include "collision_response/core/solver_options.h"
@@ -61,5 +62,18 @@ bool differentiateImpulseSpace(const Eigen::Vector3d& n, const Eigen::Matrix3d& 
                                Eigen::Matrix3d& dP_dcoefficients, ContactDerivativeMode& mode,
                                Eigen::Vector3d* impulse = nullptr,
                                ImpulseSpaceSensitivityDetail* detail = nullptr);
+
+/// The same contact's impulse differentiated also with respect to its K (a robot's joint positions
+/// move its K = J M^-1 J^T; body_impact_derivatives.h): the forward sensitivity carries K's six
+/// entries in the contact frame as well, and the turning slip is integrated to its stop (the
+/// stick-approach series' gradient is known with respect to the slip and mu_d only). Per change
+/// dK[k] (symmetric, world, [1/kg]) `dP_dK` receives dP [N s] (3 x dK.size()); `dP_du` and `mode`
+/// as differentiateImpulseSpace() gives them on this run. The same refusals.
+bool differentiateImpulseSpaceByK(const Eigen::Vector3d& n, const Eigen::Matrix3d& K,
+                                  const Eigen::Vector3d& u, double e, double mu_s, double mu_d,
+                                  ImpactLaw law, double tolerance,
+                                  const std::vector<Eigen::Matrix3d>& dK,
+                                  Eigen::Matrix<double, 3, Eigen::Dynamic>& dP_dK,
+                                  Eigen::Matrix3d& dP_du, ContactDerivativeMode& mode);
 
 }  // namespace collision_response::core
