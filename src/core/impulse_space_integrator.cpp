@@ -50,6 +50,9 @@ constexpr std::size_t kMaxSegments = 16;
 constexpr std::size_t kMaxSteps = 20000;
 /// Slip speeds below this fraction of |u0| count as u_t = 0.
 constexpr double kStickSpeed = 1e-14;
+// A slip below this times |u0| that grows again from one step to the next has stopped (a near
+// miss of its stop: integrateSlip()); impulse_space_sensitivity.ipp uses the same.
+constexpr double kNearMiss = 1e-11;
 /// |s x g| below this fraction of |b| + mu_d |A| counts as a constant slip direction.
 constexpr double kParallel = 1e-12;
 /// Share of the tolerance allowed to the local error of one step (errors of successive steps add).
@@ -593,6 +596,16 @@ bool integrateSlip(const Problem& pr, State& st, bool& stuck, ImpulseSpaceDetail
       y1 = path.at(h);
     }
     if (!y1.allFinite() || !(h > 0.0)) return false;
+    // A slip that has fallen below kNearMiss V and grows again has passed its stop at a distance
+    // no integration resolves (its direction swings about a stop direction that repels it): the
+    // slip has stopped, at the step's start; the cone then decides between sticking and resuming.
+    if (pr.mu_d > 0.0) {
+      const double sigma0 = pr.slip(st.p, st.P_t).norm();
+      if (sigma0 <= kNearMiss * pr.V && pr.slip(y1[0], y1.segment<2>(1)).norm() > sigma0) {
+        stuck = true;
+        return true;
+      }
+    }
     stats.error_estimate += truncation;
     Vec4 grad;
     double offset;

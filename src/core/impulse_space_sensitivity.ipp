@@ -21,6 +21,9 @@ constexpr std::size_t kMaxSegments = 16;
 // The sensitivity integration: a slip below this fraction of |u0| has stopped (the remaining
 // piece, about that slip over the slip's deceleration, is left to the sticking manifold).
 constexpr double kStop = 1e-13;
+// A slip below this fraction of |u0| that grows again from one step to the next has stopped (a near
+// miss of its stop; the integrator's kNearMiss).
+constexpr double kNearMiss = 1e-11;
 constexpr std::size_t kMaxSteps = 20000;
 // Distance (relative) below which the slip's stop and an event count as simultaneous (a switch).
 constexpr double kNear = 1e-8;
@@ -583,6 +586,14 @@ bool integrateSlip(Context& cx, bool& stopped) {
       y = Y4{{st.p, st.P_t.x, st.P_t.y, st.W}};
       f = slipField(pr, y);
       continue;
+    }
+    // A slip below kNearMiss |u0| that grows again has passed its stop (the integrator's rule):
+    // stopped there.
+    if (pr.mu_d.v > 0.0 && f.y[0].v <= kNearMiss * pr.V && f1.y[0].v > f.y[0].v) {
+      setState(st, y);
+      stopped = true;
+      cx.detail.threshold_stop = true;
+      return true;
     }
     y = y1;
     f = f1;

@@ -18,6 +18,7 @@
 #include "collision_response/core/constants.h"
 #include "collision_response/core/contact_point.h"
 #include "collision_response/core/contact_space.h"
+#include "collision_response/core/impulse_space_derivatives.h"
 #include "collision_response/core/impulse_space_integrator.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/single_contact.h"
@@ -1089,6 +1090,67 @@ TEST(ImpulseSpaceIntegrator, CompressionEndThatReturnsWithinAStepIsFound) {
     const Vector3d total = imp.total(Vector3d::UnitZ());
     EXPECT_LE((total - P).norm(), 1e-8 * P.norm())
         << "P " << total.transpose() << " reference " << P.transpose();
+  }
+}
+
+// A slip that nearly stops and swings away: its direction turns about a stop direction that repels
+// it, the slip falls to 3e-14 of |u0| at p = 0.9282 N s and then grows along the direction a
+// resumed slip takes (|K_tt^-1 K_tn| = 0.653 lies between mu_d 0.523 and mu_s 1.010). A fall of 13
+// orders of magnitude is a stop: static friction holds the contact, which then sticks to the end of
+// compression (e = 0, Poisson). The Taylor steps followed the swing and slid on to the end (P_t
+// (-0.179, 0.218) against (-0.123, 0.167) N s, the slip 0.035 m/s at the end). Found by review
+// (2026-11-28), about one random contact in 20,000. The reference: RK4 in xi written here (steps of
+// 1e-3 kg) until the slip falls below 1e-10 of |u0|, then the sticking rate -K_tt^-1 K_tn in closed
+// form to u_n = 0.
+TEST(ImpulseSpaceIntegrator, SlipThatNearlyStopsAndSwingsAwaySticks) {
+  Matrix3d K;
+  K << 1.26536520842, 0.58911961899, -0.36690075,  //
+      0.58911961899, 1.28073482598, 0.26302114,    //
+      -0.36690075, 0.26302114, 0.88737090;
+  const Vector3d u(0.55584674, -0.49749918, -1.29314364);
+  const double mu_s = 1.01004332, mu_d = 0.52325065;
+  const Eigen::Matrix2d A = K.topLeftCorner<2, 2>();
+  const Eigen::Vector2d b = K.topRightCorner<2, 1>();
+  const Eigen::Vector2d tau = -A.inverse() * b;  // the sticking rate dP_t/dp
+  ASSERT_GT(tau.norm(), mu_d);
+  ASSERT_LT(tau.norm(), mu_s);
+  using V3 = Vector3d;
+  const auto field = [&](const V3& P) {
+    const V3 v = u + K * P;
+    return V3(-mu_d * v.x(), -mu_d * v.y(), std::hypot(v.x(), v.y()));
+  };
+  V3 P = V3::Zero();
+  const double h = 1e-3;
+  for (int i = 0; i < 1000000 && std::hypot((u + K * P).x(), (u + K * P).y()) > 1e-10 * u.norm();
+       ++i) {
+    const V3 k1 = field(P), k2 = field(P + 0.5 * h * k1), k3 = field(P + 0.5 * h * k2),
+             k4 = field(P + h * k3);
+    P += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    ASSERT_LT((u + K * P).z(), 0.0);  // the slip stops before compression ends
+  }
+  ASSERT_NEAR(P.z(), 0.9282, 1e-4);
+  // Sticking: P_t = P_t,stop + tau (p - p_stop) until u_n = 0.
+  const double rise = K(2, 2) + b.dot(tau);
+  const double x = -(u + K * P).z() / rise;
+  const V3 want(P.x() + tau.x() * x, P.y() + tau.y() * x, P.z() + x);
+  for (const double tol : {1e-10, 1e-12, 1e-14}) {
+    SCOPED_TRACE(::testing::Message() << "tol " << tol);
+    cr::ImpulseSpaceDetail detail;
+    const cr::ContactImpulse imp = cr::integrateSingleContact(
+        contactInBasis(K, 0.0, mu_s, mu_d), u, cr::ImpactLaw::kPoisson, tol, &detail);
+    EXPECT_TRUE(imp.sticking);
+    const Vector3d total = imp.total(Vector3d::UnitZ());
+    EXPECT_LE((total - want).norm(), 1e-8 * want.norm())
+        << "P " << total.transpose() << " reference " << want.transpose();
+    // The sensitivity stops it too, and carries the same impulse.
+    Matrix3d dP_du, dP_dc;
+    cr::ContactDerivativeMode mode;
+    Vector3d P6;
+    ASSERT_TRUE(cr::differentiateImpulseSpace(Vector3d::UnitZ(), K, u, 0.0, mu_s, mu_d,
+                                              cr::ImpactLaw::kPoisson, tol, dP_du, dP_dc, mode,
+                                              &P6));
+    EXPECT_EQ(mode.mode, cr::ImpactMode::kSticking);
+    EXPECT_LE((P6 - want).norm(), 1e-8 * want.norm());
   }
 }
 
