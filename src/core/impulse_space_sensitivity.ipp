@@ -291,7 +291,11 @@ D2 resumeDirection(const Problem& pr) {
 bool stickOrResume(Context& cx) {
   const Problem& pr = cx.pr;
   State& st = cx.st;
-  st.P_t = pr.timesAinv(D2{D(0.0), D(0.0)} - pr.u0_t - st.p * pr.bVector());
+  // (A frictionless contact's tangential impulse is 0 whatever the slip: its slip passing through
+  // zero along a line is no stop, and the sticking manifold's gradient would not be its own.)
+  if (pr.mu_s.v != 0.0 || pr.mu_d.v != 0.0) {
+    st.P_t = pr.timesAinv(D2{D(0.0), D(0.0)} - pr.u0_t - st.p * pr.bVector());
+  }
   const Vec2 tau = -(pr.A_inv * pr.b);
   const double limit = std::max(pr.mu_s.v, pr.mu_d.v);
   const double tau_norm = tau.norm();
@@ -721,7 +725,8 @@ bool differentiate(const Eigen::Vector3d& n, const Eigen::Matrix3d& K, const Eig
       D x_stop(kInf);
       if (parallel && sigma_rate < 0.0) {
         x_stop = dot(u_t, u_t) / -dot(pr.bVector(), u_t);  // sigma / -(s.b)
-        cx.flag("frictionless slip through zero slip along a line: one-sided");
+        // With static friction the slip's zero may hold it (a switch); without, it passes.
+        if (pr.mu_s.v > 0.0) cx.flag("frictionless slip through zero slip along a line: one-sided");
       }
       ok = advanceLinear(cx, D2{D(0.0), D(0.0)}, x_stop);
       stopped = true;

@@ -902,6 +902,70 @@ TEST(ImpactDerivatives, ImpulseSpaceDerivativeByTheMassMatrixMatchesCentralDiffe
   }
 }
 
+// A frictionless contact whose K_tn is parallel to a shrinking slip: the slip passes through zero
+// along a line, which for a frictionless contact is no stop (its tangential impulse is 0 whatever
+// the slip), so the map is smooth. The sensitivity used to put the state on the sticking manifold
+// there, whose gradient gave spurious tangential columns (dP/dK_t1n (-0.25, -0.55, 0) against 0,
+// found by review). dP/du and dP/dK along random symmetric dK against central differences of
+// integrateSingleContact() at 1e-14; the contact is not flagged for the slip's zero.
+TEST(ImpactDerivatives, FrictionlessSlipThroughZeroAlongALineIsSmooth) {
+  RandomSource random(2640);
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    for (int trial = 0; trial < 6; ++trial) {
+      const Matrix3d R = random.rotation().toRotationMatrix();
+      cr::ProblemContact c;
+      const Eigen::Vector2d b(random.uniform(-0.5, 0.5), random.uniform(-0.5, 0.5));
+      Matrix3d Kc;
+      Kc << random.uniform(0.8, 1.5), 0.1, b.x(), 0.1, random.uniform(0.8, 1.5), b.y(), b.x(),
+          b.y(), random.uniform(1.0, 2.0);
+      c.normal = R.col(2);
+      c.tangent1 = R.col(0);
+      c.tangent2 = R.col(1);
+      c.delassus = R * Kc * R.transpose();
+      c.restitution = random.uniform(0.1, 0.9);
+      c.static_friction = c.dynamic_friction = 0.0;
+      // u_t = -k b: the slip shrinks along b (u_t = u0_t + b p) and passes zero at p = k.
+      const double k = random.uniform(0.05, 0.3);
+      const Vector3d u = R * Vector3d(-k * b.x(), -k * b.y(), -1.0);
+      Matrix3d dP_du, dP_dc;
+      cr::ContactDerivativeMode mode;
+      ASSERT_TRUE(cr::differentiateImpulseSpace(c.normal, c.delassus, u, c.restitution, 0.0, 0.0,
+                                                law, 1e-12, dP_du, dP_dc, mode));
+      EXPECT_EQ(mode.switch_detail.find("through zero"), std::string::npos) << mode.switch_detail;
+      Matrix3d S;
+      for (int i = 0; i < 3; ++i) S.col(i) = random.vec(-1.0, 1.0);
+      const Matrix3d dK = 0.5 * (S + S.transpose());
+      Eigen::Matrix<double, 3, Eigen::Dynamic> dP_dK;
+      Matrix3d dP_du12;
+      cr::ContactDerivativeMode mode12;
+      ASSERT_TRUE(cr::differentiateImpulseSpaceByK(c.normal, c.delassus, u, c.restitution, 0.0, 0.0,
+                                                   law, 1e-12, {dK}, dP_dK, dP_du12, mode12));
+      const auto impulse = [&](const Vector3d& v, const Matrix3d& K) {
+        cr::ProblemContact moved = c;
+        moved.delassus = K;
+        return Vector3d(cr::integrateSingleContact(moved, v, law, 1e-14).total(c.normal));
+      };
+      const double h = 1e-6;
+      Matrix3d want;
+      for (int j = 0; j < 3; ++j) {
+        const Vector3d step = h * Vector3d::Unit(j);
+        want.col(j) = (impulse(u + step, c.delassus) - impulse(u - step, c.delassus)) / (2 * h);
+      }
+      const Vector3d want_K =
+          (impulse(u, c.delassus + h * dK) - impulse(u, c.delassus - h * dK)) / (2 * h);
+      const double scale = want.cwiseAbs().maxCoeff();
+      EXPECT_LE((dP_du - want).cwiseAbs().maxCoeff(), 1e-6 * scale)
+          << cr::toString(law) << " trial " << trial << "\n"
+          << dP_du << "\n\n"
+          << want;
+      EXPECT_LE((dP_du12 - want).cwiseAbs().maxCoeff(), 1e-6 * scale);
+      EXPECT_LE((dP_dK.col(0) - want_K).norm(), 1e-6 * std::max(1.0, want_K.norm()))
+          << cr::toString(law) << " trial " << trial << ": " << dP_dK.col(0).transpose()
+          << " against " << want_K.transpose();
+    }
+  }
+}
+
 // ---- Labels, bodies without impact, bad input --------------------------------------------------
 
 TEST(ImpactDerivatives, LabelsAreTheRequestAndResponseFieldNames) {
