@@ -292,10 +292,20 @@ std::optional<AnalyticCoordinates> analyticCoordinatesOf(
   return out;
 }
 
+// The call's columns of body b's coordinates: (the column, the body's own index).
+std::vector<std::pair<Index, int>> ownColumns(const AnalyticCoordinates& coordinates, int b) {
+  std::vector<std::pair<Index, int>> columns;
+  for (std::size_t k = 0; k < coordinates.body.size(); ++k) {
+    if (coordinates.body[k] == b) columns.emplace_back(static_cast<Index>(k), coordinates.index[k]);
+  }
+  return columns;
+}
+
 // An island's contact space moved by the configuration coordinates (docs/physics.md,
 // "Derivatives with respect to a robot's joint positions"), at fixed impulses: `change.pre` the
 // change of u, `change.post` that of u' = u + W P beyond it, and `moved` (N x Q) the change of the
-// bodies' velocities after the impact, M^-1 (dJ^T P - dM (v' - v)).
+// bodies' velocities after the impact, M^-1 (dJ^T P - dM (v' - v)). The bodies are at their
+// velocities `after`, as the prediction leaves them.
 void configurationChange(const std::vector<BodyModel*>& bodies,
                          const std::vector<ContactPoint>& contacts, const NewtonIsland& s,
                          const std::vector<int>& offset, const VectorXd& before,
@@ -307,19 +317,11 @@ void configurationChange(const std::vector<BodyModel*>& bodies,
   change.post.setZero(3 * m, Q);
   moved.setZero(N, Q);
   for (std::size_t b = 0; b < bodies.size(); ++b) {
-    std::vector<std::pair<Index, int>> columns;  // (the call's column, the body's own index)
-    for (Index k = 0; k < Q; ++k) {
-      if (coordinates.body[k] == static_cast<int>(b)) columns.emplace_back(k, coordinates.index[k]);
-    }
+    const std::vector<std::pair<Index, int>> columns = ownColumns(coordinates, static_cast<int>(b));
     if (columns.empty()) continue;
     const BodyModel& body = *bodies[b];
     const int n = offset[b] >= 0 ? body.velocityCount() : 0;
     const VectorXd change_v = n > 0 ? VectorXd((after - before).segment(offset[b], n)) : VectorXd();
-    // The body's own motion is read where it is now (the prediction's, after the impact): its
-    // point velocities' change is that before the impact plus dJ (v_now - v).
-    const VectorXd moved_now =
-        n > 0 ? VectorXd(body.velocity() - before.segment(offset[b], n)) : VectorXd();
-    const bool now_after = n == 0 || moved_now == change_v;
     MatrixXd g;  // dJ^T P - dM (v' - v), the body's own columns
     bool touched = false;
     for (Index i = 0; i < m; ++i) {
@@ -337,9 +339,7 @@ void configurationChange(const std::vector<BodyModel*>& bodies,
         Eigen::Matrix<double, 3, Eigen::Dynamic> post;
         if (n > 0) {
           post = body.partJacobianProductByConfiguration(part, contact.point, change_v);
-          pre -= now_after
-                     ? post
-                     : body.partJacobianProductByConfiguration(part, contact.point, moved_now);
+          pre -= post;  // the body's motion is read at `after`: before it, dJ (v' - v) less
           g += sign * body.partJacobianTransposeProductByConfiguration(part, contact.point, P);
         }
         for (const auto& [k, own] : columns) {
@@ -369,11 +369,8 @@ std::vector<Eigen::Matrix3d> contactMassChange(const std::vector<BodyModel*>& bo
     const int b = side_index == 0 ? contact.body_a : contact.body_b;
     const BodyModel& body = *bodies[b];
     const int n = offset[b] >= 0 ? body.velocityCount() : 0;
-    if (n == 0) continue;                        // no unknowns: K does not depend on it
-    std::vector<std::pair<Index, int>> columns;  // (the call's column, the body's own index)
-    for (Index k = 0; k < Q; ++k) {
-      if (coordinates.body[k] == b) columns.emplace_back(k, coordinates.index[k]);
-    }
+    if (n == 0) continue;  // no unknowns: K does not depend on it
+    const std::vector<std::pair<Index, int>> columns = ownColumns(coordinates, b);
     if (columns.empty()) continue;
     const MatrixXd X = s.MinvJt.block(offset[b], 0, n, 3);  // this body's M^-1 J^T
     const MatrixXd J = s.J.block(0, offset[b], 3, n);

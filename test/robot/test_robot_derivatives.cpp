@@ -889,6 +889,30 @@ struct RobotsAndBall {
     return out;
   }
 
+  // The arm (robots[0]) struck by the ball at a point of its hand (trial % 4 < 2) or its link5,
+  // along a random normal n (from the link to the ball) at 1.2 m/s with a random sideways part of
+  // up to `sideways` m/s; restitution e; friction by trial: mu_s 0.8 > mu_d 0.3, 0.15 = 0.15 every
+  // fourth, none every fifth. The contact is appended and returned.
+  cr::ContactPoint strikeArm(int trial, std::mt19937& rng, double e, double sideways) {
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    const rb::ArticulatedBody& arm = robots[0].body;
+    const int link = arm.linkIndex(trial % 4 < 2 ? "hand" : "link5");
+    const Vector3d p = arm.linkPose(link) * Vector3d(0.02, -0.01, 0.03);
+    const Vector3d n = Vector3d(unit(rng), unit(rng), 1.0).normalized();
+    ball = sphere(0.4, 0.05, p + 0.05 * n, -1.2 * n + sideways * Vector3d(unit(rng), unit(rng), 0));
+    const bool without_friction = trial % 5 == 4, band = trial % 4 != 3;
+    cr::ContactPoint contact(0, 1, p, n, e,
+                             without_friction ? 0.0
+                             : band           ? 0.8
+                                              : 0.15,
+                             without_friction ? 0.0
+                             : band           ? 0.3
+                                              : 0.15);
+    contact.part_a = link;
+    contacts.push_back(contact);
+    return contact;
+  }
+
   // The differences' step [rad | m, m/s | rad/s]: 1e-5 leaves a margin of 10 over their own
   // round-off at the 1e-6 tolerance (1e-6 came within a factor of 2 on multi-robot scenes).
   static constexpr double kStep = 1e-5;
@@ -1003,16 +1027,11 @@ TEST(RobotDerivatives, NewtonJointPositionColumnsAreClosedFormAcrossModes) {
                                        : Locks::kJoint3;
     s.robots.push_back(randomPosedArm(rng, base, locks, with_mimic));
     rb::ArticulatedBody& arm = s.robots[0].body;
-    const int hand = arm.linkIndex(trial % 4 < 2 ? "hand" : "link5");
-    const Vector3d p = arm.linkPose(hand) * Vector3d(0.02, -0.01, 0.03);
-    const Vector3d n = Vector3d(unit(rng), unit(rng), 1.0).normalized();  // hand -> ball
-    s.ball = sphere(0.4, 0.05, p + 0.05 * n, -1.2 * n + 0.6 * Vector3d(unit(rng), unit(rng), 0));
-    const bool without_friction = trial % 5 == 4, band = trial % 4 != 3;
-    const double mu_s = without_friction ? 0.0 : band ? 0.8 : 0.15;
-    const double mu_d = without_friction ? 0.0 : band ? 0.3 : 0.15;
-    cr::ContactPoint contact(0, 1, p, n, 0.4, mu_s, mu_d);
-    contact.part_a = hand;
-    s.contacts.push_back(contact);
+    const cr::ContactPoint contact = s.strikeArm(trial, rng, 0.4, 0.6);
+    const int hand = contact.part_a;
+    const Vector3d p = contact.point, n = contact.normal;
+    const double mu_s = contact.static_friction, mu_d = contact.dynamic_friction;
+    const bool without_friction = mu_s == 0.0;
     if (trial % 2 == 0) {  // a second point of the hand on the ball: one island of two
       cr::ContactPoint second = contact;
       const Vector3d t = n.unitOrthogonal();
@@ -1149,7 +1168,6 @@ TEST(RobotDerivatives, ImpulseSpaceLoneContactWithAMovingLockedJoint) {
 // test's differences at integration tolerance 1e-14, 1e-6.
 TEST(RobotDerivatives, ImpulseSpaceJointPositionColumnsAreClosedForm) {
   std::mt19937 rng(31);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
     int closed = 0, sticking = 0, sliding = 0;
     for (int trial = 0; trial < 16; ++trial) {
@@ -1159,21 +1177,7 @@ TEST(RobotDerivatives, ImpulseSpaceJointPositionColumnsAreClosedForm) {
       const rb::BaseType base = trial % 2 ? rb::BaseType::kFloating : rb::BaseType::kFixed;
       s.robots.push_back(randomPosedArm(rng, base, trial % 3 == 0 ? Locks::kJoint3 : Locks::kNone,
                                         trial % 5 == 2));
-      rb::ArticulatedBody& arm = s.robots[0].body;
-      const int link = arm.linkIndex(trial % 4 < 2 ? "hand" : "link5");
-      const Vector3d p = arm.linkPose(link) * Vector3d(0.02, -0.01, 0.03);
-      const Vector3d n = Vector3d(unit(rng), unit(rng), 1.0).normalized();
-      s.ball = sphere(0.4, 0.05, p + 0.05 * n, -1.2 * n + 0.8 * Vector3d(unit(rng), unit(rng), 0));
-      const bool without_friction = trial % 5 == 4, band = trial % 4 != 3;
-      cr::ContactPoint contact(0, 1, p, n, 0.5,
-                               without_friction ? 0.0
-                               : band           ? 0.8
-                                                : 0.15,
-                               without_friction ? 0.0
-                               : band           ? 0.3
-                                                : 0.15);
-      contact.part_a = link;
-      s.contacts.push_back(contact);
+      s.strikeArm(trial, rng, 0.5, 0.8);
       const cr::BodyImpactDerivatives d =
           s.check(std::string(cr::toString(law)) + " trial " + std::to_string(trial));
       if (anyAtSwitch(d)) continue;
