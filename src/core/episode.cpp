@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/contact_point.h"
@@ -51,6 +52,16 @@ struct Candidate {
   int pair = 0;                  // index into pairs_
 };
 
+// What the stepping bounds read of one body, refreshed by each query (one vector for all bodies:
+// one allocation per episode).
+struct BodyBounds {
+  double radius = 0.0;           // GapQuery::radius() [m]
+  double speed = 0.0;            // |v| + |w|max r [m/s]
+  double spin = 0.0;             // |w|max over the flight (angularSpeedBound()) [rad/s]
+  double smallest_moment = 0.0;  // smallest principal moment, 0 if isotropic [kg m^2]
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();  // world centre of mass [m]
+};
+
 // A pair of bodies seen by the query at this moment.
 struct Pair {
   int a = 0;
@@ -59,28 +70,85 @@ struct Pair {
   bool points = true;      // every contact a material point on a plane (GapContact::point_on_plane)
 };
 
+// The lists an episode fills and refills, kept per thread from one episode to the next (a
+// landing then allocates none of them again); every one is cleared or assigned before it is read.
+struct EpisodeWorkspace {
+  bool in_use = false;
+  std::vector<BodyBounds> bounds;
+  std::vector<GapContact> gaps;
+  std::vector<Candidate> candidates;
+  std::vector<Pair> pairs;
+  std::vector<int> touching;
+  std::vector<int> resting_set;
+  Scene scene;
+  std::vector<std::pair<int, int>> scene_pairs;
+  std::vector<BodyState> before;
+  std::vector<RigidBody> rigid;
+  std::vector<ContactPoint> points;
+  ContactProblem problem;
+  std::vector<ContactImpulse> answer;
+};
+
+// Looked up once per episode (solve_islands.cpp says why this is a function).
+[[gnu::noinline]] EpisodeWorkspace& threadEpisodeWorkspace() {
+  thread_local EpisodeWorkspace workspace;
+  return workspace;
+}
+
+// The thread's workspace for one episode, or a workspace of its own for an episode that starts
+// while another runs on the same thread (a gap query that follows an episode itself).
+class WorkspaceLease {
+ public:
+  WorkspaceLease() : workspace_(&threadEpisodeWorkspace()) {
+    if (workspace_->in_use) {
+      own_ = std::make_unique<EpisodeWorkspace>();
+      workspace_ = own_.get();
+    }
+    workspace_->in_use = true;
+  }
+  ~WorkspaceLease() { workspace_->in_use = false; }
+  WorkspaceLease(const WorkspaceLease&) = delete;
+  WorkspaceLease& operator=(const WorkspaceLease&) = delete;
+  EpisodeWorkspace& operator*() const { return *workspace_; }
+
+ private:
+  EpisodeWorkspace* workspace_;
+  std::unique_ptr<EpisodeWorkspace> own_;
+};
+
 class Episode {
  public:
   Episode(const std::vector<BodyState>& bodies, const GapQuery& geometry,
           const EpisodeOptions& options)
-      : geometry_(geometry), options_(options), bodies_(bodies) {
+      : geometry_(geometry),
+        options_(options),
+        bodies_(bodies),
+        bounds_((*lease_).bounds),
+        gaps_((*lease_).gaps),
+        candidates_((*lease_).candidates),
+        pairs_((*lease_).pairs),
+        touching_((*lease_).touching),
+        resting_set_((*lease_).resting_set),
+        scene_((*lease_).scene),
+        scene_pairs_((*lease_).scene_pairs),
+        before_((*lease_).before),
+        rigid_((*lease_).rigid),
+        points_((*lease_).points),
+        problem_((*lease_).problem),
+        answer_((*lease_).answer) {
     start_ = std::chrono::steady_clock::now();
     for (BodyState& body : bodies_) body.orientation.normalize();
     const std::size_t n = bodies_.size();
-    radius_.resize(n);
-    speed_bound_.resize(n);
-    spin_bound_.resize(n);
-    smallest_moment_.assign(n, 0.0);
+    bounds_.assign(n, BodyBounds{});
     for (std::size_t i = 0; i < n; ++i) {
       const BodyState& body = bodies_[i];
       if (!body.immovable() && !isotropicInertia(body.inertia)) {
-        smallest_moment_[i] =
+        bounds_[i].smallest_moment =
             Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(body.inertia, Eigen::EigenvaluesOnly)
                 .eigenvalues()(0);
       }
+      bounds_[i].radius = geometry_.radius(static_cast<int>(i));
     }
-    coms_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) radius_[i] = geometry_.radius(static_cast<int>(i));
     gravity_norm_ = options_.gravity.norm();
     tolerance_ = options_.contact_tolerance;
     resting_velocity_ = options_.solver.resting_velocity;
@@ -107,36 +175,33 @@ class Episode {
   void finish(EpisodeEnd end);
   void warnOverlaps();
 
+  WorkspaceLease lease_;  // first: the lists below live in it
   const GapQuery& geometry_;
   const EpisodeOptions& options_;
   std::chrono::steady_clock::time_point start_;
   EpisodeResult result_;
   std::vector<BodyState> bodies_;
-  std::vector<double> radius_;
-  std::vector<double> speed_bound_;      // |v| + |w|max r per body [m/s]
-  std::vector<double> spin_bound_;       // |w|max over the flight (angularSpeedBound()) [rad/s]
-  std::vector<double> smallest_moment_;  // smallest principal moment, 0 if isotropic [kg m^2]
-  std::vector<Eigen::Vector3d> coms_;
+  std::vector<BodyBounds>& bounds_;  // per body
   double gravity_norm_ = 0.0;
   double tolerance_ = 0.0;
   double resting_velocity_ = 0.0;
   double time_ = 0.0;
   double range_ = 0.0;  // of the last query [m]
 
-  // The moment's geometry, reused from query to query.
-  std::vector<GapContact> gaps_;
-  std::vector<Candidate> candidates_;
-  std::vector<Pair> pairs_;
-  std::vector<int> touching_;
-  std::vector<int> resting_set_;
+  // The moment's geometry, reused from query to query (and in the thread's next episode).
+  std::vector<GapContact>& gaps_;
+  std::vector<Candidate>& candidates_;
+  std::vector<Pair>& pairs_;
+  std::vector<int>& touching_;
+  std::vector<int>& resting_set_;
   // Impact and resting workspaces.
-  Scene scene_;
-  std::vector<std::pair<int, int>> scene_pairs_;
-  std::vector<BodyState> before_;
-  std::vector<RigidBody> rigid_;
-  std::vector<ContactPoint> points_;
-  ContactProblem problem_;
-  std::vector<ContactImpulse> answer_;
+  Scene& scene_;
+  std::vector<std::pair<int, int>>& scene_pairs_;
+  std::vector<BodyState>& before_;
+  std::vector<RigidBody>& rigid_;
+  std::vector<ContactPoint>& points_;
+  ContactProblem& problem_;
+  std::vector<ContactImpulse>& answer_;
 };
 
 void Episode::fillContact(const GapContact& gap, Contact& contact,
@@ -154,7 +219,8 @@ void Episode::fillContact(const GapContact& gap, Contact& contact,
 // The two largest speed bounds added: how fast any two bodies can close on each other [m/s].
 double Episode::fastestPairSpeed() const {
   double fastest = 0.0, second = 0.0;
-  for (const double v : speed_bound_) {
+  for (const BodyBounds& body : bounds_) {
+    const double v = body.speed;
     if (v > fastest) {
       second = fastest;
       fastest = v;
@@ -170,16 +236,16 @@ void Episode::query() {
   const std::size_t n = bodies_.size();
   for (std::size_t i = 0; i < n; ++i) {
     const BodyState& body = bodies_[i];
-    coms_[i] = body.worldCom();
+    bounds_[i].com = body.worldCom();
     // angularSpeedBound() with the smallest moment found once.
     double spin = body.angular_velocity.norm();
-    if (smallest_moment_[i] > 0.0 && spin > 0.0) {
+    if (bounds_[i].smallest_moment > 0.0 && spin > 0.0) {
       const Eigen::Matrix3d R = body.orientation.toRotationMatrix();
       spin = std::max(spin, (R * (body.inertia * (R.transpose() * body.angular_velocity))).norm() /
-                                smallest_moment_[i]);
+                                bounds_[i].smallest_moment);
     }
-    spin_bound_[i] = spin;
-    speed_bound_[i] = body.linear_velocity.norm() + (spin > 0.0 ? spin * radius_[i] : 0.0);
+    bounds_[i].spin = spin;
+    bounds_[i].speed = body.linear_velocity.norm() + (spin > 0.0 ? spin * bounds_[i].radius : 0.0);
   }
   // Range: what any pair could close before the horizon (then a pair left out cannot touch
   // before it), at least 10 tolerances, at most 1 m or 1e4 tolerances (the query's cost).
@@ -209,8 +275,8 @@ void Episode::query() {
     }
     const Eigen::Vector3d normal = gap.normal / length;
     const Eigen::Vector3d u =
-        b.linear_velocity + b.angular_velocity.cross(gap.point - coms_[gap.body_b]) -
-        a.linear_velocity - a.angular_velocity.cross(gap.point - coms_[gap.body_a]);
+        b.linear_velocity + b.angular_velocity.cross(gap.point - bounds_[gap.body_b].com) -
+        a.linear_velocity - a.angular_velocity.cross(gap.point - bounds_[gap.body_a].com);
     Candidate& candidate = candidates_.emplace_back();
     candidate.index = static_cast<int>(c);
     candidate.normal_velocity = normal.dot(u);
@@ -229,10 +295,11 @@ void Episode::query() {
     const bool point_on_plane =
         gap.point_on_plane && a.immovable() && a.angular_velocity.isZero(0.0) && !b.immovable();
     if (point_on_plane) {
-      const double spin = spin_bound_[gap.body_b];
-      const double turning = smallest_moment_[gap.body_b] > 0.0 ? 2.0 * spin * spin : spin * spin;
+      const double spin = bounds_[gap.body_b].spin;
+      const double turning =
+          bounds_[gap.body_b].smallest_moment > 0.0 ? 2.0 * spin * spin : spin * spin;
       candidate.acceleration =
-          std::max(0.0, -normal.dot(options_.gravity)) + turning * radius_[gap.body_b];
+          std::max(0.0, -normal.dot(options_.gravity)) + turning * bounds_[gap.body_b].radius;
     }
     const int lo = std::min(gap.body_a, gap.body_b), hi = std::max(gap.body_a, gap.body_b);
     auto it = std::find_if(pairs_.begin(), pairs_.end(),
@@ -255,10 +322,10 @@ double Episode::step() const {
   for (const Pair& pair : pairs_) {
     const BodyState& a = bodies_[pair.a];
     const BodyState& b = bodies_[pair.b];
-    const double spin_a = spin_bound_[pair.a], spin_b = spin_bound_[pair.b];
+    const double spin_a = bounds_[pair.a].spin, spin_b = bounds_[pair.b].spin;
     const double speed = (a.linear_velocity - b.linear_velocity).norm() +
-                         (spin_a > 0.0 ? spin_a * radius_[pair.a] : 0.0) +
-                         (spin_b > 0.0 ? spin_b * radius_[pair.b] : 0.0);
+                         (spin_a > 0.0 ? spin_a * bounds_[pair.a].radius : 0.0) +
+                         (spin_b > 0.0 ? spin_b * bounds_[pair.b].radius : 0.0);
     const double gravity = a.immovable() != b.immovable() ? gravity_norm_ : 0.0;
     // Points on a plane: each listed point bounded below; the pair's others are beyond the range.
     const double target = pair.points ? range_
@@ -336,11 +403,14 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
     }
   }
 
+  // The record takes the answer's impulses and states (read below through it).
+  if (result_.impacts.empty()) result_.impacts.reserve(std::min(options_.max_impacts, 8));
   EpisodeImpact& record = result_.impacts.emplace_back();
   record.time = time_;
   record.contacts = scene_.contacts;
-  record.impulses = response.impulses;
-  record.bodies_after = response.bodies;
+  record.impulses = std::move(response.impulses);
+  record.bodies_after = std::move(response.bodies);
+  const std::vector<ContactImpulse>& impulses = record.impulses;
   const std::string prefix = "impacts[" + std::to_string(k) + "].";
   for (Warning& warning : response.warnings) {
     if (warning.kind == Warning::Kind::kSeparating) continue;  // detected neighbours move apart
@@ -356,7 +426,7 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   resting_set_.clear();
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const Candidate& c = candidates_[contacts[i]];
-    const ContactImpulse& impulse = response.impulses[i];
+    const ContactImpulse& impulse = impulses[i];
     const double after = impulse.normal_velocity_after;
     if (std::abs(after) > c.threshold) continue;
     // An elastic rebound (ratio 1) never settles: left to bounce on.
@@ -367,7 +437,7 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
     resting_set_.push_back(static_cast<int>(i));
   }
   before_.swap(bodies_);  // the states before the impact
-  bodies_ = response.bodies;
+  bodies_ = record.bodies_after;
   if (resting_set_.empty()) return false;
 
   // Accumulation: a contact rebounding at u (> resting velocity) at a ratio r = u / |u_before| < 1
@@ -377,7 +447,7 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   int bounces = 0;
   bool rebound = false;
   for (const int i : resting_set_) {
-    const ContactImpulse& impulse = response.impulses[i];
+    const ContactImpulse& impulse = impulses[i];
     const double after = impulse.normal_velocity_after;
     if (!(after > resting_velocity_) || !(impulse.normal_velocity_before < 0.0)) continue;
     rebound = true;
@@ -417,7 +487,7 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   for (std::size_t i = 0; i < set.size(); ++i) set[i] = contacts[resting_set_[i]];
   if (sustained(set)) return true;
   // Nothing held: no accumulation, the flight goes on from the impact's own answer.
-  bodies_ = response.bodies;
+  bodies_ = result_.impacts.back().bodies_after;
   time_ = time_before;
   result_.accumulated_impacts = accumulated_before;
   return false;
@@ -541,7 +611,7 @@ bool Episode::sustained(const std::vector<int>& contacts) {
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (!held[i]) continue;
-    const double turning = bodies_[i].angular_velocity.norm() * radius_[i];
+    const double turning = bodies_[i].angular_velocity.norm() * bounds_[i].radius;
     result_.outcomes[i] = slips[i]                      ? BodyOutcome::kSliding
                           : turning > resting_velocity_ ? BodyOutcome::kRolling
                                                         : BodyOutcome::kSticking;
@@ -570,8 +640,8 @@ bool Episode::othersMayTouch(const std::vector<int>& contacts) const {
     const BodyState& a = bodies_[pair.a];
     const BodyState& b = bodies_[pair.b];
     const double speed = (a.linear_velocity - b.linear_velocity).norm() +
-                         spin_bound_[pair.a] * radius_[pair.a] +
-                         spin_bound_[pair.b] * radius_[pair.b];
+                         bounds_[pair.a].spin * bounds_[pair.a].radius +
+                         bounds_[pair.b].spin * bounds_[pair.b].radius;
     const double gravity = a.immovable() != b.immovable() ? gravity_norm_ : 0.0;
     if (safeStep(speed, gravity, std::max(pair.gap, 0.0)) < remaining) return true;
   }
@@ -605,9 +675,10 @@ bool Episode::configurationLasts(const std::vector<int>& contacts) const {
     const Eigen::Vector3d normal = gap.normal.normalized();
     // Its normal velocity now (the candidates' were taken before this moment's impact).
     const auto pointVelocity = [&](int i) {
-      return bodies_[i].immovable() ? bodies_[i].linear_velocity +
-                                          bodies_[i].angular_velocity.cross(gap.point - coms_[i])
-                                    : rigid_[i].pointVelocity(gap.point - rigid_[i].com);
+      return bodies_[i].immovable()
+                 ? bodies_[i].linear_velocity +
+                       bodies_[i].angular_velocity.cross(gap.point - bounds_[i].com)
+                 : rigid_[i].pointVelocity(gap.point - rigid_[i].com);
     };
     const double u = normal.dot(pointVelocity(gap.body_b) - pointVelocity(gap.body_a));
     const double a = normal.dot(pointAcceleration(gap.body_b, gap.point) -
@@ -772,11 +843,7 @@ EpisodeResult computeEpisode(const std::vector<BodyState>& bodies, const GapQuer
     throw InvalidInput("contact_tolerance", "must be finite, > 0 and at most 1 m (" +
                                                 std::to_string(options.contact_tolerance) + ")");
   }
-  {
-    Scene scene;
-    scene.bodies = bodies;
-    SceneValidator validator(scene, options.solver, RequestLimits{});
-  }
+  const SceneValidator bodies_checked(bodies, 0, options.solver, RequestLimits{});  // or throws
   if (geometry.bodyCount() != static_cast<int>(bodies.size())) {
     throw InvalidInput("geometry", "describes " + std::to_string(geometry.bodyCount()) +
                                        " bodies, " + std::to_string(bodies.size()) + " given");

@@ -17,7 +17,11 @@ int findRoot(std::vector<int>& parent, int i) {
 template <typename Movable>
 std::vector<Island> islandsOf(std::size_t body_count, const Movable& movable,
                               const std::vector<std::pair<int, int>>& contact_bodies) {
-  if (contact_bodies.size() == 1) return {Island{{0}}};
+  if (contact_bodies.size() == 1) {  // (a braced list would copy its Island: one more allocation)
+    std::vector<Island> one(1);
+    one[0].contacts.push_back(0);
+    return one;
+  }
   std::vector<int> parent(body_count);
   std::iota(parent.begin(), parent.end(), 0);
   for (const auto& [a, b] : contact_bodies) {

@@ -80,7 +80,9 @@ void solveIslands(const std::vector<BodyModel*>& bodies, const std::vector<Conta
   }
   ContactProblem& problem = workspace.problem;
   bool resting_prepared = false;
-  for (Island& island : findIslands(views.unknowns, workspace.contact_bodies)) {
+  std::vector<Island> islands = findIslands(views.unknowns, workspace.contact_bodies);
+  result.islands.reserve(result.islands.size() + islands.size());
+  for (Island& island : islands) {
     // An island between bodies without velocity unknowns (a fixed-base robot with every joint
     // locked, immovable bodies): nothing can move, no impulse and no force (effective masses
     // infinite); the solvers need at least one unknown.

@@ -276,8 +276,12 @@ void requireInRange(double value, const OptionRange& range, const std::string& f
 
 SceneValidator::SceneValidator(const Scene& scene, const SolverOptions& options,
                                const RequestLimits& limits)
-    : limits_(limits), smallest_moments_(scene.bodies.size()) {
-  checkSize(scene.bodies.size(), scene.contacts.size(), limits);
+    : SceneValidator(scene.bodies, scene.contacts.size(), options, limits) {}
+
+SceneValidator::SceneValidator(const std::vector<BodyState>& bodies, std::size_t contact_count,
+                               const SolverOptions& options, const RequestLimits& limits)
+    : limits_(limits), smallest_moments_(bodies.size()) {
+  checkSize(bodies.size(), contact_count, limits);
   requireOptionInRange(options.tolerance, option_ranges::kTolerance, "options.tolerance");
   requireOptionInRange(options.integration_tolerance, option_ranges::kIntegrationTolerance,
                        "options.integration_tolerance");
@@ -287,14 +291,14 @@ SceneValidator::SceneValidator(const Scene& scene, const SolverOptions& options,
   requireOptionInRange(static_cast<double>(options.max_iterations), option_ranges::kMaxIterations,
                        "options.max_iterations");
 
-  body_count_ = scene.bodies.size();
-  index_of_.reserve(scene.bodies.size());
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+  body_count_ = bodies.size();
+  index_of_.reserve(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
     const std::string field = indexed("bodies", i);
-    smallest_moments_[i] = validateBody(scene.bodies[i], field);
-    const auto [it, inserted] = index_of_.emplace(scene.bodies[i].id, static_cast<int>(i));
+    smallest_moments_[i] = validateBody(bodies[i], field);
+    const auto [it, inserted] = index_of_.emplace(bodies[i].id, static_cast<int>(i));
     if (!inserted) {
-      throw InvalidInput(field + ".id", "'" + scene.bodies[i].id + "' duplicates bodies[" +
+      throw InvalidInput(field + ".id", "'" + bodies[i].id + "' duplicates bodies[" +
                                             std::to_string(it->second) + "].id");
     }
   }

@@ -645,6 +645,90 @@ TEST(Episode, SingleImpactThatSeparatesEqualsComputeResponse) {
   }
 }
 
+// An episode keeps its lists in storage of its thread, reused by the thread's next episode. An
+// episode started on the same thread while another runs (here from inside the outer one's gap
+// query, at every query) must take storage of its own: both give what each gives alone, to the
+// bit.
+class QueryThatRunsAnEpisode : public core::GapQuery {
+ public:
+  QueryThatRunsAnEpisode(const core::GapQuery& geometry, const core::GapQuery& inner_geometry,
+                         std::vector<core::BodyState> inner_bodies,
+                         core::EpisodeOptions inner_options)
+      : geometry_(geometry),
+        inner_geometry_(inner_geometry),
+        inner_bodies_(std::move(inner_bodies)),
+        inner_options_(std::move(inner_options)) {}
+  void gaps(const std::vector<core::BodyState>& bodies, double range,
+            std::vector<core::GapContact>& out) const override {
+    inner_.push_back(core::computeEpisode(inner_bodies_, inner_geometry_, inner_options_));
+    geometry_.gaps(bodies, range, out);
+  }
+  double radius(int body) const override { return geometry_.radius(body); }
+  int bodyCount() const override { return geometry_.bodyCount(); }
+  const std::vector<core::EpisodeResult>& inner() const { return inner_; }
+
+ private:
+  const core::GapQuery& geometry_;
+  const core::GapQuery& inner_geometry_;
+  std::vector<core::BodyState> inner_bodies_;
+  core::EpisodeOptions inner_options_;
+  mutable std::vector<core::EpisodeResult> inner_;
+};
+
+void expectSameEpisode(const core::EpisodeResult& a, const core::EpisodeResult& b) {
+  EXPECT_EQ(a.end, b.end);
+  EXPECT_EQ(a.end_time, b.end_time);
+  ASSERT_EQ(a.impacts.size(), b.impacts.size());
+  for (std::size_t k = 0; k < a.impacts.size(); ++k) {
+    EXPECT_EQ(a.impacts[k].time, b.impacts[k].time) << "impact " << k;
+    ASSERT_EQ(a.impacts[k].impulses.size(), b.impacts[k].impulses.size()) << "impact " << k;
+    for (std::size_t c = 0; c < a.impacts[k].impulses.size(); ++c)
+      EXPECT_EQ(a.impacts[k].impulses[c].normal_impulse, b.impacts[k].impulses[c].normal_impulse)
+          << "impact " << k << ", contact " << c;
+  }
+  ASSERT_EQ(a.bodies.size(), b.bodies.size());
+  for (std::size_t i = 0; i < a.bodies.size(); ++i) {
+    EXPECT_EQ(a.bodies[i].position, b.bodies[i].position) << "body " << i;
+    EXPECT_EQ(a.bodies[i].linear_velocity, b.bodies[i].linear_velocity) << "body " << i;
+    EXPECT_EQ(a.bodies[i].angular_velocity, b.bodies[i].angular_velocity) << "body " << i;
+  }
+  EXPECT_EQ(a.outcomes, b.outcomes);
+  EXPECT_EQ(a.resting.size(), b.resting.size());
+}
+
+TEST(Episode, AnEpisodeStartedWithinAnotherOnItsThreadLeavesBothUnchanged) {
+  // Outer: a tilted cube landing on a corner (several impacts, friction, a resting analysis).
+  const PointsAndPlanes cube_geometry({Vector3d::UnitZ()}, cubeCorners(0.05), 0.0, {0.3, 0.6, 0.4});
+  core::BodyState c = cube(0.37, 0.05);
+  c.orientation = Eigen::AngleAxisd(0.5, Vector3d(1, 0.3, 0).normalized());
+  c.position = {0.0, 0.0, 0.12};
+  c.linear_velocity = {0.4, 0.0, -1.0};
+  c.angular_velocity = {0.0, 2.0, 1.0};
+  const std::vector<core::BodyState> outer_bodies = {floorBody(), c};
+  const core::EpisodeOptions outer_options = episodeOptions(core::ImpactLaw::kNewton);
+  // Inner: a ball bouncing to rest, other bodies and counts.
+  const PointsAndPlanes ball_geometry({Vector3d::UnitZ()}, {Vector3d::Zero()}, 0.02,
+                                      {0.6, 0.0, 0.0});
+  const std::vector<core::BodyState> inner_bodies = {floorBody(), ball(0.1, 0.02, 0.05)};
+  const core::EpisodeOptions inner_options = episodeOptions(core::ImpactLaw::kStronge);
+
+  const core::EpisodeResult outer_alone =
+      core::computeEpisode(outer_bodies, cube_geometry, outer_options);
+  const core::EpisodeResult inner_alone =
+      core::computeEpisode(inner_bodies, ball_geometry, inner_options);
+  ASSERT_GE(outer_alone.impacts.size(), 2u);
+  ASSERT_GE(inner_alone.impacts.size(), 2u);
+
+  const QueryThatRunsAnEpisode nesting(cube_geometry, ball_geometry, inner_bodies, inner_options);
+  const core::EpisodeResult outer_nested =
+      core::computeEpisode(outer_bodies, nesting, outer_options);
+  expectSameEpisode(outer_nested, outer_alone);
+  ASSERT_FALSE(nesting.inner().empty());
+  for (const core::EpisodeResult& inner : nesting.inner()) expectSameEpisode(inner, inner_alone);
+  // And the thread's storage is free again: the next episode on it gives the same.
+  expectSameEpisode(core::computeEpisode(outer_bodies, cube_geometry, outer_options), outer_alone);
+}
+
 core::BodyState cubeOnFloor() {
   core::BodyState c = cube(kCubeMass, kHalf);
   c.position = {0.0, 0.0, kHalf};

@@ -74,6 +74,10 @@ class SceneValidator {
  public:
   /// Throws InvalidInput naming the first offending field (see validate()).
   SceneValidator(const Scene& scene, const SolverOptions& options, const RequestLimits& limits);
+  /// The same for bodies that are not in a Scene (an episode's), `contact_count` contacts to come
+  /// (checked against the limits only).
+  SceneValidator(const std::vector<BodyState>& bodies, std::size_t contact_count,
+                 const SolverOptions& options, const RequestLimits& limits);
   /// The contacts' body indices (contactBodies()) handed over when the validator is done with them
   /// (validate() returns them without a copy).
   std::vector<std::pair<int, int>> releaseContactBodies() && { return std::move(contact_bodies_); }
