@@ -140,6 +140,13 @@ class Episode {
     for (BodyState& body : bodies_) body.orientation.normalize();
     const std::size_t n = bodies_.size();
     bounds_.assign(n, BodyBounds{});
+    // The thread's lists still hold the last episode's moment: emptied (their storage kept), so
+    // that an episode ending before its first query (out of time) reads none of it.
+    gaps_.clear();
+    candidates_.clear();
+    pairs_.clear();
+    touching_.clear();
+    resting_set_.clear();
     for (std::size_t i = 0; i < n; ++i) {
       const BodyState& body = bodies_[i];
       if (!body.immovable() && !isotropicInertia(body.inertia)) {
@@ -252,6 +259,7 @@ void Episode::query() {
   const double remaining = options_.horizon - time_;
   range_ = std::clamp(fastestPairSpeed() * remaining + gravity_norm_ * remaining * remaining,
                       10.0 * tolerance_, std::max(1.0, 1e4 * tolerance_));
+  gaps_.clear();  // (the query clears it too, as GapQuery::gaps() promises)
   geometry_.gaps(bodies_, range_, gaps_);
 
   candidates_.clear();

@@ -18,6 +18,7 @@
 
 #include "collision_response/core/compute_response.h"
 #include "collision_response/core/constants.h"
+#include "collision_response/core/deadline.h"
 #include "collision_response/core/episode.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/free_flight.h"
@@ -727,6 +728,30 @@ TEST(Episode, AnEpisodeStartedWithinAnotherOnItsThreadLeavesBothUnchanged) {
   for (const core::EpisodeResult& inner : nesting.inner()) expectSameEpisode(inner, inner_alone);
   // And the thread's storage is free again: the next episode on it gives the same.
   expectSameEpisode(core::computeEpisode(outer_bodies, cube_geometry, outer_options), outer_alone);
+}
+
+// The thread's lists hold the last episode's contacts when the next one starts: an episode out of
+// time before its first query (an expired deadline) reports from none of them. (A free ball after
+// a cube that rested on the floor: the cube's touching corners named body 1, which this episode
+// does not have.)
+TEST(Episode, AnEpisodeOutOfTimeAtOnceReportsNoContactOfTheEpisodeBefore) {
+  const PointsAndPlanes floor_and_cube({Vector3d::UnitZ()}, cubeCorners(0.05), 0.0,
+                                       {0.5, 0.6, 0.4});
+  core::BodyState resting = cube(0.37, 0.05);
+  resting.position = {0.0, 0.0, 0.05};
+  const core::EpisodeResult before = core::computeEpisode({floorBody(), resting}, floor_and_cube,
+                                                          episodeOptions(core::ImpactLaw::kNewton));
+  ASSERT_EQ(before.end, core::EpisodeEnd::kSustainedContact);
+
+  const PointsAndPlanes nothing_else({}, {Vector3d::Zero()}, 0.02, {0.5, 0.0, 0.0});
+  core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kNewton);
+  options.solver.deadline = core::Deadline::in(-1.0);  // expired
+  const core::EpisodeResult alone =
+      core::computeEpisode({ball(0.1, 0.02, 1.0)}, nothing_else, options);
+  EXPECT_EQ(alone.end, core::EpisodeEnd::kTimeBudget);
+  ASSERT_EQ(alone.outcomes.size(), 1u);
+  EXPECT_EQ(alone.outcomes[0], core::BodyOutcome::kSeparated);  // nothing touched it
+  EXPECT_TRUE(alone.impacts.empty());
 }
 
 core::BodyState cubeOnFloor() {
