@@ -100,7 +100,10 @@ struct EpisodeResult {
 /// each impact under options.solver, accumulation of inelastic bounces closed, then sustained
 /// contact's resting analysis. Throws InvalidInput naming the field ("gravity", "horizon",
 /// "max_impacts", "contact_tolerance", "bodies[i]..." ; "geometry" when it describes another number
-/// of bodies).
+/// of bodies). Thread safety: calls on different threads are independent; the working lists of
+/// an episode are kept per thread and reused by the thread's next episode (their storage stays
+/// with the thread, sized by its largest episode), and an episode started on a thread while
+/// another runs there (from a GapQuery) takes lists of its own.
 EpisodeResult computeEpisode(const std::vector<BodyState>& bodies, const GapQuery& geometry,
                              const EpisodeOptions& options = {});
 
