@@ -38,7 +38,11 @@ flags="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recove
 # test compiles too may be bound to the test's uninstrumented copy; the fuzz targets (clang, both
 # sanitizers in every file) cover those.
 asan_flags="-fsanitize=address -fno-omit-frame-pointer -DEIGEN_MALLOC_ALREADY_ALIGNED=1"
-ubsan_flags="-fsanitize=undefined -fno-sanitize-recover=undefined"
+# Without UBSan's per-access checks that ASan already reports here (null: a SEGV report;
+# object-size: an overflow report) or that the clang fuzz pass keeps in every file (alignment,
+# vptr, nonnull attributes): simultaneous_impact.cpp compiles in 109 s instead of 166 s (ASan
+# alone: 99 s), measured side by side on 2026-12-02; the full set made this stage 43 of CI's 72 min.
+ubsan_flags="-fsanitize=undefined -fno-sanitize=alignment,null,object-size,vptr,nonnull-attribute,returns-nonnull-attribute -fno-sanitize-recover=undefined"
 cache="$build_dir/sanitize.cmake"
 cat >"$cache" <<EOF
 # Written by scripts/sanitize.sh.
