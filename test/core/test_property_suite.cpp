@@ -30,6 +30,7 @@
 #include "collision_response/core/contact_space.h"
 #include "collision_response/core/errors.h"
 #include "collision_response/core/rigid_body.h"
+#include "env_number.h"
 #include "physics_checks.h"
 
 namespace core = collision_response::core;
@@ -101,10 +102,7 @@ core::Scene randomScene(std::mt19937& rng) {
   return scene;
 }
 
-long envOr(const char* name, long fallback) {
-  const char* value = std::getenv(name);
-  return value ? std::strtol(value, nullptr, 10) : fallback;
-}
+using collision_response::testing::envOr;
 
 std::string replay(unsigned long seed, long index, core::ImpactLaw law, core::SolverMethod method) {
   return "seed " + std::to_string(seed) + " scene " + std::to_string(index) + " law " +
