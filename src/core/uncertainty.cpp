@@ -92,7 +92,12 @@ struct GeometryDimension {
 };
 
 struct Prepared {
-  Scene mean_scene;  // the coefficients at their means
+  // The scene with the coefficients at their means: the request's own scene while every mean
+  // equals the request's value (as when the request's values are the means), a copy once one
+  // differs (prepare() makes it; the request's scene outlives the Prepared).
+  const Scene& meanScene() const { return owned_mean ? *owned_mean : *request_scene; }
+  const Scene* request_scene = nullptr;
+  std::optional<Scene> owned_mean;
   std::vector<UncertainContact> contacts;
   std::vector<std::pair<std::size_t, int>> dimensions;  // (index in contacts, coefficient)
   // Sampling dimensions of the normals and points, after the coefficients' ones (their count is
@@ -103,9 +108,9 @@ struct Prepared {
   std::vector<std::pair<int, int>> contact_bodies;  // kSampled: validate()'s
 };
 
-// Contact or ContactPoint.
+// Contact or ContactPoint, const or not (then the reference is const).
 template <class AnyContact>
-double& coefficient(AnyContact& contact, int which) {
+auto& coefficient(AnyContact& contact, int which) {
   return which == kRestitution      ? contact.restitution
          : which == kStaticFriction ? contact.static_friction
                                     : contact.dynamic_friction;
@@ -114,7 +119,7 @@ double& coefficient(AnyContact& contact, int which) {
 // The distributions checked and the mean scene (not validated: the methods validate it).
 Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& uncertainties) {
   Prepared prepared;
-  prepared.mean_scene = scene;
+  prepared.request_scene = &scene;
   // The contacts named by earlier entries, one bit each (on the stack up to 1024 contacts).
   std::array<std::uint64_t, 16> named_small{};
   std::vector<std::uint64_t> named_large;
@@ -153,12 +158,12 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
                            "must be a number in [0, 1e7] [m] (0: exact along that axis)");
     const bool geometric = entry.normal_std_dev > 0.0 || (entry.point_std_dev.array() > 0.0).any();
     if (!*given[0] && !*given[1] && !*given[2] && !geometric) continue;
-    Contact& contact = prepared.mean_scene.contacts[entry.contact];
+    const Contact* contact_at_mean = &scene.contacts[entry.contact];
     const std::array<double, 3> uppers = {1.0, std::numeric_limits<double>::infinity(),
                                           std::numeric_limits<double>::infinity()};
     auto checked = [&](int which) {
       if (!*given[which]) {
-        const double value = coefficient(contact, which);
+        const double value = coefficient(*contact_at_mean, which);
         if (!std::isfinite(value))  // as validate() names it
           throw InvalidInput(
               "contacts[" + std::to_string(entry.contact) + "]." + kCoefficientNames[which],
@@ -177,12 +182,20 @@ Prepared prepare(const Scene& scene, const std::vector<ContactUncertainty>& unce
     UncertainContact uncertain{
         entry.contact, k, {checked(0), checked(1), checked(2)}, {-1, -1, -1}};
     for (int which = 0; which < 3; ++which) {
-      coefficient(contact, which) = uncertain.distributions[which].mean();
+      const double mean = uncertain.distributions[which].mean();
+      // (Compared exactly: any other mean, however close, is written into the copy.)
+      if (coefficient(*contact_at_mean, which) != mean) {
+        if (!prepared.owned_mean) prepared.owned_mean = scene;
+        Contact& owned = prepared.owned_mean->contacts[entry.contact];
+        coefficient(owned, which) = mean;
+        contact_at_mean = &owned;
+      }
       if (uncertain.distributions[which].variance() > 0.0) {
         uncertain.dimension[which] = static_cast<int>(prepared.dimensions.size());
         prepared.dimensions.emplace_back(prepared.contacts.size(), which);
       }
     }
+    const Contact& contact = *contact_at_mean;
     if (geometric) {
       uncertain.normal = contact.normal;
       uncertain.point = contact.point;
@@ -494,7 +507,7 @@ double linearStickProbability(const Eigen::MatrixXd& jacobian, Eigen::Index velo
                               const double* variance, double* gradient, SlipOf& slip_of,
                               const Eigen::MatrixXd* geometry_speed, const HeldMargins* held,
                               const StaticBound& bound, ImpactLaw law) {
-  const Contact& contact = prepared.mean_scene.contacts[c];
+  const Contact& contact = prepared.meanScene().contacts[c];
   if (impulse.resting) return impulse.sticking ? 1.0 : 0.0;
   if (mode == ImpactMode::kNoImpulse || contact.frictionless()) return 0.0;
   const Eigen::Index coefficient_dims = static_cast<Eigen::Index>(prepared.dimensions.size());
@@ -720,7 +733,7 @@ void linearSpread(const Eigen::MatrixXd& jacobian, Eigen::Index velocity_count,
     outcome.q05(r) = outcome.mean(r) - kZ95 * spread;
     outcome.q95(r) = outcome.mean(r) + kZ95 * spread;
   }
-  const std::size_t contacts = prepared.mean_scene.contacts.size();
+  const std::size_t contacts = prepared.meanScene().contacts.size();
   outcome.stick_probability.resize(contacts);
   for (std::size_t c = 0; c < contacts; ++c)
     outcome.stick_probability[c] = linearStickProbability(
@@ -1129,8 +1142,8 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
     std::chrono::steady_clock::time_point start) {
   GeometryJacobian out;
   const Eigen::Index m = derivatives.jacobian.rows();
-  const std::size_t contacts = prepared.mean_scene.contacts.size();
-  Scene moved = prepared.mean_scene;
+  const std::size_t contacts = prepared.meanScene().contacts.size();
+  Scene moved = prepared.meanScene();
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
   auto evaluate = [&](std::size_t u, const Eigen::Vector3d& normal, const Eigen::Vector3d& point,
                       Eigen::VectorXd& values, std::vector<int>& modes) {
@@ -1169,10 +1182,10 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
     const std::vector<std::pair<int, int>>& contact_bodies, const DerivativeColumns& columns,
     const SolverOptions& options, std::chrono::steady_clock::time_point start) {
   if (options.law != ImpactLaw::kNewton ||
-      !anySliding(derivatives.contacts, prepared.mean_scene.contacts))
+      !anySliding(derivatives.contacts, prepared.meanScene().contacts))
     return {};
-  Scene held = prepared.mean_scene;   // at the mean geometry, as the mean's derivatives
-  Scene moved = prepared.mean_scene;  // every normal unit, as differenceGeometry() takes them
+  Scene held = prepared.meanScene();   // at the mean geometry, as the mean's derivatives
+  Scene moved = prepared.meanScene();  // every normal unit, as differenceGeometry() takes them
   for (Contact& contact : moved.contacts) contact.normal.normalize();  // (validated: nonzero)
   auto differentiate = [&](std::size_t c, ContactImpulse& impulse, Eigen::MatrixXd& jacobian,
                            StaticBound& bound) {
@@ -1194,7 +1207,7 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
     bound = rigidStaticBound(moved, contact_bodies, result, c);
     impulses = std::move(result.impulses);
   };
-  return heldMargins(prepared, derivatives.contacts, prepared.mean_scene.contacts,
+  return heldMargins(prepared, derivatives.contacts, prepared.meanScene().contacts,
                      derivatives.velocityCount(), differentiate, solve_moved);
 }
 
@@ -1207,18 +1220,18 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   // probability of a sliding contact reads it, but for Newton's law: its held margins), are
   // computed.
   const std::vector<std::pair<int, int>> contact_bodies =
-      validate(prepared.mean_scene, options, limits);
+      validate(prepared.meanScene(), options, limits);
   DerivativeColumns columns;
   columns.velocities = false;
-  columns.coefficients.assign(3 * prepared.mean_scene.contacts.size(), false);
+  columns.coefficients.assign(3 * prepared.meanScene().contacts.size(), false);
   if (options.law != ImpactLaw::kNewton)
-    for (std::size_t c = 0; c < prepared.mean_scene.contacts.size(); ++c)
+    for (std::size_t c = 0; c < prepared.meanScene().contacts.size(); ++c)
       columns.coefficients[3 * c + kDynamicFriction] = true;
   for (const auto& [index, which] : prepared.dimensions)
     columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
         true;
   const ImpactDerivatives derivatives =
-      computeValidatedImpactDerivatives(prepared.mean_scene, contact_bodies, options, columns);
+      computeValidatedImpactDerivatives(prepared.meanScene(), contact_bodies, options, columns);
   OutcomeDistribution outcome;
   const Eigen::Index m = derivatives.velocityCount() + derivatives.impulseCount();
   outcome.labels = derivatives.rowLabels();
@@ -1235,13 +1248,13 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   // The slip of a sliding contact from the bodies' twists after the impact and their rows.
   auto slip_of = [&](std::size_t c, Eigen::Vector3d& slip, Eigen::MatrixXd& slip_rate) {
     addRigidSlip(result, derivatives.movable_bodies, contact_bodies[c],
-                 prepared.mean_scene.contacts[c].point, *jacobian, 0, slip, &slip_rate);
+                 prepared.meanScene().contacts[c].point, *jacobian, 0, slip, &slip_rate);
   };
   // Newton's law: a sliding contact's margin from its held (sticking) answer.
   const HeldMargins held =
       rigidHeldMargins(prepared, derivatives, contact_bodies, columns, options, start);
   auto bound_of = [&](std::size_t c) {
-    return rigidStaticBound(prepared.mean_scene, contact_bodies, result, c);
+    return rigidStaticBound(prepared.meanScene(), contact_bodies, result, c);
   };
   linearSpread(*jacobian, derivatives.velocityCount(), result.impulses, derivatives.contacts,
                prepared, slip_of, bound_of, geometry ? &geometry->slip_speed : nullptr, &held,
@@ -1427,7 +1440,7 @@ SampleStore sampleAll(const Prepared& prepared, const SolverOptions& options,
 
 OutcomeDistribution sampledDistribution(const Prepared& prepared, const SolverOptions& options,
                                         const UncertaintyOptions& uncertainty, WorkerPool* pool) {
-  const Scene& scene = prepared.mean_scene;
+  const Scene& scene = prepared.meanScene();
   const std::vector<int> movable = movableBodies(scene);
   const std::size_t contacts = scene.contacts.size();
   const Eigen::Index m =
@@ -1569,7 +1582,7 @@ template <class Restore>
 }
 
 // The linear method for general bodies (docs/uncertainty.md, "Robots"):
-// computeBodyImpactDerivatives() at the coefficients' means (prepared.mean_scene's), mean = its
+// computeBodyImpactDerivatives() at the coefficients' means (prepared.meanScene()'s), mean = its
 // prediction, the spread as the rigid-body path's (linearSpread()), the slip of a sliding contact
 // from the bodies' point Jacobians at the point (partPointJacobian() times the velocity rows).
 // P(|v_r| > limit_r) under the normal approximation N(mean_r, covariance_rr): Phi((-limit - mean) /
@@ -1586,7 +1599,7 @@ OutcomeDistribution linearBodyDistribution(const std::vector<BodyModel*>& bodies
   const auto start = std::chrono::steady_clock::now();
   std::vector<ContactPoint> mean_contacts = contacts;
   for (std::size_t c = 0; c < contacts.size(); ++c) {
-    const Contact& mean = prepared.mean_scene.contacts[c];
+    const Contact& mean = prepared.meanScene().contacts[c];
     mean_contacts[c].restitution = mean.restitution;
     mean_contacts[c].static_friction = mean.static_friction;
     mean_contacts[c].dynamic_friction = mean.dynamic_friction;
@@ -1683,12 +1696,12 @@ OutcomeDistribution computeOutcomeDistribution(const Scene& scene,
   checkMethod(uncertainty);
   Prepared prepared = prepare(scene, uncertainties);
   if (uncertainty.method == UncertaintyMethod::kLinear) {
-    checkOutcomeSize(6 * movableCount(prepared.mean_scene) +
-                         4 * static_cast<Eigen::Index>(prepared.mean_scene.contacts.size()),
+    checkOutcomeSize(6 * movableCount(prepared.meanScene()) +
+                         4 * static_cast<Eigen::Index>(prepared.meanScene().contacts.size()),
                      1);
     return linearDistribution(prepared, options, limits);
   }
-  prepared.contact_bodies = validate(prepared.mean_scene, options, limits);
+  prepared.contact_bodies = validate(prepared.meanScene(), options, limits);
   return sampledDistribution(prepared, options, uncertainty, pool);
 }
 

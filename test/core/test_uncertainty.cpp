@@ -330,6 +330,46 @@ TEST(Uncertainty, LinearStickProbabilityOfASphereIsExactInMuS) {
   }
 }
 
+// The distributions' means, not the request's own coefficients, are what the outcome is centred
+// on: the request says e 0.9, mu_s 0.8, mu_d 0.7 (the sphere sticks), the distributions e 0.4,
+// mu_s 0.02, mu_d 0.015 (it slides: mu_s < k / (1 + e) = 0.0255); a coefficient with no
+// distribution keeps the request's value. The reference is the prediction of a scene written with
+// those values by hand. Both methods: the linear mean is that prediction exactly; so is the sampled
+// method's with every spread zero.
+TEST(Uncertainty, OutcomeIsCentredOnTheDistributionsMeansNotOnTheRequestsValues) {
+  auto rows = [](const core::CollisionResult& r) {
+    Eigen::VectorXd v(10);
+    v << r.bodies[1].linear_velocity, r.bodies[1].angular_velocity, r.impulses[0].normal_impulse,
+        r.impulses[0].friction_impulse;
+    return v;
+  };
+  const core::CollisionResult at_means = core::computeResponse(sphere(0.4, 0.02, 0.015), newton());
+  ASSERT_FALSE(at_means.impulses[0].sticking);
+  ASSERT_TRUE(core::computeResponse(sphere(0.9, 0.8, 0.7), newton()).impulses[0].sticking);
+  {
+    ContactUncertainty u;
+    u.restitution = CoefficientDistribution::normal(0.4, 0.01);
+    u.static_friction = CoefficientDistribution::interval(0.015, 0.025);
+    u.dynamic_friction = CoefficientDistribution::normal(0.015, 0.001);
+    const core::Scene request = sphere(0.9, 0.8, 0.7);
+    const auto lin = core::computeOutcomeDistribution(request, {u}, newton(), linear());
+    const Eigen::VectorXd expected = rows(at_means);
+    for (Eigen::Index r = 0; r < 10; ++r) EXPECT_NEAR(lin.mean(r), expected(r), 1e-12) << r;
+    EXPECT_EQ(request.contacts[0].restitution, 0.9);  // the request itself is left as it was
+  }
+  {
+    // Only e has a distribution (its mean differs); mu_s and mu_d are the request's.
+    ContactUncertainty u;
+    u.restitution = CoefficientDistribution::interval(0.4, 0.4);
+    const core::Scene request = sphere(0.9, 0.02, 0.015);
+    const Eigen::VectorXd expected = rows(at_means);
+    for (const auto& options : {linear(), sampled(16)}) {
+      const auto outcome = core::computeOutcomeDistribution(request, {u}, newton(), options);
+      for (Eigen::Index r = 0; r < 10; ++r) EXPECT_NEAR(outcome.mean(r), expected(r), 1e-12) << r;
+    }
+  }
+}
+
 // Small spreads on a smooth scene (one contact sliding far from sticking): the linear
 // distribution agrees with the sampled one to a few percent of the spreads.
 TEST(Uncertainty, LinearMatchesSampledForSmallSpreads) {
