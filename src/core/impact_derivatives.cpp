@@ -425,6 +425,20 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
   }
 }
 
+// computeValidatedImpactDerivatives()'s per-body lists, in storage reused per thread (the linear
+// uncertainty differentiates once per request, where fresh vectors' allocations are a visible part
+// of the cost). The function does not call itself, so one set per thread suffices.
+struct DerivativeScratch {
+  std::vector<RigidBody> before;   // the bodies before the impact
+  std::vector<Index> body_column;  // per body: its first velocity column, -1 if immovable
+  std::vector<int> local_of;       // per body: its index in the island buildSystem() builds
+};
+
+[[gnu::noinline]] DerivativeScratch& threadDerivativeScratch() {
+  thread_local DerivativeScratch scratch;
+  return scratch;
+}
+
 }  // namespace
 
 const char* toString(DerivativeMethod method) {
@@ -531,9 +545,11 @@ ImpactDerivatives computeValidatedImpactDerivatives(
   out.contact_count = scene.contacts.size();
   out.contacts.resize(scene.contacts.size());
 
-  std::vector<RigidBody> before;
+  DerivativeScratch& scratch = threadDerivativeScratch();
+  std::vector<RigidBody>& before = scratch.before;
   makeRigidBodies(scene.bodies, before);
-  std::vector<Index> body_column(scene.bodies.size(), -1);
+  std::vector<Index>& body_column = scratch.body_column;
+  body_column.assign(scene.bodies.size(), -1);
   for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
     if (before[b].movable()) {
       body_column[b] = out.velocityCount();
@@ -555,7 +571,8 @@ ImpactDerivatives computeValidatedImpactDerivatives(
     for (Index k = velocity_count; k < out.jacobian.cols(); ++k) out.jacobian.col(k).setZero();
   }
 
-  std::vector<int> local_of(scene.bodies.size(), -1);
+  std::vector<int>& local_of = scratch.local_of;
+  local_of.assign(scene.bodies.size(), -1);
   std::vector<std::size_t> numerical;
   for (std::size_t k = 0; k < out.result.islands.size(); ++k) {
     const SolveReport& report = out.result.islands[k];
