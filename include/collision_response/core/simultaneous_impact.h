@@ -1,5 +1,7 @@
 #pragma once
 
+#include <Eigen/Core>
+#include <string>
 #include <vector>
 
 #include "collision_response/core/contact_impulse.h"
@@ -37,5 +39,33 @@ namespace collision_response::core {
 SolveReport solveSimultaneousImpulseSpace(ContactProblem& problem, const SolverOptions& options,
                                           std::vector<ContactImpulse>& impulses,
                                           bool plastic_rest = true);
+
+/// The derivatives of solveSimultaneousImpulseSpace()'s impulses (docs/physics.md, "Derivatives
+/// through the simultaneous integration"): the same integration run on dual numbers, so that every
+/// step, event time and rate is differentiated as computed (the final impulse through the
+/// integration and its event conditions), with the branches the solve takes. They are the
+/// derivatives of the answer's own piece: one-sided where a perturbation would change the sequence
+/// of events (`switches` names the ones met within kSwitchTolerance-like margins), and of the
+/// discretised map (the turning slip's steps). Gradient directions go through the scheme eight
+/// at a time.
+struct SimultaneousImpulseDerivatives {
+  /// 3m x 3m (empty unless asked): dP/du, P the contacts' impulses stacked (world, on body b)
+  /// [N s], u their pre-impact relative velocities (world, v_b - v_a) [m/s].
+  Eigen::MatrixXd dP_du;
+  /// 3m x 3m: dP/dtheta, theta per contact (e, mu_s, mu_d); columns not asked for are 0.
+  Eigen::MatrixXd dP_dtheta;
+  Eigen::VectorXd impulses;           ///< 3m: P of the dual run (the solve's, to round-off)
+  std::vector<std::string> switches;  ///< per contact: the switches met (empty: none)
+};
+
+/// On `problem` as the solve found it (before any impulse), under options.law (Poisson, Stronge)
+/// and options.simultaneous_sharing. `velocities`: compute dP/du; `coefficients` (3m, empty: all)
+/// which coefficient columns. False (the caller differences) for one contact or more than
+/// kSimultaneousMaxContacts, an integration that does not finish within its step budget, or a
+/// frictionless contact's friction columns (friction enters only once mu > 0).
+bool differentiateSimultaneousImpulseSpace(const ContactProblem& problem,
+                                           const SolverOptions& options, bool velocities,
+                                           const std::vector<bool>& coefficients,
+                                           SimultaneousImpulseDerivatives& out);
 
 }  // namespace collision_response::core
