@@ -15,7 +15,8 @@
 //   LD_BIND_NOW=1 valgrind --tool=callgrind --toggle-collect='*differentiateOnce*'
 //   bench_derivatives --callgrind SCENE
 // (LD_BIND_NOW: the dynamic linker's first resolution of a library function is not counted)
-// with SCENE one of sliding, sticking, cube4, arm_stronge, arm_poisson, arm_newton (the arm's
+// with SCENE one of sliding, sticking, cube4, cube4_poisson, cube4_stronge (the 4-corner landing
+// under the impulse-space laws), arm_stronge, arm_poisson, arm_newton (the arm's
 // functions are predictArmOnce and differentiateArmOnce; each is counted on one call after an
 // uncounted warm-up call). The arm's linear outcome distribution (uncertainty.h, kLinear; e, mu_s
 // and mu_d uncertain): BM_Linear_ArmNewton / _ArmStronge, and '*linearArmOnce*' with the arm
@@ -370,7 +371,15 @@ int main(int argc, char** argv) {
     const core::Scene scene = which == "sliding"    ? singleContact(0.2)
                               : which == "sticking" ? singleContact(2.0)
                                                     : cube4(0.5);
-    const core::SolverOptions options = newton();
+    // cube4_poisson, cube4_stronge: the same landing under an impulse-space law (its 4 corners
+    // integrated together; derivatives through the integration).
+    core::SolverOptions options = newton();
+    if (which == "cube4_poisson") options.law = core::ImpactLaw::kPoisson;
+    if (which == "cube4_stronge") options.law = core::ImpactLaw::kStronge;
+    {
+      const core::ImpactDerivatives d = core::computeImpactDerivatives(scene, options);
+      std::printf("method %s\n", core::toString(d.method));
+    }
     // A first call of each outside the counted ones (thread-local workspaces, lazy tables).
     benchmark::DoNotOptimize(core::computeImpactDerivatives(scene, options));
     benchmark::DoNotOptimize(predictOnce(scene, options));

@@ -456,7 +456,9 @@ bool analyticIsland(const std::vector<BodyModel*>& bodies,
   const Index N = out.velocity_count;
   const Index C = static_cast<Index>(contacts.size());
   const AnalyticIsland kind = analyticIslandOf(report, options.law);
-  if (kind == AnalyticIsland::kNone) return false;
+  // Several contacts integrated together: differenced for general bodies (the rigid path
+  // differentiates the integration, impact_derivatives.cpp).
+  if (kind == AnalyticIsland::kNone || kind == AnalyticIsland::kImpulseSpaceIsland) return false;
   if (kind == AnalyticIsland::kImpulseSpaceContact && coordinates != nullptr && coordinates->done &&
       !impulseSpaceCoordinates(bodies, contacts, report, options, before, after, out,
                                *coordinates)) {

@@ -74,6 +74,18 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& options
   return computeValidatedResponse(scene, validate(scene, options, limits), options);
 }
 
+void makeContactPoints(const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
+                       std::vector<ContactPoint>& points) {
+  points.clear();
+  points.reserve(scene.contacts.size());
+  for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
+    const Contact& contact = scene.contacts[c];
+    const auto [a, b] = contact_bodies[c];
+    points.emplace_back(a, b, contact.point, contact.normal.normalized(), contact.restitution,
+                        contact.static_friction, contact.dynamic_friction);
+  }
+}
+
 CollisionResult computeValidatedResponse(const Scene& scene,
                                          const std::vector<std::pair<int, int>>& contact_bodies,
                                          const SolverOptions& options) {
@@ -84,13 +96,7 @@ CollisionResult computeValidatedResponse(const Scene& scene,
   for (RigidBody& body : bodies) workspace.models.push_back(&body);
 
   std::vector<ContactPoint>& contacts = workspace.contacts;
-  contacts.clear();
-  for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
-    const Contact& contact = scene.contacts[c];
-    const auto [a, b] = contact_bodies[c];
-    contacts.emplace_back(a, b, contact.point, contact.normal.normalized(), contact.restitution,
-                          contact.static_friction, contact.dynamic_friction);
-  }
+  makeContactPoints(scene, contact_bodies, contacts);
 
   CollisionResult result;
   // Resting contacts read each body's free acceleration under its wrench.

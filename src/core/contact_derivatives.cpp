@@ -10,6 +10,7 @@
 #include "collision_response/core/constants.h"
 #include "collision_response/core/contact_space.h"
 #include "collision_response/core/exact_solver.h"
+#include "collision_response/core/island_solver.h"
 
 namespace collision_response::core {
 namespace {
@@ -48,8 +49,13 @@ AnalyticIsland analyticIslandOf(const SolveReport& island, ImpactLaw law) {
                            island.method == SolvedBy::kSimultaneousImpulseSpace) &&
                           island.converged &&
                           !(island.impulse_space && island.impulse_space->fallback);
-  return (law == ImpactLaw::kPoisson || law == ImpactLaw::kStronge) && one && integrated
-             ? AnalyticIsland::kImpulseSpaceContact
+  if ((law != ImpactLaw::kPoisson && law != ImpactLaw::kStronge) || !integrated) {
+    return AnalyticIsland::kNone;
+  }
+  if (one) return AnalyticIsland::kImpulseSpaceContact;
+  return island.method == SolvedBy::kSimultaneousImpulseSpace &&
+                 island.contacts.size() <= kSimultaneousMaxContacts
+             ? AnalyticIsland::kImpulseSpaceIsland
              : AnalyticIsland::kNone;
 }
 

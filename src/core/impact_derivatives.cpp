@@ -12,10 +12,12 @@
 
 #include "collision_response/core/constants.h"
 #include "collision_response/core/contact_derivatives.h"
+#include "collision_response/core/contact_point.h"
 #include "collision_response/core/contact_space.h"
 #include "collision_response/core/exact_solver.h"
 #include "collision_response/core/impulse_space_derivatives.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/core/simultaneous_impact.h"
 #include "collision_response/core/validation.h"
 
 namespace collision_response::core {
@@ -328,13 +330,15 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
         value = x0;
         return e;
       };
-      auto same = [&](const Evaluation& e) {
-        if (e.modes.empty()) return false;
+      // Whether `e` lies on the same piece of the solve as `reference` (modes, integration steps).
+      auto sameAs = [&](const Evaluation& e, const Evaluation& reference) {
+        if (e.modes.empty() || reference.modes.empty()) return false;
         for (const int c : report.contacts) {
-          if (e.modes[c] != base.modes[c]) return false;
+          if (e.modes[c] != reference.modes[c]) return false;
         }
-        return e.island_mark[island] == base.island_mark[island];
+        return e.island_mark[island] == reference.island_mark[island];
       };
+      auto same = [&](const Evaluation& e) { return sameAs(e, base); };
       bool valid_plus = false, valid_minus = false, valid = false;
       const Evaluation plus = at(x0 + h, valid_plus), minus = at(x0 - h, valid_minus);
       Eigen::VectorXd derivative;
@@ -361,14 +365,22 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
           }
         }
       } else {
-        const bool forward = plus_same;
+        // The side differenced: the one on the base's piece. At a bound of the input's range
+        // (e = 0, mu_d = mu_s) the one valid side can lie on a piece of its own (e > 0 adds a
+        // restitution phase, and steps): the derivative of that side's piece, from two points on
+        // it (not across the jump to the base).
+        const bool bounded = valid_plus != valid_minus;
+        const bool forward = plus_same || (!minus_same && bounded && valid_plus);
         const double sign = forward ? 1.0 : -1.0;
         const Evaluation& near = forward ? plus : minus;
         const Evaluation far = at(x0 + 2.0 * sign * h, valid);
+        const bool own_piece = !plus_same && !minus_same && bounded && valid && sameAs(far, near);
         if ((plus_same || minus_same) && valid && same(far)) {
           derivative = sign * (-3.0 * base.outputs + 4.0 * near.outputs - far.outputs) / (2.0 * h);
         } else if (plus_same || minus_same) {
           derivative = sign * (near.outputs - base.outputs) / h;
+        } else if (own_piece) {
+          derivative = sign * (far.outputs - near.outputs) / h;
         } else if (valid_plus && valid_minus) {
           derivative = (plus.outputs - minus.outputs) / (2.0 * h);
         } else {
@@ -386,6 +398,8 @@ void finiteDifferences(const Scene& scene, const std::vector<std::pair<int, int>
                            ": " +
                            (plus_same    ? "increasing side"
                             : minus_same ? "decreasing side"
+                            : own_piece  ? (forward ? "the increasing side's own piece (at a bound)"
+                                                    : "the decreasing side's own piece (at a bound)")
                                          : "both sides change"));
           }
         }
@@ -437,6 +451,58 @@ struct DerivativeScratch {
 [[gnu::noinline]] DerivativeScratch& threadDerivativeScratch() {
   thread_local DerivativeScratch scratch;
   return scratch;
+}
+
+// Several contacts under Poisson or Stronge integrated together (solveSimultaneousImpulseSpace()):
+// the integration run again on dual numbers on the island's problem as the solve built it
+// (differentiateSimultaneousImpulseSpace()), dP/dv = dP/du J. False (the caller differences) if it
+// refuses or its impulses are not the solve's (a branch taken otherwise).
+bool simultaneousIsland(const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
+                        const SolveReport& report, const SolverOptions& options,
+                        const Deadline& deadline, const DerivativeColumns& columns,
+                        const std::vector<RigidBody>& before, const std::vector<Index>& body_column,
+                        Index velocity_count, std::vector<int>& local_of, ImpactDerivatives& out) {
+  std::vector<ContactPoint> points;
+  makeContactPoints(scene, contact_bodies, points);
+  ContactProblem problem;
+  problem.buildImpact(before, points, report.contacts);
+  const std::size_t m = report.contacts.size();
+  std::vector<bool> coefficients(3 * m, true);
+  for (std::size_t i = 0; i < m; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      coefficients[3 * i + static_cast<std::size_t>(k)] =
+          columns.wantsCoefficient(3 * static_cast<Index>(report.contacts[i]) + k);
+    }
+  }
+  // The call's time budget: a dual run out of time refuses, and the differences then throw.
+  SolverOptions timed = options;
+  timed.deadline = deadline;
+  SimultaneousImpulseDerivatives d;
+  if (!differentiateSimultaneousImpulseSpace(problem, timed, columns.velocities, coefficients, d)) {
+    return false;
+  }
+  const IslandSystem s =
+      buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
+  double scale = 0.0, error = 0.0;
+  for (std::size_t i = 0; i < m; ++i) {
+    const Vector3d& P = s.state[i].P;
+    scale = std::max(scale, P.norm());
+    error = std::max(error, (d.impulses.segment<3>(3 * static_cast<Index>(i)) - P).norm());
+  }
+  if (!(error <= 1e-9 * scale)) return false;
+  for (std::size_t i = 0; i < m; ++i) {
+    const int c = report.contacts[i];
+    const ContactImpulse& impulse = out.result.impulses[c];
+    ContactDerivativeMode& mode = out.contacts[c];
+    mode = ContactDerivativeMode{};
+    mode.mode = impulse.normal_impulse <= 0.0 ? ImpactMode::kNoImpulse
+                : impulse.sticking            ? ImpactMode::kSticking
+                                              : ImpactMode::kSliding;
+    if (!d.switches[i].empty()) flagSwitch(mode, d.switches[i]);
+  }
+  const MatrixXd dP_dv = columns.velocities ? MatrixXd(d.dP_du * s.J) : MatrixXd();
+  scatter(s, dP_dv, d.dP_dtheta, columns.velocities, body_column, velocity_count, out.jacobian);
+  return true;
 }
 
 }  // namespace
@@ -540,6 +606,7 @@ ImpactDerivatives computeValidatedImpactDerivatives(
   const auto end = std::chrono::steady_clock::now() +
                    std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                        std::chrono::duration<double>(options.time_budget));
+  const Deadline deadline = Deadline::in(options.time_budget);
   ImpactDerivatives out;
   out.result = computeValidatedResponse(scene, contact_bodies, options);
   out.contact_count = scene.contacts.size();
@@ -593,6 +660,12 @@ ImpactDerivatives computeValidatedImpactDerivatives(
         continue;
       }
       out.contacts[c] = ContactDerivativeMode{};
+    } else if (kind == AnalyticIsland::kImpulseSpaceIsland) {
+      if (simultaneousIsland(scene, contact_bodies, report, options, deadline, columns, before,
+                             body_column, velocity_count, local_of, out)) {
+        continue;
+      }
+      for (const int c : report.contacts) out.contacts[c] = ContactDerivativeMode{};
     } else if (kind == AnalyticIsland::kNewtonExact) {
       const IslandSystem s =
           buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);

@@ -9,6 +9,8 @@
 
 namespace collision_response::core {
 
+class ContactPoint;
+
 /// The answer of computeResponse(): the per-contact and per-island answer every request shares
 /// (contact_response.h: impulses in Scene::contacts order, effective masses, islands with
 /// SolveReport::contacts indexing Scene::contacts, warnings) and the bodies' states.
@@ -36,5 +38,11 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& options
 CollisionResult computeValidatedResponse(const Scene& scene,
                                          const std::vector<std::pair<int, int>>& contact_bodies,
                                          const SolverOptions& options = {});
+
+/// The solvers' contacts of a validated scene (contact_bodies from validate()): one per
+/// Scene::contacts entry, same order, the normal normalised; `points` is cleared first (its
+/// capacity is kept, for per-thread storage).
+void makeContactPoints(const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
+                       std::vector<ContactPoint>& points);
 
 }  // namespace collision_response::core

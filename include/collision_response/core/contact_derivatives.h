@@ -30,6 +30,10 @@ enum class AnalyticIsland {
   /// One contact under Poisson or Stronge integrated to its end (converged, no fallback):
   /// differentiateImpulseSpace() (impulse_space_derivatives.h).
   kImpulseSpaceContact,
+  /// Two to kSimultaneousMaxContacts contacts under Poisson or Stronge integrated together to
+  /// their end (SolvedBy::kSimultaneousImpulseSpace, converged, no fallback):
+  /// differentiateSimultaneousImpulseSpace() (simultaneous_impact.h).
+  kImpulseSpaceIsland,
 };
 
 /// The analytic path for an island solved as `island` reports under `law`.
