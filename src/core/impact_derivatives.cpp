@@ -490,6 +490,12 @@ bool simultaneousIsland(const Scene& scene, const std::vector<std::pair<int, int
     error = std::max(error, (d.impulses.segment<3>(3 * static_cast<Index>(i)) - P).norm());
   }
   if (!(error <= 1e-9 * scale)) return false;
+  // The island's scales: its fastest normal approach or separation, its largest normal impulse.
+  double speed = 0.0, normal_scale = 0.0;
+  for (const int c : report.contacts) {
+    speed = std::max(speed, std::abs(out.result.impulses[c].normal_velocity_before));
+    normal_scale = std::max(normal_scale, out.result.impulses[c].normal_impulse);
+  }
   for (std::size_t i = 0; i < m; ++i) {
     const int c = report.contacts[i];
     const ContactImpulse& impulse = out.result.impulses[c];
@@ -499,6 +505,20 @@ bool simultaneousIsland(const Scene& scene, const std::vector<std::pair<int, int
                 : impulse.sticking            ? ImpactMode::kSticking
                                               : ImpactMode::kSliding;
     if (!d.switches[i].empty()) flagSwitch(mode, d.switches[i]);
+    // The integration's own end states near a branch (as the Newton island flags them): a contact
+    // touching before (an approach starts its compression, a separation leaves it idle), one left
+    // touching without an impulse, one active with a vanishing impulse.
+    if (std::abs(impulse.normal_velocity_before) <= kSwitchTolerance * speed) {
+      flagSwitch(mode, "u_n = 0: touching before the impact; compressing or idle");
+    }
+    if (mode.mode == ImpactMode::kNoImpulse &&
+        std::abs(impulse.normal_velocity_after) <= kSwitchTolerance * speed) {
+      flagSwitch(mode, "u'_n = 0 with P_n = 0: separating/active; no-impulse side");
+    }
+    if (mode.mode != ImpactMode::kNoImpulse &&
+        impulse.normal_impulse <= kSwitchTolerance * normal_scale) {
+      flagSwitch(mode, "P_n = 0 while active; active side");
+    }
   }
   const MatrixXd dP_dv = columns.velocities ? MatrixXd(d.dP_du * s.J) : MatrixXd();
   scatter(s, dP_dv, d.dP_dtheta, columns.velocities, body_column, velocity_count, out.jacobian);
