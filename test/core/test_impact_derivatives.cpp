@@ -1374,6 +1374,57 @@ TEST(ImpactDerivatives, ImpulseSpaceFaceLandingFlatMatchesCentralDifferences) {
 
 namespace {
 
+// A cube landing on one edge (two corners of its bottom face, rank 2: no redundant rows) under
+// Poisson and Stronge with mu_s > mu_d, integrated together, against the test's central
+// differences. Half the landings with mu_s in [1, 2.5] and a slip up to 0.4 m/s (some end
+// sticking), half with mu_s in [2, 3.5] and a slip up to 0.15 m/s: the corners stop during the
+// impact and slip again as the cube turns about the edge, so their |P_t| / P_n ends well below
+// mu_d (a contact sliding one way throughout ends at mu_d): the branches inside the integration.
+TEST(ImpactDerivatives, ImpulseSpaceEdgeLandingMatchesCentralDifferences) {
+  for (const cr::ImpactLaw law : {cr::ImpactLaw::kPoisson, cr::ImpactLaw::kStronge}) {
+    RandomSource random(2641);
+    int analytic = 0, compared = 0, columns = 0, sticking = 0, stopped = 0;
+    const int trials = 24;
+    for (int trial = 0; trial < trials; ++trial) {
+      const bool slow = trial >= trials / 2;
+      const double mu_s = slow ? random.uniform(2.0, 3.5) : random.uniform(1.0, 2.5);
+      const double mu_d = random.uniform(0.3, 0.9) * mu_s;
+      const double speed = slow ? random.uniform(0.0, 0.15) : random.uniform(0.05, 0.4);
+      cr::Scene scene =
+          flatCubeLanding(random, speed, mu_s, mu_d, [&] { return random.uniform(0.2, 0.7); });
+      scene.contacts.erase(scene.contacts.begin() + 2, scene.contacts.end());  // the edge y = -0.5
+      const cr::SolverOptions options = withLaw(law);
+      const cr::ImpactDerivatives d = cr::computeImpactDerivatives(scene, options);
+      ASSERT_EQ(d.result.islands.size(), 1u);
+      ASSERT_EQ(d.result.islands[0].method, cr::SolvedBy::kSimultaneousImpulseSpace);
+      if (d.method != cr::DerivativeMethod::kAnalytic || anySwitch(d)) continue;
+      ++analytic;
+      for (const cr::ContactImpulse& impulse : d.result.impulses) {
+        if (impulse.sticking) {
+          ++sticking;
+        } else if (impulse.friction_impulse.norm() < 0.9 * mu_d * impulse.normal_impulse) {
+          ++stopped;
+        }
+      }
+      compared += compareWithDifferences(
+          scene, options, d, 4e-7, 1e-6,
+          std::string(cr::toString(law)) + ", edge landing, trial " + std::to_string(trial));
+      columns += static_cast<int>(d.jacobian.cols());
+    }
+    EXPECT_GE(analytic, trials * 3 / 4) << cr::toString(law);
+    // (Left out: columns whose steps cross an event inside the integration, the reference's own
+    // smoothness check.)
+    EXPECT_GE(compared, columns * 2 / 3)
+        << cr::toString(law) << ": " << compared << " of " << columns;
+    EXPECT_GE(sticking, 2) << cr::toString(law);
+    EXPECT_GE(stopped, 16) << cr::toString(law);
+    std::printf(
+        "%s, edge landing: %d of %d analytic, %d of %d columns, %d corners ending sticking, "
+        "%d sliding below mu_d\n",
+        cr::toString(law), analytic, trials, compared, columns, sticking, stopped);
+  }
+}
+
 // computeValidatedImpactDerivatives() with a subset of the columns (the linear uncertainty's
 // call): each column asked for is the full call's column (whose values the tests above check
 // against central differences), every other column is 0. Scenes of every path: several contacts
