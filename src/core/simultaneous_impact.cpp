@@ -71,9 +71,9 @@ T minOf(const T& a, const T& b) {
 }
 
 // The seeded inputs of a dual run: each gradient entry is one contact's relative velocity
-// component (world) or one of its coefficients.
+// component (world), its e or its mu_d (mu_s only decides branches: its column is 0).
 struct Seed {
-  enum Kind { kVelocity, kRestitution, kStaticFriction, kDynamicFriction } kind = kVelocity;
+  enum Kind { kVelocity, kRestitution, kDynamicFriction } kind = kVelocity;
   std::size_t contact = 0;
   int component = 0;  // kVelocity: x, y, z
 };
@@ -152,7 +152,6 @@ class Simultaneous {
         m_(problem.size()),
         state_(m_),
         restitution_(m_),
-        static_friction_(m_),
         dynamic_friction_(m_) {
     const Eigen::Index n3 = 3 * static_cast<Eigen::Index>(m_);
     w_.setZero(n3, n3);
@@ -163,7 +162,6 @@ class Simultaneous {
       const Eigen::Vector3d u = problem.relativeMotion(i);
       for (int k = 0; k < 3; ++k) u_(3 * static_cast<Eigen::Index>(i) + k) = u(k);
       restitution_[i] = c.restitution;
-      static_friction_[i] = c.static_friction;
       dynamic_friction_[i] = c.dynamic_friction;
       scale_ = std::max(scale_, u.norm());
       lambda_ = std::max(lambda_, c.normalDelassus());
@@ -173,9 +171,8 @@ class Simultaneous {
         const Seed& seed = seeds[k];
         T& input = seed.kind == Seed::kVelocity
                        ? u_(3 * static_cast<Eigen::Index>(seed.contact) + seed.component)
-                   : seed.kind == Seed::kRestitution    ? restitution_[seed.contact]
-                   : seed.kind == Seed::kStaticFriction ? static_friction_[seed.contact]
-                                                        : dynamic_friction_[seed.contact];
+                   : seed.kind == Seed::kRestitution ? restitution_[seed.contact]
+                                                     : dynamic_friction_[seed.contact];
         input.d[static_cast<Eigen::Index>(k)] = 1.0;
       }
       switch_.assign(m_, std::string());
@@ -912,8 +909,9 @@ class Simultaneous {
   Deadline deadline_;
   std::size_t m_;
   std::vector<State<T>> state_;
-  // The contacts' coefficients (seeded in dual runs).
-  std::vector<T> restitution_, static_friction_, dynamic_friction_;
+  // The contacts' e and mu_d (seeded in dual runs; mu_s, which only decides branches, is read
+  // from the problem).
+  std::vector<T> restitution_, dynamic_friction_;
   std::vector<std::string> switch_;  // dual runs: the switches met, per contact
   bool degenerate_ = false;          // dual runs: a weakly active contact in Lemke's rates
   Stacked w_;                        // the stacked W (3m x 3m)
@@ -987,10 +985,9 @@ bool differentiateSimultaneousImpulseSpace(const ContactProblem& problem,
       // Likewise e = 0: the contact goes idle after its compression and e enters nowhere, so the
       // scheme's column would be 0, not the one-sided (increasing e) derivative.
       if (k == 0 && !(problem.contact(i).restitution > 0.0)) return false;
-      seeds.push_back({k == 0   ? Seed::kRestitution
-                       : k == 1 ? Seed::kStaticFriction
-                                : Seed::kDynamicFriction,
-                       i, 0});
+      // mu_s only decides branches (the static cone's tests): its column is 0 on the piece.
+      if (k == 1) continue;
+      seeds.push_back({k == 0 ? Seed::kRestitution : Seed::kDynamicFriction, i, 0});
       column.push_back(n3 + static_cast<Eigen::Index>(at));
     }
   }

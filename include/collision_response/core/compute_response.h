@@ -9,7 +9,7 @@
 
 namespace collision_response::core {
 
-class ContactPoint;
+struct ContactPoint;
 
 /// The answer of computeResponse(): the per-contact and per-island answer every request shares
 /// (contact_response.h: impulses in Scene::contacts order, effective masses, islands with

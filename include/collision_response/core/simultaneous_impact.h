@@ -52,7 +52,8 @@ struct SimultaneousImpulseDerivatives {
   /// 3m x 3m (empty unless asked): dP/du, P the contacts' impulses stacked (world, on body b)
   /// [N s], u their pre-impact relative velocities (world, v_b - v_a) [m/s].
   Eigen::MatrixXd dP_du;
-  /// 3m x 3m: dP/dtheta, theta per contact (e, mu_s, mu_d); columns not asked for are 0.
+  /// 3m x 3m: dP/dtheta, theta per contact (e, mu_s, mu_d); columns not asked for are 0, and so
+  /// are mu_s's (it only decides branches: which contacts stay stuck).
   Eigen::MatrixXd dP_dtheta;
   Eigen::VectorXd impulses;           ///< 3m: P of the dual run (the solve's, to round-off)
   std::vector<std::string> switches;  ///< per contact: the switches met (empty: none)
@@ -61,8 +62,11 @@ struct SimultaneousImpulseDerivatives {
 /// On `problem` as the solve found it (before any impulse), under options.law (Poisson, Stronge)
 /// and options.simultaneous_sharing. `velocities`: compute dP/du; `coefficients` (3m, empty: all)
 /// which coefficient columns. False (the caller differences) for one contact or more than
-/// kSimultaneousMaxContacts, an integration that does not finish within its step budget, or a
-/// frictionless contact's friction columns (friction enters only once mu > 0).
+/// kSimultaneousMaxContacts, an integration that does not finish within its step budget or
+/// options.deadline, a frictionless contact's friction columns (friction enters only once mu > 0),
+/// the restitution column of a contact with e = 0 (e enters nowhere there), or rates from Lemke's
+/// method with a weakly active contact (a vertex of a set of answers, which can change with the
+/// inputs).
 bool differentiateSimultaneousImpulseSpace(const ContactProblem& problem,
                                            const SolverOptions& options, bool velocities,
                                            const std::vector<bool>& coefficients,
