@@ -36,6 +36,7 @@
 #include "collision_response/core/island_solver.h"
 #include "collision_response/core/rigid_body.h"
 #include "collision_response/core/single_contact.h"
+#include "peer_run.h"
 #ifdef HAVE_BULLET
 #include "peer_bullet.h"
 #endif
@@ -313,10 +314,11 @@ int main(int argc, char** argv) {
   if (peer_calls > 0) {
     const std::size_t colon = peer_config.find(':');
     const std::string name = peer_config.substr(0, colon);
-    const int iterations = colon == std::string::npos ? 10 : std::atoi(&peer_config[colon + 1]);
+    [[maybe_unused]] const int iterations =
+        colon == std::string::npos ? 10 : std::atoi(&peer_config[colon + 1]);
     for (const auto& s : bench::makeScenes()) {
       if (!selected(s.name)) continue;
-      for (const auto& inst : s.instances) {
+      for ([[maybe_unused]] const auto& inst : s.instances) {
         bench::PeerRun run;
         if (false) {
 #ifdef HAVE_BULLET
@@ -389,7 +391,7 @@ int main(int argc, char** argv) {
     }
     const std::string expressible =
         s.friction_split ? "no: one friction coefficient (given mu_d)" : "yes";
-    const int peer_reps = 2 * reps + 1;
+    [[maybe_unused]] const int peer_reps = 2 * reps + 1;
     // A peer configuration, measured against the reference of `law` (Newton's restitution:
     // "newton_lcp"); `can_express`: what the "expressible" column says.
     auto peerOf = [&](const std::string& engine, const std::string& curve, const std::string& param,
@@ -429,8 +431,9 @@ int main(int argc, char** argv) {
                (note.empty() ? "" : "; " + note);
       w.row(s, engine, curve, param, law, can_express, ns / ran, total, other, note);
     };
-    auto peer = [&](const std::string& engine, const std::string& curve, const std::string& param,
-                    const std::function<bench::PeerRun(const core::Scene&)>& run) {
+    [[maybe_unused]] auto peer = [&](const std::string& engine, const std::string& curve,
+                                     const std::string& param,
+                                     const std::function<bench::PeerRun(const core::Scene&)>& run) {
       peerOf(engine, curve, param, "newton_lcp", expressible, run);
     };
 #ifdef HAVE_BULLET
