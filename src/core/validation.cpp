@@ -1,6 +1,7 @@
 #include "collision_response/core/validation.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -56,12 +57,18 @@ void requireAtMost(const Eigen::Vector3d& v, double limit, const char* unit,
 }
 
 // Returns the smallest principal moment [kg m^2].
-double validateInertia(const Eigen::Matrix3d& inertia, const std::string& body_field) {
-  const auto field = [&] { return body_field + ".inertia"; };
+double validateInertia(const Eigen::Matrix3d& inertia, std::size_t body_index) {
+  const auto field = [&] { return indexed("bodies", body_index) + ".inertia"; };
   if (!inertia.isApprox(inertia.transpose(), 1e-12))
     throw InvalidInput(field(), "is not symmetric");
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia, Eigen::EigenvaluesOnly);
-  const Eigen::Vector3d moments = solver.eigenvalues();  // ascending
+  Eigen::Vector3d moments;  // ascending
+  if (inertia(0, 1) == 0.0 && inertia(0, 2) == 0.0 && inertia(1, 2) == 0.0) {
+    moments = inertia.diagonal();  // principal axes given (a box, a cylinder): no solve
+    std::sort(moments.data(), moments.data() + 3);
+  } else {
+    moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia, Eigen::EigenvaluesOnly)
+                  .eigenvalues();
+  }
   const double scale = moments.cwiseAbs().maxCoeff();
   if (!(moments[0] > 1e-12 * scale) || scale == 0.0) {
     throw InvalidInput(field(), "is not positive definite (principal moments " +
@@ -82,8 +89,34 @@ double validateInertia(const Eigen::Matrix3d& inertia, const std::string& body_f
   return moments[0];
 }
 
+// Whether every number of `body` is finite and within the accepted magnitudes, its orientation a
+// unit quaternion: the common case, decided without building a field's name (validateBody() names
+// what fails).
+bool plainBody(const BodyState& body) {
+  const auto within = [](const Eigen::Vector3d& v, double limit) {
+    return v.allFinite() && v.squaredNorm() <= limit * limit;
+  };
+  const double q_norm = body.orientation.coeffs().norm();
+  return !body.id.empty() && std::isfinite(body.mass) && body.inertia.allFinite() &&
+         (body.mass == 0.0 ||
+          (body.mass >= MagnitudeLimits::kMass[0] && body.mass <= MagnitudeLimits::kMass[1])) &&
+         within(body.com, MagnitudeLimits::kLength) &&
+         within(body.position, MagnitudeLimits::kLength) &&
+         within(body.linear_velocity, MagnitudeLimits::kSpeed) &&
+         within(body.angular_velocity, MagnitudeLimits::kSpeed) &&
+         within(body.force, MagnitudeLimits::kForce) &&
+         within(body.torque, MagnitudeLimits::kForce) && std::isfinite(q_norm) &&
+         std::abs(q_norm - 1.0) <= kUnitTolerance;
+}
+
 // Returns the smallest principal moment [kg m^2] of a movable body, 0 for an immovable one.
-double validateBody(const BodyState& body, const std::string& field) {
+double validateBody(const BodyState& body, std::size_t index) {
+  if (plainBody(body)) {
+    if (body.immovable()) return 0.0;
+    // The inertia's own checks (symmetry, principal moments) name the body only if they fail.
+    return validateInertia(body.inertia, index);
+  }
+  const std::string field = indexed("bodies", index);
   if (body.id.empty()) throw InvalidInput(field + ".id", "is empty");
   requireFinite(body.mass, field, ".inertia.m");
   requireFinite(body.com, field, ".inertia.com");
@@ -123,7 +156,8 @@ double validateBody(const BodyState& body, const std::string& field) {
     throw InvalidInput(field + ".pose.orientation",
                        "is not a unit quaternion (norm " + describe(q_norm) + ")");
   }
-  return body.immovable() ? 0.0 : validateInertia(body.inertia, field);
+  // Reached only where plainBody() and the checks above round a limit differently.
+  return body.immovable() ? 0.0 : validateInertia(body.inertia, index);
 }
 
 // Rejects a contact whose lever arm on a movable body is beyond MagnitudeLimits::kLeverOverGyration
@@ -292,25 +326,48 @@ SceneValidator::SceneValidator(const std::vector<BodyState>& bodies, std::size_t
                        "options.max_iterations");
 
   body_count_ = bodies.size();
-  index_of_.reserve(bodies.size());
+  ids_.reserve(bodies.size());
   for (std::size_t i = 0; i < bodies.size(); ++i) {
-    const std::string field = indexed("bodies", i);
-    smallest_moments_[i] = validateBody(bodies[i], field);
-    const auto [it, inserted] = index_of_.emplace(bodies[i].id, static_cast<int>(i));
-    if (!inserted) {
-      throw InvalidInput(field + ".id", "'" + bodies[i].id + "' duplicates bodies[" +
-                                            std::to_string(it->second) + "].id");
+    smallest_moments_[i] = validateBody(bodies[i], i);
+    const int earlier = addId(bodies[i].id);
+    if (earlier >= 0) {
+      throw InvalidInput(indexed("bodies", i) + ".id", "'" + bodies[i].id + "' duplicates bodies[" +
+                                                           std::to_string(earlier) + "].id");
     }
   }
 }
 
+int SceneValidator::indexOf(const std::string& id) const {
+  if (ids_.size() <= kScannedIds) {
+    for (std::size_t k = 0; k < ids_.size(); ++k) {
+      if (ids_[k] == id) return static_cast<int>(k);
+    }
+    return -1;
+  }
+  const auto it = index_of_.find(id);
+  return it == index_of_.end() ? -1 : it->second;
+}
+
+int SceneValidator::addId(const std::string& id) {
+  const int earlier = indexOf(id);
+  if (earlier >= 0) return earlier;
+  ids_.push_back(id);
+  if (ids_.size() == kScannedIds + 1) {
+    // From now on looked up by hash: the table is made of every id so far.
+    index_of_.reserve(2 * ids_.size());
+    for (std::size_t k = 0; k < ids_.size(); ++k) index_of_.emplace(ids_[k], static_cast<int>(k));
+  } else if (ids_.size() > kScannedIds + 1) {
+    index_of_.emplace(id, static_cast<int>(ids_.size() - 1));
+  }
+  return -1;
+}
+
 void SceneValidator::addOtherBodyIds(const std::vector<std::string>& ids) {
   for (const std::string& id : ids) {
-    const int index = static_cast<int>(index_of_.size());
-    const auto [it, inserted] = index_of_.emplace(id, index);
-    if (!inserted) {
-      if (it->second < static_cast<int>(body_count_)) {
-        throw InvalidInput(indexed("bodies", static_cast<std::size_t>(it->second)) + ".id",
+    const int earlier = addId(id);
+    if (earlier >= 0) {
+      if (earlier < static_cast<int>(body_count_)) {
+        throw InvalidInput(indexed("bodies", static_cast<std::size_t>(earlier)) + ".id",
                            "'" + id + "' is also the name of a robot's link");
       }
       throw InvalidInput("bodies", "body id '" + id + "' given twice");
@@ -325,10 +382,9 @@ void SceneValidator::checkContacts(const Scene& scene) {
     const Contact& contact = scene.contacts[i];
     const std::string field = indexed("contacts", i);
     const auto find = [&](const std::string& id, const char* name) {
-      const auto it = index_of_.find(id);
-      if (it == index_of_.end())
-        throw InvalidInput(field + "." + name, "names unknown body id '" + id + "'");
-      return it->second;
+      const int index = indexOf(id);
+      if (index < 0) throw InvalidInput(field + "." + name, "names unknown body id '" + id + "'");
+      return index;
     };
     const int a = find(contact.body_a, "body_a");
     const int b = find(contact.body_b, "body_b");
@@ -346,7 +402,7 @@ void SceneValidator::checkContacts(const Scene& scene,
                                 " contacts");
   }
   contact_bodies_.reserve(scene.contacts.size());
-  const int known = static_cast<int>(index_of_.size());
+  const int known = static_cast<int>(ids_.size());
   for (std::size_t i = first; i < scene.contacts.size(); ++i) {
     const std::string field = indexed("contacts", i);
     const auto [a, b] = bodies[i - first];

@@ -276,6 +276,66 @@ TEST(Validation, DuplicateIdIsRejectedAtTheSecondOccurrence) {
   EXPECT_NE(what.find("bodies[0]"), std::string::npos) << what;
 }
 
+// Ids are compared by a scan for a few bodies and through a hash table past 16: both find the same
+// duplicates and resolve the same contacts, whichever side of the switch an id falls on.
+TEST(Validation, IdsResolveTheSameAcrossTheScanAndTheTable) {
+  for (const int count : {3, 16, 17, 18, 40}) {
+    cr::Scene s;
+    for (int i = 0; i < count; ++i) {
+      cr::BodyState body;
+      body.id = "body_number_" + std::to_string(i);  // longer than a short string
+      body.mass = i == 0 ? 0.0 : 1.0;
+      body.inertia = i == 0 ? Matrix3d::Zero() : Matrix3d(Vector3d(0.5, 0.3, 0.4).asDiagonal());
+      body.position = Vector3d(i, 0, 0);
+      s.bodies.push_back(body);
+    }
+    for (int k = 0; k + 1 < count; ++k) {  // from the last pair to the first
+      cr::Contact c;
+      c.body_a = s.bodies[count - 1 - k].id;
+      c.body_b = s.bodies[count - 2 - k].id;
+      c.point = Vector3d(count - 1.5 - k, 0, 0);
+      c.normal = -Vector3d::UnitX();
+      s.contacts.push_back(c);
+    }
+    const std::vector<std::pair<int, int>> pairs =
+        cr::validate(s, cr::SolverOptions{}, cr::RequestLimits{});
+    ASSERT_EQ(pairs.size(), s.contacts.size());
+    for (int k = 0; k + 1 < count; ++k) {
+      EXPECT_EQ(pairs[k], std::make_pair(count - 1 - k, count - 2 - k)) << count << " bodies";
+    }
+    cr::Scene unknown = s;
+    unknown.contacts.back().body_b = "body_number_" + std::to_string(count);
+    expectInvalid(unknown, "contacts[" + std::to_string(count - 2) + "].body_b");
+    for (const int second : {1, count / 2, count - 1}) {
+      cr::Scene twice = s;
+      twice.bodies[second].id = s.bodies[second - 1].id;
+      const std::string what = expectInvalid(twice, "bodies[" + std::to_string(second) + "].id");
+      EXPECT_NE(what.find("bodies[" + std::to_string(second - 1) + "]"), std::string::npos) << what;
+    }
+  }
+}
+
+// An inertia given on its principal axes (diagonal) takes no eigen-solve: its moments are still
+// sorted before the checks, so the triangle inequality is tested on the largest moment whichever
+// diagonal entry holds it.
+TEST(Validation, DiagonalInertiaIsCheckedOnItsSortedMoments) {
+  for (const Vector3d& diagonal : {Vector3d(3, 1, 1), Vector3d(1, 3, 1), Vector3d(1, 1, 3)}) {
+    cr::Scene s = validScene();
+    s.bodies[2].inertia = diagonal.asDiagonal();
+    const std::string what = expectInvalid(s, "bodies[2].inertia");
+    EXPECT_NE(what.find("triangle"), std::string::npos) << what;
+  }
+  for (const Vector3d& diagonal : {Vector3d(0, 1, 1), Vector3d(1, -1, 1)}) {
+    cr::Scene s = validScene();
+    s.bodies[2].inertia = diagonal.asDiagonal();
+    const std::string what = expectInvalid(s, "bodies[2].inertia");
+    EXPECT_NE(what.find("positive definite"), std::string::npos) << what;
+  }
+  cr::Scene s = validScene();
+  s.bodies[2].inertia = Vector3d(2, 1, 1.5).asDiagonal();  // 1 + 1.5 >= 2
+  EXPECT_NO_THROW(cr::validate(s, cr::SolverOptions{}, cr::RequestLimits{}));
+}
+
 // --- Contacts. ----------------------------------------------------------------------------------
 TEST(Validation, ZeroNormalIsRejectedAsZero) {
   cr::Scene s = validScene();

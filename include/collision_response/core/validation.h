@@ -106,7 +106,17 @@ class SceneValidator {
   // Checks scene.contacts[i] (`field` its name) with body indices a and b and records them.
   void checkContact(const Scene& scene, std::size_t i, const std::string& field, int a, int b);
 
+  // The index of `id` in contactBodies()' numbering, -1 if unknown.
+  int indexOf(const std::string& id) const;
+  // Adds `id` (the next index) and returns -1, or returns the index of an equal id given before.
+  int addId(const std::string& id);
+
+  // The ids contacts may name (scene.bodies, then the other ids), looked up by a scan while there
+  // are at most kScannedIds (no allocation per id: most requests have a few bodies), past that
+  // through index_of_.
+  static constexpr std::size_t kScannedIds = 16;
   RequestLimits limits_;
+  std::vector<std::string> ids_;
   std::unordered_map<std::string, int> index_of_;
   std::vector<double> smallest_moments_;
   std::size_t body_count_ = 0;
