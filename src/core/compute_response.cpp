@@ -18,13 +18,11 @@ std::string formatNumber(const char* format, double value) {
   return text;
 }
 
-// Valid input that is usually a mistake (CollisionResult::warnings), found from the scene and the
-// answer, placed before the pipeline's approach warnings; costs a pass over bodies and contacts, no
-// allocation unless something is found.
-void addSceneWarnings(const Scene& scene, const SolverOptions& options, CollisionResult& result) {
-  std::vector<Warning> warnings;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
-    const BodyState& body = scene.bodies[i];
+}  // namespace
+
+void addBodyWarnings(const std::vector<BodyState>& bodies, std::vector<Warning>& warnings) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const BodyState& body = bodies[i];
     if (!body.immovable()) continue;
     const bool moving = !body.linear_velocity.isZero(0.0) || !body.angular_velocity.isZero(0.0);
     const bool has_inertia = !body.inertia.isZero(0.0);
@@ -37,6 +35,16 @@ void addSceneWarnings(const Scene& scene, const SolverOptions& options, Collisio
     reason += ": set inertia.m for a movable body)";
     warnings.push_back({"bodies[" + std::to_string(i) + "].inertia", std::move(reason)});
   }
+}
+
+namespace {
+
+// Valid input that is usually a mistake (CollisionResult::warnings), found from the scene and the
+// answer, placed before the pipeline's approach warnings; costs a pass over bodies and contacts, no
+// allocation unless something is found.
+void addSceneWarnings(const Scene& scene, const SolverOptions& options, CollisionResult& result) {
+  std::vector<Warning> warnings;
+  addBodyWarnings(scene.bodies, warnings);
   for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
     const ContactImpulse& impulse = result.impulses[c];
     if (!(impulse.normal_velocity_before > options.resting_velocity)) continue;

@@ -19,6 +19,7 @@
 #include "collision_response/core/option_ranges.h"
 #include "collision_response/core/resting_contact.h"
 #include "collision_response/core/rigid_body.h"
+#include "collision_response/core/solve_islands.h"
 #include "collision_response/core/validation.h"
 
 namespace collision_response::core {
@@ -84,6 +85,7 @@ struct EpisodeWorkspace {
   std::vector<std::pair<int, int>> scene_pairs;
   std::vector<BodyState> before;
   std::vector<RigidBody> rigid;
+  std::vector<BodyModel*> models;
   std::vector<ContactPoint> points;
   ContactProblem problem;
   std::vector<ContactImpulse> answer;
@@ -133,6 +135,7 @@ class Episode {
         scene_pairs_((*lease_).scene_pairs),
         before_((*lease_).before),
         rigid_((*lease_).rigid),
+        models_((*lease_).models),
         points_((*lease_).points),
         problem_((*lease_).problem),
         answer_((*lease_).answer) {
@@ -173,6 +176,7 @@ class Episode {
   void query();
   double step() const;
   void advance(double dt);
+  void solve(const std::vector<BodyState>& states, ContactResponse& response);
   bool impact(const std::vector<int>& contacts, bool plastic_resting);
   bool sustained(const std::vector<int>& contacts);
   bool configurationLasts(const std::vector<int>& contacts) const;
@@ -206,6 +210,7 @@ class Episode {
   std::vector<std::pair<int, int>>& scene_pairs_;
   std::vector<BodyState>& before_;
   std::vector<RigidBody>& rigid_;
+  std::vector<BodyModel*>& models_;
   std::vector<ContactPoint>& points_;
   ContactProblem& problem_;
   std::vector<ContactImpulse>& answer_;
@@ -361,6 +366,20 @@ double Episode::step() const {
   return std::min(s, safeStep(fastest_two, 2.0 * gravity_norm_, range_));
 }
 
+// The impact of points_ on the bodies in `states` through the island pipeline, under the time
+// left: the velocities after it in rigid_ (built from `states`), the impulses and warnings in
+// `response`. Throws SolverTimeout when no time is left.
+void Episode::solve(const std::vector<BodyState>& states, ContactResponse& response) {
+  SolverOptions solver = options_.solver;
+  solver.time_budget = options_.solver.time_budget - elapsed();
+  if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
+  makeRigidBodies(states, rigid_);
+  models_.clear();
+  for (RigidBody& body : rigid_) models_.push_back(&body);
+  // Resting contacts read each body's free acceleration under its wrench.
+  solveIslands(models_, points_, solver, response, [&] { setFreeAccelerations(states, rigid_); });
+}
+
 void Episode::advance(double dt) {
   for (BodyState& body : bodies_) advanceFreeFlight(body, dt, options_.gravity);
   time_ += dt;
@@ -372,19 +391,25 @@ void Episode::advance(double dt) {
 // analysis run. Returns true if the episode ends in sustained contact.
 bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   const std::size_t k = result_.impacts.size();
-  scene_.bodies = bodies_;
-  scene_.contacts.resize(contacts.size());
-  scene_pairs_.resize(contacts.size());
+  std::vector<Contact> listed(contacts.size());  // the record's, moved into it
+  points_.clear();
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const GapContact& gap = gaps_[candidates_[contacts[i]].index];
     validateCoefficients(gap.restitution, gap.static_friction, gap.dynamic_friction, "geometry");
-    fillContact(gap, scene_.contacts[i], scene_pairs_[i]);
-    if (plastic_resting) scene_.contacts[i].restitution = 0.0;
+    std::pair<int, int> pair;
+    fillContact(gap, listed[i], pair);
+    if (plastic_resting) listed[i].restitution = 0.0;
+    const Contact& c = listed[i];
+    points_.emplace_back(pair.first, pair.second, c.point, c.normal, c.restitution,
+                         c.static_friction, c.dynamic_friction);
   }
-  SolverOptions solver = options_.solver;
-  solver.time_budget = options_.solver.time_budget - elapsed();
-  if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
-  CollisionResult response = computeValidatedResponse(scene_, scene_pairs_, solver);
+  ContactResponse response;
+  solve(bodies_, response);  // the velocities after it in rigid_
+  before_ = bodies_;         // the states before the impact
+  for (std::size_t i = 0; i < bodies_.size(); ++i) {
+    bodies_[i].linear_velocity = rigid_[i].linear_velocity;
+    bodies_[i].angular_velocity = rigid_[i].angular_velocity;
+  }
   // A slow touch (a pivot the body turns about, through plastic touches) would otherwise sink a
   // little more at each: its deepest point is brought back to the surface (gap 0), the pair's
   // movable bodies moved apart along the normal in inverse proportion to their masses, a move
@@ -401,8 +426,8 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
         }
       }
       if (!deepest) continue;
-      BodyState& a = response.bodies[gap.body_a];
-      BodyState& b = response.bodies[gap.body_b];
+      BodyState& a = bodies_[gap.body_a];
+      BodyState& b = bodies_[gap.body_b];
       const double wa = a.immovable() ? 0.0 : 1.0 / a.mass, wb = b.immovable() ? 0.0 : 1.0 / b.mass;
       if (!(wa + wb > 0.0)) continue;
       const Eigen::Vector3d shift = -gap.gap * gap.normal.normalized();
@@ -415,19 +440,21 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   if (result_.impacts.empty()) result_.impacts.reserve(std::min(options_.max_impacts, 8));
   EpisodeImpact& record = result_.impacts.emplace_back();
   record.time = time_;
-  record.contacts = scene_.contacts;
+  record.contacts = std::move(listed);
   record.impulses = std::move(response.impulses);
-  record.bodies_after = std::move(response.bodies);
+  record.bodies_after = bodies_;
   const std::vector<ContactImpulse>& impulses = record.impulses;
-  const std::string prefix = "impacts[" + std::to_string(k) + "].";
-  for (Warning& warning : response.warnings) {
-    if (warning.kind == Warning::Kind::kSeparating) continue;  // detected neighbours move apart
-    if (warning.kind == Warning::Kind::kInput) {
-      if (k > 0) continue;  // about the bodies given: said once
-    } else {
-      warning.field = prefix + warning.field;
+  // The bodies' own warnings (about the state given) once, with the first impact, before its
+  // others; a separating neighbour the detection listed is not a mistake of the caller's.
+  if (k == 0) addBodyWarnings(before_, result_.warnings);
+  if (!response.warnings.empty()) {
+    const std::string prefix = "impacts[" + std::to_string(k) + "].";
+    for (Warning& warning : response.warnings) {
+      if (warning.kind == Warning::Kind::kSeparating) continue;
+      if (warning.kind != Warning::Kind::kInput) warning.field = prefix + warning.field;
+      if (warning.kind == Warning::Kind::kInput && k > 0) continue;
+      result_.warnings.push_back(std::move(warning));
     }
-    result_.warnings.push_back(std::move(warning));
   }
 
   // Contacts left within their resting threshold (rebound height below the tolerance).
@@ -444,8 +471,6 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
     }
     resting_set_.push_back(static_cast<int>(i));
   }
-  before_.swap(bodies_);  // the states before the impact
-  bodies_ = record.bodies_after;
   if (resting_set_.empty()) return false;
 
   // Accumulation: a contact rebounding at u (> resting velocity) at a ratio r = u / |u_before| < 1
@@ -476,14 +501,12 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   if (rebound) {
     // The series' impulses add up to a plastic impact on these contacts (e = 0) from the state
     // before: solved again so, the other contacts keeping their restitution.
-    scene_.bodies = before_;
-    for (const int i : resting_set_) scene_.contacts[i].restitution = 0.0;
-    solver.time_budget = options_.solver.time_budget - elapsed();
-    if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
-    const CollisionResult settled = computeValidatedResponse(scene_, scene_pairs_, solver);
+    for (const int i : resting_set_) points_[i].restitution = 0.0;
+    ContactResponse settled;
+    solve(before_, settled);
     for (std::size_t i = 0; i < bodies_.size(); ++i) {
-      bodies_[i].linear_velocity = settled.bodies[i].linear_velocity;
-      bodies_[i].angular_velocity = settled.bodies[i].angular_velocity;
+      bodies_[i].linear_velocity = rigid_[i].linear_velocity;
+      bodies_[i].angular_velocity = rigid_[i].angular_velocity;
     }
     result_.accumulated_impacts +=
         std::min(bounces, std::numeric_limits<int>::max() - result_.accumulated_impacts);

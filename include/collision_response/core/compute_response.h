@@ -39,6 +39,12 @@ CollisionResult computeValidatedResponse(const Scene& scene,
                                          const std::vector<std::pair<int, int>>& contact_bodies,
                                          const SolverOptions& options = {});
 
+/// Appends to `warnings` one kInput warning per body of a request that is valid but usually a
+/// mistake: an immovable body (mass 0) given an inertia tensor or a velocity (field
+/// "bodies[i].inertia"). computeResponse() places them before its other warnings; an episode names
+/// them with its first impact.
+void addBodyWarnings(const std::vector<BodyState>& bodies, std::vector<Warning>& warnings);
+
 /// The solvers' contacts of a validated scene (contact_bodies from validate()): one per
 /// Scene::contacts entry, same order, the normal normalised; `points` is cleared first (its
 /// capacity is kept, for per-thread storage).
