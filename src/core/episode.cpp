@@ -198,6 +198,10 @@ class Episode {
   double resting_velocity_ = 0.0;
   double time_ = 0.0;
   double range_ = 0.0;  // of the last query [m]
+  // gaps_ is the geometry's answer at the bodies' poses now, for gaps_range_ (cleared by a move).
+  bool gaps_current_ = false;
+  double gaps_range_ = 0.0;
+  bool gaps_points_ = false;  // every contact of gaps_ a point on a plane
 
   // The moment's geometry, reused from query to query (and in the thread's next episode).
   std::vector<GapContact>& gaps_;
@@ -264,14 +268,29 @@ void Episode::query() {
   const double remaining = options_.horizon - time_;
   range_ = std::clamp(fastestPairSpeed() * remaining + gravity_norm_ * remaining * remaining,
                       10.0 * tolerance_, std::max(1.0, 1e4 * tolerance_));
-  gaps_.clear();  // (the query clears it too, as GapQuery::gaps() promises)
-  geometry_.gaps(bodies_, range_, gaps_);
+  // The geometry's answer depends on the poses and the range only. After an impact (velocities
+  // changed, poses not) the last answer stands for a range no larger when it is all material
+  // points on planes (GapContact::point_on_plane): a query lists each such point within its range,
+  // so those within the smaller range are the points a new query would list.
+  const bool reuse =
+      gaps_current_ && (range_ == gaps_range_ || (gaps_points_ && range_ < gaps_range_));
+  if (!reuse) {
+    gaps_.clear();  // (the query clears it too, as GapQuery::gaps() promises)
+    geometry_.gaps(bodies_, range_, gaps_);
+    gaps_current_ = true;
+    gaps_range_ = range_;
+    gaps_points_ = std::all_of(gaps_.begin(), gaps_.end(),
+                               [](const GapContact& gap) { return gap.point_on_plane; });
+  }
+  const bool filter = reuse && range_ < gaps_range_;
 
   candidates_.clear();
   pairs_.clear();
   touching_.clear();
+  int last_pair = -1;  // a query lists a pair's contacts together, mostly
   for (std::size_t c = 0; c < gaps_.size(); ++c) {
     const GapContact& gap = gaps_[c];
+    if (filter && gap.gap > range_) continue;  // (checked by the query that listed it)
     if (gap.body_a < 0 || gap.body_b < 0 || gap.body_a >= static_cast<int>(n) ||
         gap.body_b >= static_cast<int>(n) || gap.body_a == gap.body_b) {
       throw InvalidInput("geometry", "a contact names bodies " + std::to_string(gap.body_a) +
@@ -280,51 +299,66 @@ void Episode::query() {
     }
     const BodyState& a = bodies_[gap.body_a];
     const BodyState& b = bodies_[gap.body_b];
-    if (a.immovable() && b.immovable()) continue;
-    const double length = gap.normal.norm();
-    if (!std::isfinite(gap.gap) || !gap.point.allFinite() || !(length > 0.0) ||
-        !std::isfinite(length)) {
-      throw InvalidInput("geometry", "a contact with a non-finite gap, point or normal");
+    const bool a_fixed = a.immovable(), b_fixed = b.immovable();
+    if (a_fixed && b_fixed) continue;
+    const double length_squared = gap.normal.squaredNorm();
+    // One sum is finite exactly when its terms are (or a term is so large that it overflows:
+    // then the terms are checked one by one).
+    if (!std::isfinite(gap.gap + gap.point.sum() + length_squared) || !(length_squared > 0.0)) {
+      if (!std::isfinite(gap.gap) || !gap.point.allFinite() || !(length_squared > 0.0) ||
+          !std::isfinite(gap.normal.norm())) {
+        throw InvalidInput("geometry", "a contact with a non-finite gap, point or normal");
+      }
     }
-    const Eigen::Vector3d normal = gap.normal / length;
-    const Eigen::Vector3d u =
-        b.linear_velocity + b.angular_velocity.cross(gap.point - bounds_[gap.body_b].com) -
-        a.linear_velocity - a.angular_velocity.cross(gap.point - bounds_[gap.body_a].com);
+    // A unit normal (what queries give) is taken as it is.
+    const Eigen::Vector3d normal = length_squared == 1.0
+                                       ? gap.normal
+                                       : Eigen::Vector3d(gap.normal / std::sqrt(length_squared));
+    // Relative velocity of b's point from a's (the cross products of non-turning bodies skipped).
+    Eigen::Vector3d u = b.linear_velocity;
+    if (bounds_[gap.body_b].spin > 0.0)
+      u += b.angular_velocity.cross(gap.point - bounds_[gap.body_b].com);
+    u -= a.linear_velocity;
+    if (bounds_[gap.body_a].spin > 0.0)
+      u -= a.angular_velocity.cross(gap.point - bounds_[gap.body_a].com);
     Candidate& candidate = candidates_.emplace_back();
     candidate.index = static_cast<int>(c);
     candidate.normal_velocity = normal.dot(u);
-    // Gravity's relative acceleration of b from a, into the contact (> 0 pushes them together).
-    const Eigen::Vector3d g_rel = (b.immovable() ? Eigen::Vector3d::Zero() : options_.gravity) -
-                                  (a.immovable() ? Eigen::Vector3d::Zero() : options_.gravity);
-    candidate.gravity_normal = -normal.dot(g_rel);
+    // Gravity's relative acceleration of b from a, into the contact (> 0 pushes them together):
+    // -n . (g_b - g_a), g_i = g for a movable body, 0 for an immovable one.
+    const double gravity_along = normal.dot(options_.gravity);
+    candidate.gravity_normal = a_fixed == b_fixed ? 0.0 : a_fixed ? -gravity_along : gravity_along;
     // A rebound at most this high stays within the tolerance: sqrt(2 g_n tol).
-    candidate.threshold = std::max(
-        resting_velocity_, std::sqrt(2.0 * std::max(candidate.gravity_normal, 0.0) * tolerance_));
+    candidate.threshold =
+        candidate.gravity_normal > 0.0
+            ? std::max(resting_velocity_, std::sqrt(2.0 * candidate.gravity_normal * tolerance_))
+            : resting_velocity_;
     if (gap.gap <= tolerance_) touching_.push_back(static_cast<int>(candidates_.size() - 1));
 
     candidate.gap = gap.gap;
     // A point of b on a's fixed plane: its gap accelerates by n . (g + alpha x r + w x (w x r)),
     // |alpha| <= |w|max^2 for torque-free rotation (0 when isotropic), |r| <= radius(b).
     const bool point_on_plane =
-        gap.point_on_plane && a.immovable() && a.angular_velocity.isZero(0.0) && !b.immovable();
+        gap.point_on_plane && a_fixed && !b_fixed && a.angular_velocity.isZero(0.0);
     if (point_on_plane) {
       const double spin = bounds_[gap.body_b].spin;
       const double turning =
           bounds_[gap.body_b].smallest_moment > 0.0 ? 2.0 * spin * spin : spin * spin;
-      candidate.acceleration =
-          std::max(0.0, -normal.dot(options_.gravity)) + turning * bounds_[gap.body_b].radius;
+      candidate.acceleration = std::max(0.0, -gravity_along) + turning * bounds_[gap.body_b].radius;
     }
     const int lo = std::min(gap.body_a, gap.body_b), hi = std::max(gap.body_a, gap.body_b);
-    auto it = std::find_if(pairs_.begin(), pairs_.end(),
-                           [&](const Pair& p) { return p.a == lo && p.b == hi; });
-    if (it == pairs_.end()) {
-      pairs_.push_back({lo, hi, gap.gap, point_on_plane});
-      it = pairs_.end() - 1;
-    } else {
-      it->gap = std::min(it->gap, gap.gap);
-      it->points = it->points && point_on_plane;
+    if (last_pair < 0 || pairs_[last_pair].a != lo || pairs_[last_pair].b != hi) {
+      const auto it = std::find_if(pairs_.begin(), pairs_.end(),
+                                   [&](const Pair& p) { return p.a == lo && p.b == hi; });
+      last_pair = static_cast<int>(it - pairs_.begin());
+      if (it == pairs_.end()) {
+        pairs_.push_back({lo, hi, gap.gap, point_on_plane});
+      }
     }
-    candidate.pair = static_cast<int>(it - pairs_.begin());
+    Pair& pair = pairs_[last_pair];
+    pair.gap = std::min(pair.gap, gap.gap);
+    pair.points = pair.points && point_on_plane;
+    candidate.pair = last_pair;
   }
 }
 
@@ -382,6 +416,7 @@ void Episode::solve(const std::vector<BodyState>& states, ContactResponse& respo
 
 void Episode::advance(double dt) {
   for (BodyState& body : bodies_) advanceFreeFlight(body, dt, options_.gravity);
+  gaps_current_ = false;
   time_ += dt;
 }
 
@@ -433,6 +468,7 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
       const Eigen::Vector3d shift = -gap.gap * gap.normal.normalized();
       a.position -= wa / (wa + wb) * shift;
       b.position += wb / (wa + wb) * shift;
+      gaps_current_ = false;
     }
   }
 
