@@ -102,7 +102,9 @@ double angularSpeedBound(const BodyState& body) {
 void advanceFreeFlight(BodyState& body, double dt, const Eigen::Vector3d& gravity) {
   if (dt <= 0.0) return;
   const Eigen::Quaterniond q0 = body.orientation.normalized();
-  const Eigen::Vector3d com_world = body.position + q0 * body.com;
+  // (A centre of mass at the body frame's origin, the usual case, needs no rotation.)
+  const bool com_at_origin = body.com.isZero(0.0);
+  const Eigen::Vector3d com_world = com_at_origin ? body.position : body.position + q0 * body.com;
   const Eigen::Vector3d& w = body.angular_velocity;
   const double speed = w.norm();
   Eigen::Quaterniond q1 = q0;
@@ -123,7 +125,7 @@ void advanceFreeFlight(BodyState& body, double dt, const Eigen::Vector3d& gravit
     body.linear_velocity += dt * gravity;
   }
   body.orientation = q1;
-  body.position = com_next - q1 * body.com;
+  body.position = com_at_origin ? com_next : com_next - q1 * body.com;
 }
 
 }  // namespace collision_response::core
