@@ -46,7 +46,9 @@ class GapQuery {
   /// read). A pair touching along an edge or a face gives the points that span the contact (the
   /// corners of the touching face, the ends of the edge), each with its own gap, so that a body
   /// tilting onto a face sees each corner's gap. Pairs farther apart than `range` may be left out;
-  /// a pair with no geometry never appears.
+  /// a pair with no geometry never appears. The answer must depend on the poses and `range`
+  /// only: an episode reuses it while the poses stay (after an impact) at the same range, or at
+  /// a smaller one when every contact is point_on_plane (then keeping those within it).
   virtual void gaps(const std::vector<BodyState>& bodies, double range,
                     std::vector<GapContact>& out) const = 0;
 
