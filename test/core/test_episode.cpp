@@ -560,6 +560,45 @@ TEST(Episode, StartingOverlapIsNamedOnce) {
     EXPECT_EQ(w.reason.find("starts overlapping"), std::string::npos) << w.text();
 }
 
+// A floor given an inertia tensor but no mass (usually a forgotten mass) is immovable, and says so
+// as a single prediction would (computeResponse()'s "bodies[i].inertia" warning): once for the
+// episode, however many impacts it has, and the ball's bounces are the closed form's all the same.
+TEST(Episode, AnImmovableBodyGivenAnInertiaIsNamedOnceForTheWholeEpisode) {
+  const double h = 0.2, e = 0.5, m = 0.5, R = 0.05;
+  const PointsAndPlanes geometry({Vector3d::UnitZ()}, {Vector3d::Zero()}, R, {e, 0.0, 0.0});
+  core::BodyState floor = floorBody();
+  floor.inertia = Eigen::Matrix3d::Identity();
+  const core::EpisodeOptions options = episodeOptions(core::ImpactLaw::kNewton);
+  const core::EpisodeResult result =
+      core::computeEpisode({floor, ball(m, R, h)}, geometry, options);
+  ASSERT_GE(result.impacts.size(), 3u);
+  int named = 0;
+  for (const core::Warning& w : result.warnings) {
+    if (w.field == "bodies[0].inertia") {
+      ++named;
+      EXPECT_EQ(w.kind, core::Warning::Kind::kInput);
+      EXPECT_NE(w.reason.find("treated as immovable"), std::string::npos) << w.text();
+    }
+  }
+  EXPECT_EQ(named, 1);
+  // The same words as the single prediction of the first impact.
+  core::Scene first;
+  first.bodies = {floor, ball(m, R, h)};
+  first.bodies[1].position.z() = R;
+  first.bodies[1].linear_velocity.z() = -std::sqrt(2 * kG * h);
+  first.contacts.push_back({"floor", "ball", Vector3d::Zero(), Vector3d::UnitZ(), e, 0.0, 0.0});
+  const core::CollisionResult single = core::computeResponse(first, options.solver);
+  ASSERT_FALSE(single.warnings.empty());
+  EXPECT_EQ(single.warnings[0].field, "bodies[0].inertia");
+  for (const core::Warning& w : result.warnings) {
+    if (w.field == "bodies[0].inertia") EXPECT_EQ(w.reason, single.warnings[0].reason);
+  }
+  // The floor did not move, and the first rebound is e times the impact speed.
+  EXPECT_NEAR(result.impacts[0].bodies_after[1].linear_velocity.z(), e * std::sqrt(2 * kG * h),
+              1e-9);
+  EXPECT_TRUE(result.bodies[0].linear_velocity.isZero(0.0));
+}
+
 // Two cubes (the same corners, each against the floor only): one at rest on it, the other dropped
 // flat from 0.3 m beside it. The episode must not end when the first one's contacts carry it:
 // the second is in the air. It ends when both rest, after the drop's closed-form fall time.
