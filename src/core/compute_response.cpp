@@ -94,22 +94,27 @@ void makeContactPoints(const Scene& scene, const std::vector<std::pair<int, int>
   }
 }
 
+void solveRigidIslands(const std::vector<BodyState>& states,
+                       const std::vector<ContactPoint>& points, const SolverOptions& options,
+                       std::vector<RigidBody>& bodies, std::vector<BodyModel*>& models,
+                       ContactResponse& response) {
+  makeRigidBodies(states, bodies);
+  models.clear();
+  for (RigidBody& body : bodies) models.push_back(&body);
+  // Resting contacts read each body's free acceleration under its wrench.
+  solveIslands(models, points, options, response, [&] { setFreeAccelerations(states, bodies); });
+}
+
 CollisionResult computeValidatedResponse(const Scene& scene,
                                          const std::vector<std::pair<int, int>>& contact_bodies,
                                          const SolverOptions& options) {
   Workspace& workspace = threadWorkspace();
   std::vector<RigidBody>& bodies = workspace.bodies;
-  makeRigidBodies(scene.bodies, bodies);
-  workspace.models.clear();
-  for (RigidBody& body : bodies) workspace.models.push_back(&body);
-
   std::vector<ContactPoint>& contacts = workspace.contacts;
   makeContactPoints(scene, contact_bodies, contacts);
 
   CollisionResult result;
-  // Resting contacts read each body's free acceleration under its wrench.
-  solveIslands(workspace.models, contacts, options, result,
-               [&] { setFreeAccelerations(scene.bodies, bodies); });
+  solveRigidIslands(scene.bodies, contacts, options, bodies, workspace.models, result);
 
   // Post-impact states.
   result.bodies = scene.bodies;

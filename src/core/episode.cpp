@@ -19,7 +19,6 @@
 #include "collision_response/core/option_ranges.h"
 #include "collision_response/core/resting_contact.h"
 #include "collision_response/core/rigid_body.h"
-#include "collision_response/core/solve_islands.h"
 #include "collision_response/core/validation.h"
 
 namespace collision_response::core {
@@ -182,7 +181,7 @@ class Episode {
   bool configurationLasts(const std::vector<int>& contacts) const;
   bool othersMayTouch(const std::vector<int>& contacts) const;
   double fastestPairSpeed() const;
-  void fillContact(const GapContact& gap, Contact& contact, std::pair<int, int>& bodies) const;
+  std::pair<int, int> addContact(const GapContact& gap, bool plastic, Contact& contact);
   void finish(EpisodeEnd end);
   void warnOverlaps();
 
@@ -220,16 +219,20 @@ class Episode {
   std::vector<ContactImpulse>& answer_;
 };
 
-void Episode::fillContact(const GapContact& gap, Contact& contact,
-                          std::pair<int, int>& bodies) const {
+// The contact of a touching gap: its coefficients checked, its record in `contact` (restitution
+// 0 if `plastic`), its solver contact appended to points_. Returns its bodies' indices.
+std::pair<int, int> Episode::addContact(const GapContact& gap, bool plastic, Contact& contact) {
+  validateCoefficients(gap.restitution, gap.static_friction, gap.dynamic_friction, "geometry");
   contact.body_a = bodies_[gap.body_a].id;
   contact.body_b = bodies_[gap.body_b].id;
   contact.point = gap.point;
   contact.normal = gap.normal.normalized();
-  contact.restitution = gap.restitution;
+  contact.restitution = plastic ? 0.0 : gap.restitution;
   contact.static_friction = gap.static_friction;
   contact.dynamic_friction = gap.dynamic_friction;
-  bodies = {gap.body_a, gap.body_b};
+  points_.emplace_back(gap.body_a, gap.body_b, contact.point, contact.normal, contact.restitution,
+                       contact.static_friction, contact.dynamic_friction);
+  return {gap.body_a, gap.body_b};
 }
 
 // The two largest speed bounds added: how fast any two bodies can close on each other [m/s].
@@ -407,11 +410,7 @@ void Episode::solve(const std::vector<BodyState>& states, ContactResponse& respo
   SolverOptions solver = options_.solver;
   solver.time_budget = options_.solver.time_budget - elapsed();
   if (!(solver.time_budget > 0.0)) throw SolverTimeout("episode");
-  makeRigidBodies(states, rigid_);
-  models_.clear();
-  for (RigidBody& body : rigid_) models_.push_back(&body);
-  // Resting contacts read each body's free acceleration under its wrench.
-  solveIslands(models_, points_, solver, response, [&] { setFreeAccelerations(states, rigid_); });
+  solveRigidIslands(states, points_, solver, rigid_, models_, response);
 }
 
 void Episode::advance(double dt) {
@@ -429,14 +428,7 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
   std::vector<Contact> listed(contacts.size());  // the record's, moved into it
   points_.clear();
   for (std::size_t i = 0; i < contacts.size(); ++i) {
-    const GapContact& gap = gaps_[candidates_[contacts[i]].index];
-    validateCoefficients(gap.restitution, gap.static_friction, gap.dynamic_friction, "geometry");
-    std::pair<int, int> pair;
-    fillContact(gap, listed[i], pair);
-    if (plastic_resting) listed[i].restitution = 0.0;
-    const Contact& c = listed[i];
-    points_.emplace_back(pair.first, pair.second, c.point, c.normal, c.restitution,
-                         c.static_friction, c.dynamic_friction);
+    addContact(gaps_[candidates_[contacts[i]].index], plastic_resting, listed[i]);
   }
   ContactResponse response;
   solve(bodies_, response);  // the velocities after it in rigid_
@@ -487,8 +479,11 @@ bool Episode::impact(const std::vector<int>& contacts, bool plastic_resting) {
     const std::string prefix = "impacts[" + std::to_string(k) + "].";
     for (Warning& warning : response.warnings) {
       if (warning.kind == Warning::Kind::kSeparating) continue;
-      if (warning.kind != Warning::Kind::kInput) warning.field = prefix + warning.field;
-      if (warning.kind == Warning::Kind::kInput && k > 0) continue;
+      if (warning.kind == Warning::Kind::kInput) {
+        if (k > 0) continue;  // about the bodies given: said once
+      } else {
+        warning.field = prefix + warning.field;
+      }
       result_.warnings.push_back(std::move(warning));
     }
   }
@@ -575,14 +570,8 @@ bool Episode::sustained(const std::vector<int>& contacts) {
   scene_pairs_.clear();
   scene_.contacts.resize(contacts.size());
   for (std::size_t i = 0; i < contacts.size(); ++i) {
-    const GapContact& gap = gaps_[candidates_[contacts[i]].index];
-    validateCoefficients(gap.restitution, gap.static_friction, gap.dynamic_friction, "geometry");
-    std::pair<int, int> pair;
-    fillContact(gap, scene_.contacts[i], pair);
-    const Contact& c = scene_.contacts[i];
-    points_.emplace_back(pair.first, pair.second, c.point, c.normal, c.restitution,
-                         c.static_friction, c.dynamic_friction);
-    scene_pairs_.push_back(pair);
+    scene_pairs_.push_back(
+        addContact(gaps_[candidates_[contacts[i]].index], false, scene_.contacts[i]));
   }
   // Resting here means a normal velocity within the contacts' resting thresholds, sqrt(2 g_n tol)
   // (a rebound that small stays within the tolerance). A slip is another matter: any slip above

@@ -591,7 +591,9 @@ TEST(Episode, AnImmovableBodyGivenAnInertiaIsNamedOnceForTheWholeEpisode) {
   ASSERT_FALSE(single.warnings.empty());
   EXPECT_EQ(single.warnings[0].field, "bodies[0].inertia");
   for (const core::Warning& w : result.warnings) {
-    if (w.field == "bodies[0].inertia") EXPECT_EQ(w.reason, single.warnings[0].reason);
+    if (w.field == "bodies[0].inertia") {
+      EXPECT_EQ(w.reason, single.warnings[0].reason);
+    }
   }
   // The floor did not move, and the first rebound is e times the impact speed.
   EXPECT_NEAR(result.impacts[0].bodies_after[1].linear_velocity.z(), e * std::sqrt(2 * kG * h),

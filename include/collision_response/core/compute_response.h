@@ -10,6 +10,8 @@
 namespace collision_response::core {
 
 struct ContactPoint;
+class BodyModel;
+struct RigidBody;
 
 /// The answer of computeResponse(): the per-contact and per-island answer every request shares
 /// (contact_response.h: impulses in Scene::contacts order, effective masses, islands with
@@ -38,6 +40,16 @@ CollisionResult computeResponse(const Scene& scene, const SolverOptions& options
 CollisionResult computeValidatedResponse(const Scene& scene,
                                          const std::vector<std::pair<int, int>>& contact_bodies,
                                          const SolverOptions& options = {});
+
+/// The island pipeline on free rigid bodies: `bodies` made from `states` (makeRigidBodies()),
+/// `models` pointing at them, `points` solved (solveIslands(), the resting contacts reading each
+/// body's free acceleration under its wrench); the velocities after the impact in `bodies`, the
+/// impulses, reports and warnings in `response`. `bodies` and `models` are the caller's storage
+/// (kept per thread by computeValidatedResponse() and by an episode).
+void solveRigidIslands(const std::vector<BodyState>& states,
+                       const std::vector<ContactPoint>& points, const SolverOptions& options,
+                       std::vector<RigidBody>& bodies, std::vector<BodyModel*>& models,
+                       ContactResponse& response);
 
 /// Appends to `warnings` one kInput warning per body of a request that is valid but usually a
 /// mistake: an immovable body (mass 0) given an inertia tensor or a velocity (field
