@@ -284,19 +284,27 @@ bool regular(const Llt& llt) {
   return pivots.minCoeff() > kRegular * pivots.maxCoeff();
 }
 
-// G^-1 b for every column b of `columns`, in place: column by column for a fixed size (inlined
-// kernels), at once otherwise.
+// G^-1 = L^-T L^-1 from G's Cholesky factor L (N x N, n its size): L^-1 by forward substitution
+// with the diagonal's reciprocals taken once. The columns are then products with G^-1, which
+// carry no division: solving column by column divides on every row of both triangles, a chain of
+// divisions per column that took more time than the rest of the solve.
 template <int N>
-void solveColumns(const Eigen::LLT<Eigen::Matrix<double, N, N>>& G,
-                  Eigen::Matrix<double, N, Eigen::Dynamic>& columns) {
-  if constexpr (N == Eigen::Dynamic) {
-    columns = G.solve(columns).eval();
-  } else {
-    for (Index k = 0; k < columns.cols(); ++k) {
-      const Eigen::Matrix<double, N, 1> b = columns.col(k);
-      columns.col(k) = G.solve(b);
+Eigen::Matrix<double, N, N> choleskyInverse(const Eigen::LLT<Eigen::Matrix<double, N, N>>& G) {
+  using Square = Eigen::Matrix<double, N, N>;
+  const auto& L = G.matrixLLT();  // lower triangle: L
+  const Index n = L.rows();
+  // (The n reciprocals are independent of each other: taken together, they overlap.)
+  const Eigen::Matrix<double, N, 1> reciprocal = L.diagonal().cwiseInverse();
+  Square Linv = Square::Zero(n, n);
+  for (Index j = 0; j < n; ++j) {
+    Linv(j, j) = reciprocal(j);
+    for (Index i = j + 1; i < n; ++i) {
+      double sum = 0.0;
+      for (Index k = j; k < i; ++k) sum += L(i, k) * Linv(k, j);
+      Linv(i, j) = -sum * reciprocal(i);
     }
   }
+  return Linv.transpose() * Linv;
 }
 
 // The body-space least-norm solve, G of size N x N (N = 6L; fixed for one body, the common case,
@@ -319,8 +327,9 @@ bool solveStickingBodySpace(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd
   }
   const Eigen::LLT<Square> G_llt(G);
   if (!regular(G_llt)) return false;
+  const Square G_inverse = choleskyInverse(G_llt);
   // x = G^-1 J^T rhs (the bodies' velocity change, up to sign), then J G^-1 M x.
-  solveColumns(G_llt, x);
+  x = (G_inverse * x).eval();
   Tall& Mx = x;  // M x, in place (M block diagonal: mass, inertia per rigid body)
   for (Index l = 0; l < L / 6; ++l) {
     const auto b = static_cast<std::size_t>(l);
@@ -331,7 +340,7 @@ bool solveStickingBodySpace(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd
     }
   }
   if (!Mx.allFinite()) return false;  // a singular inertia: decomposed instead
-  solveColumns(G_llt, Mx);
+  Mx = (G_inverse * Mx).eval();
   solution.resize(3 * m, columns);
   for (Index i = 0; i < m; ++i) {
     const auto J_i = s.J.template block<3, N>(3 * i, 0, 3, L);
@@ -355,6 +364,16 @@ bool solveSticking(const NewtonIsland& s, const MatrixXd& rhs, MatrixXd& solutio
   return true;
 }
 
+struct NewtonScratch {
+  Eigen::Matrix<double, Eigen::Dynamic, 3> F_theta;
+  MatrixXd rhs, solution;
+};
+
+[[gnu::noinline]] NewtonScratch& threadNewtonScratch() {
+  thread_local NewtonScratch scratch;
+  return scratch;
+}
+
 }  // namespace
 
 bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
@@ -376,7 +395,12 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   // configuration columns, whose W moves too.
   const Index Q = configuration != nullptr ? configuration->pre.cols() : 0;
   const bool velocities = columns.velocities || Q > 0;
-  Blocks F_u = velocities ? Blocks::Zero(3 * m, 3) : Blocks(), F_theta = Blocks::Zero(3 * m, 3);
+  // F_theta, the right-hand sides and their solution in storage kept per thread (the function
+  // does not call itself): one island after another, of the same size, allocates nothing for them.
+  NewtonScratch& scratch = threadNewtonScratch();
+  Blocks F_u = velocities ? Blocks::Zero(3 * m, 3) : Blocks();
+  Blocks& F_theta = scratch.F_theta;
+  F_theta.setZero(3 * m, 3);
   Blocks F_post = Q > 0 ? Blocks::Zero(3 * m, 3) : Blocks();
   double u_reference = 0.0, P_scale = 0.0;
   for (Index i = 0; i < m; ++i) {
@@ -579,7 +603,8 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
   }
   dP_dtheta.setZero(3 * m, 3 * m);
   if (V + T + Q == 0) return true;
-  MatrixXd rhs(3 * m, V + T + Q);
+  MatrixXd& rhs = scratch.rhs;
+  rhs.resize(3 * m, V + T + Q);
   if (V > 0) {
     for (Index i = 0; i < m; ++i) {
       rhs.block(3 * i, 0, 3, L).noalias() = F_u.block<3, 3>(3 * i, 0) * s.J.middleRows<3>(3 * i);
@@ -597,7 +622,7 @@ bool differentiateNewtonIsland(const NewtonIsland& s, bool all_sticking,
         F_u.block<3, 3>(3 * i, 0) * configuration->pre.middleRows<3>(3 * i) +
         F_post.block<3, 3>(3 * i, 0) * configuration->post.middleRows<3>(3 * i);
   }
-  MatrixXd solution;
+  MatrixXd& solution = scratch.solution;
   // Redundant contacts (F_P singular): the impulses' least-norm change is the derivative of the
   // least-norm impulses only where F_P does not move; under a configuration change it does.
   bool redundant = false;

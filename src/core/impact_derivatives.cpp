@@ -52,12 +52,16 @@ Eigen::Matrix<double, 3, 6> pointJacobian(const Vector3d& r) {
   return J;
 }
 
-IslandSystem buildSystem(const std::vector<int>& contacts, const Scene& scene,
-                         const std::vector<std::pair<int, int>>& contact_bodies,
-                         const std::vector<RigidBody>& before, const CollisionResult& result,
-                         std::vector<int>& local_of) {
-  IslandSystem s;
+// Fills `s` (its storage reused: the caller's per-thread system, one island after another).
+void buildSystem(const std::vector<int>& contacts, const Scene& scene,
+                 const std::vector<std::pair<int, int>>& contact_bodies,
+                 const std::vector<RigidBody>& before, const CollisionResult& result,
+                 std::vector<int>& local_of, IslandSystem& s) {
   s.contacts = contacts;
+  s.state.clear();
+  s.rigid.clear();
+  s.bodies.clear();
+  s.clearW();
   s.state.reserve(contacts.size());
   for (const int c : contacts) {
     for (const int b : {contact_bodies[c].first, contact_bodies[c].second}) {
@@ -101,7 +105,6 @@ IslandSystem buildSystem(const std::vector<int>& contacts, const Scene& scene,
     s.MinvJt.middleRows<3>(6 * l + 3) = body.inverse_inertia * Jt.bottomRows<3>();
   }
   for (const int b : s.bodies) local_of[b] = -1;
-  return s;
 }
 
 // Writes an island's derivatives into the full Jacobian from dP/dv (3m x 6L, v the island's
@@ -446,6 +449,8 @@ struct DerivativeScratch {
   std::vector<RigidBody> before;   // the bodies before the impact
   std::vector<Index> body_column;  // per body: its first velocity column, -1 if immovable
   std::vector<int> local_of;       // per body: its index in the island buildSystem() builds
+  IslandSystem system;             // the island being differentiated (exact solver's, dual run's)
+  MatrixXd dP_dv, dP_dtheta;       // its impulses' derivatives (differentiateNewtonIsland())
 };
 
 [[gnu::noinline]] DerivativeScratch& threadDerivativeScratch() {
@@ -481,8 +486,8 @@ bool simultaneousIsland(const Scene& scene, const std::vector<std::pair<int, int
   if (!differentiateSimultaneousImpulseSpace(problem, timed, columns.velocities, coefficients, d)) {
     return false;
   }
-  const IslandSystem s =
-      buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
+  IslandSystem& s = threadDerivativeScratch().system;
+  buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of, s);
   double scale = 0.0, error = 0.0;
   for (std::size_t i = 0; i < m; ++i) {
     const Vector3d& P = s.state[i].P;
@@ -618,6 +623,15 @@ ImpactDerivatives computeImpactDerivatives(const Scene& scene, const SolverOptio
 ImpactDerivatives computeValidatedImpactDerivatives(
     const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
     const SolverOptions& options, const DerivativeColumns& columns) {
+  ImpactDerivatives out;
+  computeValidatedImpactDerivatives(scene, contact_bodies, options, columns, out);
+  return out;
+}
+
+void computeValidatedImpactDerivatives(const Scene& scene,
+                                       const std::vector<std::pair<int, int>>& contact_bodies,
+                                       const SolverOptions& options,
+                                       const DerivativeColumns& columns, ImpactDerivatives& out) {
   if (!columns.coefficients.empty() && columns.coefficients.size() != 3 * scene.contacts.size()) {
     throw std::invalid_argument(
         "computeValidatedImpactDerivatives: one coefficient column flag per coefficient");
@@ -627,10 +641,11 @@ ImpactDerivatives computeValidatedImpactDerivatives(
                    std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                        std::chrono::duration<double>(options.time_budget));
   const Deadline deadline = Deadline::in(options.time_budget);
-  ImpactDerivatives out;
   out.result = computeValidatedResponse(scene, contact_bodies, options);
   out.contact_count = scene.contacts.size();
-  out.contacts.resize(scene.contacts.size());
+  out.contacts.assign(scene.contacts.size(), ContactDerivativeMode{});
+  out.movable_bodies.clear();
+  out.method = DerivativeMethod::kAnalytic;
 
   DerivativeScratch& scratch = threadDerivativeScratch();
   std::vector<RigidBody>& before = scratch.before;
@@ -687,9 +702,9 @@ ImpactDerivatives computeValidatedImpactDerivatives(
       }
       for (const int c : report.contacts) out.contacts[c] = ContactDerivativeMode{};
     } else if (kind == AnalyticIsland::kNewtonExact) {
-      const IslandSystem s =
-          buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of);
-      MatrixXd dP_dv, dP_dtheta;
+      IslandSystem& s = scratch.system;
+      buildSystem(report.contacts, scene, contact_bodies, before, out.result, local_of, s);
+      MatrixXd &dP_dv = scratch.dP_dv, &dP_dtheta = scratch.dP_dtheta;
       // The exact solver's answer came without a pivot (iterations 0) when every contact was
       // active and sticking inside its static cone (exact_solver.h).
       if (differentiateNewtonIsland(s, report.iterations == 0, columns, dP_dv, dP_dtheta,
@@ -711,7 +726,6 @@ ImpactDerivatives computeValidatedImpactDerivatives(
     if (!columns.coefficients[k])
       out.jacobian.col(velocity_count + static_cast<Index>(k)).setZero();
   }
-  return out;
 }
 
 }  // namespace collision_response::core

@@ -16,6 +16,7 @@
 #include <string>
 #include <string_view>
 #include <tuple>
+#include <utility>
 
 #include "collision_response/core/body_impact_derivatives.h"
 #include "collision_response/core/body_response.h"
@@ -91,15 +92,66 @@ struct GeometryDimension {
   double std_dev = 0.0;  // [rad] or [m]
 };
 
-struct Prepared {
+// A value kept per thread (one per type) and lent to one user at a time: `lent` says whether it is
+// out. Users that find it out make their own.
+template <class T>
+struct ThreadSlot {
+  T value;
+  bool lent = false;
+  static ThreadSlot& get() {
+    thread_local ThreadSlot slot;
+    return slot;
+  }
+};
+
+// Prepared's two lists in storage kept per thread, lent to one Prepared at a time and given back
+// (cleared, capacity kept) when it is destroyed: a request prepares its uncertainties without
+// allocating them when the thread's last request had as many. A Prepared made while another
+// holds the storage gets fresh lists.
+class LentLists {
+ public:
+  using Contacts = std::vector<UncertainContact>;
+  using Dimensions = std::vector<std::pair<std::size_t, int>>;
+  LentLists() {
+    Slot& slot = Slot::get();
+    if (!slot.lent) {
+      slot.lent = true;
+      slot_ = &slot;
+      contacts.swap(slot.value.first);
+      dimensions.swap(slot.value.second);
+    }
+  }
+  LentLists(LentLists&& other) noexcept
+      : contacts(std::move(other.contacts)),
+        dimensions(std::move(other.dimensions)),
+        slot_(std::exchange(other.slot_, nullptr)) {}
+  LentLists(const LentLists&) = delete;
+  LentLists& operator=(const LentLists&) = delete;
+  LentLists& operator=(LentLists&&) = delete;
+  ~LentLists() {
+    if (slot_ == nullptr) return;
+    contacts.clear();
+    dimensions.clear();
+    contacts.swap(slot_->value.first);
+    dimensions.swap(slot_->value.second);
+    slot_->lent = false;
+  }
+  Contacts contacts;
+  Dimensions dimensions;
+
+ private:
+  using Slot = ThreadSlot<std::pair<Contacts, Dimensions>>;
+  Slot* slot_ = nullptr;
+};
+
+struct Prepared : LentLists {
   // The scene with the coefficients at their means: the request's own scene while every mean
   // equals the request's value (as when the request's values are the means), a copy once one
   // differs (prepare() makes it; the request's scene outlives the Prepared).
   const Scene& meanScene() const { return owned_mean ? *owned_mean : *request_scene; }
   const Scene* request_scene = nullptr;
   std::optional<Scene> owned_mean;
-  std::vector<UncertainContact> contacts;
-  std::vector<std::pair<std::size_t, int>> dimensions;  // (index in contacts, coefficient)
+  // (LentLists: contacts, the uncertain contacts; dimensions, (index in contacts, coefficient).)
   // Sampling dimensions of the normals and points, after the coefficients' ones (their count is
   // geometry.size()).
   std::size_t geometry_dimensions = 0;
@@ -1211,6 +1263,30 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
                      derivatives.velocityCount(), differentiate, solve_moved);
 }
 
+// One ImpactDerivatives per thread for linearDistribution() (ThreadSlot): a nested call (none
+// today) would get a fresh one instead of overwriting the lent one.
+class ThreadDerivatives {
+ public:
+  ThreadDerivatives() {
+    Slot& slot = Slot::get();
+    if (!slot.lent) {
+      slot.lent = true;
+      lent_ = &slot;
+    }
+  }
+  ~ThreadDerivatives() {
+    if (lent_ != nullptr) lent_->lent = false;
+  }
+  ThreadDerivatives(const ThreadDerivatives&) = delete;
+  ThreadDerivatives& operator=(const ThreadDerivatives&) = delete;
+  ImpactDerivatives& get() { return lent_ != nullptr ? lent_->value : own_; }
+
+ private:
+  using Slot = ThreadSlot<ImpactDerivatives>;
+  Slot* lent_ = nullptr;
+  ImpactDerivatives own_;
+};
+
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
                                        const RequestLimits& limits) {
   // The call's start: every solve after the mean's (the geometry's differences, the sliding
@@ -1230,8 +1306,12 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
   for (const auto& [index, which] : prepared.dimensions)
     columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
         true;
-  const ImpactDerivatives derivatives =
-      computeValidatedImpactDerivatives(prepared.meanScene(), contact_bodies, options, columns);
+  // The derivatives in storage kept per thread (a request's Jacobian and lists are the size of
+  // the last one's: no allocation for them); a call nested in one using it gets its own.
+  ThreadDerivatives borrowed;
+  ImpactDerivatives& derivatives = borrowed.get();
+  computeValidatedImpactDerivatives(prepared.meanScene(), contact_bodies, options, columns,
+                                    derivatives);
   OutcomeDistribution outcome;
   const Eigen::Index m = derivatives.velocityCount() + derivatives.impulseCount();
   outcome.labels = derivatives.rowLabels();

@@ -104,6 +104,8 @@ struct NewtonIsland {
 
   /// W = J M^-1 J^T (3m x 3m), formed on first use.
   const Eigen::MatrixXd& W() const;
+  /// Forgets the W formed (for a NewtonIsland whose storage is refilled for another island).
+  void clearW() { W_.resize(0, 0); }
 
  private:
   mutable Eigen::MatrixXd W_;

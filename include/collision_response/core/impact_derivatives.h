@@ -135,4 +135,12 @@ ImpactDerivatives computeValidatedImpactDerivatives(
     const Scene& scene, const std::vector<std::pair<int, int>>& contact_bodies,
     const SolverOptions& options, const DerivativeColumns& columns);
 
+/// The same, written into `out`, whose storage (the Jacobian, the per-contact lists) is reused:
+/// for a caller that differentiates one scene shape after another on one thread (the linear
+/// uncertainty keeps one per thread). Every field of `out` is overwritten.
+void computeValidatedImpactDerivatives(const Scene& scene,
+                                       const std::vector<std::pair<int, int>>& contact_bodies,
+                                       const SolverOptions& options,
+                                       const DerivativeColumns& columns, ImpactDerivatives& out);
+
 }  // namespace collision_response::core
