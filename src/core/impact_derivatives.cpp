@@ -637,10 +637,8 @@ void computeValidatedImpactDerivatives(const Scene& scene,
         "computeValidatedImpactDerivatives: one coefficient column flag per coefficient");
   }
   // One time budget for the whole call: the prediction and every perturbed solve.
-  const auto end = std::chrono::steady_clock::now() +
-                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                       std::chrono::duration<double>(options.time_budget));
   const Deadline deadline = Deadline::in(options.time_budget);
+  const std::chrono::steady_clock::time_point end = deadline.end();
   out.result = computeValidatedResponse(scene, contact_bodies, options);
   out.contact_count = scene.contacts.size();
   out.contacts.assign(scene.contacts.size(), ContactDerivativeMode{});

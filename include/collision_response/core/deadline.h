@@ -22,6 +22,8 @@ class Deadline {
     return deadline;
   }
 
+  /// When it expires (Clock::time_point::max(): never).
+  Clock::time_point end() const { return end_; }
   bool expired() const { return end_ != Clock::time_point::max() && Clock::now() > end_; }
 
   /// A deadline `fraction` (0..1) of the way from now to this one, with the same budget in its
