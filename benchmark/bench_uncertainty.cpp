@@ -4,9 +4,11 @@
 //   devel/lib/collision_response/bench_uncertainty          (Release build)
 // BM_Predict: computeResponse(); BM_Linear: the linear distribution; BM_LinearGeometry: the same
 // with each corner's normal (0.01 rad) and point (5 mm in x and y) uncertain too, whose columns are
-// differences of the solver (16 dimensions, 49 solves: the flat face's tilts take secants); BM_Sampled/N/threads: N samples on a
-// worker pool of that many threads (wall time: --benchmark_min_time=2).
-// Instruction counts of one call each, for the ratio linear / prediction:
+// differences of the solver (16 dimensions, 49 solves: the flat face's tilts take secants);
+// BM_Sampled/N/threads: N samples on a worker pool of that many threads (wall time:
+// --benchmark_min_time=2). BM_LinearOverPredict: the prediction and the linear distribution
+// alternately in one loop, the ratio of their medians. Instruction counts of one call each, for the
+// ratio linear / prediction:
 //   valgrind --tool=callgrind --toggle-collect='*predictOnce*' bench_uncertainty --callgrind
 //   valgrind --tool=callgrind --toggle-collect='*linearOnce*' bench_uncertainty --callgrind
 // (and '*sampledOnce*': 1,000 samples on the calling thread; '*linearGeometryOnce*').
@@ -14,6 +16,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -126,6 +129,36 @@ void BM_Linear(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(linearOnce(scene, u, options));
 }
 
+// The prediction and the linear distribution alternately, each call timed on its own
+// (steady_clock): the ratio of their medians in one run, immune to the shared machine's speed
+// drifting between two benchmarks run one after the other. Counters: predict_ns, linear_ns (the
+// medians over the iterations) and ratio.
+void BM_LinearOverPredict(benchmark::State& state) {
+  const core::Scene scene = cube4();
+  const auto u = uncertainties();
+  const core::SolverOptions options = newton();
+  using Clock = std::chrono::steady_clock;
+  std::vector<double> predict, linear;
+  for (auto _ : state) {
+    const Clock::time_point t0 = Clock::now();
+    benchmark::DoNotOptimize(predictOnce(scene, options));
+    const Clock::time_point t1 = Clock::now();
+    benchmark::DoNotOptimize(linearOnce(scene, u, options));
+    const Clock::time_point t2 = Clock::now();
+    predict.push_back(std::chrono::duration<double, std::nano>(t1 - t0).count());
+    linear.push_back(std::chrono::duration<double, std::nano>(t2 - t1).count());
+  }
+  auto median = [](std::vector<double>& v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double p = median(predict), l = median(linear);
+  state.counters["predict_ns"] = p;
+  state.counters["linear_ns"] = l;
+  state.counters["ratio"] = p > 0.0 ? l / p : 0.0;
+}
+
 void BM_LinearGeometry(benchmark::State& state) {
   const core::Scene scene = cube4();
   const auto u = geometryUncertainties();
@@ -150,6 +183,7 @@ void BM_Sampled(benchmark::State& state) {
 
 BENCHMARK(BM_Predict);
 BENCHMARK(BM_Linear);
+BENCHMARK(BM_LinearOverPredict);
 BENCHMARK(BM_LinearGeometry);
 BENCHMARK(BM_Sampled)
     ->Args({10000, 1})
