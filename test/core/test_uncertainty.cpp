@@ -14,6 +14,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -971,4 +972,98 @@ TEST(Uncertainty, LinearStickProbabilityInAnIslandIsOnTheBoundTheSolverDecidesOn
       EXPECT_NEAR(body_lin.stick_probability[0], reference, 1e-6);
     }
   }
+}
+
+// The linear method keeps its derivatives, island system and prepared lists in storage per thread
+// (docs/uncertainty.md, "Cost"). A thread that answered other requests before, of other sizes and
+// other solver paths (a face of 4 sticking corners: the exact solver's all-sticking body-space
+// solve; one sphere: the closed form; three sliding contacts on two bodies: the exact solver's
+// pivots), must give each answer bit for bit as a fresh thread does: nothing of an earlier request
+// may leak into a later one. It fails if a reused list or matrix is not cleared or resized.
+TEST(Uncertainty, LinearAnswersDoNotDependOnTheThreadsEarlierRequests) {
+  auto contact = [](const char* body, const Eigen::Vector3d& point, double mu_s, double mu_d) {
+    core::Contact c;
+    c.body_a = "ground";
+    c.body_b = body;
+    c.point = point;
+    c.normal = {0.0, 0.0, 1.0};
+    c.restitution = 0.5;
+    c.static_friction = mu_s;
+    c.dynamic_friction = mu_d;
+    return c;
+  };
+  core::Scene face;
+  face.bodies = {groundBody(), landingBox()};
+  for (const double x : {-0.3, 0.3})
+    for (const double y : {-0.2, 0.2})
+      face.contacts.push_back(contact("box", {x, y, 0.0}, 0.8, 0.6));
+  core::Scene three;
+  three.bodies = {groundBody(), landingBox(), solidBall(2.0, {3.0, 0.0, 0.1}, {2.5, -0.8, -1.5})};
+  three.contacts = {contact("box", {-0.3, 0.0, 0.0}, 0.2, 0.16),
+                    contact("box", {0.3, 0.0, 0.0}, 0.2, 0.16),
+                    contact("ball", {3.0, 0.0, 0.0}, 0.15, 0.12)};
+  const core::Scene ball = sphere(0.5, 0.3, 0.25);
+  // A ball rolling on the ground (u_n = 0: its contact flagged at a switch) beside one landing.
+  core::Scene touch;
+  core::BodyState rolling = solidBall(1.0, {0.0, 0.0, 0.1}, {1.0, 0.0, 0.0});
+  rolling.id = "rolling";
+  touch.bodies = {groundBody(), rolling, solidBall(2.0, {3.0, 0.0, 0.1}, {0.5, 0.0, -1.5})};
+  touch.contacts = {contact("rolling", {0.0, 0.0, 0.0}, 0.3, 0.25),
+                    contact("ball", {3.0, 0.0, 0.0}, 0.3, 0.25)};
+  auto uncertain = [](const core::Scene& scene) {
+    std::vector<ContactUncertainty> all;
+    for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
+      const core::Contact& k = scene.contacts[c];
+      ContactUncertainty u;
+      u.contact = c;
+      u.restitution = CoefficientDistribution::normal(k.restitution, 0.05);
+      u.static_friction =
+          CoefficientDistribution::interval(k.static_friction - 0.05, k.static_friction + 0.05);
+      u.dynamic_friction = CoefficientDistribution::normal(k.dynamic_friction, 0.03);
+      all.push_back(u);
+    }
+    return all;
+  };
+  const std::vector<const core::Scene*> scenes = {&face, &ball, &three, &touch};
+  auto solve = [&](std::size_t k) {
+    return core::computeOutcomeDistribution(*scenes[k], uncertain(*scenes[k]), newton(), linear());
+  };
+  // Each scene on a thread of its own (nothing before it there).
+  std::vector<core::OutcomeDistribution> fresh(scenes.size());
+  for (std::size_t k = 0; k < scenes.size(); ++k)
+    std::thread([&, k] { fresh[k] = solve(k); }).join();
+  auto expectSame = [](const core::OutcomeDistribution& a, const core::OutcomeDistribution& b) {
+    EXPECT_EQ(a.labels, b.labels);
+    EXPECT_TRUE(a.mean == b.mean);
+    EXPECT_TRUE(a.covariance == b.covariance);
+    EXPECT_TRUE(a.q05 == b.q05);
+    EXPECT_TRUE(a.q95 == b.q95);
+    EXPECT_EQ(a.stick_probability, b.stick_probability);
+    ASSERT_EQ(a.warnings.size(), b.warnings.size());
+    for (std::size_t w = 0; w < a.warnings.size(); ++w) {
+      EXPECT_EQ(a.warnings[w].field, b.warnings[w].field);
+      EXPECT_EQ(a.warnings[w].reason, b.warnings[w].reason);
+    }
+  };
+  // The face's corners stick (the body-space path is the one exercised) and the three slide.
+  for (const double p : fresh[0].stick_probability) EXPECT_GT(p, 0.5);
+  for (const double p : fresh[2].stick_probability) EXPECT_LT(p, 0.5);
+  // The rolling ball's contact is reported linearised at its switch; the face's first corner is
+  // not (a later answer that did would carry the earlier request's flag).
+  auto atSwitch = [](const core::OutcomeDistribution& outcome) {
+    return std::any_of(
+        outcome.warnings.begin(), outcome.warnings.end(), [](const core::Warning& w) {
+          return w.field == "contacts[0]" && w.reason.find("linearised at a mode switch") == 0;
+        });
+  };
+  EXPECT_TRUE(atSwitch(fresh[3]));
+  EXPECT_FALSE(atSwitch(fresh[0]));
+  // All of them one after another on one thread, in an order that changes every size between
+  // consecutive calls, twice.
+  std::thread([&] {
+    for (const std::size_t k : {0, 1, 2, 3, 0, 2, 1, 3, 1, 0}) {
+      SCOPED_TRACE(k);
+      expectSame(solve(k), fresh[k]);
+    }
+  }).join();
 }
