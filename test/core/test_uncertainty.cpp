@@ -112,6 +112,30 @@ core::BodyState solidBall(double mass, const Eigen::Vector3d& position,
   return ball;
 }
 
+// A contact of `body` on the ground at `point`, normal +z, e = 0.5.
+core::Contact groundContact(const char* body, const Eigen::Vector3d& point, double mu_s,
+                            double mu_d) {
+  core::Contact c;
+  c.body_a = "ground";
+  c.body_b = body;
+  c.point = point;
+  c.normal = {0.0, 0.0, 1.0};
+  c.restitution = 0.5;
+  c.static_friction = mu_s;
+  c.dynamic_friction = mu_d;
+  return c;
+}
+
+// The landing box on two contacts and a ball on a third, all three sliding far from sticking.
+core::Scene threeSlidingContacts() {
+  core::Scene scene;
+  scene.bodies = {groundBody(), landingBox(), solidBall(2.0, {3.0, 0.0, 0.1}, {2.5, -0.8, -1.5})};
+  scene.contacts = {groundContact("box", {-0.3, 0.0, 0.0}, 0.2, 0.16),
+                    groundContact("box", {0.3, 0.0, 0.0}, 0.2, 0.16),
+                    groundContact("ball", {3.0, 0.0, 0.0}, 0.15, 0.12)};
+  return scene;
+}
+
 bool hasWarning(const core::OutcomeDistribution& outcome, const std::string& field) {
   return std::any_of(outcome.warnings.begin(), outcome.warnings.end(),
                      [&](const core::Warning& w) { return w.field == field; });
@@ -761,24 +785,7 @@ TEST(Uncertainty, LinearStickProbabilityOfASphereUnderImpulseSpaceLawsIsWhetherI
 // quantiles mean -/+ 1.645 sd. With e and mu_d uncertain at the 3 contacts, 6 columns enter the
 // covariance (more than the 4 its kernel sums at once).
 TEST(Uncertainty, LinearDistributionOfSeveralContactsIsJSJtOfCentralDifferences) {
-  const core::BodyState ground = groundBody(), box = landingBox();
-  const core::BodyState ball = solidBall(2.0, {3.0, 0.0, 0.1}, {2.5, -0.8, -1.5});
-  core::Scene scene;
-  scene.bodies = {ground, box, ball};
-  auto contact = [](const char* body, const Eigen::Vector3d& point, double mu_s, double mu_d) {
-    core::Contact c;
-    c.body_a = "ground";
-    c.body_b = body;
-    c.point = point;
-    c.normal = {0.0, 0.0, 1.0};
-    c.restitution = 0.5;
-    c.static_friction = mu_s;
-    c.dynamic_friction = mu_d;
-    return c;
-  };
-  scene.contacts = {contact("box", {-0.3, 0.0, 0.0}, 0.2, 0.16),
-                    contact("box", {0.3, 0.0, 0.0}, 0.2, 0.16),
-                    contact("ball", {3.0, 0.0, 0.0}, 0.15, 0.12)};
+  core::Scene scene = threeSlidingContacts();
   // Outputs in the layout of OutcomeDistribution: the movable bodies' twists, then 4 per contact.
   auto outputs = [](const core::Scene& s) {
     const core::CollisionResult r = core::computeResponse(s, newton());
@@ -981,35 +988,20 @@ TEST(Uncertainty, LinearStickProbabilityInAnIslandIsOnTheBoundTheSolverDecidesOn
 // pivots), must give each answer bit for bit as a fresh thread does: nothing of an earlier request
 // may leak into a later one. It fails if a reused list or matrix is not cleared or resized.
 TEST(Uncertainty, LinearAnswersDoNotDependOnTheThreadsEarlierRequests) {
-  auto contact = [](const char* body, const Eigen::Vector3d& point, double mu_s, double mu_d) {
-    core::Contact c;
-    c.body_a = "ground";
-    c.body_b = body;
-    c.point = point;
-    c.normal = {0.0, 0.0, 1.0};
-    c.restitution = 0.5;
-    c.static_friction = mu_s;
-    c.dynamic_friction = mu_d;
-    return c;
-  };
   core::Scene face;
   face.bodies = {groundBody(), landingBox()};
   for (const double x : {-0.3, 0.3})
     for (const double y : {-0.2, 0.2})
-      face.contacts.push_back(contact("box", {x, y, 0.0}, 0.8, 0.6));
-  core::Scene three;
-  three.bodies = {groundBody(), landingBox(), solidBall(2.0, {3.0, 0.0, 0.1}, {2.5, -0.8, -1.5})};
-  three.contacts = {contact("box", {-0.3, 0.0, 0.0}, 0.2, 0.16),
-                    contact("box", {0.3, 0.0, 0.0}, 0.2, 0.16),
-                    contact("ball", {3.0, 0.0, 0.0}, 0.15, 0.12)};
+      face.contacts.push_back(groundContact("box", {x, y, 0.0}, 0.8, 0.6));
+  const core::Scene three = threeSlidingContacts();
   const core::Scene ball = sphere(0.5, 0.3, 0.25);
   // A ball rolling on the ground (u_n = 0: its contact flagged at a switch) beside one landing.
   core::Scene touch;
   core::BodyState rolling = solidBall(1.0, {0.0, 0.0, 0.1}, {1.0, 0.0, 0.0});
   rolling.id = "rolling";
   touch.bodies = {groundBody(), rolling, solidBall(2.0, {3.0, 0.0, 0.1}, {0.5, 0.0, -1.5})};
-  touch.contacts = {contact("rolling", {0.0, 0.0, 0.0}, 0.3, 0.25),
-                    contact("ball", {3.0, 0.0, 0.0}, 0.3, 0.25)};
+  touch.contacts = {groundContact("rolling", {0.0, 0.0, 0.0}, 0.3, 0.25),
+                    groundContact("ball", {3.0, 0.0, 0.0}, 0.3, 0.25)};
   auto uncertain = [](const core::Scene& scene) {
     std::vector<ContactUncertainty> all;
     for (std::size_t c = 0; c < scene.contacts.size(); ++c) {
