@@ -92,34 +92,18 @@ struct GeometryDimension {
   double std_dev = 0.0;  // [rad] or [m]
 };
 
-// A value kept per thread (one per type) and lent to one user at a time: `lent` says whether it is
-// out. Users that find it out make their own.
-template <class T>
-struct ThreadSlot {
-  T value;
-  bool lent = false;
-  static ThreadSlot& get() {
-    thread_local ThreadSlot slot;
-    return slot;
-  }
-};
-
-// Prepared's two lists in storage kept per thread, lent to one Prepared at a time and given back
-// (cleared, capacity kept) when it is destroyed: a request prepares its uncertainties without
-// allocating them when the thread's last request had as many. A Prepared made while another
-// holds the storage gets fresh lists.
+// Prepared's two lists in storage kept per thread: a Prepared takes the thread's lists (by swap)
+// and gives them back, cleared with their capacity kept, when it is destroyed, so that a request
+// prepares its uncertainties without allocating them when the thread's last request had as many.
+// Any number of Prepared may be alive at once: one made while another holds the lists takes the
+// empty ones left in their place, and the swaps back keep every list whole.
 class LentLists {
  public:
   using Contacts = std::vector<UncertainContact>;
   using Dimensions = std::vector<std::pair<std::size_t, int>>;
-  LentLists() {
-    Slot& slot = Slot::get();
-    if (!slot.lent) {
-      slot.lent = true;
-      slot_ = &slot;
-      contacts.swap(slot.value.first);
-      dimensions.swap(slot.value.second);
-    }
+  LentLists() : slot_(&threadLists()) {
+    contacts.swap(slot_->first);
+    dimensions.swap(slot_->second);
   }
   LentLists(LentLists&& other) noexcept
       : contacts(std::move(other.contacts)),
@@ -129,19 +113,22 @@ class LentLists {
   LentLists& operator=(const LentLists&) = delete;
   LentLists& operator=(LentLists&&) = delete;
   ~LentLists() {
-    if (slot_ == nullptr) return;
+    if (slot_ == nullptr) return;  // moved from
     contacts.clear();
     dimensions.clear();
-    contacts.swap(slot_->value.first);
-    dimensions.swap(slot_->value.second);
-    slot_->lent = false;
+    contacts.swap(slot_->first);
+    dimensions.swap(slot_->second);
   }
   Contacts contacts;
   Dimensions dimensions;
 
  private:
-  using Slot = ThreadSlot<std::pair<Contacts, Dimensions>>;
-  Slot* slot_ = nullptr;
+  using Lists = std::pair<Contacts, Dimensions>;
+  static Lists& threadLists() {
+    thread_local Lists lists;
+    return lists;
+  }
+  Lists* slot_ = nullptr;
 };
 
 struct Prepared : LentLists {
@@ -1263,29 +1250,12 @@ void slipSpeeds(const Contacts& contacts, const std::vector<ContactImpulse>& imp
                      derivatives.velocityCount(), differentiate, solve_moved);
 }
 
-// One ImpactDerivatives per thread for linearDistribution() (ThreadSlot): a nested call (none
-// today) would get a fresh one instead of overwriting the lent one.
-class ThreadDerivatives {
- public:
-  ThreadDerivatives() {
-    Slot& slot = Slot::get();
-    if (!slot.lent) {
-      slot.lent = true;
-      lent_ = &slot;
-    }
-  }
-  ~ThreadDerivatives() {
-    if (lent_ != nullptr) lent_->lent = false;
-  }
-  ThreadDerivatives(const ThreadDerivatives&) = delete;
-  ThreadDerivatives& operator=(const ThreadDerivatives&) = delete;
-  ImpactDerivatives& get() { return lent_ != nullptr ? lent_->value : own_; }
-
- private:
-  using Slot = ThreadSlot<ImpactDerivatives>;
-  Slot* lent_ = nullptr;
-  ImpactDerivatives own_;
-};
+// linearDistribution()'s derivatives in storage kept per thread (as DerivativeScratch in
+// impact_derivatives.cpp): linearDistribution() does not call itself, nor does anything it calls.
+[[gnu::noinline]] ImpactDerivatives& threadLinearDerivatives() {
+  thread_local ImpactDerivatives derivatives;
+  return derivatives;
+}
 
 OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOptions& options,
                                        const RequestLimits& limits) {
@@ -1307,9 +1277,8 @@ OutcomeDistribution linearDistribution(const Prepared& prepared, const SolverOpt
     columns.coefficients[3 * prepared.contacts[index].contact + static_cast<std::size_t>(which)] =
         true;
   // The derivatives in storage kept per thread (a request's Jacobian and lists are the size of
-  // the last one's: no allocation for them); a call nested in one using it gets its own.
-  ThreadDerivatives borrowed;
-  ImpactDerivatives& derivatives = borrowed.get();
+  // the last one's: no allocation for them).
+  ImpactDerivatives& derivatives = threadLinearDerivatives();
   computeValidatedImpactDerivatives(prepared.meanScene(), contact_bodies, options, columns,
                                     derivatives);
   OutcomeDistribution outcome;
